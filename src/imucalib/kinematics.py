@@ -1,0 +1,520 @@
+"""Quaternions, rotations and the integration of angular-rate sequences.
+
+Conventions
+-----------
+Quaternions are Hamilton quaternions stored **scalar first**, ``q = [w, x, y, z]``,
+as float64 arrays of shape (..., 4). A unit quaternion ``q`` rotates a vector
+from the body frame to the reference frame, ``v_ref = R(q) · v_body``; the
+attitude of a body turning with body-frame rate ``ω`` obeys
+
+    q̇ = ½ · q ⊗ [0, ω]                                            (Zhang 2021, eq. 12)
+
+with ``R(q)`` the matrix of Zhang 2021, eq. (13). :func:`to_scipy` and
+:func:`from_scipy` convert to and from :class:`scipy.spatial.transform.Rotation`
+(which stores scalar last).
+
+Integration
+-----------
+Between samples ``k`` and ``k+1`` the rate is taken as linear in time, so the
+classic fourth-order Runge–Kutta step uses ``ω_k`` at the start, the mid-step
+rate ``(ω_k + ω_{k+1}) / 2`` and ``ω_{k+1}`` at the end (Zhang 2021, eq. 23 is
+the first-order special case). Because the equation is linear in ``q`` and every
+stage multiplies ``q`` on the right, one RK4 step is ``q_{k+1} = q_k ⊗ S_k`` with
+
+    K1 = ½ω_k,  K2 = (1 + h/2·K1) ⊗ ½ω_m,  K3 = (1 + h/2·K2) ⊗ ½ω_m,
+    K4 = (1 + h·K3) ⊗ ½ω_{k+1},  S_k = 1 + h/6·(K1 + 2K2 + 2K3 + K4).
+
+So the attitude change over an interval is the ordered product ``S_0 ⊗ … ⊗ S_{n-1}``
+(normalised once: scaling commutes with the product, so this equals normalising
+after every step). The step factors are computed for all samples at once and the
+products are formed by pairwise (tree) reduction, which vectorises the
+integration over time steps and over many intervals together.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "quat_multiply",
+    "quat_conjugate",
+    "quat_normalize",
+    "quat_to_matrix",
+    "matrix_to_quat",
+    "quat_from_rotvec",
+    "quat_to_rotvec",
+    "rk4_step_factors",
+    "integrate",
+    "integrate_intervals",
+    "IntervalIntegrator",
+    "to_scipy",
+    "from_scipy",
+    "skew",
+    "angle_between",
+    "five_point_derivative",
+]
+
+_IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
+
+
+def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton product ``p ⊗ q`` of scalar-first quaternions, broadcast over leading axes."""
+    p = np.asarray(p, dtype=np.float64)
+    q = np.asarray(q, dtype=np.float64)
+    pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
+    qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return np.stack(
+        [
+            pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+        ],
+        axis=-1,
+    )
+
+
+def quat_conjugate(q: np.ndarray) -> np.ndarray:
+    """Conjugate ``[w, -x, -y, -z]`` (the inverse of a unit quaternion)."""
+    q = np.asarray(q, dtype=np.float64)
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def quat_normalize(q: np.ndarray) -> np.ndarray:
+    """Scale quaternions to unit norm."""
+    q = np.asarray(q, dtype=np.float64)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of unit quaternions (Zhang 2021, eq. 13)."""
+    q = quat_normalize(q)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    r = np.empty(q.shape[:-1] + (3, 3))
+    r[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    r[..., 0, 1] = 2 * (x * y - w * z)
+    r[..., 0, 2] = 2 * (x * z + w * y)
+    r[..., 1, 0] = 2 * (x * y + w * z)
+    r[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    r[..., 1, 2] = 2 * (y * z - w * x)
+    r[..., 2, 0] = 2 * (x * z - w * y)
+    r[..., 2, 1] = 2 * (y * z + w * x)
+    r[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    return r
+
+
+def matrix_to_quat(r: np.ndarray) -> np.ndarray:
+    """Unit quaternions (scalar first, ``w >= 0``) of rotation matrices (..., 3, 3)."""
+    r = np.asarray(r, dtype=np.float64)
+    m = r.reshape(-1, 3, 3)
+    tr = np.trace(m, axis1=1, axis2=2)
+    # Four candidate solutions; use the one with the largest pivot for accuracy.
+    cand = np.stack(
+        [
+            1 + tr,
+            1 + 2 * m[:, 0, 0] - tr,
+            1 + 2 * m[:, 1, 1] - tr,
+            1 + 2 * m[:, 2, 2] - tr,
+        ],
+        axis=1,
+    )
+    k = np.argmax(cand, axis=1)
+    q = np.empty((m.shape[0], 4))
+    s = np.sqrt(np.maximum(cand[np.arange(len(k)), k], 1e-300))
+    for case in range(4):
+        sel = k == case
+        if not np.any(sel):
+            continue
+        mm, ss = m[sel], s[sel]
+        if case == 0:
+            q[sel] = np.stack([ss / 2, (mm[:, 2, 1] - mm[:, 1, 2]) / (2 * ss),
+                               (mm[:, 0, 2] - mm[:, 2, 0]) / (2 * ss),
+                               (mm[:, 1, 0] - mm[:, 0, 1]) / (2 * ss)], axis=1)
+        elif case == 1:
+            q[sel] = np.stack([(mm[:, 2, 1] - mm[:, 1, 2]) / (2 * ss), ss / 2,
+                               (mm[:, 0, 1] + mm[:, 1, 0]) / (2 * ss),
+                               (mm[:, 0, 2] + mm[:, 2, 0]) / (2 * ss)], axis=1)
+        elif case == 2:
+            q[sel] = np.stack([(mm[:, 0, 2] - mm[:, 2, 0]) / (2 * ss),
+                               (mm[:, 0, 1] + mm[:, 1, 0]) / (2 * ss), ss / 2,
+                               (mm[:, 1, 2] + mm[:, 2, 1]) / (2 * ss)], axis=1)
+        else:
+            q[sel] = np.stack([(mm[:, 1, 0] - mm[:, 0, 1]) / (2 * ss),
+                               (mm[:, 0, 2] + mm[:, 2, 0]) / (2 * ss),
+                               (mm[:, 1, 2] + mm[:, 2, 1]) / (2 * ss), ss / 2], axis=1)
+    q = quat_normalize(q)
+    q[q[:, 0] < 0] *= -1
+    return q.reshape(r.shape[:-2] + (4,))
+
+
+def quat_from_rotvec(v: np.ndarray) -> np.ndarray:
+    """Quaternions of rotation vectors (axis · angle [rad]), shape (..., 3) → (..., 4)."""
+    v = np.asarray(v, dtype=np.float64)
+    angle = np.linalg.norm(v, axis=-1, keepdims=True)
+    half = 0.5 * angle
+    # sin(x/2)/x, with its series near zero
+    small = angle < 1e-8
+    safe = np.where(small, 1.0, angle)
+    k = np.where(small, 0.5 - angle**2 / 48.0, np.sin(half) / safe)
+    return np.concatenate([np.cos(half), v * k], axis=-1)
+
+
+def quat_to_rotvec(q: np.ndarray) -> np.ndarray:
+    """Rotation vectors (..., 3) of quaternions, angle in [0, π]."""
+    q = quat_normalize(q)
+    q = np.where(q[..., :1] < 0, -q, q)
+    vn = np.linalg.norm(q[..., 1:], axis=-1, keepdims=True)
+    angle = 2 * np.arctan2(vn, q[..., :1])
+    small = vn < 1e-12
+    k = np.where(small, 2.0, angle / np.where(small, 1.0, vn))
+    return q[..., 1:] * k
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """Cross-product matrices ``[v]×`` (..., 3, 3) with ``[v]× u = v × u``."""
+    v = np.asarray(v, dtype=np.float64)
+    z = np.zeros(v.shape[:-1])
+    return np.stack(
+        [
+            np.stack([z, -v[..., 2], v[..., 1]], axis=-1),
+            np.stack([v[..., 2], z, -v[..., 0]], axis=-1),
+            np.stack([-v[..., 1], v[..., 0], z], axis=-1),
+        ],
+        axis=-2,
+    )
+
+
+def angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Angle [rad] between vectors (..., 3), robust for small and large angles."""
+    u = np.asarray(u, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
+    return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.sum(u * v, axis=-1))
+
+
+def to_scipy(q: np.ndarray):
+    """A :class:`scipy.spatial.transform.Rotation` from scalar-first quaternions."""
+    from scipy.spatial.transform import Rotation
+
+    q = np.asarray(q, dtype=np.float64)
+    return Rotation.from_quat(q[..., [1, 2, 3, 0]])
+
+
+def from_scipy(rotation) -> np.ndarray:
+    """Scalar-first quaternions from a :class:`scipy.spatial.transform.Rotation`."""
+    q = rotation.as_quat()
+    return q[..., [3, 0, 1, 2]]
+
+
+# --------------------------------------------------------------------------- RK4
+def _pure(w: np.ndarray) -> np.ndarray:
+    return np.concatenate([np.zeros(w.shape[:-1] + (1,)), w], axis=-1)
+
+
+def _qmul_soa(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton product of quaternions stored component-first, shape (4, ...)."""
+    pw, px, py, pz = p
+    qw, qx, qy, qz = q
+    return np.stack(
+        [
+            pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+        ]
+    )
+
+
+def _cross_soa(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    return np.stack(
+        [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+    )
+
+
+def _rk4_soa(w0: np.ndarray, w1: np.ndarray, h: np.ndarray | float) -> np.ndarray:
+    """RK4 step factors for rates stored component-first (3, n) → (4, n).
+
+    The stages of the module docstring expanded with the pure-quaternion product
+    ``(s₁, v₁) ⊗ (s₂, v₂) = (s₁s₂ − v₁·v₂, s₁v₂ + s₂v₁ + v₁ × v₂)`` and
+    ``A = ½ω_k``, ``B = ½ω_m``, ``C = ½ω_{k+1}``::
+
+        K1 = (0, A)
+        K2 = (−h/2 A·B, B + h/2 A×B)
+        K3 = (−h/2 B·B, (1 − h²/4 A·B) B + h²/4 (A×B)×B)
+        K4 = (−V·C, s C + V×C),  s = 1 − h²/2 B·B,  V = h · vec(K3)
+    """
+    a = 0.5 * w0
+    b = 0.25 * (w0 + w1)
+    c = 0.5 * w1
+    ab = np.einsum("i...,i...->...", a, b)
+    bb = np.einsum("i...,i...->...", b, b)
+    axb = _cross_soa(a, b)
+    hh = h * h
+    k2s = -0.5 * h * ab
+    k2v = b + 0.5 * h * axb
+    k3s = -0.5 * h * bb
+    k3v = (1.0 - 0.25 * hh * ab) * b + 0.25 * hh * _cross_soa(axb, b)
+    v = h * k3v
+    k4s = -np.einsum("i...,i...->...", v, c)
+    k4v = (1.0 - 0.5 * hh * bb) * c + _cross_soa(v, c)
+    out = np.empty((4,) + np.shape(k2s))
+    out[0] = 1.0 + (h / 6.0) * (2.0 * k2s + 2.0 * k3s + k4s)
+    out[1:] = (h / 6.0) * (a + 2.0 * k2v + 2.0 * k3v + k4v)
+    return out
+
+
+def rk4_step_factors(w0: np.ndarray, w1: np.ndarray, dt: np.ndarray | float) -> np.ndarray:
+    """Right factors ``S`` of RK4 steps, ``q_{k+1} = q_k ⊗ S_k`` (see module docstring).
+
+    Parameters
+    ----------
+    w0, w1 : (..., 3) array_like
+        Body rates [rad/s] at the start and end of each step.
+    dt : float or (...,) array_like
+        Step lengths [s].
+
+    Returns
+    -------
+    (..., 4) ndarray
+        Step factors (not normalised; their norm is 1 + O(h⁵)).
+    """
+    w0 = np.asarray(w0, dtype=np.float64)
+    w1 = np.asarray(w1, dtype=np.float64)
+    h = np.asarray(dt, dtype=np.float64)
+    s = _rk4_soa(np.moveaxis(w0, -1, 0), np.moveaxis(w1, -1, 0), h)
+    return np.moveaxis(s, 0, -1)
+
+
+def _tree_product_soa(f: np.ndarray) -> np.ndarray:
+    """Ordered product along the last axis of (4, ..., L) component-first quaternions."""
+    while f.shape[-1] > 1:
+        if f.shape[-1] % 2:
+            pad = np.zeros(f.shape[:-1] + (1,))
+            pad[0] = 1.0
+            f = np.concatenate([f, pad], axis=-1)
+        f = _qmul_soa(f[..., 0::2], f[..., 1::2])
+    return f[..., 0]
+
+
+def _prefix_product_soa(f: np.ndarray) -> np.ndarray:
+    """Inclusive ordered prefix products along the last axis of (4, ..., L), L a power of two.
+
+    Work-efficient recursion: the prefix of the pairwise products gives every
+    odd position; each even position is the previous odd one times its factor.
+    """
+    n = f.shape[-1]
+    if n == 1:
+        return f.copy()
+    if n % 2:
+        raise ValueError("the prefix product needs a power-of-two length")
+    pairs = _prefix_product_soa(_qmul_soa(f[..., 0::2], f[..., 1::2]))
+    out = np.empty_like(f)
+    out[..., 1::2] = pairs
+    out[..., 0] = f[..., 0]
+    out[..., 2::2] = _qmul_soa(pairs[..., :-1], f[..., 2::2])
+    return out
+
+
+def _tree_product(f: np.ndarray) -> np.ndarray:
+    """Ordered product along axis -2 of (..., L, 4)."""
+    return np.moveaxis(_tree_product_soa(np.moveaxis(f, -1, 0)), 0, -1)
+
+
+def _prefix_product(f: np.ndarray) -> np.ndarray:
+    """Inclusive ordered prefix products along axis -2 (Hillis–Steele scan)."""
+    g = np.ascontiguousarray(np.moveaxis(f, -1, 0))
+    n = g.shape[-1]
+    shift = 1
+    while shift < n:
+        g[..., shift:] = _qmul_soa(g[..., :-shift], g[..., shift:])
+        shift *= 2
+    return np.moveaxis(g, 0, -1)
+
+
+def integrate(
+    t: np.ndarray, rates: np.ndarray, q0: np.ndarray | None = None
+) -> np.ndarray:
+    """Attitude trajectory from a body-rate sequence by RK4.
+
+    Parameters
+    ----------
+    t : (N,) array_like
+        Sample times [s].
+    rates : (N, 3) array_like
+        Body angular rates [rad/s].
+    q0 : (4,) array_like, optional
+        Attitude at ``t[0]`` (identity by default).
+
+    Returns
+    -------
+    (N, 4) ndarray
+        Unit attitude quaternions at every sample.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    rates = np.asarray(rates, dtype=np.float64)
+    if rates.ndim != 2 or rates.shape[1] != 3 or rates.shape[0] != t.shape[0]:
+        raise ValueError(f"rates must have shape ({t.shape[0]}, 3); got {rates.shape}")
+    q0 = _IDENTITY if q0 is None else quat_normalize(q0)
+    if t.shape[0] == 1:
+        return q0[None, :].copy()
+    s = rk4_step_factors(rates[:-1], rates[1:], np.diff(t))
+    pre = _prefix_product(s)
+    out = np.empty((t.shape[0], 4))
+    out[0] = q0
+    out[1:] = quat_multiply(q0, pre)
+    return quat_normalize(out)
+
+
+def integrate_intervals(
+    rates: np.ndarray, dt: np.ndarray | float, lengths: np.ndarray | None = None
+) -> np.ndarray:
+    """Attitude change over each of many intervals at once.
+
+    Parameters
+    ----------
+    rates : (M, L, 3) array_like
+        Body rates [rad/s] of M intervals, padded to L samples.
+    dt : float or (M, L-1) array_like
+        Step lengths [s].
+    lengths : (M,) array_like of int, optional
+        Number of valid samples in each interval (default L); samples past
+        an interval's length are ignored.
+
+    Returns
+    -------
+    (M, 4) ndarray
+        Unit quaternion of each interval's end attitude relative to its start.
+    """
+    rates = np.asarray(rates, dtype=np.float64)
+    m, ell, _ = rates.shape
+    s = rk4_step_factors(rates[:, :-1], rates[:, 1:], dt)
+    if lengths is not None:
+        lengths = np.asarray(lengths)
+        invalid = np.arange(ell - 1)[None, :] >= (lengths[:, None] - 1)
+        s[invalid] = _IDENTITY
+    return quat_normalize(_tree_product(s))
+
+
+class IntervalIntegrator:
+    """Repeated integration of many intervals of one recording (for solvers).
+
+    The sample layout is fixed once; :meth:`__call__` then takes rates for
+    every sample of the recording (or :meth:`from_samples` only for the
+    samples listed in :attr:`samples`) and returns each interval's attitude
+    change. This is the inner loop of the gyroscope cost functions (Zhang
+    2021, eq. 14; Tedaldi 2014), so it avoids all per-call bookkeeping.
+
+    Parameters
+    ----------
+    t : (N,) array_like
+        Sample times [s] of the whole recording.
+    starts, stops : (M,) array_like of int
+        Each interval integrates from sample ``starts[i]`` to sample
+        ``stops[i]`` inclusive.
+    """
+
+    def __init__(self, t: np.ndarray, starts: np.ndarray, stops: np.ndarray) -> None:
+        t = np.asarray(t, dtype=np.float64)
+        starts = np.asarray(starts, dtype=np.intp)
+        stops = np.asarray(stops, dtype=np.intp)
+        if starts.shape != stops.shape or starts.size == 0 or np.any(stops <= starts):
+            raise ValueError("each interval needs stops[i] > starts[i]")
+        if np.any(starts < 0) or np.any(stops >= t.shape[0]):
+            raise ValueError("interval indices lie outside the recording")
+        nsteps = stops - starts
+        width = 1 << int(np.ceil(np.log2(max(int(nsteps.max()), 1))))
+        pos = np.arange(width)[None, :]
+        idx = starts[:, None] + pos  # step idx → idx+1
+        valid = pos < nsteps[:, None]
+        steps = np.unique(idx[valid])
+        self.samples = np.union1d(steps, steps + 1)
+        #: positions in ``samples`` of each step's first and second sample
+        self._i0 = np.searchsorted(self.samples, steps)
+        self._i1 = self._i0 + 1
+        where = np.searchsorted(steps, np.where(valid, idx, steps[0]))
+        self._gather = np.where(valid, where, steps.size)  # padding → identity column
+        self._dt = t[steps + 1] - t[steps]
+        self.starts, self.stops = starts, stops
+        # trapezoid weights of the samples of each interval (positions 0..L)
+        spos = np.arange(width + 1)[None, :]
+        sval = spos <= nsteps[:, None]
+        sidx = np.where(sval, starts[:, None] + spos, self.samples[0])
+        self._sample_pos = np.searchsorted(self.samples, sidx)
+        dtp = np.zeros((len(starts), width + 2))
+        step_dt = np.where(valid, t[np.minimum(idx + 1, t.shape[0] - 1)] - t[np.minimum(idx, t.shape[0] - 1)], 0.0)
+        dtp[:, 1:-1] = step_dt
+        self._trapezoid = 0.5 * (dtp[:, :-1] + dtp[:, 1:])
+
+    def __call__(self, rates: np.ndarray) -> np.ndarray:
+        """Attitude change (M, 4) of every interval for rates (N, 3) [rad/s]."""
+        return self.from_samples(np.asarray(rates, dtype=np.float64)[self.samples])
+
+    def from_samples(self, rates: np.ndarray) -> np.ndarray:
+        """Attitude change (M, 4) from rates (len(samples), 3) at :attr:`samples` only."""
+        w = np.ascontiguousarray(np.asarray(rates, dtype=np.float64).T)
+        s = _rk4_soa(w[:, self._i0], w[:, self._i1], self._dt)
+        s = np.concatenate([s, np.array([[1.0], [0.0], [0.0], [0.0]])], axis=1)
+        q = _tree_product_soa(s[:, self._gather]).T
+        return quat_normalize(q)
+
+    def sensitivity(self, rates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """End attitudes and the weights of the first-order attitude sensitivity.
+
+        A perturbation ``δω`` of the rates turns the end attitude by
+        ``δφ = R_endᵀ · Σ_j A_j δω_j`` (end frame), the trapezoidal rule on
+        ``∫ R(t) δω(t) dt`` with ``R(t)`` the attitude relative to the
+        interval's start. Used for analytic Jacobians of eq. (14) of Zhang 2021.
+
+        Parameters
+        ----------
+        rates : (len(samples), 3) ndarray
+            Rates [rad/s] at :attr:`samples`.
+
+        Returns
+        -------
+        q_end : (M, 4) ndarray
+            Attitude change of each interval (as :meth:`from_samples`).
+        weights : (M, L+1, 3, 3) ndarray
+            ``A`` for the samples of each interval at positions
+            :attr:`sample_index` (zero for padding).
+        """
+        w = np.ascontiguousarray(np.asarray(rates, dtype=np.float64).T)
+        s = _rk4_soa(w[:, self._i0], w[:, self._i1], self._dt)
+        s = np.concatenate([s, np.array([[1.0], [0.0], [0.0], [0.0]])], axis=1)
+        pre = _prefix_product_soa(s[:, self._gather])  # attitude after each step
+        m = pre.shape[1]
+        att = np.empty((4, m, pre.shape[2] + 1))
+        att[:, :, 0] = _IDENTITY[:, None]
+        att[:, :, 1:] = pre
+        rot = quat_to_matrix(np.moveaxis(att, 0, -1))
+        q_end = quat_normalize(pre[:, :, -1].T)
+        return q_end, rot * self._trapezoid[:, :, None, None]
+
+    @property
+    def sample_index(self) -> np.ndarray:
+        """(M, L+1) positions in :attr:`samples` of each interval's samples (0 = padding)."""
+        return self._sample_pos
+
+
+def five_point_derivative(x: np.ndarray, dt: float) -> np.ndarray:
+    """Time derivative by the five-point stencil (Zhang 2021, eq. 20).
+
+    ``ẋ_k = (x_{k-2} − 8x_{k-1} + 8x_{k+1} − x_{k+2}) / (12·dt)``; the two
+    samples at each end use one-sided second-order differences.
+
+    Parameters
+    ----------
+    x : (N, ...) array_like
+        Uniformly sampled signal.
+    dt : float
+        Sample interval [s].
+    """
+    x = np.asarray(x, dtype=np.float64)
+    if x.shape[0] < 5:
+        raise ValueError(f"the five-point derivative needs at least 5 samples; got {x.shape[0]}")
+    d = np.empty_like(x)
+    d[2:-2] = (x[:-4] - 8 * x[1:-3] + 8 * x[3:-1] - x[4:]) / (12 * dt)  # Zhang 2021, eq. (20)
+    d[0] = (-3 * x[0] + 4 * x[1] - x[2]) / (2 * dt)
+    d[1] = (x[2] - x[0]) / (2 * dt)
+    d[-2] = (x[-1] - x[-3]) / (2 * dt)
+    d[-1] = (3 * x[-1] - 4 * x[-2] + x[-3]) / (2 * dt)
+    return d

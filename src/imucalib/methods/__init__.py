@@ -1,0 +1,77 @@
+"""Calibration methods, one module per published method, behind one entry point.
+
+``calibrate(data, method=NAME, ...)`` runs a method on a :class:`Recording`
+(or on a simulated session, whose ``recording`` is used) and returns a
+:class:`~imucalib.calibration.Calibration`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from ..calibration import Calibration
+from ..recording import STANDARD_GRAVITY, Recording
+
+__all__ = ["METHODS", "calibrate", "method_names"]
+
+
+def _tedaldi2014(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
+    from . import tedaldi2014
+
+    if model not in (None, "linear"):
+        raise ValueError(f"tedaldi2014 fits the linear model only; got model={model!r}")
+    return tedaldi2014.calibrate(_recording_of(data), gravity=gravity, **options)
+
+
+#: method name → callable(data, *, model, gravity, **options) → Calibration
+METHODS: dict[str, Callable[..., Calibration]] = {
+    "tedaldi2014": _tedaldi2014,
+}
+
+
+def method_names() -> list[str]:
+    """Names accepted by :func:`calibrate`."""
+    return sorted(METHODS)
+
+
+def _recording_of(data) -> Recording:
+    if isinstance(data, Recording):
+        return data
+    rec = getattr(data, "recording", None)
+    if isinstance(rec, Recording):
+        return rec
+    raise TypeError(f"expected a Recording or a simulated session; got {type(data).__name__}")
+
+
+def calibrate(
+    data,
+    *,
+    method: str,
+    model: str | None = None,
+    gravity: float = STANDARD_GRAVITY,
+    **options: Any,
+) -> Calibration:
+    """Calibrate with the named method.
+
+    Parameters
+    ----------
+    data : Recording or session
+        Raw readings (a simulated session contributes its ``recording`` and,
+        for methods that use them, its weightless segments).
+    method : str
+        One of :func:`method_names`.
+    model : str, optional
+        Model variant where the method has several (e.g. ``"linear"``, ``"cubic"``).
+    gravity : float
+        Local gravity [m/s²].
+    **options
+        Method-specific keyword options (see each method's ``calibrate``).
+    """
+    try:
+        fn = METHODS[method]
+    except KeyError:
+        raise ValueError(
+            f"unknown method {method!r}; choose one of {', '.join(method_names())}"
+        ) from None
+    return fn(data, model=model, gravity=gravity, **options)

@@ -1,0 +1,290 @@
+"""Tedaldi, Pretto & Menegatti (ICRA 2014): multi-position calibration without equipment.
+
+The procedure (as summarised in the static/dynamic interval detection
+fragment, §2, and implemented by imu_tk):
+
+1. An initial rest of ``T_init`` seconds gives the accelerometer noise: the
+   norm of its per-axis variance.
+2. A sliding-window variance detector marks static intervals at a threshold of
+   ``n × (that norm)``; for each multiplier ``n`` (2…10) the accelerometer is
+   calibrated on the static intervals and the multiplier whose calibration has
+   the lowest mean squared residual (**per residual**) is kept (imu_tk
+   compares raw sums, which favours thresholds that find fewer intervals).
+3. Accelerometer: ``a = T_a K_a (u − b_a)`` with ``T_a`` unit upper-triangular,
+   fitted so that ``‖a‖ = g`` at every static pose (Levenberg–Marquardt,
+   analytic Jacobian, interval means). The initial values come from an
+   algebraic ellipsoid fit (no sensor-specific guess).
+4. Gyroscope: ``ω = T_g K_g (u − b_g)`` with ``T_g`` unit-diagonal (6 terms),
+   ``b_g`` the mean of the initial rest (or estimated); the calibrated rates are
+   integrated (RK4) across each motion and the predicted gravity direction is
+   compared with the measured one at the next pose (Zhang 2021, eq. 14 is the
+   same residual). The initial scale comes from a scalar search started at
+   the ratio of the gravity-direction change to the integrated raw rate.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..calibration import Calibration
+from ..kinematics import IntervalIntegrator, angle_between, quat_from_rotvec, quat_to_matrix
+from ..metrics import fit_summary, interval_means, transition_bounds
+from ..models import TriadModel
+from ..recording import STANDARD_GRAVITY, Interval, Recording
+from ..residuals import (
+    AccelLayout,
+    GyroLayout,
+    gravity_direction_residuals,
+    gravity_direction_residuals_jac,
+    gravity_norm_residuals,
+)
+from ..segment import detect_static, find_initial_rest, variance_norm
+from .ellipsoid import fit_ellipsoid, fit_sphere
+
+__all__ = ["calibrate", "calibrate_accelerometer", "calibrate_gyroscope", "detect_intervals"]
+
+MIN_INTERVALS = 9
+
+
+def calibrate_accelerometer(
+    raw_means: np.ndarray, gravity: float, *, order: int = 1, initial: TriadModel | None = None
+) -> tuple[TriadModel, np.ndarray]:
+    """Fit ``a = T_a f(u − b)`` to ``‖a‖ = g`` on static means (Tedaldi 2014).
+
+    Returns the model and the final residuals ``‖a_k‖ − g`` [m/s²].
+    """
+    if initial is None:
+        try:
+            initial = fit_ellipsoid(raw_means, gravity)
+        except ValueError:
+            initial = fit_sphere(raw_means, gravity)
+    layout = AccelLayout("upper", order)
+    theta0 = layout.pack(initial)
+    if raw_means.shape[0] < layout.size:
+        raise ValueError(
+            f"the accelerometer model has {layout.size} parameters but only "
+            f"{raw_means.shape[0]} static poses were found: record more poses"
+        )
+
+    def fun(th):
+        return gravity_norm_residuals(th, layout, raw_means, gravity)
+
+    def jac(th):
+        return gravity_norm_residuals(th, layout, raw_means, gravity, jacobian=True)[1]
+
+    sol = least_squares(fun, theta0, jac=jac, method="lm", x_scale="jac", xtol=1e-14, ftol=1e-14)
+    return layout.unpack(sol.x, initial), sol.fun
+
+
+def detect_intervals(
+    recording: Recording,
+    gravity: float,
+    *,
+    init_static: float | None = None,
+    multipliers: Iterable[float] = range(2, 11),
+    window: float = 1.0,
+    min_interval: float = 1.0,
+) -> tuple[list[Interval], float, Interval, TriadModel]:
+    """Static intervals by the Tedaldi 2014 detector with the multiplier scan.
+
+    Returns the intervals, the chosen multiplier, the initial rest and the
+    accelerometer model calibrated on those intervals.
+    """
+    rate = recording.rate
+    if init_static is None:
+        rest = find_initial_rest(recording)
+    else:
+        n = int(round(init_static * rate))
+        if not 1 < n < len(recording):
+            raise ValueError(
+                f"--init-static {init_static} s does not fit the {recording.duration:.3g} s recording"
+            )
+        rest = Interval(0, n, "static")
+    base = float(np.linalg.norm(np.var(recording.acc[rest.slice], axis=0)))
+    if base <= 0:
+        raise ValueError(
+            "the initial rest has zero accelerometer variance (quantised or synthetic "
+            "noise-free data?): the detector threshold cannot be set from it"
+        )
+    win = int(round(window * rate)) | 1
+    min_len = max(int(round(min_interval * rate)), 2)
+    stat = variance_norm(recording.acc, win)
+    best = None
+    tried = []
+    for mult in multipliers:
+        intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
+        tried.append((mult, len(intervals)))
+        if len(intervals) < max(MIN_INTERVALS, 10):
+            continue
+        means = interval_means(recording.acc, intervals)
+        try:
+            model, res = calibrate_accelerometer(means, gravity)
+        except ValueError:
+            continue
+        score = float(res @ res) / len(res)  # per residual
+        if best is None or score < best[0]:
+            best = (score, mult, intervals, model)
+    if best is None:
+        counts = ", ".join(f"×{m}: {c}" for m, c in tried)
+        raise ValueError(
+            "too few static intervals for a calibration at every detector threshold "
+            f"({counts}; at least {max(MIN_INTERVALS, 10)} are needed): hold the sensor still "
+            f"for at least {min_interval} s in each of many poses"
+        )
+    _, mult, intervals, model = best
+    return intervals, float(mult), rest, model
+
+
+def _gyro_scale_guess(
+    v: np.ndarray, t: np.ndarray, starts: np.ndarray, stops: np.ndarray, gravity_dirs: np.ndarray,
+) -> float:
+    """Common gyroscope scale [rad/s per raw unit] for the initial values.
+
+    Each motion is approximated by one rotation about the axis of its integrated
+    raw rate ``Φ_i = ∫(u − b) dt``, by the angle ``k‖Φ_i‖``; ``k`` minimises the
+    gravity-direction residuals of these rotations over a dense logarithmic grid
+    around ``median(angle between poses / ∫‖u − b‖dt)`` (no sensor-specific guess).
+    """
+    dt = np.diff(t, append=t[-1])[:, None]
+    c = np.concatenate([np.zeros((1, 4)),
+                        np.cumsum(np.column_stack([v * dt, np.linalg.norm(v, axis=1) * dt[:, 0]]), axis=0)])
+    phi_vec = c[stops, :3] - c[starts, :3]
+    path = c[stops, 3] - c[starts, 3]
+    theta = angle_between(gravity_dirs[:-1], gravity_dirs[1:])
+    ok = (theta > np.radians(10)) & (path > 0)
+    if not np.any(ok):
+        ok = path > 0
+    if not np.any(ok):
+        raise ValueError("the gyroscope does not move between the static poses")
+    k0 = float(np.median(theta[ok] / path[ok]))
+    ks = k0 * np.geomspace(0.3, 30.0, 600)
+    rot = quat_to_matrix(quat_from_rotvec(ks[:, None, None] * phi_vec[None, :, :]))
+    pred = np.einsum("skji,kj->ski", rot, gravity_dirs[:-1])
+    cost = np.sum((gravity_dirs[None, 1:] - pred) ** 2, axis=(1, 2))
+    return float(ks[int(np.argmin(cost))])
+
+
+def calibrate_gyroscope(
+    recording: Recording,
+    intervals: list[Interval],
+    accelerometer: TriadModel,
+    bias: np.ndarray,
+    *,
+    estimate_bias: bool = False,
+) -> TriadModel:
+    """Gyroscope ``T_g``, ``K_g`` (and ``b_g``) from gravity directions between poses.
+
+    Minimises the residuals of Zhang 2021, eq. (14) (unit gravity directions)
+    with Levenberg–Marquardt and the analytic first-order Jacobian of
+    :func:`~imucalib.residuals.gravity_direction_residuals_jac`.
+    """
+    if len(intervals) < 4:
+        raise ValueError(f"gyroscope calibration needs at least 4 static poses; got {len(intervals)}")
+    acc = accelerometer.forward(interval_means(recording.acc, intervals))
+    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
+    starts, stops = transition_bounds(intervals)
+    integrator = IntervalIntegrator(recording.t, starts, stops)
+    raw = recording.gyro[integrator.samples]  # only the samples the integration reads
+    n = raw.shape[0]
+    layout = GyroLayout(estimate_bias)
+    d = np.zeros((n, 3, layout.size))
+
+    def split(th):
+        return th[:9].reshape(3, 3), (th[9:12] if estimate_bias else bias)
+
+    def fun(th):
+        m, b = split(th)
+        return gravity_direction_residuals((raw - b) @ m.T, integrator.from_samples, dirs)
+
+    def jac(th):
+        m, b = split(th)
+        v = raw - b
+        for a in range(3):
+            d[:, a, 3 * a : 3 * a + 3] = v  # ∂(M v)_a / ∂M_aj = v_j
+        if estimate_bias:
+            d[:, :, 9:12] = -m
+        return gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1]
+
+    k = _gyro_scale_guess(recording.gyro - bias, recording.t, starts, stops, dirs)
+    theta0 = layout.pack(TriadModel(scale=np.full(3, k), bias=bias))
+    sol = least_squares(fun, theta0, jac=jac, method="lm", x_scale="jac", xtol=1e-12, ftol=1e-12)
+    return layout.unpack(sol.x, bias)
+
+
+def calibrate(
+    recording: Recording,
+    *,
+    gravity: float = STANDARD_GRAVITY,
+    init_static: float | None = None,
+    multipliers: Iterable[float] = range(2, 11),
+    window: float = 1.0,
+    min_interval: float = 1.0,
+    estimate_gyro_bias: bool = False,
+    intervals: list[Interval] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Calibration:
+    """Calibrate accelerometer and gyroscope by Tedaldi et al. (ICRA 2014).
+
+    Parameters
+    ----------
+    recording : Recording
+        Raw readings (any units) starting with an initial rest, then static
+        poses of ≥ ``min_interval`` s with rotations between them.
+    gravity : float
+        Local gravity [m/s²].
+    init_static : float, optional
+        Length of the initial rest [s]; found automatically by default.
+    multipliers : iterable of float
+        Detector thresholds to scan, in units of the initial rest's variance norm.
+    window, min_interval : float
+        Detector window and shortest static interval [s].
+    estimate_gyro_bias : bool
+        Estimate the gyroscope bias with the other parameters instead of taking
+        the mean of the initial rest.
+    intervals : list of Interval, optional
+        Static intervals to use instead of detecting them (the first one is
+        then taken as the initial rest).
+    progress : callable, optional
+        Called with a short message at each stage.
+
+    Returns
+    -------
+    Calibration
+        ``fit`` holds the DESIGN figures plus ``threshold_multiplier`` and
+        ``initial_rest_seconds``.
+    """
+    say = progress or (lambda msg: None)
+    say("detecting static intervals")
+    if intervals is None:
+        intervals, mult, rest, acc_model = detect_intervals(
+            recording, gravity, init_static=init_static, multipliers=multipliers,
+            window=window, min_interval=min_interval,
+        )
+    else:
+        intervals = [iv for iv in intervals if iv.kind == "static"]
+        if len(intervals) < MIN_INTERVALS:
+            raise ValueError(f"at least {MIN_INTERVALS} static intervals are needed; got {len(intervals)}")
+        mult, rest = float("nan"), intervals[0]
+        acc_model, _ = calibrate_accelerometer(interval_means(recording.acc, intervals), gravity)
+    say("calibrating the gyroscope")
+    bias = recording.gyro[rest.slice].mean(axis=0)
+    gyro_model = calibrate_gyroscope(recording, intervals, acc_model, bias,
+                                     estimate_bias=estimate_gyro_bias)
+    cal = Calibration(
+        accelerometer=acc_model,
+        gyroscope=gyro_model,
+        gravity=gravity,
+        method="tedaldi2014",
+        model="linear",
+        units={
+            "accelerometer": {"raw": recording.acc_unit, "calibrated": "m/s^2"},
+            "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"},
+        },
+    )
+    fit = fit_summary(cal, recording, intervals, gravity)
+    fit["threshold_multiplier"] = mult
+    fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
+    return cal.with_(fit=fit)

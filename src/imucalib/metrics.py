@@ -1,0 +1,101 @@
+"""Fit-quality figures of a calibration on static poses (``DESIGN.md``, ``fit``).
+
+* ``accelerometer_residual_rms`` — RMS over static intervals of ``‖a‖ − g``
+  [m/s²], with ``a`` the calibrated mean of each interval (the raw readings are
+  averaged first, then calibrated, as Zhang 2021 eq. (10) averages ``a^s``);
+* ``gyroscope_angle_error_mean_deg`` / ``_max_deg`` — angles between the gravity
+  direction measured at each static pose and the one predicted by integrating
+  the calibrated gyroscope (RK4) from the previous pose (Tedaldi 2014; Zhang
+  2021, eq. 14).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from .kinematics import IntervalIntegrator, angle_between, quat_to_matrix
+from .recording import Interval, Recording
+
+__all__ = [
+    "interval_means",
+    "transition_bounds",
+    "gravity_residuals",
+    "predicted_gravity",
+    "gravity_direction_errors",
+    "fit_summary",
+]
+
+
+def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
+    """Mean of ``x`` (N, K) over each interval → (M, K), vectorised by cumulative sums."""
+    x = np.asarray(x, dtype=np.float64)
+    starts = np.array([iv.start for iv in intervals], dtype=np.intp)
+    stops = np.array([iv.stop for iv in intervals], dtype=np.intp)
+    ref = x[starts[0]] if len(starts) else 0.0  # subtract a sample to keep the sums accurate
+    c = np.concatenate([np.zeros((1, x.shape[1])), np.cumsum(x - ref, axis=0)])
+    return (c[stops] - c[starts]) / (stops - starts)[:, None] + ref
+
+
+def transition_bounds(intervals: Sequence[Interval]) -> tuple[np.ndarray, np.ndarray]:
+    """First and last sample of each integration between consecutive static poses.
+
+    The integration runs from the last sample of pose ``i`` to the first sample
+    of pose ``i+1``.
+    """
+    starts = np.array([iv.stop - 1 for iv in intervals[:-1]], dtype=np.intp)
+    stops = np.array([iv.start for iv in intervals[1:]], dtype=np.intp)
+    return starts, stops
+
+
+def gravity_residuals(calibration, recording: Recording, intervals: Sequence[Interval],
+                      gravity: float | None = None) -> np.ndarray:
+    """``‖a_k‖ − g`` [m/s²] for each static interval ``k`` (interval means)."""
+    g = calibration.gravity if gravity is None else gravity
+    a = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    return np.linalg.norm(a, axis=1) - g
+
+
+def predicted_gravity(
+    calibration, recording: Recording, intervals: Sequence[Interval],
+    integrator: IntervalIntegrator | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Measured and gyro-predicted gravity directions at poses 1…M−1.
+
+    Returns
+    -------
+    measured, predicted : (M-1, 3) ndarray
+        Unit vectors: the calibrated accelerometer direction at pose ``k`` and
+        ``R_{k-1,k}ᵀ`` times the direction at pose ``k−1``.
+    """
+    acc_means = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    u = acc_means / np.linalg.norm(acc_means, axis=1, keepdims=True)
+    if integrator is None:
+        integrator = IntervalIntegrator(recording.t, *transition_bounds(intervals))
+    rates = calibration.gyroscope_si(recording.gyro, recording.acc)
+    r = quat_to_matrix(integrator(rates))
+    predicted = np.einsum("kji,kj->ki", r, u[:-1])  # Rᵀ · g_{k-1}
+    return u[1:], predicted
+
+
+def gravity_direction_errors(calibration, recording: Recording,
+                             intervals: Sequence[Interval]) -> np.ndarray:
+    """Angle [rad] between measured and gyro-predicted gravity at each new pose."""
+    measured, predicted = predicted_gravity(calibration, recording, intervals)
+    return angle_between(measured, predicted)
+
+
+def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval],
+                gravity: float | None = None) -> dict:
+    """The ``fit`` entries of the calibration file (``DESIGN.md``)."""
+    res = gravity_residuals(calibration, recording, intervals, gravity)
+    out = {
+        "static_intervals": len(intervals),
+        "accelerometer_residual_rms": float(np.sqrt(np.mean(res**2))),
+    }
+    if len(intervals) >= 2:
+        ang = np.degrees(gravity_direction_errors(calibration, recording, intervals))
+        out["gyroscope_angle_error_mean_deg"] = float(np.mean(ang))
+        out["gyroscope_angle_error_max_deg"] = float(np.max(ang))
+    return out

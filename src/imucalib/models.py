@@ -1,0 +1,299 @@
+"""Sensor error models: the canonical model family of imucalib.
+
+For one sensor triad with raw readings ``u`` (any unit, e.g. counts)::
+
+    accelerometer:  a = T_a · f_a(u_a − b_a)
+    gyroscope:      ω = T_g · f_g(u_g − b_g − G · a)
+    f(x)_i = k1_i·x_i + k2_i·x_i² + k3_i·x_i³
+
+``a`` is in m/s², ``ω`` in rad/s. ``T`` is a misalignment matrix with unit
+diagonal whose free entries depend on its *shape*:
+
+* ``"upper"`` — unit upper-triangular, 3 terms (xy, xz, yz): the accelerometer
+  defines its own orthogonal frame (Tedaldi 2014; Zhang 2021, eq. 4);
+* ``"full"`` — unit diagonal, 6 off-diagonal terms (Zhang 2021, eq. 8);
+* ``"lower"`` — unit lower-triangular, 3 terms (yx, zx, zy) (Wang 2019, eqs. 5, 8).
+
+The bias ``b`` is in raw units and is *subtracted*. ``G`` (gyroscope only) is
+the g-sensitivity in raw gyroscope units per m/s², multiplying the calibrated
+specific force. Zhang 2021 writes ``f(u + b)``: its ``b`` is the negative of
+ours (Zhang 2021, eqs. 1–8).
+
+Parameters are named ``<sensor>.<key>.<component>``: keys ``misalignment``,
+``scale``, ``scale_quadratic``, ``scale_cubic``, ``bias``, ``g_sensitivity``;
+components ``x``/``y``/``z`` for vectors and row-then-column (``xz``) for
+matrices; the lever arm is ``lever_arm.x`` etc.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+__all__ = [
+    "AXES",
+    "MISALIGNMENT_SHAPES",
+    "NotInvertibleError",
+    "TriadModel",
+    "misalignment_entries",
+]
+
+AXES = ("x", "y", "z")
+
+#: free (row, column) entries of each misalignment shape
+MISALIGNMENT_SHAPES: dict[str, tuple[tuple[int, int], ...]] = {
+    "upper": ((0, 1), (0, 2), (1, 2)),
+    "full": ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)),
+    "lower": ((1, 0), (2, 0), (2, 1)),
+}
+
+
+class NotInvertibleError(ValueError):
+    """A scale-factor polynomial is not monotonic over the range asked of it."""
+
+
+def misalignment_entries(shape: str) -> tuple[tuple[int, int], ...]:
+    """Free (row, column) entries of a misalignment ``shape``."""
+    try:
+        return MISALIGNMENT_SHAPES[shape]
+    except KeyError:
+        raise ValueError(
+            f"misalignment shape must be one of {', '.join(MISALIGNMENT_SHAPES)}; got {shape!r}"
+        ) from None
+
+
+def _vec(x, name: str) -> np.ndarray:
+    a = np.array(x, dtype=np.float64).reshape(-1)
+    if a.shape != (3,):
+        raise ValueError(f"{name} must have 3 entries; got shape {np.shape(x)}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite; got {a}")
+    return a
+
+
+def _mat(x, name: str) -> np.ndarray:
+    a = np.array(x, dtype=np.float64)
+    if a.shape != (3, 3):
+        raise ValueError(f"{name} must be a 3x3 matrix; got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite; got {a}")
+    return a
+
+
+@dataclass(frozen=True)
+class TriadModel:
+    """Error model of one sensor triad (see module docstring).
+
+    Parameters
+    ----------
+    misalignment : (3, 3) array_like
+        ``T``, unit diagonal; entries outside ``shape`` must be zero.
+    scale, scale_quadratic, scale_cubic : (3,) array_like
+        ``k1``, ``k2``, ``k3`` per axis (SI per raw unit, per raw unit², per raw unit³).
+    bias : (3,) array_like
+        ``b`` in raw units.
+    g_sensitivity : (3, 3) array_like
+        ``G`` in raw units per m/s² (gyroscope; zero for accelerometers).
+    shape : {"upper", "full", "lower"}
+        Which misalignment entries are free.
+    """
+
+    misalignment: np.ndarray = field(default_factory=lambda: np.eye(3))
+    scale: np.ndarray = field(default_factory=lambda: np.ones(3))
+    scale_quadratic: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    scale_cubic: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    g_sensitivity: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
+    shape: str = "full"
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        t = _mat(self.misalignment, "misalignment")
+        free = misalignment_entries(self.shape)
+        if not np.allclose(np.diag(t), 1.0, rtol=0, atol=1e-12):
+            raise ValueError(f"misalignment must have a unit diagonal; got {np.diag(t)}")
+        mask = np.ones((3, 3), dtype=bool)
+        mask[np.diag_indices(3)] = False
+        for i, j in free:
+            mask[i, j] = False
+        if np.any(t[mask] != 0):
+            raise ValueError(
+                f"misalignment of shape {self.shape!r} may only have entries "
+                f"{', '.join(AXES[i] + AXES[j] for i, j in free)} off the diagonal"
+            )
+        set_(self, "misalignment", t)
+        for name in ("scale", "scale_quadratic", "scale_cubic", "bias"):
+            set_(self, name, _vec(getattr(self, name), name))
+        if np.any(self.scale == 0):
+            raise ValueError(f"scale (k1) must be non-zero on every axis; got {self.scale}")
+        set_(self, "g_sensitivity", _mat(self.g_sensitivity, "g_sensitivity"))
+
+    # ------------------------------------------------------------ properties
+    @property
+    def is_linear(self) -> bool:
+        return not (np.any(self.scale_quadratic) or np.any(self.scale_cubic))
+
+    def with_(self, **changes) -> TriadModel:
+        """A copy with some fields replaced."""
+        return replace(self, **changes)
+
+    # --------------------------------------------------------------- forward
+    def polynomial(self, x: np.ndarray) -> np.ndarray:
+        """``f(x)_i = k1_i x_i + k2_i x_i² + k3_i x_i³`` (Zhang 2021, eq. 2)."""
+        return x * (self.scale + x * (self.scale_quadratic + x * self.scale_cubic))
+
+    def polynomial_derivative(self, x: np.ndarray) -> np.ndarray:
+        """``f'(x)_i = k1_i + 2 k2_i x_i + 3 k3_i x_i²``."""
+        return self.scale + x * (2 * self.scale_quadratic + 3 * x * self.scale_cubic)
+
+    def forward(self, raw: np.ndarray, specific_force: np.ndarray | None = None) -> np.ndarray:
+        """Raw readings (N, 3) → SI (N, 3): ``T · f(u − b − G·a)``.
+
+        ``specific_force`` is the calibrated accelerometer (N, 3) [m/s²] that
+        the g-sensitivity multiplies; it is needed only when ``G`` is non-zero.
+        """
+        x = np.asarray(raw, dtype=np.float64) - self.bias
+        if np.any(self.g_sensitivity):
+            if specific_force is None:
+                raise ValueError("this model has a g-sensitivity: pass specific_force [m/s²]")
+            x = x - np.asarray(specific_force, dtype=np.float64) @ self.g_sensitivity.T
+        return self.polynomial(x) @ self.misalignment.T
+
+    # --------------------------------------------------------------- inverse
+    def inverse(self, si: np.ndarray, specific_force: np.ndarray | None = None) -> np.ndarray:
+        """SI (N, 3) → raw readings (N, 3), the exact inverse of :meth:`forward`.
+
+        The polynomial is inverted per axis by Newton's method. Raises
+        :class:`NotInvertibleError` when ``f`` is not monotonic over the range
+        the requested values need (its derivative vanishes there).
+        """
+        si = np.asarray(si, dtype=np.float64)
+        y = np.linalg.solve(self.misalignment, si.reshape(-1, 3).T).T.reshape(si.shape)
+        x = self.invert_polynomial(y)
+        raw = x + self.bias
+        if np.any(self.g_sensitivity):
+            if specific_force is None:
+                raise ValueError("this model has a g-sensitivity: pass specific_force [m/s²]")
+            raw = raw + np.asarray(specific_force, dtype=np.float64) @ self.g_sensitivity.T
+        return raw
+
+    def invert_polynomial(self, y: np.ndarray) -> np.ndarray:
+        """Solve ``f(x) = y`` per axis (Newton, with a monotonicity check)."""
+        y = np.asarray(y, dtype=np.float64)
+        if self.is_linear:
+            return y / self.scale
+        x = y / self.scale
+        for _ in range(100):
+            fx = self.polynomial(x) - y
+            dfx = self.polynomial_derivative(x)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                step = fx / dfx
+            if not np.all(np.isfinite(step)):
+                break
+            x = x - step
+            if np.all(np.abs(step) <= 1e-15 * np.maximum(np.abs(x), 1e-300)):
+                break
+        self._check_monotonic(x.reshape(-1, 3))
+        err = np.abs(self.polynomial(x) - y)
+        tol = 1e-10 * np.maximum(np.abs(y), np.abs(self.scale) * 1e-300) + 1e-300
+        if not np.all(err <= np.maximum(tol, 4 * np.finfo(float).eps * np.abs(y))):
+            bad = np.nonzero(~np.all(err <= np.maximum(tol, 4e-16 * np.abs(y)), axis=-1))[0]
+            raise NotInvertibleError(
+                f"the scale polynomial could not be inverted for {bad.size} samples "
+                "(Newton did not converge)"
+            )
+        return x
+
+    def _check_monotonic(self, x: np.ndarray) -> None:
+        """Raise if ``f'`` changes sign between 0 and the solutions ``x`` on any axis."""
+        for i, axis in enumerate(AXES):
+            lo = min(0.0, float(np.min(x[:, i]))) if x.size else 0.0
+            hi = max(0.0, float(np.max(x[:, i]))) if x.size else 0.0
+            k1, k2, k3 = self.scale[i], self.scale_quadratic[i], self.scale_cubic[i]
+            roots = np.roots([3 * k3, 2 * k2, k1]) if (k2 or k3) else np.array([])
+            roots = roots[np.isreal(roots)].real
+            inside = roots[(roots > lo) & (roots < hi)]
+            if inside.size:
+                raise NotInvertibleError(
+                    f"the {axis}-axis scale polynomial f(x) = {k1:.6g}x + {k2:.6g}x² + "
+                    f"{k3:.6g}x³ is not monotonic over the raw range [{lo:.6g}, {hi:.6g}]: "
+                    f"its derivative vanishes at x = {inside[0]:.6g}; the model cannot be "
+                    "inverted there (reduce the range or the nonlinear terms)"
+                )
+
+    # ------------------------------------------------------------ parameters
+    def parameters(self, prefix: str) -> dict[str, float]:
+        """All named parameters ``{prefix}.<key>.<component>`` → value."""
+        out: dict[str, float] = {}
+        for i, j in misalignment_entries(self.shape):
+            out[f"{prefix}.misalignment.{AXES[i]}{AXES[j]}"] = float(self.misalignment[i, j])
+        for key in ("scale", "scale_quadratic", "scale_cubic", "bias"):
+            vec = getattr(self, key)
+            for i, axis in enumerate(AXES):
+                out[f"{prefix}.{key}.{axis}"] = float(vec[i])
+        for i in range(3):
+            for j in range(3):
+                out[f"{prefix}.g_sensitivity.{AXES[i]}{AXES[j]}"] = float(self.g_sensitivity[i, j])
+        return out
+
+    def with_parameters(self, prefix: str, values: dict[str, float]) -> TriadModel:
+        """A copy with the named parameters (those starting with ``prefix.``) set."""
+        t = self.misalignment.copy()
+        vecs = {k: getattr(self, k).copy() for k in ("scale", "scale_quadratic", "scale_cubic", "bias")}
+        g = self.g_sensitivity.copy()
+        free = set(misalignment_entries(self.shape))
+        for name, value in values.items():
+            parts = name.split(".")
+            if len(parts) != 3 or parts[0] != prefix:
+                continue
+            _, key, comp = parts
+            if key == "misalignment" or key == "g_sensitivity":
+                if len(comp) != 2 or comp[0] not in AXES or comp[1] not in AXES:
+                    raise ValueError(f"unknown parameter {name!r}: component must be like 'xy'")
+                ij = (AXES.index(comp[0]), AXES.index(comp[1]))
+                if key == "misalignment":
+                    if ij not in free:
+                        raise ValueError(
+                            f"parameter {name!r} is not free in a misalignment of shape "
+                            f"{self.shape!r}"
+                        )
+                    t[ij] = value
+                else:
+                    g[ij] = value
+            elif key in vecs:
+                if comp not in AXES:
+                    raise ValueError(f"unknown parameter {name!r}: component must be x, y or z")
+                vecs[key][AXES.index(comp)] = value
+            else:
+                raise ValueError(f"unknown parameter {name!r}")
+        return replace(self, misalignment=t, g_sensitivity=g, **vecs)
+
+    # ------------------------------------------------------------------- JSON
+    def to_dict(self, gyroscope: bool) -> dict:
+        d = {
+            "misalignment_shape": self.shape,
+            "misalignment": self.misalignment.tolist(),
+            "scale": self.scale.tolist(),
+            "scale_quadratic": self.scale_quadratic.tolist(),
+            "scale_cubic": self.scale_cubic.tolist(),
+            "bias": self.bias.tolist(),
+        }
+        if gyroscope:
+            d["g_sensitivity"] = self.g_sensitivity.tolist()
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict, *, default_shape: str) -> TriadModel:
+        try:
+            return cls(
+                misalignment=d["misalignment"],
+                scale=d["scale"],
+                scale_quadratic=d.get("scale_quadratic", [0.0, 0.0, 0.0]),
+                scale_cubic=d.get("scale_cubic", [0.0, 0.0, 0.0]),
+                bias=d["bias"],
+                g_sensitivity=d.get("g_sensitivity", np.zeros((3, 3))),
+                shape=d.get("misalignment_shape", default_shape),
+            )
+        except KeyError as exc:
+            raise ValueError(f"calibration entry lacks the key {exc.args[0]!r}") from None

@@ -1,0 +1,247 @@
+"""Recordings of an IMU: time, accelerometer and gyroscope samples, with units.
+
+Samples are rows: ``t`` has shape (N,) in seconds, ``acc`` and ``gyro`` have
+shape (N, 3). A recording may be in raw sensor units (``"counts"``) or in
+physical units; calibrations map raw units to SI (m/s², rad/s).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "ACC_UNITS",
+    "GYRO_UNITS",
+    "ImucalibWarning",
+    "Interval",
+    "Recording",
+    "STANDARD_GRAVITY",
+]
+
+STANDARD_GRAVITY = 9.80665  # m/s², the conventional value (CGPM 1901)
+
+#: accepted accelerometer units and their factor to m/s² (``"g"`` uses ``gravity``)
+ACC_UNITS = ("counts", "g", "m/s^2")
+#: accepted gyroscope units and their factor to rad/s
+GYRO_UNITS = ("counts", "deg/s", "rad/s")
+
+
+class ImucalibWarning(UserWarning):
+    """Warnings emitted by imucalib (data changed, weak geometry, poor fit...)."""
+
+
+def _check_unit(unit: str, allowed: tuple[str, ...], what: str) -> str:
+    aliases = {"m/s2": "m/s^2", "m/s²": "m/s^2", "dps": "deg/s", "rad/s^1": "rad/s", "raw": "counts"}
+    unit = aliases.get(unit, unit)
+    if unit not in allowed:
+        raise ValueError(f"{what} unit must be one of {', '.join(allowed)}; got {unit!r}")
+    return unit
+
+
+@dataclass(frozen=True)
+class Interval:
+    """A half-open range of sample indices ``[start, stop)`` of a recording.
+
+    ``kind`` says what the samples are: ``"static"``, ``"motion"``,
+    ``"weightless"`` or ``"test"``.
+    """
+
+    start: int
+    stop: int
+    kind: str = "static"
+
+    def __post_init__(self) -> None:
+        if self.stop <= self.start:
+            raise ValueError(f"Interval stop ({self.stop}) must exceed start ({self.start})")
+
+    def __len__(self) -> int:
+        return self.stop - self.start
+
+    @property
+    def slice(self) -> slice:
+        return slice(self.start, self.stop)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"start": self.start, "stop": self.stop, "kind": self.kind}
+
+
+@dataclass
+class Recording:
+    """Time-stamped accelerometer and gyroscope samples on one time base.
+
+    Parameters
+    ----------
+    t : (N,) array_like
+        Sample times [s], strictly increasing.
+    acc, gyro : (N, 3) array_like
+        Accelerometer and gyroscope samples in ``acc_unit`` and ``gyro_unit``.
+    acc_unit : {"counts", "g", "m/s^2"}
+    gyro_unit : {"counts", "deg/s", "rad/s"}
+    temperature : (N,) array_like, optional
+        Sensor temperature [°C].
+    extra : dict of (N,) arrays, optional
+        Other columns of the source, kept so that writers can pass them on.
+    metadata : dict, optional
+        Free-form information (source file, reader, device...).
+    """
+
+    t: np.ndarray
+    acc: np.ndarray
+    gyro: np.ndarray
+    acc_unit: str = "counts"
+    gyro_unit: str = "counts"
+    temperature: np.ndarray | None = None
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.t = np.asarray(self.t, dtype=np.float64)
+        self.acc = np.asarray(self.acc, dtype=np.float64)
+        self.gyro = np.asarray(self.gyro, dtype=np.float64)
+        if self.t.ndim != 1:
+            raise ValueError(f"t must have shape (N,); got {self.t.shape}")
+        n = self.t.shape[0]
+        for name in ("acc", "gyro"):
+            arr = getattr(self, name)
+            if arr.shape != (n, 3):
+                raise ValueError(f"{name} must have shape ({n}, 3) to match t; got {arr.shape}")
+            if not np.all(np.isfinite(arr)):
+                row = int(np.nonzero(~np.all(np.isfinite(arr), axis=1))[0][0])
+                raise ValueError(f"{name} has a non-finite value (NaN or inf) at sample {row}")
+        if n == 0:
+            raise ValueError("a Recording needs at least one sample; got none")
+        if not np.all(np.isfinite(self.t)):
+            raise ValueError("t has a non-finite value (NaN or inf)")
+        if n > 1:
+            dt = np.diff(self.t)
+            if np.any(dt <= 0):
+                i = int(np.nonzero(dt <= 0)[0][0]) + 1
+                what = "duplicated" if dt[i - 1] == 0 else "decreasing"
+                raise ValueError(
+                    f"timestamps must be strictly increasing; sample {i} is {what} "
+                    f"(t={self.t[i - 1]!r} then {self.t[i]!r})"
+                )
+        self.acc_unit = _check_unit(self.acc_unit, ACC_UNITS, "accelerometer")
+        self.gyro_unit = _check_unit(self.gyro_unit, GYRO_UNITS, "gyroscope")
+        if self.temperature is not None:
+            self.temperature = np.asarray(self.temperature, dtype=np.float64)
+            if self.temperature.shape != (n,):
+                raise ValueError(f"temperature must have shape ({n},); got {self.temperature.shape}")
+        for key, col in list(self.extra.items()):
+            col = np.asarray(col)
+            if col.shape[:1] != (n,):
+                raise ValueError(f"extra column {key!r} must have {n} rows; got {col.shape}")
+            self.extra[key] = col
+
+    # ------------------------------------------------------------------ basics
+    def __len__(self) -> int:
+        return self.t.shape[0]
+
+    @property
+    def duration(self) -> float:
+        """Time from the first to the last sample [s]."""
+        return float(self.t[-1] - self.t[0])
+
+    @property
+    def rate(self) -> float:
+        """Median sampling rate [Hz]."""
+        if len(self) < 2:
+            raise ValueError("the sampling rate needs at least two samples")
+        return float(1.0 / np.median(np.diff(self.t)))
+
+    def __getitem__(self, index: slice | Interval) -> Recording:
+        """Samples ``index`` (a slice or an :class:`Interval`) as a new Recording."""
+        if isinstance(index, Interval):
+            index = index.slice
+        if not isinstance(index, slice):
+            raise TypeError("a Recording is indexed by a slice or an Interval")
+        return Recording(
+            t=self.t[index],
+            acc=self.acc[index],
+            gyro=self.gyro[index],
+            acc_unit=self.acc_unit,
+            gyro_unit=self.gyro_unit,
+            temperature=None if self.temperature is None else self.temperature[index],
+            extra={k: v[index] for k, v in self.extra.items()},
+            metadata=dict(self.metadata),
+        )
+
+    def time_slice(self, t0: float | None = None, t1: float | None = None) -> Recording:
+        """Samples with ``t0 <= t < t1`` [s] (either bound may be None)."""
+        i0 = 0 if t0 is None else int(np.searchsorted(self.t, t0, side="left"))
+        i1 = len(self) if t1 is None else int(np.searchsorted(self.t, t1, side="left"))
+        return self[i0:i1]
+
+    # ------------------------------------------------------------------ units
+    def in_si(self, gravity: float = STANDARD_GRAVITY) -> Recording:
+        """Convert g → m/s² and deg/s → rad/s; raw counts are left as they are."""
+        acc = self.acc * gravity if self.acc_unit == "g" else self.acc
+        gyro = np.deg2rad(self.gyro) if self.gyro_unit == "deg/s" else self.gyro
+        return Recording(
+            t=self.t,
+            acc=acc,
+            gyro=gyro,
+            acc_unit="m/s^2" if self.acc_unit == "g" else self.acc_unit,
+            gyro_unit="rad/s" if self.gyro_unit == "deg/s" else self.gyro_unit,
+            temperature=self.temperature,
+            extra=dict(self.extra),
+            metadata=dict(self.metadata),
+        )
+
+    # ------------------------------------------------------------- alignment
+    @classmethod
+    def from_streams(
+        cls,
+        t_acc: np.ndarray,
+        acc: np.ndarray,
+        t_gyro: np.ndarray,
+        gyro: np.ndarray,
+        **kwargs: Any,
+    ) -> Recording:
+        """Build a Recording from separately time-stamped accelerometer and gyroscope streams.
+
+        When the timestamps differ, the gyroscope is linearly interpolated onto
+        the accelerometer's time base, restricted to the span both streams
+        cover, and an :class:`ImucalibWarning` says how many samples were
+        interpolated and how many accelerometer samples fell outside that span.
+        """
+        t_acc = np.asarray(t_acc, dtype=np.float64)
+        t_gyro = np.asarray(t_gyro, dtype=np.float64)
+        acc = np.asarray(acc, dtype=np.float64)
+        gyro = np.asarray(gyro, dtype=np.float64)
+        for name, tt in (("accelerometer", t_acc), ("gyroscope", t_gyro)):
+            if tt.size and np.any(np.diff(tt) <= 0):
+                i = int(np.nonzero(np.diff(tt) <= 0)[0][0]) + 1
+                raise ValueError(f"{name} timestamps must be strictly increasing; sample {i} is not")
+        if t_acc.shape == t_gyro.shape and np.array_equal(t_acc, t_gyro):
+            return cls(t=t_acc, acc=acc, gyro=gyro, **kwargs)
+        lo = max(t_acc[0], t_gyro[0])
+        hi = min(t_acc[-1], t_gyro[-1])
+        if hi <= lo:
+            raise ValueError(
+                "the accelerometer and gyroscope streams do not overlap in time "
+                f"(accelerometer {t_acc[0]:.6g}..{t_acc[-1]:.6g} s, "
+                f"gyroscope {t_gyro[0]:.6g}..{t_gyro[-1]:.6g} s)"
+            )
+        keep = (t_acc >= lo) & (t_acc <= hi)
+        t = t_acc[keep]
+        gyro_i = np.column_stack([np.interp(t, t_gyro, gyro[:, k]) for k in range(3)])
+        dropped = int(t_acc.size - t.size)
+        warnings.warn(
+            f"accelerometer and gyroscope timestamps differ: the gyroscope was linearly "
+            f"interpolated onto the {t.size} accelerometer timestamps"
+            + (f"; {dropped} accelerometer samples outside the gyroscope's span were left out"
+               if dropped else ""),
+            ImucalibWarning,
+            stacklevel=2,
+        )
+        extra = kwargs.pop("extra", {}) or {}
+        extra = {k: np.asarray(v)[keep] for k, v in extra.items()}
+        temperature = kwargs.pop("temperature", None)
+        if temperature is not None:
+            temperature = np.asarray(temperature)[keep]
+        return cls(t=t, acc=acc[keep], gyro=gyro_i, extra=extra, temperature=temperature, **kwargs)

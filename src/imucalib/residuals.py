@@ -1,0 +1,226 @@
+"""Residual functions shared by the calibration methods, with analytic Jacobians.
+
+Each residual takes a parameter vector laid out by a :class:`AccelLayout` (or
+the gyroscope's own layout) and returns the residual vector and, on request,
+its Jacobian. Names of the parameters follow ``DESIGN.md``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .kinematics import IntervalIntegrator, quat_to_matrix, skew
+from .models import AXES, TriadModel, misalignment_entries
+
+__all__ = [
+    "AccelLayout",
+    "gravity_norm_residuals",
+    "GyroLayout",
+    "gravity_direction_residuals",
+    "gravity_direction_residuals_jac",
+]
+
+
+@dataclass(frozen=True)
+class AccelLayout:
+    """Parameter vector of an accelerometer triad: ``[T entries, k1, (k2), (k3), b]``.
+
+    ``order`` is the polynomial order of the scale factors (1, 2 or 3).
+    """
+
+    shape: str = "upper"
+    order: int = 1
+
+    def __post_init__(self) -> None:
+        if self.order not in (1, 2, 3):
+            raise ValueError(f"scale-factor order must be 1, 2 or 3; got {self.order}")
+
+    @property
+    def entries(self) -> tuple[tuple[int, int], ...]:
+        return misalignment_entries(self.shape)
+
+    @property
+    def size(self) -> int:
+        return len(self.entries) + 3 * self.order + 3
+
+    def names(self, prefix: str = "accelerometer") -> list[str]:
+        out = [f"{prefix}.misalignment.{AXES[i]}{AXES[j]}" for i, j in self.entries]
+        for key in ("scale", "scale_quadratic", "scale_cubic")[: self.order]:
+            out += [f"{prefix}.{key}.{a}" for a in AXES]
+        return out + [f"{prefix}.bias.{a}" for a in AXES]
+
+    def pack(self, model: TriadModel) -> np.ndarray:
+        parts = [np.array([model.misalignment[i, j] for i, j in self.entries])]
+        parts += [model.scale, model.scale_quadratic, model.scale_cubic][: self.order]
+        parts.append(model.bias)
+        return np.concatenate(parts)
+
+    def unpack(self, theta: np.ndarray, base: TriadModel | None = None) -> TriadModel:
+        n_t = len(self.entries)
+        t = np.eye(3)
+        for (i, j), v in zip(self.entries, theta[:n_t], strict=True):
+            t[i, j] = v
+        k = theta[n_t : n_t + 3 * self.order].reshape(self.order, 3)
+        zeros = np.zeros(3)
+        base = base or TriadModel(shape=self.shape)
+        return base.with_(
+            misalignment=t,
+            shape=self.shape,
+            scale=k[0],
+            scale_quadratic=k[1] if self.order >= 2 else zeros,
+            scale_cubic=k[2] if self.order >= 3 else zeros,
+            bias=theta[-3:],
+        )
+
+
+def gravity_norm_residuals(
+    theta: np.ndarray,
+    layout: AccelLayout,
+    raw_means: np.ndarray,
+    gravity: float,
+    *,
+    squared: bool = False,
+    jacobian: bool = False,
+):
+    """Gravity-norm residuals of static poses.
+
+    ``r_k = ‖h(u_k, θ)‖ − g`` (Tedaldi 2014), or with ``squared=True``
+    ``r_k = ‖h(u_k, θ)‖² − g²`` (Zhang 2021, eq. 10), where
+    ``h(u, θ) = T · f(u − b)`` (Zhang 2021, eq. 9, with our bias sign).
+
+    Parameters
+    ----------
+    theta : (P,) ndarray
+        Parameters laid out by ``layout``.
+    raw_means : (M, 3) ndarray
+        Raw accelerometer means of the static poses.
+    gravity : float
+        ``g`` [m/s²].
+    jacobian : bool
+        Also return the (M, P) Jacobian.
+    """
+    n_t = len(layout.entries)
+    t = np.eye(3)
+    for (i, j), v in zip(layout.entries, theta[:n_t], strict=True):
+        t[i, j] = v
+    k = theta[n_t : n_t + 3 * layout.order].reshape(layout.order, 3)
+    b = theta[-3:]
+    x = raw_means - b
+    powers = [x]
+    for _ in range(1, layout.order):
+        powers.append(powers[-1] * x)
+    f = sum(kk * p for kk, p in zip(k, powers, strict=True))
+    a = f @ t.T
+    norm = np.linalg.norm(a, axis=1)
+    r = norm**2 - gravity**2 if squared else norm - gravity
+    if not jacobian:
+        return r
+    # d r / d a: 2a (squared) or a/‖a‖
+    da = 2.0 * a if squared else a / norm[:, None]
+    jac = np.empty((raw_means.shape[0], layout.size))
+    for c, (i, j) in enumerate(layout.entries):
+        jac[:, c] = da[:, i] * f[:, j]  # ∂a/∂T_ij = e_i f_j
+    nt = da @ t  # (M, 3): (dr/da)·T[:, j] for each column j
+    col = n_t
+    for p in powers:
+        jac[:, col : col + 3] = nt * p  # ∂a/∂k_{n,j} = T[:, j] x_j^n
+        col += 3
+    dfdx = k[0] + sum((n + 1) * k[n] * powers[n - 1] for n in range(1, layout.order))
+    jac[:, col : col + 3] = -nt * dfdx  # ∂a/∂b_j = −T[:, j] f'_j(x_j)
+    return r, jac
+
+
+@dataclass(frozen=True)
+class GyroLayout:
+    """Linear gyroscope parameters: the 9 entries of ``M = T_g · diag(k1)``, then ``b`` if estimated.
+
+    With a unit-diagonal ``T_g`` (6 terms, Zhang 2021 eq. 8) the map
+    ``(T_g, k1) ↔ M`` is one-to-one: ``k1_j = M_jj`` and ``T_ij = M_ij / M_jj``;
+    optimising ``M`` makes the rates linear in the parameters.
+    """
+
+    estimate_bias: bool = False
+
+    @property
+    def size(self) -> int:
+        return 12 if self.estimate_bias else 9
+
+    def pack(self, model: TriadModel) -> np.ndarray:
+        m = model.misalignment * model.scale[None, :]
+        return np.concatenate([m.ravel(), model.bias]) if self.estimate_bias else m.ravel()
+
+    def unpack(self, theta: np.ndarray, bias: np.ndarray) -> TriadModel:
+        m = theta[:9].reshape(3, 3)
+        k = np.diag(m).copy()
+        t = m / k[None, :]
+        np.fill_diagonal(t, 1.0)
+        b = theta[9:12] if self.estimate_bias else bias
+        return TriadModel(misalignment=t, scale=k, bias=b, shape="full")
+
+
+def gravity_direction_residuals(
+    rates: np.ndarray,
+    integrator: IntervalIntegrator,
+    gravity_dirs: np.ndarray,
+) -> np.ndarray:
+    """Gravity-direction residuals between consecutive poses (Zhang 2021, eq. 14).
+
+    ``r_k = g_k − R_{k-1,k}ᵀ g_{k-1}`` with unit gravity directions ``g`` and
+    ``R`` the attitude change integrated (RK4) from the calibrated rates.
+
+    Parameters
+    ----------
+    rates : (N, 3) ndarray
+        Calibrated body rates [rad/s] of the whole recording.
+    integrator : IntervalIntegrator
+        The transitions between poses.
+    gravity_dirs : (M, 3) ndarray
+        Measured unit gravity directions at the M poses.
+
+    Returns
+    -------
+    (3·(M−1),) ndarray
+    """
+    r = quat_to_matrix(integrator(rates))
+    predicted = np.einsum("kji,kj->ki", r, gravity_dirs[:-1])
+    return (gravity_dirs[1:] - predicted).ravel()
+
+
+def gravity_direction_residuals_jac(
+    rates: np.ndarray,
+    rate_jac: np.ndarray,
+    integrator: IntervalIntegrator,
+    gravity_dirs: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Residuals of :func:`gravity_direction_residuals` and their Jacobian.
+
+    The attitude change responds to rate perturbations as
+    ``δφ = R_endᵀ Σ_j A_j δω_j`` (:meth:`IntervalIntegrator.sensitivity`), and
+    ``R'ᵀ g = (I − [δφ]×) Rᵀ g``, so ``∂r_k/∂θ = −[p_k]× R_endᵀ Σ_j A_j ∂ω_j/∂θ``
+    with ``p_k = R_endᵀ g_{k-1}``. Gravity directions are held fixed.
+
+    Parameters
+    ----------
+    rates : (S, 3) ndarray
+        Calibrated rates [rad/s] at ``integrator.samples``.
+    rate_jac : (S, 3, P) ndarray
+        ``∂ω_j/∂θ`` at those samples.
+
+    Returns
+    -------
+    residuals : (3·(M−1),) ndarray
+    jacobian : (3·(M−1), P) ndarray
+    """
+    q_end, weights = integrator.sensitivity(rates)
+    r = quat_to_matrix(q_end)
+    predicted = np.einsum("kji,kj->ki", r, gravity_dirs[:-1])
+    m, l1 = weights.shape[:2]
+    p = rate_jac.shape[-1]
+    d = rate_jac[integrator.sample_index]  # (M, L+1, 3, P)
+    # Σ_j A_j D_j as one batched product: (M, 3, (L+1)·3) @ (M, (L+1)·3, P)
+    a = weights.transpose(0, 2, 1, 3).reshape(m, 3, l1 * 3)
+    summed = a @ d.reshape(m, l1 * 3, p)
+    jac = -skew(predicted) @ np.swapaxes(r, 1, 2) @ summed
+    return (gravity_dirs[1:] - predicted).ravel(), jac.reshape(3 * m, p)
