@@ -1,0 +1,642 @@
+"""Zhang et al. (IEEE TII 2021): nonlinear scale factors, g-sensitivity and lever arm.
+
+Model (canonical form; Zhang 2021 eqs. 1–8 with the bias sign flipped)::
+
+    a = T_a · f_a(u_a − b_a)                 T_a unit upper-triangular (eq. 4)
+    ω = T_g · f_g(u_g − b_g − G · a)          T_g unit-diagonal (eq. 8), G eq. (6)
+    f(x)_i = k1_i x_i + k2_i x_i² + k3_i x_i³   (eqs. 2, 7)
+
+Paper → canonical: ``b^a = −b_a``, ``b^g = −b_g``, ``G^g = −G`` (the paper adds
+``b + G a`` to the raw reading), ``k_{i1}, k_{i2}, k_{i3}`` = ``scale``,
+``scale_quadratic``, ``scale_cubic`` of axis ``i``; ``T^a`` entries
+``(−α_yz, α_zy, −α_zx)`` = ``misalignment.xy, .xz, .yz``.
+
+Data: RD1 — static poses with rotations between them (an initial rest first);
+RD2 — spinning tosses in free fall ("weightless"), where the accelerometer
+senses only the centripetal and Euler accelerations of the lever arm ``r``
+(eqs. 16–18).
+
+Cost (eq. 21), as weighted least squares::
+
+    C1 Σ_k (‖a_k‖² − g²)²                       static means, eq. (10)
+    C2 Σ_k ‖u_g,k − b_g − G a_k‖²               static means, eq. (11)
+    C3 Σ_k ‖a_k − R_{k−1,k}ᵀ a_{k−1}‖²          poses, RK4 between them, eq. (14)
+    C4 Σ_j ‖a_j − f_C(ω_j, r) − f_E(ω̇_j, r)‖²   weightless samples, eq. (19)
+
+with ``f_C(ω, r) = ‖ω‖² r − ω(ω·r)`` (eq. 17), ``f_E(ω̇, r) = r × ω̇`` (eq. 18),
+``ω̇`` by the five-point stencil (eq. 20), and weights ``C1…C4`` from the
+noise of the initial rest (eqs. 25–30). (The paper writes ``R_{k−1,k} a_{k−1}``
+for the gravity carried into pose ``k``; with our attitude convention that is
+``Rᵀ``.) Step 1 initialises every block from its own cost (linear first);
+Step 2 minimises eq. (21) over all parameters by Levenberg–Marquardt with
+analytic Jacobians.
+
+Model variants (Zhang 2021, Table II): ``linear`` (RD1 only, C4 = 0, no G, no r),
+``quadratic`` (k2, r), ``cubic`` (k2, k3, r), ``all`` (k2, k3, G, r).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..calibration import Calibration
+from ..kinematics import IntervalIntegrator, quat_to_matrix, skew
+from ..metrics import fit_summary, interval_means, transition_bounds
+from ..models import AXES, TriadModel, misalignment_entries
+from ..recording import STANDARD_GRAVITY, Interval, Recording
+from ..segment import moving_variance
+from ..solve import levenberg_marquardt
+from .tedaldi2014 import calibrate_accelerometer, calibrate_gyroscope, detect_intervals
+
+__all__ = [
+    "MODELS",
+    "ZhangLayout",
+    "calibrate",
+    "detect_weightless",
+    "detect_fall",
+    "fall_loss",
+    "lever_arm_matrix",
+    "segmented_five_point",
+    "weights",
+]
+
+MODELS = ("linear", "quadratic", "cubic", "all")
+
+
+# --------------------------------------------------------------------- layout
+@dataclass(frozen=True)
+class ZhangLayout:
+    """The parameter vector of a model variant (names as in ``DESIGN.md``).
+
+    Order: accelerometer ``T`` (3), ``k1..k_order`` (3 each), ``b`` (3);
+    gyroscope ``T`` (6), ``k1..k_order`` (3 each), ``b`` (3), ``G`` (9, if
+    ``with_g``); lever arm ``r`` (3, if ``with_r``).
+    """
+
+    order: int = 3
+    with_g: bool = True
+    with_r: bool = True
+
+    @classmethod
+    def of(cls, model: str) -> ZhangLayout:
+        if model not in MODELS:
+            raise ValueError(f"zhang2021 model must be one of {', '.join(MODELS)}; got {model!r}")
+        return {
+            "linear": cls(1, False, False),
+            "quadratic": cls(2, False, True),
+            "cubic": cls(3, False, True),
+            "all": cls(3, True, True),
+        }[model]
+
+    @property
+    def acc_entries(self):
+        return misalignment_entries("upper")
+
+    @property
+    def gyro_entries(self):
+        return misalignment_entries("full")
+
+    @property
+    def n_acc(self) -> int:
+        return 3 + 3 * self.order + 3
+
+    @property
+    def n_gyro(self) -> int:
+        return 6 + 3 * self.order + 3 + (9 if self.with_g else 0)
+
+    @property
+    def size(self) -> int:
+        return self.n_acc + self.n_gyro + (3 if self.with_r else 0)
+
+    def names(self) -> list[str]:
+        keys = ("scale", "scale_quadratic", "scale_cubic")[: self.order]
+        out = [f"accelerometer.misalignment.{AXES[i]}{AXES[j]}" for i, j in self.acc_entries]
+        out += [f"accelerometer.{k}.{a}" for k in keys for a in AXES]
+        out += [f"accelerometer.bias.{a}" for a in AXES]
+        out += [f"gyroscope.misalignment.{AXES[i]}{AXES[j]}" for i, j in self.gyro_entries]
+        out += [f"gyroscope.{k}.{a}" for k in keys for a in AXES]
+        out += [f"gyroscope.bias.{a}" for a in AXES]
+        if self.with_g:
+            out += [f"gyroscope.g_sensitivity.{a}{b}" for a in AXES for b in AXES]
+        if self.with_r:
+            out += [f"lever_arm.{a}" for a in AXES]
+        return out
+
+    def pack(self, acc: TriadModel, gyro: TriadModel, r: np.ndarray | None) -> np.ndarray:
+        ks = ("scale", "scale_quadratic", "scale_cubic")[: self.order]
+        parts = [np.array([acc.misalignment[i, j] for i, j in self.acc_entries])]
+        parts += [getattr(acc, k) for k in ks] + [acc.bias]
+        parts += [np.array([gyro.misalignment[i, j] for i, j in self.gyro_entries])]
+        parts += [getattr(gyro, k) for k in ks] + [gyro.bias]
+        if self.with_g:
+            parts.append(gyro.g_sensitivity.ravel())
+        if self.with_r:
+            parts.append(np.zeros(3) if r is None else np.asarray(r, dtype=float))
+        return np.concatenate(parts)
+
+    def split(self, theta: np.ndarray):
+        """``(T_a, K_a (order,3), b_a, T_g, K_g, b_g, G, r)`` as arrays."""
+        o = self.order
+        ta = np.eye(3)
+        for (i, j), v in zip(self.acc_entries, theta[0:3], strict=True):
+            ta[i, j] = v
+        ka = theta[3 : 3 + 3 * o].reshape(o, 3)
+        ba = theta[3 + 3 * o : 6 + 3 * o]
+        s = self.n_acc
+        tg = np.eye(3)
+        for (i, j), v in zip(self.gyro_entries, theta[s : s + 6], strict=True):
+            tg[i, j] = v
+        kg = theta[s + 6 : s + 6 + 3 * o].reshape(o, 3)
+        bg = theta[s + 6 + 3 * o : s + 9 + 3 * o]
+        g = theta[s + 9 + 3 * o : s + 18 + 3 * o].reshape(3, 3) if self.with_g else np.zeros((3, 3))
+        r = theta[self.n_acc + self.n_gyro :] if self.with_r else np.zeros(3)
+        return ta, ka, ba, tg, kg, bg, g, r
+
+    def models(self, theta: np.ndarray) -> tuple[TriadModel, TriadModel, np.ndarray | None]:
+        ta, ka, ba, tg, kg, bg, g, r = self.split(theta)
+        z = np.zeros(3)
+
+        def triad(t, k, b, shape, gg):
+            return TriadModel(misalignment=t, scale=k[0],
+                              scale_quadratic=k[1] if self.order > 1 else z,
+                              scale_cubic=k[2] if self.order > 2 else z,
+                              bias=b, g_sensitivity=gg, shape=shape)
+
+        return (triad(ta, ka, ba, "upper", np.zeros((3, 3))), triad(tg, kg, bg, "full", g),
+                r.copy() if self.with_r else None)
+
+
+# ------------------------------------------------------------ model Jacobians
+def _triad(t, k, x, entries, jac):
+    """``y = T f(x)``; with ``jac``: ∂y/∂T-entries (N,3,E), ∂y/∂K (N,3,3·order), ∂y/∂x (N,3,3)."""
+    powers = [x]
+    for _ in range(1, k.shape[0]):
+        powers.append(powers[-1] * x)
+    f = sum(kk * p for kk, p in zip(k, powers, strict=True))
+    y = f @ t.T
+    if not jac:
+        return y, None, None, None
+    n = x.shape[0]
+    jt = np.zeros((n, 3, len(entries)))
+    for c, (i, j) in enumerate(entries):
+        jt[:, i, c] = f[:, j]  # ∂(T f)/∂T_ij = e_i f_j
+    jk = np.concatenate([t[None, :, :] * p[:, None, :] for p in powers], axis=2)  # T[:, j] x_j^n
+    dfdx = np.broadcast_to(k[0], x.shape) + sum(
+        (m + 1) * k[m] * powers[m - 1] for m in range(1, k.shape[0]))
+    dydx = t[None, :, :] * dfdx[:, None, :]
+    return y, jt, jk, dydx
+
+
+def _bmm3(m: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Per-sample ``m @ j`` for (N, 3, 3) and (N, 3, P), as three broadcasts (faster than matmul)."""
+    return m[:, :, 0, None] * j[:, None, 0, :] + m[:, :, 1, None] * j[:, None, 1, :] \
+        + m[:, :, 2, None] * j[:, None, 2, :]
+
+
+class _Problem:
+    """Residuals and Jacobian of the weighted global cost, eq. (21)."""
+
+    def __init__(self, layout, gravity, static_acc, static_gyro, integ, motion_acc,
+                 motion_gyro, wl_acc, wl_gyro, wl_starts, wl_stops, dt, c):
+        self.layout = layout
+        self.g = gravity
+        self.static_acc, self.static_gyro = static_acc, static_gyro
+        self.integ, self.motion_acc, self.motion_gyro = integ, motion_acc, motion_gyro
+        self.wl_acc, self.wl_gyro = wl_acc, wl_gyro
+        self.wl_starts, self.wl_stops, self.dt = wl_starts, wl_stops, dt
+        self.w1 = np.sqrt(c["C1"])
+        self.w2 = np.repeat(np.sqrt(c["C2"]), 3)
+        self.w3 = np.repeat(np.sqrt(c["C3"]), 3)
+        self.w4 = float(np.sqrt(c["C4"]))
+        self.use_wl = layout.with_r and wl_acc is not None and wl_acc.shape[0] > 0 and c["C4"] > 0
+
+    # accelerometer and gyroscope on samples, with Jacobians over the full vector
+    def _acc(self, theta, raw, jac):
+        lay = self.layout
+        ta, ka, ba, *_ = lay.split(theta)
+        a, jt, jk, dadx = _triad(ta, ka, raw - ba, lay.acc_entries, jac)
+        if not jac:
+            return a, None
+        ja = np.concatenate([jt, jk, -dadx], axis=2)  # (N, 3, n_acc)
+        return a, ja
+
+    def _gyro(self, theta, raw_g, a, ja, jac):
+        lay = self.layout
+        _, _, _, tg, kg, bg, g, _ = lay.split(theta)
+        x = raw_g - bg - a @ g.T
+        w, jt, jk, dwdx = _triad(tg, kg, x, lay.gyro_entries, jac)
+        if not jac:
+            return w, None
+        n = raw_g.shape[0]
+        jw = np.zeros((n, 3, lay.size))
+        jw[:, :, : lay.n_acc] = -_bmm3(dwdx @ g, ja)  # through G·a
+        s = lay.n_acc
+        o = lay.order
+        jw[:, :, s : s + 6] = jt
+        jw[:, :, s + 6 : s + 6 + 3 * o] = jk
+        jw[:, :, s + 6 + 3 * o : s + 9 + 3 * o] = -dwdx
+        if lay.with_g:
+            # ∂ω/∂G_jl = −(∂ω/∂x)[:, j] a_l
+            jw[:, :, s + 9 + 3 * o : s + 18 + 3 * o] = (
+                -dwdx[:, :, :, None] * a[:, None, None, :]).reshape(n, 3, 9)
+        return w, jw
+
+    def residuals(self, theta, jac=False):
+        lay = self.layout
+        p = lay.size
+        na = lay.n_acc
+        res, jacs = [], []
+        # eq. (10): ‖a_k‖² − g² on static means
+        a_s, ja_s = self._acc(theta, self.static_acc, jac)
+        r1 = np.sum(a_s * a_s, axis=1) - self.g**2
+        res.append(self.w1 * r1)
+        if jac:
+            j1 = np.zeros((a_s.shape[0], p))
+            j1[:, :na] = 2 * np.einsum("ni,nip->np", a_s, ja_s)
+            jacs.append(self.w1[:, None] * j1)
+        # eq. (11): u_g,k − b_g − G a_k on static means (raw gyro units)
+        _, _, _, tg, kg, bg, g, r = lay.split(theta)
+        e2 = self.static_gyro - bg - a_s @ g.T
+        res.append(self.w2 * e2.ravel())
+        if jac:
+            m = a_s.shape[0]
+            j2 = np.zeros((m, 3, p))
+            j2[:, :, :na] = -np.einsum("ij,njp->nip", g, ja_s)
+            s = na + 6 + 3 * lay.order
+            j2[:, :, s : s + 3] = -np.eye(3)
+            if lay.with_g:
+                j2[:, :, s + 3 : s + 12] = (-np.eye(3)[None, :, :, None] * a_s[:, None, None, :]).reshape(m, 3, 9)
+            jacs.append(self.w2[:, None] * j2.reshape(3 * m, p))
+        # eq. (14): a_k − Rᵀ a_{k−1}, RK4 through the motions
+        a_m, ja_m = self._acc(theta, self.motion_acc, jac)
+        w_m, jw_m = self._gyro(theta, self.motion_gyro, a_m, ja_m, jac)
+        if jac:
+            q_end, wts = self.integ.sensitivity(w_m)
+        else:
+            q_end = self.integ.from_samples(w_m)
+        rot = quat_to_matrix(q_end)
+        pred = np.einsum("kji,kj->ki", rot, a_s[:-1])
+        res.append(self.w3 * (a_s[1:] - pred).ravel())
+        if jac:
+            mm = rot.shape[0]
+            l1 = wts.shape[1]
+            d = jw_m[self.integ.sample_index]  # (M−1, L+1, 3, P)
+            summed = wts.transpose(0, 2, 1, 3).reshape(mm, 3, l1 * 3) @ d.reshape(mm, l1 * 3, p)
+            j3 = -skew(pred) @ np.swapaxes(rot, 1, 2) @ summed
+            j3[:, :, :na] += ja_s[1:] - np.swapaxes(rot, 1, 2) @ ja_s[:-1]
+            jacs.append(self.w3[:, None] * j3.reshape(3 * mm, p))
+        # eq. (19): weightless samples
+        if self.use_wl:
+            a_w, ja_w = self._acc(theta, self.wl_acc, jac)
+            w_w, jw_w = self._gyro(theta, self.wl_gyro, a_w, ja_w, jac)
+            wd = segmented_five_point(w_w, self.wl_starts, self.wl_stops, self.dt)
+            lm = lever_arm_matrix(w_w, wd)
+            e4 = a_w - lm @ r
+            res.append(self.w4 * e4.ravel())
+            if jac:
+                n = a_w.shape[0]
+                wr = np.sum(w_w * r, axis=1)
+                # ∂f_C/∂ω = 2 r ωᵀ − (ω·r) I − ω rᵀ ;  ∂f_E/∂ω̇ = [r]×
+                dfc = (2 * r[None, :, None] * w_w[:, None, :] - wr[:, None, None] * np.eye(3)
+                       - w_w[:, :, None] * r[None, None, :])
+                jwd = segmented_five_point(jw_w, self.wl_starts, self.wl_stops, self.dt)
+                j4 = -_bmm3(dfc, jw_w) - np.einsum("ij,njp->nip", skew(r), jwd, optimize=True)
+                j4[:, :, :na] += ja_w
+                j4[:, :, p - 3 :] = -lm
+                jacs.append(self.w4 * j4.reshape(3 * n, p))
+        r_all = np.concatenate(res)
+        return (r_all, np.concatenate(jacs, axis=0)) if jac else r_all
+
+
+# ------------------------------------------------------------- weightless part
+def lever_arm_matrix(w: np.ndarray, wdot: np.ndarray) -> np.ndarray:
+    """``L`` with ``f_C(ω, r) + f_E(ω̇, r) = L r`` (Zhang 2021, eqs. 17–18), shape (N, 3, 3).
+
+    ``f_C = ‖ω‖² r − ω (ω·r)`` and ``f_E = r × ω̇ = −[ω̇]× r``.
+    """
+    n2 = np.sum(w * w, axis=1)
+    return n2[:, None, None] * np.eye(3) - w[:, :, None] * w[:, None, :] - skew(wdot)
+
+
+def segmented_five_point(x: np.ndarray, starts: np.ndarray, stops: np.ndarray, dt: float) -> np.ndarray:
+    """Five-point derivative (Zhang 2021, eq. 20) within each segment ``[start, stop)``.
+
+    The segments are consecutive rows of ``x`` (N, ...); the two samples at each
+    segment end use second-order one-sided/central differences.
+    """
+    d = np.empty_like(x)
+    d[2:-2] = (x[:-4] - 8 * x[1:-3] + 8 * x[3:-1] - x[4:]) / (12 * dt)  # eq. (20)
+    a, b = np.asarray(starts), np.asarray(stops)
+    d[a] = (-3 * x[a] + 4 * x[a + 1] - x[a + 2]) / (2 * dt)
+    d[a + 1] = (x[a + 2] - x[a]) / (2 * dt)
+    d[b - 2] = (x[b - 1] - x[b - 3]) / (2 * dt)
+    d[b - 1] = (3 * x[b - 1] - 4 * x[b - 2] + x[b - 3]) / (2 * dt)
+    return d
+
+
+def detect_weightless(
+    recording: Recording,
+    *,
+    rest: Interval,
+    window: float = 0.05,
+    multiplier: float = 1000.0,
+    min_length: float = 0.2,
+    min_rate: float | None = None,
+) -> list[Interval]:
+    """Weightless (spinning free-fall) intervals by the detector of Zhang 2021, eq. (22).
+
+    ``ζ(t) = var_{t_w}(‖u_g‖)``, the variance of the raw gyroscope norm over a
+    window of ``window`` seconds, must stay below ``multiplier × ζ_init`` (the
+    same statistic over the initial rest) while the body spins: the bias-free
+    gyroscope norm exceeds ``min_rate`` (raw units; default 50 × the rest's
+    noise). The accelerometer confirms the fall later, in
+    :func:`calibrate`, through the loss of eq. (19).
+    """
+    rate = recording.rate
+    bias = recording.gyro[rest.slice].mean(axis=0)
+    norm = np.linalg.norm(recording.gyro - bias, axis=1)
+    win = max(int(round(window * rate)) | 1, 3)
+    zeta = moving_variance(norm, win)[:, 0]  # eq. (22)
+    zeta_init = float(np.median(zeta[rest.slice]))
+    noise = float(np.std(norm[rest.slice]))
+    if min_rate is None:
+        min_rate = 50.0 * max(noise, np.finfo(float).tiny)
+    mask = (zeta < multiplier * max(zeta_init, np.finfo(float).tiny)) & (norm > min_rate)
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    starts = np.nonzero(edges == 1)[0]
+    stops = np.nonzero(edges == -1)[0]
+    shrink = win // 2  # drop the window's reach into the toss and the catch
+    out = []
+    for s0, s1 in zip(starts + shrink, stops - shrink, strict=True):
+        if s1 - s0 >= max(int(round(min_length * rate)), 5):
+            out.append(Interval(int(s0), int(s1), "weightless"))
+    return out
+
+
+def fall_loss(calibration: Calibration, recording: Recording) -> np.ndarray:
+    """Per-sample loss ``‖a − f_C(ω, r) − f_E(ω̇, r)‖`` [m/s²] of eq. (19) (Zhang 2021, §IV-C).
+
+    Near zero in free fall; about ``g`` at rest.
+    """
+    if calibration.lever_arm is None:
+        raise ValueError("this calibration has no lever arm: calibrate with model 'quadratic', "
+                         "'cubic' or 'all' and weightless data")
+    out = calibration.apply(recording)
+    dt = 1.0 / recording.rate
+    wd = segmented_five_point(out.gyro, np.array([0]), np.array([len(out)]), dt)
+    e = out.acc - lever_arm_matrix(out.gyro, wd) @ calibration.lever_arm
+    return np.linalg.norm(e, axis=1)
+
+
+def detect_fall(calibration: Calibration, recording: Recording, *, threshold: float = 2.5,
+                min_length: float = 0.05) -> list[Interval]:
+    """Falling-state intervals: eq. (19) loss below ``threshold`` m/s² (Zhang 2021, §IV-C)."""
+    if len(recording) < 5:
+        raise ValueError("fall detection needs at least 5 samples")
+    loss = fall_loss(calibration, recording)
+    mask = loss < threshold
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    starts, stops = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
+    n_min = max(int(round(min_length * recording.rate)), 1)
+    return [Interval(int(a), int(b), "weightless")
+            for a, b in zip(starts, stops, strict=True) if b - a >= n_min]
+
+
+# -------------------------------------------------------------------- weights
+def weights(*, acc_var: np.ndarray, gyro_var: np.ndarray, k1_acc: np.ndarray, k1_gyro: np.ndarray,
+            gravity: float, dt: float, g_max: float, motion_steps: float, mean_rate: float,
+            omega_max: float, r_hat: np.ndarray, n_mean: np.ndarray) -> dict[str, np.ndarray]:
+    """Weights ``C1…C4`` of the global cost (Zhang 2021, eqs. 25–30).
+
+    The weights are the reciprocal variances of each residual. Eqs. (25)–(27)
+    are written with single-sample noise variances, but the residuals of eqs.
+    (10), (11) and (14) are computed on interval means, whose variance is
+    ``σ²/n``: the noise variances are divided by each interval's sample count
+    ``n_mean`` (pass ones to reproduce the literal per-sample weights). Without
+    this the static terms are under-weighted ~n-fold and the accelerometer
+    noise in the weightless term pulls the common scale of ``k1`` and ``r``
+    down (about 4e-4 relative with Table I's noise).
+
+    Parameters
+    ----------
+    acc_var, gyro_var : (3,) ndarray
+        Per-axis raw noise variances over the initial rest.
+    k1_acc, k1_gyro : (3,) ndarray
+        Pre-estimated linear scales (Step 1).
+    dt : float
+        Sample interval [s].
+    g_max : float
+        Largest |entry| of the pre-estimated G (raw units per m/s²).
+    motion_steps, mean_rate : float
+        Mean number of integration steps of a motion (``m`` of eq. 28) and the
+        mean absolute calibrated rate during motions ``ω̄`` [rad/s].
+    omega_max : float
+        Largest absolute rate component of the weightless data [rad/s].
+    r_hat : (3,) ndarray
+        Pre-estimated lever arm [m].
+    n_mean : (M,) ndarray
+        Samples averaged in each static interval.
+
+    Returns
+    -------
+    dict
+        ``C1`` (M,), ``C2`` (M,), ``C3`` (M−1,) per interval, ``C4`` scalar.
+    """
+    n = np.asarray(n_mean, dtype=float)
+    s_ao = float(np.mean(k1_acc**2 * acc_var))  # σ̄²_a^o
+    s_ws = float(np.mean(gyro_var))  # σ̄²_ω^s
+    s_wo = float(np.mean(k1_gyro**2 * gyro_var))  # σ̄²_ω^o
+    g2 = gravity**2
+    s_ao_n = s_ao / n
+    c1 = 1.0 / (6 * s_ao_n**2 + 4 * g2 * s_ao_n)  # eq. (30), from eq. (25)
+    c2 = 1.0 / (s_ws / n + 3 * g_max**2 * s_ao_n)  # eq. (30), from eq. (26)
+    # eq. (28): cumulative attitude variance over m steps
+    sq = 0.0
+    growth = 1 + 0.75 * dt**2 * mean_rate**2
+    for _ in range(int(round(motion_steps))):
+        sq = growth * sq + 0.25 * dt**2 * s_wo
+    c3 = 1.0 / (s_ao_n[:-1] + s_ao_n[1:] + g2 * (4 * sq + 8 * sq**2))  # eq. (30), from eq. (27)
+    rx, ry, rz = r_hat
+    w2 = omega_max**2
+    var29 = np.array([  # eq. (29)
+        w2 * s_wo * ((2 * rx - ry) ** 2 + (2 * rx - rz) ** 2 + (ry + rz) ** 2)
+        + s_wo**2 * (4 * rx**2 + ry**2 + rz**2) + 65 * s_wo * (ry**2 + rz**2) / (72 * dt**2) + s_ao,
+        w2 * s_wo * ((2 * ry - rx) ** 2 + (2 * ry - rz) ** 2 + (rx + rz) ** 2)
+        + s_wo**2 * (4 * ry**2 + rx**2 + rz**2) + 65 * s_wo * (rx**2 + rz**2) / (72 * dt**2) + s_ao,
+        w2 * s_wo * ((2 * rz - rx) ** 2 + (2 * rz - ry) ** 2 + (rx + ry) ** 2)
+        + s_wo**2 * (4 * rz**2 + rx**2 + ry**2) + 65 * s_wo * (rx**2 + ry**2) / (72 * dt**2) + s_ao,
+    ])
+    c4 = 1.0 / float(np.max(var29))
+    return {"C1": c1, "C2": c2, "C3": c3, "C4": np.float64(c4)}
+
+
+# ------------------------------------------------------------------ calibrate
+def _concat(segments: Sequence[Recording]):
+    acc = np.concatenate([s.acc for s in segments])
+    gyro = np.concatenate([s.gyro for s in segments])
+    lengths = np.array([len(s) for s in segments])
+    stops = np.cumsum(lengths)
+    return acc, gyro, stops - lengths, stops
+
+
+def calibrate(
+    recording: Recording,
+    *,
+    weightless: Sequence[Recording] | None = None,
+    model: str = "all",
+    gravity: float = STANDARD_GRAVITY,
+    intervals: Sequence[Interval] | None = None,
+    init_static: float | None = None,
+    initial: str = "step1",
+    noise_weights: bool = True,
+    max_iter: int = 200,
+    progress: Callable[[str], None] | None = None,
+) -> Calibration:
+    """Calibrate by Zhang et al. 2021 (two-step initialisation + LM on eq. 21).
+
+    Parameters
+    ----------
+    recording : Recording
+        RD1: an initial rest, then static poses with rotations between them
+        (raw units). When ``weightless`` is None, spinning free-fall segments
+        in this recording are detected (eq. 22) and used as RD2.
+    weightless : sequence of Recording, optional
+        RD2 segments (each entirely weightless, ≥ 5 samples, same rate).
+    model : {"linear", "quadratic", "cubic", "all"}
+        Table II variants.
+    gravity : float
+        Local gravity [m/s²].
+    intervals : sequence of Interval, optional
+        Static intervals of ``recording`` (the first is the initial rest);
+        detected by the Tedaldi 2014 detector by default.
+    init_static : float, optional
+        Length of the initial rest [s] for the detector.
+    initial : {"step1", "identity"}
+        Start LM from the Step-1 estimates (the paper) or from the identity
+        model (unit scales, zero biases) — for robustness studies.
+    noise_weights : bool
+        Weights from eqs. (25)–(30); ``False`` weighs every residual by 1.
+    max_iter : int
+        Most LM iterations.
+    progress : callable, optional
+        Called with a message at each stage.
+    """
+    say = progress or (lambda msg: None)
+    layout = ZhangLayout.of(model)
+    if initial not in ("step1", "identity"):
+        raise ValueError(f"initial must be 'step1' or 'identity'; got {initial!r}")
+    # ---- RD1 segmentation
+    say("detecting static intervals")
+    if intervals is None:
+        static, _, rest, acc0 = detect_intervals(recording, gravity, init_static=init_static)
+    else:
+        static = [iv for iv in intervals if iv.kind == "static"]
+        if len(static) < 10:
+            raise ValueError(f"zhang2021 needs at least 10 static intervals; got {len(static)}")
+        rest = static[0]
+        acc0 = None
+    static_acc = interval_means(recording.acc, static)
+    static_gyro = interval_means(recording.gyro, static)
+    if acc0 is None:
+        acc0, _ = calibrate_accelerometer(static_acc, gravity)
+    # ---- RD2
+    dt = 1.0 / recording.rate
+    if layout.with_r:
+        if weightless is None:
+            wl_iv = detect_weightless(recording, rest=rest)
+            weightless = [recording[iv] for iv in wl_iv]
+        weightless = [w for w in weightless if len(w) >= 5]
+        if not weightless:
+            raise ValueError(
+                f"zhang2021 model {model!r} needs weightless segments (spinning tosses in free "
+                "fall); none were found: record tosses or use model 'linear'"
+            )
+        wl_acc, wl_gyro, wl_starts, wl_stops = _concat(weightless)
+    else:
+        wl_acc = wl_gyro = None
+        wl_starts = wl_stops = np.zeros(0, dtype=int)
+    # ---- Step 1: initial values
+    say("step 1: initial values")
+    if layout.with_g:
+        design = np.column_stack([np.ones(len(static)), acc0.forward(static_acc)])
+        sol, *_ = np.linalg.lstsq(design, static_gyro, rcond=None)  # eq. (11), linear
+        bg0, g0 = sol[0], sol[1:].T
+    else:
+        bg0, g0 = static_gyro.mean(axis=0), np.zeros((3, 3))  # eq. (11) with G = 0
+    gyro_rec = recording
+    if layout.with_g:
+        gyro_rec = Recording(recording.t, recording.acc,
+                             recording.gyro - acc0.forward(recording.acc) @ g0.T)
+    gyro_lin = calibrate_gyroscope(gyro_rec, list(static), acc0, bg0)  # eq. (14)
+    gyro0 = gyro_lin.with_(g_sensitivity=g0)
+    r0 = None
+    if layout.with_r:
+        cal0 = Calibration(accelerometer=acc0, gyroscope=gyro0)
+        a_w = cal0.accelerometer_si(wl_acc)
+        w_w = cal0.gyroscope_si(wl_gyro, wl_acc)
+        wd = segmented_five_point(w_w, wl_starts, wl_stops, dt)
+        lm = lever_arm_matrix(w_w, wd)
+        r0, *_ = np.linalg.lstsq(lm.reshape(-1, 3), a_w.ravel(), rcond=None)  # eq. (19), linear in r
+    # ---- weights (eqs. 25–30)
+    starts, stops = transition_bounds(static)
+    integ = IntervalIntegrator(recording.t, starts, stops)
+    motion_acc = recording.acc[integ.samples]
+    motion_gyro = recording.gyro[integ.samples]
+    if noise_weights:
+        w_motion = Calibration(accelerometer=acc0, gyroscope=gyro0).gyroscope_si(motion_gyro, motion_acc)
+        c = weights(
+            acc_var=recording.acc[rest.slice].var(axis=0),
+            gyro_var=recording.gyro[rest.slice].var(axis=0),
+            k1_acc=acc0.scale, k1_gyro=gyro0.scale, gravity=gravity, dt=dt,
+            g_max=float(np.max(np.abs(g0))), motion_steps=float(np.mean(stops - starts)),
+            mean_rate=float(np.mean(np.abs(w_motion))),
+            omega_max=float(np.max(np.abs(Calibration(accelerometer=acc0, gyroscope=gyro0)
+                                          .gyroscope_si(wl_gyro, wl_acc)))) if layout.with_r else 0.0,
+            r_hat=r0 if r0 is not None else np.zeros(3),
+            n_mean=np.array([len(iv) for iv in static]),
+        )
+        if not all(np.all(np.isfinite(v)) for v in c.values()):
+            raise ValueError("the initial rest has zero noise: the weights of eqs. (25)-(30) "
+                             "are infinite (pass noise_weights=False for noise-free data)")
+    else:
+        m = len(static)
+        c = {"C1": np.ones(m), "C2": np.ones(m), "C3": np.ones(m - 1), "C4": np.float64(1.0)}
+    if not layout.with_r:
+        c["C4"] = np.float64(0.0)
+    problem = _Problem(layout, gravity, static_acc, static_gyro, integ, motion_acc, motion_gyro,
+                       wl_acc, wl_gyro, wl_starts, wl_stops, dt, c)
+    if initial == "step1":
+        theta0 = layout.pack(acc0, gyro0, r0)
+    else:
+        theta0 = layout.pack(TriadModel(shape="upper"), TriadModel(shape="full"), np.zeros(3))
+    # ---- Step 2: global LM on eq. (21)
+    say("step 2: global optimisation")
+    sol = levenberg_marquardt(
+        problem.residuals,
+        lambda th: problem.residuals(th, jac=True)[1],
+        theta0,
+        max_iter=max_iter,
+    )
+    acc, gyro, r = layout.models(sol.x)
+    cal = Calibration(
+        accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity,
+        method="zhang2021", model=model,
+        units={"accelerometer": {"raw": recording.acc_unit, "calibrated": "m/s^2"},
+               "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"}},
+    )
+    fit = fit_summary(cal, recording, static, gravity)
+    fit["weights"] = {k: float(np.mean(v)) for k, v in c.items()}  # means over intervals
+    fit["cost"] = float(sol.cost)
+    fit["iterations"] = int(sol.njev)
+    fit["converged"] = bool(sol.success)
+    if layout.with_r:
+        fit["weightless_segments"] = len(weightless)
+        cal_w = cal.apply(Recording(np.arange(wl_acc.shape[0]) * dt, wl_acc, wl_gyro,
+                                    acc_unit=recording.acc_unit, gyro_unit=recording.gyro_unit))
+        wd = segmented_five_point(cal_w.gyro, wl_starts, wl_stops, dt)
+        e4 = cal_w.acc - lever_arm_matrix(cal_w.gyro, wd) @ r
+        fit["weightless_residual_rms"] = float(np.sqrt(np.mean(np.sum(e4**2, axis=1))))
+    return cal.with_(fit=fit)

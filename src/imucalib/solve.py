@@ -1,0 +1,148 @@
+"""Levenberg–Marquardt for tall least-squares problems, and parameter covariance.
+
+The calibration problems have tens of parameters and up to ~10⁵ residuals.
+MINPACK (``scipy.optimize.least_squares(method="lm")``) factorises the whole
+Jacobian with unblocked Householder QR at every iteration; here the step is
+solved from the normal equations ``(JᵀJ + λ D²) δ = −Jᵀr`` (one BLAS product,
+then a Cholesky factorisation of a P×P matrix), with Marquardt's scaling
+``D² = diag(JᵀJ)`` and Nielsen's update of the damping ``λ``. The Jacobian is
+evaluated only at accepted points.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["LMResult", "levenberg_marquardt", "covariance"]
+
+
+@dataclass
+class LMResult:
+    """Outcome of :func:`levenberg_marquardt` (fields as in scipy's ``OptimizeResult``)."""
+
+    x: np.ndarray
+    cost: float  # ½‖r‖²
+    fun: np.ndarray
+    jac: np.ndarray
+    nfev: int
+    njev: int
+    status: int
+    message: str
+
+    @property
+    def success(self) -> bool:
+        return self.status > 0
+
+
+def levenberg_marquardt(
+    fun: Callable[[np.ndarray], np.ndarray],
+    jac: Callable[[np.ndarray], np.ndarray],
+    x0: np.ndarray,
+    *,
+    ftol: float = 1e-12,
+    xtol: float = 1e-12,
+    gtol: float = 1e-12,
+    max_iter: int = 200,
+    lambda0: float = 1e-3,
+) -> LMResult:
+    """Minimise ``½‖fun(x)‖²`` by Levenberg–Marquardt.
+
+    Parameters
+    ----------
+    fun : callable
+        Residuals ``r(x)`` (M,).
+    jac : callable
+        Jacobian ``∂r/∂x`` (M, P).
+    x0 : (P,) array_like
+        Initial point.
+    ftol, xtol, gtol : float
+        Stop when the relative cost reduction of an accepted step is below
+        ``ftol`` (status 2), the scaled step is below ``xtol`` times the scaled
+        ``x`` (status 3), or the scaled gradient's max-norm is below ``gtol``
+        (status 1).
+    max_iter : int
+        Most iterations (status 0 when reached).
+    """
+    x = np.array(x0, dtype=np.float64)
+    r = np.asarray(fun(x), dtype=np.float64)
+    if not np.all(np.isfinite(r)):
+        raise ValueError("Residuals are not finite in the initial point.")
+    cost = 0.5 * float(r @ r)
+    nfev, njev = 1, 0
+    lam = None
+    nu = 2.0
+    status, message = 0, "the maximum number of iterations was reached"
+    j = None
+    for _ in range(max_iter):
+        if j is None:
+            j = np.asarray(jac(x), dtype=np.float64)
+            njev += 1
+            a = j.T @ j
+            g = j.T @ r
+            d2 = np.maximum(np.diag(a).copy(), np.finfo(float).tiny)
+            dinv = 1.0 / np.sqrt(d2)
+            if np.max(np.abs(g) * dinv) <= gtol * max(np.sqrt(2 * cost), np.finfo(float).tiny):
+                status, message = 1, "the gradient is zero to tolerance"
+                break
+            if lam is None:
+                lam = lambda0
+        # scaled system: (Â + λ I) δ̂ = −ĝ with Â = D⁻¹ A D⁻¹
+        a_s = a * dinv[:, None] * dinv[None, :]
+        g_s = g * dinv
+        step_s = _solve_damped(a_s, g_s, lam)
+        step = step_s * dinv
+        x_new = x + step
+        r_new = np.asarray(fun(x_new), dtype=np.float64)
+        nfev += 1
+        cost_new = 0.5 * float(r_new @ r_new) if np.all(np.isfinite(r_new)) else np.inf
+        predicted = -(g_s @ step_s) - 0.5 * step_s @ (a_s @ step_s)
+        rho = (cost - cost_new) / predicted if predicted > 0 else -1.0
+        if rho > 0:
+            reduction = cost - cost_new
+            x, r, cost = x_new, r_new, cost_new
+            j = None
+            lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
+            nu = 2.0
+            if reduction <= ftol * max(cost + reduction, np.finfo(float).tiny):
+                status, message = 2, "the relative cost reduction is below ftol"
+                break
+            if np.linalg.norm(step_s) <= xtol * (np.linalg.norm(x / dinv) + xtol):
+                status, message = 3, "the relative step is below xtol"
+                break
+        else:
+            lam *= nu
+            nu *= 2.0
+            if lam > 1e16:
+                status, message = 3, "no further decrease is possible (damping saturated)"
+                break
+    if j is None:
+        j = np.asarray(jac(x), dtype=np.float64)
+        njev += 1
+    return LMResult(x=x, cost=cost, fun=r, jac=j, nfev=nfev, njev=njev, status=status,
+                    message=message)
+
+
+def _solve_damped(a: np.ndarray, g: np.ndarray, lam: float) -> np.ndarray:
+    m = a + lam * np.eye(a.shape[0])
+    try:
+        c = np.linalg.cholesky(m)
+        y = np.linalg.solve(c, -g)
+        return np.linalg.solve(c.T, y)
+    except np.linalg.LinAlgError:
+        return np.linalg.lstsq(m, -g, rcond=None)[0]
+
+
+def covariance(jac: np.ndarray, residuals: np.ndarray, n_params: int | None = None) -> np.ndarray:
+    """Parameter covariance ``σ² (JᵀJ)⁻¹`` with ``σ² = ‖r‖² / (M − P)``.
+
+    Uses the pseudo-inverse, so unobservable directions get zero variance
+    instead of failing; check the rank where that matters.
+    """
+    m, p = jac.shape
+    p = n_params or p
+    dof = max(m - p, 1)
+    s2 = float(residuals @ residuals) / dof
+    return s2 * np.linalg.pinv(jac.T @ jac)
