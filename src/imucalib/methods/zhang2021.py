@@ -345,15 +345,21 @@ def detect_weightless(
     multiplier: float = 1000.0,
     min_length: float = 0.2,
     min_rate: float | None = None,
+    relative: float = 0.01,
 ) -> list[Interval]:
     """Weightless (spinning free-fall) intervals by the detector of Zhang 2021, eq. (22).
 
     ``ζ(t) = var_{t_w}(‖u_g‖)``, the variance of the raw gyroscope norm over a
-    window of ``window`` seconds, must stay below ``multiplier × ζ_init`` (the
-    same statistic over the initial rest) while the body spins: the bias-free
-    gyroscope norm exceeds ``min_rate`` (raw units; default 50 × the rest's
-    noise). The accelerometer confirms the fall later, in
-    :func:`calibrate`, through the loss of eq. (19).
+    window of ``window`` seconds, must stay below the threshold while the body
+    spins (the bias-free gyroscope norm exceeds ``min_rate``, raw units;
+    default 50 × the rest's noise). The threshold is ``multiplier × ζ_init``
+    (ζ over the initial rest, the paper's ``n ζ_init``) or, if larger,
+    ``(relative × ‖u_g‖)²``: with a low-noise sensor the raw norm of a
+    free spin still drifts slowly as the axis cones (axis-dependent scale and
+    misalignment errors), which ``n ζ_init`` alone would reject, while the
+    spin-up in the hand and the catch change the norm far faster. The
+    accelerometer confirms the fall later, in :func:`calibrate`, through the
+    loss of eq. (19).
     """
     rate = recording.rate
     bias = recording.gyro[rest.slice].mean(axis=0)
@@ -364,7 +370,8 @@ def detect_weightless(
     noise = float(np.std(norm[rest.slice]))
     if min_rate is None:
         min_rate = 50.0 * max(noise, np.finfo(float).tiny)
-    mask = (zeta < multiplier * max(zeta_init, np.finfo(float).tiny)) & (norm > min_rate)
+    threshold = np.maximum(multiplier * zeta_init, (relative * norm) ** 2)
+    mask = (zeta < threshold) & (norm > min_rate)
     edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
     starts = np.nonzero(edges == 1)[0]
     stops = np.nonzero(edges == -1)[0]
@@ -493,6 +500,7 @@ def calibrate(
     initial: str = "step1",
     noise_weights: bool = True,
     max_iter: int = 200,
+    fall_threshold: float = 2.5,
     progress: Callable[[str], None] | None = None,
 ) -> Calibration:
     """Calibrate by Zhang et al. 2021 (two-step initialisation + LM on eq. 21).
@@ -521,6 +529,9 @@ def calibrate(
         Weights from eqs. (25)–(30); ``False`` weighs every residual by 1.
     max_iter : int
         Most LM iterations.
+    fall_threshold : float
+        Detected weightless segments whose eq. (19) loss RMS with the Step-1
+        parameters exceeds this [m/s²] are not free fall and are dropped.
     progress : callable, optional
         Called with a message at each stage.
     """
@@ -545,7 +556,8 @@ def calibrate(
     # ---- RD2
     dt = 1.0 / recording.rate
     if layout.with_r:
-        if weightless is None:
+        detected = weightless is None
+        if detected:
             wl_iv = detect_weightless(recording, rest=rest)
             weightless = [recording[iv] for iv in wl_iv]
         weightless = [w for w in weightless if len(w) >= 5]
@@ -580,6 +592,26 @@ def calibrate(
         wd = segmented_five_point(w_w, wl_starts, wl_stops, dt)
         lm = lever_arm_matrix(w_w, wd)
         r0, *_ = np.linalg.lstsq(lm.reshape(-1, 3), a_w.ravel(), rcond=None)  # eq. (19), linear in r
+        if detected:
+            # the accelerometer confirms the fall: keep segments whose eq. (19) loss is
+            # below the falling-state threshold of §IV-C, then refit r̂
+            loss = np.linalg.norm(a_w - lm @ r0, axis=1)
+            seg_rms = np.sqrt(np.add.reduceat(loss**2, wl_starts) / (wl_stops - wl_starts))
+            keep = seg_rms < fall_threshold
+            if not np.any(keep):
+                raise ValueError(
+                    f"none of the {len(keep)} candidate weightless segments fits free fall "
+                    f"(eq. 19 loss ≥ {fall_threshold} m/s²): record spinning tosses or use "
+                    "model 'linear'"
+                )
+            if not np.all(keep):
+                weightless = [w for w, k in zip(weightless, keep, strict=True) if k]
+                wl_acc, wl_gyro, wl_starts, wl_stops = _concat(weightless)
+                a_w = cal0.accelerometer_si(wl_acc)
+                w_w = cal0.gyroscope_si(wl_gyro, wl_acc)
+                wd = segmented_five_point(w_w, wl_starts, wl_stops, dt)
+                lm = lever_arm_matrix(w_w, wd)
+                r0, *_ = np.linalg.lstsq(lm.reshape(-1, 3), a_w.ravel(), rcond=None)
     # ---- weights (eqs. 25–30)
     starts, stops = transition_bounds(static)
     integ = IntervalIntegrator(recording.t, starts, stops)
