@@ -6,7 +6,7 @@ from synth import table1_truth, tedaldi_session, weightless_segments
 
 from imucalib.calibration import Calibration
 from imucalib.methods import zhang2021
-from imucalib.recording import Interval, Recording
+from imucalib.recording import ImucalibWarning, Interval, Recording
 
 
 @pytest.fixture(scope="module")
@@ -159,8 +159,10 @@ def test_clear_errors(truth, noise_free):
     rec, iv, _ = noise_free
     with pytest.raises(ValueError, match="model must be one of"):
         zhang2021.calibrate(rec, model="quartic", intervals=iv)
-    with pytest.raises(ValueError, match="needs weightless segments"):
-        zhang2021.calibrate(rec, weightless=[], model="all", intervals=iv, noise_weights=False)
+    with pytest.warns(ImucalibWarning, match="no weightless segments were found"):
+        cal = zhang2021.calibrate(rec, weightless=[], model="cubic", intervals=iv,
+                                  noise_weights=False)
+    assert cal.lever_arm is None
     with pytest.raises(ValueError, match="at least 10 static intervals"):
         zhang2021.calibrate(rec, model="linear", intervals=iv[:5])
     assert isinstance(truth, Calibration)

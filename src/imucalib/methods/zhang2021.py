@@ -38,7 +38,8 @@ Model variants (Zhang 2021, Table II): ``linear`` (RD1 only, C4 = 0, no G, no r)
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -46,7 +47,7 @@ from ..calibration import Calibration
 from ..kinematics import IntervalIntegrator, quat_to_matrix, skew
 from ..metrics import fit_summary, interval_means, transition_bounds
 from ..models import AXES, TriadModel, misalignment_entries
-from ..recording import STANDARD_GRAVITY, Interval, Recording
+from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 from ..segment import moving_variance
 from ..solve import levenberg_marquardt
 from .tedaldi2014 import calibrate_accelerometer, calibrate_gyroscope, detect_intervals
@@ -489,6 +490,22 @@ def _concat(segments: Sequence[Recording]):
     return acc, gyro, stops - lengths, stops
 
 
+def _aic(residuals: np.ndarray, n_params: int) -> float:
+    n = residuals.size
+    return float(n * np.log(float(residuals @ residuals) / n) + 2 * n_params)
+
+
+def _without_lever_arm(layout: ZhangLayout, model: str, why: str) -> ZhangLayout:
+    warnings.warn(
+        f"zhang2021 model {model!r}: {why}; the lever arm is not estimated and the weightless "
+        "term (eq. 19) is left out, so the nonlinear terms rest on the static poses and "
+        "rotations alone (record spinning tosses for the full method)",
+        ImucalibWarning,
+        stacklevel=3,
+    )
+    return replace(layout, with_r=False)
+
+
 def calibrate(
     recording: Recording,
     *,
@@ -501,6 +518,7 @@ def calibrate(
     noise_weights: bool = True,
     max_iter: int = 200,
     fall_threshold: float = 2.5,
+    select: bool = True,
     progress: Callable[[str], None] | None = None,
 ) -> Calibration:
     """Calibrate by Zhang et al. 2021 (two-step initialisation + LM on eq. 21).
@@ -532,6 +550,10 @@ def calibrate(
     fall_threshold : float
         Detected weightless segments whose eq. (19) loss RMS with the Step-1
         parameters exceeds this [m/s²] are not free fall and are dropped.
+    select : bool
+        Without weightless data, also fit the simpler variants and return the
+        one Akaike's criterion prefers (``fit["model_selection"]`` says which),
+        so 1-g poses alone do not over-fit polynomial terms.
     progress : callable, optional
         Called with a message at each stage.
     """
@@ -562,10 +584,8 @@ def calibrate(
             weightless = [recording[iv] for iv in wl_iv]
         weightless = [w for w in weightless if len(w) >= 5]
         if not weightless:
-            raise ValueError(
-                f"zhang2021 model {model!r} needs weightless segments (spinning tosses in free "
-                "fall); none were found: record tosses or use model 'linear'"
-            )
+            layout = _without_lever_arm(layout, model, "no weightless segments were found")
+    if layout.with_r:
         wl_acc, wl_gyro, wl_starts, wl_stops = _concat(weightless)
     else:
         wl_acc = wl_gyro = None
@@ -599,12 +619,13 @@ def calibrate(
             seg_rms = np.sqrt(np.add.reduceat(loss**2, wl_starts) / (wl_stops - wl_starts))
             keep = seg_rms < fall_threshold
             if not np.any(keep):
-                raise ValueError(
-                    f"none of the {len(keep)} candidate weightless segments fits free fall "
-                    f"(eq. 19 loss ≥ {fall_threshold} m/s²): record spinning tosses or use "
-                    "model 'linear'"
-                )
-            if not np.all(keep):
+                layout = _without_lever_arm(
+                    layout, model, f"none of the {len(keep)} candidate weightless segments fits "
+                    f"free fall (eq. 19 loss ≥ {fall_threshold} m/s²)")
+                r0 = None
+                wl_acc = wl_gyro = None
+                wl_starts = wl_stops = np.zeros(0, dtype=int)
+            elif not np.all(keep):
                 weightless = [w for w, k in zip(weightless, keep, strict=True) if k]
                 wl_acc, wl_gyro, wl_starts, wl_stops = _concat(weightless)
                 a_w = cal0.accelerometer_si(wl_acc)
@@ -638,24 +659,43 @@ def calibrate(
         c = {"C1": np.ones(m), "C2": np.ones(m), "C3": np.ones(m - 1), "C4": np.float64(1.0)}
     if not layout.with_r:
         c["C4"] = np.float64(0.0)
-    problem = _Problem(layout, gravity, static_acc, static_gyro, integ, motion_acc, motion_gyro,
-                       wl_acc, wl_gyro, wl_starts, wl_stops, dt, c)
-    if initial == "step1":
-        theta0 = layout.pack(acc0, gyro0, r0)
-    else:
-        theta0 = layout.pack(TriadModel(shape="upper"), TriadModel(shape="full"), np.zeros(3))
     # ---- Step 2: global LM on eq. (21)
     say("step 2: global optimisation")
-    sol = levenberg_marquardt(
-        problem.residuals,
-        lambda th: problem.residuals(th, jac=True)[1],
-        theta0,
-        max_iter=max_iter,
-    )
+
+    def solve(lay: ZhangLayout):
+        prob = _Problem(lay, gravity, static_acc, static_gyro, integ, motion_acc, motion_gyro,
+                        wl_acc, wl_gyro, wl_starts, wl_stops, dt, c)
+        if initial == "step1":
+            th0 = lay.pack(acc0, gyro0 if lay.with_g else gyro0.with_(g_sensitivity=np.zeros((3, 3))), r0)
+        else:
+            th0 = lay.pack(TriadModel(shape="upper"), TriadModel(shape="full"), np.zeros(3))
+        return prob, levenberg_marquardt(
+            prob.residuals, lambda th: prob.residuals(th, jac=True)[1], th0, max_iter=max_iter)
+
+    problem, sol = solve(layout)
+    selection = None
+    if select and not layout.with_r and layout.order > 1:
+        # Without weightless data the nonlinear terms rest on 1-g poses only: keep them
+        # only where they lower Akaike's criterion n·ln(RSS/n) + 2p of the weighted fit.
+        candidates = {model: (problem, sol, layout)}
+        for name in MODELS[: MODELS.index(model)]:
+            lay = replace(ZhangLayout.of(name), with_r=False)
+            candidates[name] = (*solve(lay), lay)
+        aic = {name: _aic(sol_.fun, lay.size) for name, (_, sol_, lay) in candidates.items()}
+        best = min(aic, key=aic.get)
+        selection = {"criterion": "aic", "aic": aic, "requested": model, "selected": best}
+        if best != model:
+            warnings.warn(
+                f"zhang2021 model {model!r}: without weightless data the poses do not support "
+                f"the extra terms (Akaike's criterion prefers {best!r}); the {best!r} solution "
+                "is returned with the other terms at zero (pass select=False to keep them)",
+                ImucalibWarning, stacklevel=2,
+            )
+            problem, sol, layout = candidates[best]
     acc, gyro, r = layout.models(sol.x)
     cal = Calibration(
         accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity,
-        method="zhang2021", model=model,
+        method="zhang2021", model=model if selection is None else selection["selected"],
         units={"accelerometer": {"raw": recording.acc_unit, "calibrated": "m/s^2"},
                "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"}},
     )
@@ -664,6 +704,8 @@ def calibrate(
     fit["cost"] = float(sol.cost)
     fit["iterations"] = int(sol.njev)
     fit["converged"] = bool(sol.success)
+    if selection is not None:
+        fit["model_selection"] = selection
     if layout.with_r:
         fit["weightless_segments"] = len(weightless)
         cal_w = cal.apply(Recording(np.arange(wl_acc.shape[0]) * dt, wl_acc, wl_gyro,
