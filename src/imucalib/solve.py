@@ -44,7 +44,7 @@ def levenberg_marquardt(
     *,
     ftol: float = 1e-12,
     xtol: float = 1e-12,
-    gtol: float = 1e-12,
+    gtol: float = 1e-8,
     max_iter: int = 200,
     lambda0: float = 1e-3,
 ) -> LMResult:
@@ -61,8 +61,8 @@ def levenberg_marquardt(
     ftol, xtol, gtol : float
         Stop when the relative cost reduction of an accepted step is below
         ``ftol`` (status 2), the scaled step is below ``xtol`` times the scaled
-        ``x`` (status 3), or the scaled gradient's max-norm is below ``gtol``
-        (status 1).
+        ``x`` (status 3), or the cosine between the residual vector and every
+        Jacobian column is below ``gtol`` (status 1, MINPACK's test).
     max_iter : int
         Most iterations (status 0 when reached).
     """
@@ -85,6 +85,7 @@ def levenberg_marquardt(
             d2 = np.maximum(np.diag(a).copy(), np.finfo(float).tiny)
             dinv = 1.0 / np.sqrt(d2)
             if np.max(np.abs(g) * dinv) <= gtol * max(np.sqrt(2 * cost), np.finfo(float).tiny):
+                # |Jᵢᵀr| / (‖Jᵢ‖‖r‖): the residual is orthogonal to the Jacobian
                 status, message = 1, "the gradient is zero to tolerance"
                 break
             if lam is None:

@@ -24,9 +24,33 @@ def _tedaldi2014(data, *, model: str | None, gravity: float, **options: Any) -> 
     return tedaldi2014.calibrate(_recording_of(data), gravity=gravity, **options)
 
 
+def _zhang2021(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
+    from . import zhang2021
+
+    weightless = options.pop("weightless", None)
+    if weightless is None and not isinstance(data, Recording):
+        weightless = getattr(data, "weightless", None)
+    if "intervals" not in options and not isinstance(data, Recording):
+        segments = getattr(data, "segments", None)
+        noise = getattr(data, "noise", None)
+        # noise-free simulations cannot set a detector threshold: use their layout
+        if segments is not None and noise is not None and not any(_noise_values(noise)):
+            options["intervals"] = [s for s in segments if s.kind == "static"]
+            options.setdefault("noise_weights", False)
+    return zhang2021.calibrate(_recording_of(data), weightless=weightless,
+                               model=model or "all", gravity=gravity, **options)
+
+
+def _noise_values(noise) -> list[float]:
+    if isinstance(noise, dict):
+        return [float(v) for v in noise.values()]
+    return [float(noise)]
+
+
 #: method name → callable(data, *, model, gravity, **options) → Calibration
 METHODS: dict[str, Callable[..., Calibration]] = {
     "tedaldi2014": _tedaldi2014,
+    "zhang2021": _zhang2021,
 }
 
 

@@ -191,12 +191,6 @@ def _triad(t, k, x, entries, jac):
     return y, jt, jk, dydx
 
 
-def _bmm3(m: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """Per-sample ``m @ j`` for (N, 3, 3) and (N, 3, P), as three broadcasts (faster than matmul)."""
-    return m[:, :, 0, None] * j[:, None, 0, :] + m[:, :, 1, None] * j[:, None, 1, :] \
-        + m[:, :, 2, None] * j[:, None, 2, :]
-
-
 class _Problem:
     """Residuals and Jacobian of the weighted global cost, eq. (21)."""
 
@@ -233,7 +227,7 @@ class _Problem:
             return w, None
         n = raw_g.shape[0]
         jw = np.zeros((n, 3, lay.size))
-        jw[:, :, : lay.n_acc] = -_bmm3(dwdx @ g, ja)  # through G·a
+        jw[:, :, : lay.n_acc] = -((dwdx @ g) @ ja)  # through G·a
         s = lay.n_acc
         o = lay.order
         jw[:, :, s : s + 6] = jt
@@ -304,7 +298,7 @@ class _Problem:
                 dfc = (2 * r[None, :, None] * w_w[:, None, :] - wr[:, None, None] * np.eye(3)
                        - w_w[:, :, None] * r[None, None, :])
                 jwd = segmented_five_point(jw_w, self.wl_starts, self.wl_stops, self.dt)
-                j4 = -_bmm3(dfc, jw_w) - np.einsum("ij,njp->nip", skew(r), jwd, optimize=True)
+                j4 = -(dfc @ jw_w) - skew(r) @ jwd
                 j4[:, :, :na] += ja_w
                 j4[:, :, p - 3 :] = -lm
                 jacs.append(self.w4 * j4.reshape(3 * n, p))
