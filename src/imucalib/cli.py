@@ -151,6 +151,51 @@ def cmd_apply(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_compare(args: argparse.Namespace) -> int:
+    from .compare import compare
+
+    say = _progress(not args.json and sys.stderr.isatty())
+    data = _read(args, args.data)
+    rec = getattr(data, "recording", data)
+    methods = args.methods.split(",") if args.methods else None
+    result = compare(rec, gravity=args.gravity, methods=methods,
+                     folds=None if args.folds == 0 else args.folds, progress=say)
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    print(f"{result['static_intervals']} static intervals; leave-one-pose-out over "
+          f"{result['folds']} held-out poses")
+    print(f"{'method':<14}{'model':<11}{'CV |a|-g RMS [m/s^2]':>22}{'CV angle mean [deg]':>22}")
+    for row in result["methods"]:
+        if row["ok"]:
+            print(f"{row['method']:<14}{row['model'] or '-':<11}"
+                  f"{row['cv_accelerometer_residual_rms']:>22.5f}"
+                  f"{row['cv_gyroscope_angle_error_mean_deg']:>22.4f}")
+        else:
+            print(f"{row['method']:<14}{row['model'] or '-':<11}  cannot run: {row['reason']}")
+    return 0
+
+
+def cmd_detect_fall(args: argparse.Namespace) -> int:
+    from .methods.zhang2021 import detect_fall
+
+    cal = Calibration.load(args.calibration)
+    data = _read(args, [args.data])
+    rec = getattr(data, "recording", data)
+    falls = detect_fall(cal, rec, threshold=args.threshold)
+    out = {"threshold": args.threshold, "falls": [
+        {"start": iv.start, "stop": iv.stop, "t_start": float(rec.t[iv.start]),
+         "t_stop": float(rec.t[iv.stop - 1]), "duration": float(rec.t[iv.stop - 1] - rec.t[iv.start])}
+        for iv in falls]}
+    if args.json:
+        print(json.dumps(out))
+    else:
+        print(f"{len(falls)} falling intervals (eq. 19 loss < {args.threshold} m/s^2)")
+        for f in out["falls"]:
+            print(f"  {f['t_start']:10.3f} s .. {f['t_stop']:10.3f} s  ({f['duration']:.3f} s)")
+    return 0
+
+
 # ---------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
@@ -185,6 +230,31 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     _add_reader_options(p)
     p.set_defaults(func=cmd_apply)
+
+    p = sub.add_parser("compare", help="run every method the data supports and cross-validate",
+                       description="Calibrate with every method the recording supports and "
+                       "report leave-one-pose-out cross-validated gravity residuals and "
+                       "gyroscope angle errors; methods that cannot run say why.")
+    p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
+    p.add_argument("--gravity", type=_positive_float, default=STANDARD_GRAVITY,
+                   help=f"local gravity [m/s^2] (default: {STANDARD_GRAVITY})")
+    p.add_argument("--methods", help="comma-separated methods (default: all)")
+    p.add_argument("--folds", type=int, default=12,
+                   help="held-out poses, spread evenly (0: every pose; default 12)")
+    p.add_argument("--json", action="store_true", help="print the comparison as JSON")
+    _add_reader_options(p)
+    p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("detect-fall", help="find free-fall intervals (Zhang 2021, §IV-C)",
+                       description="Mark samples whose weightless loss (Zhang 2021, eq. 19) is "
+                       "below a threshold as falling; needs a calibration with a lever arm.")
+    p.add_argument("calibration", help="calibration file (JSON) with a lever arm")
+    p.add_argument("data", help="data file")
+    p.add_argument("--threshold", type=_positive_float, default=2.5,
+                   help="loss threshold [m/s^2] (default 2.5)")
+    p.add_argument("--json", action="store_true", help="print the intervals as JSON")
+    _add_reader_options(p)
+    p.set_defaults(func=cmd_detect_fall)
     return parser
 
 

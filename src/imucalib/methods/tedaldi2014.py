@@ -27,7 +27,6 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..calibration import Calibration
 from ..kinematics import IntervalIntegrator, angle_between, quat_from_rotvec, quat_to_matrix
@@ -42,6 +41,7 @@ from ..residuals import (
     gravity_norm_residuals,
 )
 from ..segment import detect_static, find_initial_rest, variance_norm
+from ..solve import levenberg_marquardt
 from .ellipsoid import fit_ellipsoid, fit_sphere
 
 __all__ = ["calibrate", "calibrate_accelerometer", "calibrate_gyroscope", "detect_intervals"]
@@ -75,7 +75,7 @@ def calibrate_accelerometer(
     def jac(th):
         return gravity_norm_residuals(th, layout, raw_means, gravity, jacobian=True)[1]
 
-    sol = least_squares(fun, theta0, jac=jac, method="lm", x_scale="jac", xtol=1e-14, ftol=1e-14)
+    sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-14, ftol=1e-14)
     return layout.unpack(sol.x, initial), sol.fun
 
 
@@ -210,7 +210,7 @@ def calibrate_gyroscope(
 
     k = _gyro_scale_guess(recording.gyro - bias, recording.t, starts, stops, dirs)
     theta0 = layout.pack(TriadModel(scale=np.full(3, k), bias=bias))
-    sol = least_squares(fun, theta0, jac=jac, method="lm", x_scale="jac", xtol=1e-12, ftol=1e-12)
+    sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-12, ftol=1e-12)
     return layout.unpack(sol.x, bias)
 
 

@@ -1,0 +1,102 @@
+"""Run every calibration method a recording supports and compare them out of sample.
+
+Each method is calibrated on the same static intervals (detected once by the
+Tedaldi 2014 detector) and judged by leave-one-pose-out cross-validation
+(:mod:`imucalib.crossval`): the held-out gravity residual and gyroscope angle
+error. Methods that cannot run on the data report why.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from .crossval import leave_one_pose_out
+from .methods import calibrate, method_names
+from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
+
+__all__ = ["DEFAULT_MODELS", "compare", "even_folds"]
+
+#: the model each method is compared with (None: the method's only model)
+DEFAULT_MODELS: dict[str, str | None] = {"zhang2021": "cubic"}
+
+
+def even_folds(n_intervals: int, count: int | None) -> list[int]:
+    """``count`` held-out poses spread evenly over 1…n−1 (all when ``count`` is None)."""
+    poses = np.arange(1, n_intervals)
+    if count is None or count >= poses.size:
+        return poses.tolist()
+    pick = np.unique(np.round(np.linspace(0, poses.size - 1, count)).astype(int))
+    return poses[pick].tolist()
+
+
+def compare(
+    recording: Recording,
+    *,
+    gravity: float = STANDARD_GRAVITY,
+    methods: Sequence[str] | None = None,
+    intervals: Sequence[Interval] | None = None,
+    folds: int | None = 12,
+    progress: Callable[[str], None] | None = None,
+) -> dict:
+    """Calibrate with each method and cross-validate it.
+
+    Parameters
+    ----------
+    recording : Recording
+        Raw readings: an initial rest, static poses and rotations.
+    gravity : float
+        Local gravity [m/s²].
+    methods : sequence of str, optional
+        Methods to try (default: every registered method).
+    intervals : sequence of Interval, optional
+        Static intervals; detected by the Tedaldi 2014 detector by default.
+    folds : int or None
+        Number of held-out poses, spread evenly (None: every pose).
+    progress : callable, optional
+        Called with a message per method.
+
+    Returns
+    -------
+    dict
+        ``{"static_intervals": M, "folds": K, "methods": [{"method", "model", "ok",
+        "reason", "cv_accelerometer_residual_rms", "cv_gyroscope_angle_error_mean_deg",
+        "fit"}, …]}``
+    """
+    from .methods.tedaldi2014 import detect_intervals
+
+    say = progress or (lambda msg: None)
+    if intervals is None:
+        intervals = detect_intervals(recording, gravity)[0]
+    intervals = list(intervals)
+    chosen = list(methods) if methods is not None else method_names()
+    fold_list = even_folds(len(intervals), folds)
+    rows = []
+    for name in chosen:
+        model = DEFAULT_MODELS.get(name)
+        row = {"method": name, "model": model, "ok": False, "reason": None,
+               "cv_accelerometer_residual_rms": None, "cv_gyroscope_angle_error_mean_deg": None}
+        say(f"{name}: calibrating")
+
+        def fit(training, name=name, model=model):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", ImucalibWarning)
+                return calibrate(recording, method=name, model=model, gravity=gravity,
+                                 intervals=training)
+
+        try:
+            full = fit(intervals)
+            row["model"] = full.model
+            row["fit"] = {k: v for k, v in full.fit.items() if isinstance(v, int | float)}
+            say(f"{name}: cross-validating on {len(fold_list)} held-out poses")
+            cv = leave_one_pose_out(recording, intervals, fit, gravity=gravity, folds=fold_list)
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            row["reason"] = str(exc)
+            rows.append(row)
+            continue
+        row.update(ok=True, cv_accelerometer_residual_rms=cv["cv_accelerometer_residual_rms"],
+                   cv_gyroscope_angle_error_mean_deg=cv["cv_gyroscope_angle_error_mean_deg"])
+        rows.append(row)
+    return {"static_intervals": len(intervals), "folds": len(fold_list), "methods": rows}
