@@ -346,11 +346,24 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit) -> Reco
                 "pass only one (use --columns with '-' for t to ignore the time column)"
             )
         raw_t = data[:, tcol]
+        if np.max(np.abs(raw_t)) >= 2.0**53:
+            # integer stamps (e.g. ns since the epoch) exceed float precision: parse exactly
+            try:
+                ints = np.array([split(ln)[tcol] for ln in body], dtype=np.int64)
+                raw_t = (ints - ints[0]).astype(np.float64)
+                offset = float(ints[0])
+            except (ValueError, OverflowError):
+                offset = 0.0
+        else:
+            offset = 0.0
         _check_time(path, raw_t, first_line, names[tcol])
         unit = time_unit or _unit_in(names[tcol]) if has_header else time_unit
         if unit not in TIME_UNITS:
             unit = time_unit or _infer_time_unit(raw_t)
         t = _to_seconds(raw_t, unit, meta)
+        if offset:
+            meta["t0"] = offset
+            meta["time_relative"] = True
     acc = data[:, [mapping["ax"], mapping["ay"], mapping["az"]]]
     gyro = data[:, [mapping["gx"], mapping["gy"], mapping["gz"]]]
     au = acc_unit or (_unit_in(names[mapping["ax"]]) if has_header else None) or "counts"

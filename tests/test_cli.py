@@ -1,0 +1,88 @@
+"""The command line: JSON contracts, the issue's real-data command, apply, errors."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from synth import tedaldi_session
+
+from imucalib.calibration import Calibration
+from imucalib.cli import main
+from imucalib.io import read, write_csv
+
+DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "xsens_imu_tk"
+
+
+def run(capsys, *args):
+    code = main([str(a) for a in args])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.fixture
+def session_csv(tmp_path):
+    rec, truth, _ = tedaldi_session(seed=12, noise_acc=0.003, noise_gyro=0.002)
+    path = tmp_path / "session.csv"
+    write_csv(path, rec)
+    return path, truth
+
+
+def test_calibrate_json_and_apply(capsys, tmp_path, session_csv):
+    path, truth = session_csv
+    code, out, err = run(capsys, "calibrate", path, "--json", "-o", tmp_path / "c.json")
+    assert code == 0, err
+    doc = json.loads(out)  # stdout holds the JSON and nothing else
+    assert doc["format"] == "imucalib.calibration" and doc["format_version"] == 1
+    assert doc["fit"]["static_intervals"] == 25
+    cal = Calibration.load(tmp_path / "c.json")
+    np.testing.assert_allclose(cal.accelerometer.scale, truth.accelerometer.scale, rtol=2e-3)
+    code, out, err = run(capsys, "apply", tmp_path / "c.json", path, "-o", tmp_path / "out.csv",
+                         "--json")
+    assert code == 0, err
+    summary = json.loads(out)
+    rec = read(path)
+    assert summary["samples"] == len(rec)
+    back = read(tmp_path / "out.csv")
+    assert len(back) == len(rec)
+    np.testing.assert_allclose(back.acc, rec.acc, rtol=1e-9)  # raw columns unchanged
+    acc_cal = np.column_stack([back.extra[f"acc_{a}_cal [m/s^2]"] for a in "xyz"])
+    np.testing.assert_allclose(acc_cal, cal.apply(rec).acc, rtol=1e-8)
+
+
+def test_errors_go_to_stderr_with_nonzero_exit(capsys, tmp_path, session_csv):
+    path, _ = session_csv
+    code, out, err = run(capsys, "calibrate", tmp_path / "missing.csv", "--json")
+    assert code == 2 and out == ""
+    assert "missing.csv: file not found" in err
+    code, out, err = run(capsys, "calibrate", path, "--method", "nope", "--json")
+    assert code == 2 and "unknown method 'nope'" in err
+    (tmp_path / "bad.json").write_text("{}")
+    code, out, err = run(capsys, "apply", tmp_path / "bad.json", path, "-o", tmp_path / "o.csv")
+    assert code == 2 and "not an imucalib calibration" in err
+
+
+def test_issue_command_on_xsens_matches_imu_tk(capsys):
+    if not DATA.is_dir():
+        pytest.skip("../shared/data/xsens_imu_tk not present (fresh clone): real-data test skipped")
+    code, out, err = run(capsys, "calibrate", DATA / "xsens_acc.mat", DATA / "xsens_gyro.mat",
+                         "--reader", "imutk", "--method", "tedaldi2014", "--gravity", "9.81744",
+                         "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    fit = doc["fit"]
+    assert 37 <= fit["static_intervals"] <= 39
+    assert fit["accelerometer_residual_rms"] <= 0.00112
+    assert fit["gyroscope_angle_error_mean_deg"] <= 0.481
+    ta = np.array(doc["accelerometer"]["misalignment"])
+    np.testing.assert_allclose(ta, [[1, -0.0033593, -0.00890639], [0, 1, -0.0213341], [0, 0, 1]],
+                               atol=1e-3)
+    np.testing.assert_allclose(doc["accelerometer"]["scale"], [0.00241278, 0.00242712, 0.00241168],
+                               rtol=2e-3)
+    np.testing.assert_allclose(doc["accelerometer"]["bias"], [33124.2, 33275.2, 32364.4], atol=10)
+    np.testing.assert_allclose(doc["gyroscope"]["scale"], [2.09295e-4, 2.09899e-4, 2.09483e-4],
+                               rtol=5e-3)
+    np.testing.assert_allclose(
+        doc["gyroscope"]["misalignment"],
+        [[1, 0.00593634, 0.00111101], [0.00808812, 1, -0.0535569], [0.0253067, -0.0025513, 1]],
+        atol=2e-3)
