@@ -196,6 +196,133 @@ def cmd_detect_fall(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from .simulate import session, write_session
+
+    noise = None
+    if args.noise_acc is not None or args.noise_gyro is not None:
+        noise = {}
+        if args.noise_acc is not None:
+            noise["accelerometer"] = args.noise_acc
+        if args.noise_gyro is not None:
+            noise["gyroscope"] = args.noise_gyro
+    sim = session(args.scenario, rng=args.seed, noise=noise)
+    out = write_session(sim, args.output)
+    summary = {"scenario": args.scenario, "seed": args.seed, "directory": str(out),
+               "samples": len(sim.recording), "static": sum(s.kind == "static" for s in sim.segments),
+               "weightless": len(sim.weightless), "tests": len(sim.tests), "noise": sim.noise}
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(f"wrote the {args.scenario} session (seed {args.seed}) to {out}: "
+              f"{summary['samples']} RD1 samples, {summary['static']} static poses, "
+              f"{summary['weightless']} weightless spins, {summary['tests']} test tosses")
+    return 0
+
+
+class _Bar:
+    """A progress bar on stderr when it is a terminal; silent otherwise."""
+
+    def __init__(self, label: str, enabled: bool) -> None:
+        self.label, self.enabled, self.start = label, enabled, time.perf_counter()
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.enabled:
+            return
+        width = 30
+        fill = int(width * done / total)
+        print(f"\r{self.label} [{'#' * fill}{'.' * (width - fill)}] {done}/{total} "
+              f"{time.perf_counter() - self.start:5.1f} s", end="", file=sys.stderr, flush=True)
+        if done == total:
+            print(file=sys.stderr)
+
+
+def cmd_montecarlo(args: argparse.Namespace) -> int:
+    from .evaluate import montecarlo
+
+    bar = _Bar(f"{args.method} on {args.scenario}", sys.stderr.isatty())
+    result = montecarlo(args.scenario, args.method, model=args.model, runs=args.runs,
+                        workers=args.workers, seed=args.seed, baseline=args.baseline,
+                        progress=bar)
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    print(f"{result['runs']} runs of {args.method} ({args.model or 'default model'}) on "
+          f"{args.scenario}; {len(result['failures'])} failed")
+    print(f"{'parameter':<36}{'truth':>14}{'mean':>14}{'std':>12}{'rms error':>12}")
+    for p in result["parameters"]:
+        if p["mean"] is None:
+            continue
+        print(f"{p['name']:<36}{p['truth']:>14.6g}{p['mean']:>14.6g}{p['std']:>12.3g}"
+              f"{p['rms_error']:>12.3g}")
+    for k, v in result["metrics"].items():
+        print(f"{k}: {v}")
+    for f in result["failures"]:
+        print(f"seed {f['seed']}: {f['message']}")
+    return 0
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from .evaluate import reductions, test_metrics
+    from .methods import calibrate
+    from .simulate import session
+
+    say = _progress(not args.json and sys.stderr.isatty())
+    t0 = time.perf_counter()
+    if say:
+        say("simulating the zhang2021 session (Table I truth, default noise)")
+    sim = session("zhang2021", rng=args.seed)
+    g = sim.truth.gravity
+    if say:
+        say("calibrating: tedaldi2014 (linear)")
+    ted = calibrate(sim, method="tedaldi2014", gravity=g)
+    if say:
+        say("calibrating: zhang2021 linear")
+    lin = calibrate(sim, method="zhang2021", model="linear", gravity=g)
+    if say:
+        say("calibrating: zhang2021 all")
+    full = calibrate(sim, method="zhang2021", model="all", gravity=g)
+    m_all = test_metrics(full, sim.tests)
+    m_lin = test_metrics(lin, sim.tests, lever_arm=full.lever_arm)
+    m_ted = test_metrics(ted, sim.tests, lever_arm=full.lever_arm)
+    elapsed = time.perf_counter() - t0
+    truth = sim.truth.parameters()
+    est = {"linear": lin.parameters(), "all": full.parameters()}
+    rows = [{"name": k, "truth": v, "linear": est["linear"].get(k), "all": est["all"].get(k)}
+            for k, v in truth.items()]
+    result = {
+        "scenario": "zhang2021", "seed": args.seed, "seconds": round(elapsed, 3),
+        "parameters": rows,
+        "metrics": {
+            "eq34_mean": {"tedaldi2014": float(np.mean(m_ted["eq34"])),
+                          "linear": float(np.mean(m_lin["eq34"])),
+                          "all": float(np.mean(m_all["eq34"]))},
+            "eq35_mean": {"tedaldi2014": float(np.mean(m_ted["eq35"])),
+                          "linear": float(np.mean(m_lin["eq35"])),
+                          "all": float(np.mean(m_all["eq35"]))},
+            **{f"all_vs_tedaldi2014_{k}": v for k, v in reductions(m_all, m_ted).items()},
+        },
+    }
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    print("Zhang 2021 synthetic session (Table I truth): linear model vs the full model")
+    print(f"{'parameter':<36}{'truth':>14}{'linear':>14}{'all':>14}")
+    for r in rows:
+        lv = "-" if r["linear"] is None else f"{r['linear']:.6g}"
+        print(f"{r['name']:<36}{r['truth']:>14.6g}{lv:>14}{r['all']:>14.6g}")
+    mt = result["metrics"]
+    print("\ntest tosses (Zhang 2021 §IV-B):          tedaldi2014      linear         all")
+    print(f"  eq. (34) weightless error [(m/s^2)^2] {mt['eq34_mean']['tedaldi2014']:>12.4g}"
+          f"{mt['eq34_mean']['linear']:>12.4g}{mt['eq34_mean']['all']:>12.4g}")
+    print(f"  eq. (35) gravity cosine              {mt['eq35_mean']['tedaldi2014']:>12.6f}"
+          f"{mt['eq35_mean']['linear']:>12.6f}{mt['eq35_mean']['all']:>12.6f}")
+    print(f"  reduction vs tedaldi2014: eq. (34) {mt['all_vs_tedaldi2014_eq34_reduction']:.2%}, "
+          f"eq. (35) {mt['all_vs_tedaldi2014_eq35_reduction']:.2%} (paper: 64.12 %, 47.90 %)")
+    print(f"done in {elapsed:.1f} s")
+    return 0
+
+
 # ---------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
@@ -255,6 +382,37 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the intervals as JSON")
     _add_reader_options(p)
     p.set_defaults(func=cmd_detect_fall)
+
+    p = sub.add_parser("simulate", help="write a simulated session with known truth",
+                       description="Simulate a calibration session (raw recordings, truth.json, "
+                       "session.json with the segments) into a directory.")
+    p.add_argument("--scenario", default="zhang2021", help="scenario (default: zhang2021)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--noise-acc", type=float, help="accelerometer noise [m/s^2] per sample")
+    p.add_argument("--noise-gyro", type=float, help="gyroscope noise [rad/s] per sample")
+    p.add_argument("-o", "--output", required=True, help="output directory")
+    p.add_argument("--json", action="store_true", help="print a JSON summary")
+    p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("montecarlo", help="seeded simulate → calibrate → compare runs",
+                       description="Run a method on many simulated sessions and summarise the "
+                       "parameter errors against the truth.")
+    p.add_argument("--scenario", default="zhang2021")
+    p.add_argument("--method", required=True)
+    p.add_argument("--model", help="model variant")
+    p.add_argument("--runs", type=int, default=20)
+    p.add_argument("--workers", type=int, default=1, help="parallel processes")
+    p.add_argument("--seed", type=int, default=0, help="seed of the first run (run i: seed+i)")
+    p.add_argument("--baseline", help="also run this method and report the §IV-B reductions")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=cmd_montecarlo)
+
+    p = sub.add_parser("demo", help="the main job on a built-in session",
+                       description="Simulate the Zhang 2021 session, calibrate it with the linear "
+                       "and the full model, and show both against the truth.")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=cmd_demo)
     return parser
 
 
