@@ -263,7 +263,7 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from .evaluate import reductions, test_metrics
+    from .evaluate import reductions, sequence_metrics
     from .methods import calibrate
     from .simulate import session
 
@@ -282,9 +282,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if say:
         say("calibrating: zhang2021 all")
     full = calibrate(sim, method="zhang2021", model="all", gravity=g)
-    m_all = test_metrics(full, sim.tests)
-    m_lin = test_metrics(lin, sim.tests, lever_arm=full.lever_arm)
-    m_ted = test_metrics(ted, sim.tests, lever_arm=full.lever_arm)
+    m_all = sequence_metrics(full, sim.tests)
+    m_lin = sequence_metrics(lin, sim.tests, lever_arm=full.lever_arm)
+    m_ted = sequence_metrics(ted, sim.tests, lever_arm=full.lever_arm)
     elapsed = time.perf_counter() - t0
     truth = sim.truth.parameters()
     est = {"linear": lin.parameters(), "all": full.parameters()}

@@ -28,7 +28,7 @@ from .calibration import Calibration
 from .kinematics import IntervalIntegrator, quat_to_matrix
 from .methods.zhang2021 import lever_arm_matrix, segmented_five_point
 
-__all__ = ["eq34", "eq35", "reductions", "parameter_errors", "montecarlo", "test_metrics"]
+__all__ = ["eq34", "eq35", "reductions", "parameter_errors", "montecarlo", "sequence_metrics"]
 
 
 def eq34(calibration: Calibration, test, *, lever_arm: np.ndarray | None = None) -> float:
@@ -70,7 +70,7 @@ def eq35(calibration: Calibration, test) -> float:
     return float(a1 @ pred / (np.linalg.norm(a1) * np.linalg.norm(pred)))
 
 
-def test_metrics(calibration: Calibration, tests, *, lever_arm=None) -> dict:
+def sequence_metrics(calibration: Calibration, tests, *, lever_arm=None) -> dict:
     """eq. (34) and eq. (35) for every RD3 sequence."""
     return {
         "eq34": [eq34(calibration, t, lever_arm=lever_arm) for t in tests],
@@ -79,7 +79,7 @@ def test_metrics(calibration: Calibration, tests, *, lever_arm=None) -> dict:
 
 
 def reductions(method: dict, baseline: dict) -> dict:
-    """§IV-B average reductions of ``method`` against ``baseline`` (dicts from :func:`test_metrics`)."""
+    """§IV-B average reductions of ``method`` against ``baseline`` (dicts from :func:`sequence_metrics`)."""
     m34, b34 = np.asarray(method["eq34"]), np.asarray(baseline["eq34"])
     m35 = np.arccos(np.clip(method["eq35"], -1, 1))
     b35 = np.arccos(np.clip(baseline["eq35"], -1, 1))
@@ -111,13 +111,13 @@ def _one_run(args) -> dict:
                             **method_options)
             out = {"seed": seed, "parameters": cal.parameters(), "fit": cal.fit}
             if sim.tests:
-                m = test_metrics(cal, sim.tests, lever_arm=cal.lever_arm if cal.lever_arm is not None
+                m = sequence_metrics(cal, sim.tests, lever_arm=cal.lever_arm if cal.lever_arm is not None
                                  else sim.truth.lever_arm)
                 out["tests"] = m
                 if baseline:
                     base = calibrate(sim, method=baseline, gravity=sim.truth.gravity)
                     r = cal.lever_arm if cal.lever_arm is not None else sim.truth.lever_arm
-                    out["baseline_tests"] = test_metrics(base, sim.tests, lever_arm=r)
+                    out["baseline_tests"] = sequence_metrics(base, sim.tests, lever_arm=r)
         return out
     except Exception as exc:  # a failing run is recorded, never aborts the batch
         return {"seed": seed, "error": f"{type(exc).__name__}: {exc}",

@@ -178,49 +178,68 @@ class TriadModel:
             raw = raw + np.asarray(specific_force, dtype=np.float64) @ self.g_sensitivity.T
         return raw
 
+    def monotonic_range(self) -> np.ndarray:
+        """Raw interval ``[x_lo, x_hi]`` (3, 2) around 0 where each axis's ``f`` is monotonic."""
+        out = np.empty((3, 2))
+        for i in range(3):
+            k1, k2, k3 = self.scale[i], self.scale_quadratic[i], self.scale_cubic[i]
+            roots = np.roots([3 * k3, 2 * k2, k1]) if (k2 or k3) else np.array([])
+            roots = np.sort(roots[np.abs(roots.imag) <= 1e-12 * np.abs(roots.real)].real)
+            neg, pos = roots[roots < 0], roots[roots > 0]
+            out[i] = (neg[-1] if neg.size else -np.inf, pos[0] if pos.size else np.inf)
+        return out
+
     def invert_polynomial(self, y: np.ndarray) -> np.ndarray:
-        """Solve ``f(x) = y`` per axis (Newton, with a monotonicity check)."""
+        """Solve ``f(x) = y`` per axis on the monotonic branch through 0 (Newton).
+
+        Raises :class:`NotInvertibleError` when a value lies outside the range
+        ``f`` reaches monotonically (its derivative vanishes first).
+        """
         y = np.asarray(y, dtype=np.float64)
         if self.is_linear:
             return y / self.scale
-        x = y / self.scale
+        rng = self.monotonic_range()
+        reach = np.empty((3, 2))
+        for i in range(3):
+            ends = []
+            for j, x_end in enumerate(rng[i]):
+                if np.isfinite(x_end):
+                    ends.append(float(self.polynomial(np.full(3, x_end))[i]))
+                else:  # unbounded branch: the cubic (or linear) term decides the sign
+                    lead = self.scale_cubic[i] if self.scale_cubic[i] else self.scale[i]
+                    ends.append(np.sign(lead) * np.sign(x_end) * np.inf)
+            reach[i] = sorted(ends)
+        flat = y.reshape(-1, 3)
+        for i, axis in enumerate(AXES):
+            bad = (flat[:, i] < reach[i, 0]) | (flat[:, i] > reach[i, 1])
+            if np.any(bad):
+                k1, k2, k3 = self.scale[i], self.scale_quadratic[i], self.scale_cubic[i]
+                raise NotInvertibleError(
+                    f"the {axis}-axis scale polynomial f(x) = {k1:.6g}x + {k2:.6g}x² + {k3:.6g}x³ "
+                    f"is not monotonic beyond the raw range [{rng[i, 0]:.6g}, {rng[i, 1]:.6g}] "
+                    f"(its derivative vanishes there), so it only reaches [{reach[i, 0]:.6g}, "
+                    f"{reach[i, 1]:.6g}]; {int(np.count_nonzero(bad))} values lie outside: the "
+                    "model cannot be inverted there (reduce the range or the nonlinear terms)"
+                )
+        x = np.clip(y / self.scale, rng[:, 0], rng[:, 1])
         for _ in range(100):
             fx = self.polynomial(x) - y
             dfx = self.polynomial_derivative(x)
             with np.errstate(divide="ignore", invalid="ignore"):
-                step = fx / dfx
-            if not np.all(np.isfinite(step)):
+                step = np.where(dfx != 0, fx / dfx, 0.0)
+            x_new = np.clip(x - step, rng[:, 0], rng[:, 1])
+            done = np.all(np.abs(x_new - x) <= 1e-15 * np.maximum(np.abs(x_new), 1e-300))
+            x = x_new
+            if done:
                 break
-            x = x - step
-            if np.all(np.abs(step) <= 1e-15 * np.maximum(np.abs(x), 1e-300)):
-                break
-        self._check_monotonic(x.reshape(-1, 3))
         err = np.abs(self.polynomial(x) - y)
-        tol = 1e-10 * np.maximum(np.abs(y), np.abs(self.scale) * 1e-300) + 1e-300
-        if not np.all(err <= np.maximum(tol, 4 * np.finfo(float).eps * np.abs(y))):
-            bad = np.nonzero(~np.all(err <= np.maximum(tol, 4e-16 * np.abs(y)), axis=-1))[0]
+        tol = 1e-12 * np.maximum(np.abs(y), 1e-300)
+        if not np.all(err <= tol):
             raise NotInvertibleError(
-                f"the scale polynomial could not be inverted for {bad.size} samples "
-                "(Newton did not converge)"
+                "the scale polynomial could not be inverted to 1e-12 for "
+                f"{int(np.count_nonzero(err > tol))} values (Newton did not converge)"
             )
         return x
-
-    def _check_monotonic(self, x: np.ndarray) -> None:
-        """Raise if ``f'`` changes sign between 0 and the solutions ``x`` on any axis."""
-        for i, axis in enumerate(AXES):
-            lo = min(0.0, float(np.min(x[:, i]))) if x.size else 0.0
-            hi = max(0.0, float(np.max(x[:, i]))) if x.size else 0.0
-            k1, k2, k3 = self.scale[i], self.scale_quadratic[i], self.scale_cubic[i]
-            roots = np.roots([3 * k3, 2 * k2, k1]) if (k2 or k3) else np.array([])
-            roots = roots[np.isreal(roots)].real
-            inside = roots[(roots > lo) & (roots < hi)]
-            if inside.size:
-                raise NotInvertibleError(
-                    f"the {axis}-axis scale polynomial f(x) = {k1:.6g}x + {k2:.6g}x² + "
-                    f"{k3:.6g}x³ is not monotonic over the raw range [{lo:.6g}, {hi:.6g}]: "
-                    f"its derivative vanishes at x = {inside[0]:.6g}; the model cannot be "
-                    "inverted there (reduce the range or the nonlinear terms)"
-                )
 
     # ------------------------------------------------------------ parameters
     def parameters(self, prefix: str) -> dict[str, float]:

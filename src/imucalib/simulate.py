@@ -59,7 +59,7 @@ __all__ = [
     "DEFAULT_NOISE",
     "SCENARIOS",
     "Session",
-    "TestSequence",
+    "TossSequence",
     "random_truth",
     "read_session",
     "session",
@@ -72,7 +72,7 @@ DEFAULT_NOISE = {"accelerometer": 0.005, "gyroscope": 0.0005}
 
 
 @dataclass
-class TestSequence:
+class TossSequence:
     """One RD3 toss: the raw recording and its segments (static, motion, weightless)."""
 
     recording: Recording
@@ -89,7 +89,7 @@ class Session:
     segments: list[Interval]
     truth: Calibration
     weightless: list[Recording] = field(default_factory=list)
-    tests: list[TestSequence] = field(default_factory=list)
+    tests: list[TossSequence] = field(default_factory=list)
     noise: dict = field(default_factory=dict)
     options: dict = field(default_factory=dict)
 
@@ -306,7 +306,7 @@ def _zhang2021(rng, *, truth: Calibration | None, noise, n1: int = 40, n2: int =
     for i in range(n3):
         tt, a, w, segs = _rd3_sequence(rng, g, truth.lever_arm, rate)
         acc, gyro = _distort(truth, a, w, rng, noise, full_scale, lsb)
-        tests.append(TestSequence(Recording(tt, acc, gyro, acc_unit=rec.acc_unit,
+        tests.append(TossSequence(Recording(tt, acc, gyro, acc_unit=rec.acc_unit,
                                             gyro_unit=rec.gyro_unit,
                                             metadata={"segment": f"RD3/{i}"}), segs))
     return {"recording": rec, "segments": segments, "truth": truth, "weightless": wl,
@@ -402,7 +402,7 @@ def read_session(directory: str | Path) -> Session:
 
     rec = _read_rec(d / "recording.csv", units)
     weightless = [_read_rec(d / n, units) for n in sorted(files) if n.startswith("weightless_")]
-    tests = [TestSequence(_read_rec(d / n, units), segs(n))
+    tests = [TossSequence(_read_rec(d / n, units), segs(n))
              for n in sorted(files) if n.startswith("test_")]
     truth = Calibration.load(d / "truth.json") if (d / "truth.json").is_file() else None
     return Session(scenario=meta["scenario"], seed=meta.get("seed"), recording=rec,
