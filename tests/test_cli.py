@@ -5,11 +5,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from synth import tedaldi_session
 
 from imucalib.calibration import Calibration
 from imucalib.cli import main
 from imucalib.io import read, write_csv
+from synth import tedaldi_session
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "xsens_imu_tk"
 

@@ -4,11 +4,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from synth import linear_truth, tedaldi_session
 
 from imucalib.methods import calibrate, tedaldi2014
 from imucalib.methods.ellipsoid import fit_ellipsoid
 from imucalib.recording import Recording
+from synth import linear_truth, tedaldi_session
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "xsens_imu_tk"
 

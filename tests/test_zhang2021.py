@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
-from synth import table1_truth, tedaldi_session, weightless_segments
 
 from imucalib.calibration import Calibration
 from imucalib.methods import zhang2021
 from imucalib.recording import ImucalibWarning, Interval, Recording
+from synth import table1_truth, tedaldi_session, weightless_segments
 
 
 @pytest.fixture(scope="module")
@@ -141,7 +141,7 @@ def test_detect_weightless_and_fall(truth):
     truth_iv = [(a + 500, b + 500) for a, b in truth_iv]
     acc_raw = truth.accelerometer.inverse(acc) + rng.normal(scale=5e-4, size=acc.shape)
     gyro_raw = truth.gyroscope.inverse(gyro, acc) + rng.normal(scale=2e-4, size=acc.shape)
-    rec = Recording(np.arange(len(acc)) / rate, acc_raw, gyro_raw)
+    rec = Recording(np.arange(len(acc)) / rate, acc_raw, gyro_raw, acc_unit="g")
     found = zhang2021.detect_weightless(rec, rest=Interval(0, 500))
     assert len(found) == 4
     for iv, (a, b) in zip(found, truth_iv, strict=True):

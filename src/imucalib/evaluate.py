@@ -98,10 +98,10 @@ def parameter_errors(estimate: Calibration, truth: Calibration) -> dict[str, flo
 # ------------------------------------------------------------ Monte Carlo
 def _one_run(args) -> dict:
     scenario, method, model, seed, baseline, sim_options, method_options = args
+    import warnings
+
     from .methods import calibrate
     from .simulate import session
-
-    import warnings
 
     try:
         sim = session(scenario, rng=seed, **sim_options)

@@ -202,7 +202,7 @@ class TriadModel:
         reach = np.empty((3, 2))
         for i in range(3):
             ends = []
-            for j, x_end in enumerate(rng[i]):
+            for x_end in rng[i]:
                 if np.isfinite(x_end):
                     ends.append(float(self.polynomial(np.full(3, x_end))[i]))
                 else:  # unbounded branch: the cubic (or linear) term decides the sign

@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from .calibration import Calibration
-from .kinematics import integrate, quat_from_rotvec, quat_normalize, quat_to_matrix
+from .kinematics import integrate, quat_normalize, quat_to_matrix
 from .models import TriadModel
 from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 

@@ -37,8 +37,8 @@ Model variants (Zhang 2021, Table II): ``linear`` (RD1 only, C4 = 0, no G, no r)
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
 import warnings
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
