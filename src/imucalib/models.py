@@ -97,6 +97,11 @@ class TriadModel:
         ``G`` in raw units per m/s² (gyroscope; zero for accelerometers).
     shape : {"upper", "full", "lower"}
         Which misalignment entries are free.
+    output_bias : (3,) array_like
+        ``d``, a bias added after the scale polynomial, in calibrated units:
+        ``T · (f(u − b − G a) + d)``. Zero in the canonical model; it represents
+        Wang 2019's ``C (K1 N + K2 N² + K3 N³ + ∇)`` (eq. 2) exactly, which an
+        input-side ``b`` cannot once ``k2``/``k3`` ≠ 0.
     """
 
     misalignment: np.ndarray = field(default_factory=lambda: np.eye(3))
@@ -106,6 +111,7 @@ class TriadModel:
     bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
     g_sensitivity: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
     shape: str = "full"
+    output_bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -128,6 +134,7 @@ class TriadModel:
         if np.any(self.scale == 0):
             raise ValueError(f"scale (k1) must be non-zero on every axis; got {self.scale}")
         set_(self, "g_sensitivity", _mat(self.g_sensitivity, "g_sensitivity"))
+        set_(self, "output_bias", _vec(self.output_bias, "output_bias"))
 
     # ------------------------------------------------------------ properties
     @property
@@ -158,7 +165,7 @@ class TriadModel:
             if specific_force is None:
                 raise ValueError("this model has a g-sensitivity: pass specific_force [m/s²]")
             x = x - np.asarray(specific_force, dtype=np.float64) @ self.g_sensitivity.T
-        return self.polynomial(x) @ self.misalignment.T
+        return (self.polynomial(x) + self.output_bias) @ self.misalignment.T
 
     # --------------------------------------------------------------- inverse
     def inverse(self, si: np.ndarray, specific_force: np.ndarray | None = None) -> np.ndarray:
@@ -170,6 +177,7 @@ class TriadModel:
         """
         si = np.asarray(si, dtype=np.float64)
         y = np.linalg.solve(self.misalignment, si.reshape(-1, 3).T).T.reshape(si.shape)
+        y = y - self.output_bias
         x = self.invert_polynomial(y)
         raw = x + self.bias
         if np.any(self.g_sensitivity):
@@ -254,12 +262,16 @@ class TriadModel:
         for i in range(3):
             for j in range(3):
                 out[f"{prefix}.g_sensitivity.{AXES[i]}{AXES[j]}"] = float(self.g_sensitivity[i, j])
+        if np.any(self.output_bias):
+            for i, axis in enumerate(AXES):
+                out[f"{prefix}.output_bias.{axis}"] = float(self.output_bias[i])
         return out
 
     def with_parameters(self, prefix: str, values: dict[str, float]) -> TriadModel:
         """A copy with the named parameters (those starting with ``prefix.``) set."""
         t = self.misalignment.copy()
-        vecs = {k: getattr(self, k).copy() for k in ("scale", "scale_quadratic", "scale_cubic", "bias")}
+        vecs = {k: getattr(self, k).copy()
+                for k in ("scale", "scale_quadratic", "scale_cubic", "bias", "output_bias")}
         g = self.g_sensitivity.copy()
         free = set(misalignment_entries(self.shape))
         for name, value in values.items():
@@ -300,6 +312,8 @@ class TriadModel:
         }
         if gyroscope:
             d["g_sensitivity"] = self.g_sensitivity.tolist()
+        if np.any(self.output_bias):
+            d["output_bias"] = self.output_bias.tolist()
         return d
 
     @classmethod
@@ -313,6 +327,7 @@ class TriadModel:
                 bias=d["bias"],
                 g_sensitivity=d.get("g_sensitivity", np.zeros((3, 3))),
                 shape=d.get("misalignment_shape", default_shape),
+                output_bias=d.get("output_bias", [0.0, 0.0, 0.0]),
             )
         except KeyError as exc:
             raise ValueError(f"calibration entry lacks the key {exc.args[0]!r}") from None

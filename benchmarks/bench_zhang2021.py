@@ -1,0 +1,43 @@
+"""Time one Zhang 2021 'all' calibration of a default zhang2021 session; prints JSON.
+
+Required ≤ 3 s on the 2-core reference machine, target ≤ 1 s. With ``--montecarlo``
+also times ``montecarlo(zhang2021, zhang2021, all, runs=20, workers=2)`` (≤ 2 min).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+import warnings
+
+from _common import median_time
+
+from imucalib.evaluate import montecarlo
+from imucalib.methods import calibrate
+from imucalib.simulate import session
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--runs", type=int, default=5)
+    parser.add_argument("--montecarlo", action="store_true")
+    args = parser.parse_args()
+    sim = session("zhang2021", rng=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        med, times = median_time(
+            lambda: calibrate(sim, method="zhang2021", model="all", gravity=sim.truth.gravity),
+            args.runs)
+    out = {"benchmark": "zhang2021_all_default_session", "runs": args.runs,
+           "calibrate_median_s": round(med, 4), "calibrate_times_s": [round(t, 4) for t in times],
+           "required_s": 3.0, "target_s": 1.0}
+    if args.montecarlo:
+        t0 = time.perf_counter()
+        montecarlo("zhang2021", "zhang2021", model="all", runs=20, workers=2)
+        out["montecarlo_20_runs_2_workers_s"] = round(time.perf_counter() - t0, 2)
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main()
