@@ -196,9 +196,37 @@ def cmd_detect_fall(args: argparse.Namespace) -> int:
     return 0
 
 
+def _simulate_wang(args: argparse.Namespace) -> int:
+    from .scenarios_wang2019 import session
+
+    sim = session(args.seed, turntable_error=args.turntable_error)
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    np.savetxt(out / "positions.csv", np.column_stack([sim.positions_acc, sim.positions_gyro]),
+               delimiter=",", fmt="%.17g", header="ax,ay,az,gx,gy,gz", comments="")
+    np.savetxt(out / "turns.csv", np.column_stack([sim.turn_sum, sim.turn_sum2, sim.turn_angle]),
+               delimiter=",", fmt="%.17g",
+               header="sum_x,sum_y,sum_z,sum2_x,sum2_y,sum2_z,angle", comments="")
+    sim.truth.save(out / "truth.json")
+    meta = {"format": "imucalib.session", "format_version": 1, "scenario": "wang2019",
+            "seed": args.seed, "turntable_error": args.turntable_error,
+            "latitude_deg": sim.latitude_deg, "options": sim.options,
+            "files": {"positions.csv": "static position means [pulses/s]",
+                      "turns.csv": "clockwise − counter-clockwise turn integrals"}}
+    (out / "session.json").write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
+    summary = {"scenario": "wang2019", "seed": args.seed, "directory": str(out),
+               "positions": len(sim.positions_acc), "turn_pairs": len(sim.turn_sum)}
+    print(json.dumps(summary) if args.json else
+          f"wrote the wang2019 session (seed {args.seed}) to {out}: {summary['positions']} "
+          f"positions, {summary['turn_pairs']} turn pairs")
+    return 0
+
+
 def cmd_simulate(args: argparse.Namespace) -> int:
     from .simulate import session, write_session
 
+    if args.scenario == "wang2019":
+        return _simulate_wang(args)
     noise = None
     if args.noise_acc is not None or args.noise_gyro is not None:
         noise = {}
@@ -240,6 +268,15 @@ class _Bar:
 def cmd_montecarlo(args: argparse.Namespace) -> int:
     from .evaluate import montecarlo
 
+    if args.scenario == "wang2019":
+        if args.method != "wang2019":
+            raise CliError("the wang2019 scenario holds turntable data: use --method wang2019")
+        from .methods.wang2019 import montecarlo as wang_mc
+
+        result = wang_mc(args.runs, turntable_error=args.turntable_error, seed=args.seed,
+                         initial=args.initial, workers=args.workers)
+        print(json.dumps(result) if args.json else json.dumps(result, indent=1))
+        return 0
     bar = _Bar(f"{args.method} on {args.scenario}", sys.stderr.isatty())
     result = montecarlo(args.scenario, args.method, model=args.model, runs=args.runs,
                         workers=args.workers, seed=args.seed, baseline=args.baseline,
@@ -390,6 +427,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--noise-acc", type=float, help="accelerometer noise [m/s^2] per sample")
     p.add_argument("--noise-gyro", type=float, help="gyroscope noise [rad/s] per sample")
+    p.add_argument("--turntable-error", default="3arcsec", choices=("3arcsec", "3arcmin", "3deg"),
+                   help="wang2019: turntable angle error, 1 sigma (default 3arcsec)")
     p.add_argument("-o", "--output", required=True, help="output directory")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
     p.set_defaults(func=cmd_simulate)
@@ -404,6 +443,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=1, help="parallel processes")
     p.add_argument("--seed", type=int, default=0, help="seed of the first run (run i: seed+i)")
     p.add_argument("--baseline", help="also run this method and report the §IV-B reductions")
+    p.add_argument("--turntable-error", default="3arcsec", choices=("3arcsec", "3arcmin", "3deg"),
+                   help="wang2019: turntable angle error, 1 sigma (default 3arcsec)")
+    p.add_argument("--initial", default="estimate", choices=("estimate", "nominal"),
+                   help="wang2019: initial values from eqs. (41)-(42) or nominal (default estimate)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(func=cmd_montecarlo)
 

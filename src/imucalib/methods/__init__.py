@@ -47,10 +47,23 @@ def _noise_values(noise) -> list[float]:
     return [float(noise)]
 
 
+def _wang2019(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
+    from . import wang2019
+
+    if model not in (None, "wang2019"):
+        raise ValueError(f"wang2019 has one model; got model={model!r}")
+    if not hasattr(data, "positions_acc"):
+        raise ValueError("wang2019 needs turntable data (static position means and clockwise/"
+                         "counter-clockwise turn integrals), as the wang2019 scenario provides; "
+                         "it does not run on a free-hand recording")
+    return wang2019.calibrate(data, gravity=gravity, **options)
+
+
 #: method name → callable(data, *, model, gravity, **options) → Calibration
 METHODS: dict[str, Callable[..., Calibration]] = {
     "tedaldi2014": _tedaldi2014,
     "zhang2021": _zhang2021,
+    "wang2019": _wang2019,
 }
 
 

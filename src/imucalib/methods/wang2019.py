@@ -1,0 +1,209 @@
+"""Wang, Cheng & Fu (Sensors 2019): multi-position calibration with nonlinear scale factors.
+
+Model (eqs. 2, 6): ``f = C_a (K_a1 N + K_a2 N² + K_a3 N³ + ∇)``,
+``ω = C_g (K_g1 N + K_g2 N² + ε)``, ``C`` unit lower-triangular; canonically
+``TriadModel(shape="lower", output_bias=∇)`` (:mod:`imucalib.conventions`).
+
+* Accelerometer, eq. (18): ``min Σ_i (‖C_a(K_a1 N_i + K_a2 N_i² + K_a3 N_i³ + ∇)‖² − g²)²``
+  over the static positions (15 parameters, eq. 37).
+* Gyroscope, eq. (30): ``min Σ_i (‖C_g K_g1 N_sum^i + C_g K_g2 N_sum^(2)i‖² − (2θ)²)²``
+  over clockwise/counter-clockwise turn pairs, ``N_sum = ∫(N⁺ − N⁻) dt``
+  (eqs. 27–29; 9 parameters, eq. 38), the Earth rate cancelling between the turns.
+* Gyroscope bias, eq. (35): ``min Σ_i (‖C_g(K_g1 N_i + K_g2 N_i² + ε)‖² − ‖ω_ie‖²)²``
+  over the static positions (3 parameters, eq. 39).
+* Initial values (§4.3): the linear scales from eqs. (41) and (42), which are
+  linear least squares in ``K1²``; everything else starts at zero. With
+  ``initial="nominal"`` LM starts instead from a nominal ``K1`` of the
+  distribution's centre (3 µg/pulse, 3·10⁻⁷ °/s/pulse), for the paper's
+  Figs. 4–5 comparison.
+
+All minimisations are Levenberg–Marquardt (:func:`imucalib.solve.levenberg_marquardt`)
+with analytic Jacobians, on parameters scaled to order one.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..calibration import Calibration
+from ..models import TriadModel
+from ..scenarios_wang2019 import DEG, EARTH_RATE, G0, MICRO_G
+from ..solve import levenberg_marquardt
+
+__all__ = ["calibrate", "parameter_errors_wang_units", "montecarlo"]
+
+
+def _lower(e: np.ndarray) -> np.ndarray:
+    return np.array([[1.0, 0, 0], [e[0], 1.0, 0], [e[1], e[2], 1.0]])
+
+
+def _poly_norm_residuals(theta, scales, n_list, order, target2, with_bias, bias_fixed=None,
+                         k_fixed=None, jac=False):
+    """``‖C (Σ_k K_k N_k + ∇)‖² − target²`` and its Jacobian in scaled parameters.
+
+    ``theta`` holds ``K_1..K_order`` (3 each), ``E`` (3) and ``∇`` (3, if
+    ``with_bias``) divided by ``scales``; ``n_list[k]`` is the regressor of
+    ``K_{k+1}`` (e.g. ``N``, ``N²``, ``N³``, or the turn integrals).
+    """
+    x = theta * scales
+    if k_fixed is not None:  # bias-only problem: K and E fixed
+        ks, e = k_fixed
+        bias = x
+    else:
+        ks = x[: 3 * order].reshape(order, 3)
+        e = x[3 * order : 3 * order + 3]
+        bias = x[3 * order + 3 :] if with_bias else (bias_fixed if bias_fixed is not None else np.zeros(3))
+    c = _lower(e)
+    inner = sum(k * n for k, n in zip(ks, n_list, strict=True)) + bias  # (M, 3)
+    out = inner @ c.T
+    r = np.sum(out * out, axis=1) - target2
+    if not jac:
+        return r
+    g = 2 * out @ c  # ∂r/∂inner (M, 3)
+    cols = []
+    if k_fixed is None:
+        for n in n_list:
+            cols.append(g * n)  # ∂r/∂K_kj
+        # ∂r/∂E: E_yx → out_y += E_yx inner_x; E_zx → out_z += …; E_zy
+        cols.append(np.column_stack([2 * out[:, 1] * inner[:, 0], 2 * out[:, 2] * inner[:, 0],
+                                     2 * out[:, 2] * inner[:, 1]]))
+        if with_bias:
+            cols.append(g)
+    else:
+        cols.append(g)
+    return r, np.concatenate(cols, axis=1) * scales[None, :]
+
+
+def _solve(fun_jac, x0, scales):
+    sol = levenberg_marquardt(lambda th: fun_jac(th, False), lambda th: fun_jac(th, True)[1],
+                              x0 / scales, ftol=1e-15, xtol=1e-15, gtol=1e-14, max_iter=500)
+    return sol.x * scales, sol
+
+
+def calibrate(session, *, gravity: float | None = None, initial: str = "estimate") -> Calibration:
+    """Calibrate from a :class:`~imucalib.scenarios_wang2019.WangSession`-like object.
+
+    It needs ``positions_acc``, ``positions_gyro`` (static means, pulses/s),
+    ``turn_sum``, ``turn_sum2`` and ``turn_angle`` (CW/CCW turn integrals) and
+    ``latitude_deg`` (only through ``‖ω_ie‖``, which is latitude-free).
+    """
+    if initial not in ("estimate", "nominal"):
+        raise ValueError(f"initial must be 'estimate' or 'nominal'; got {initial!r}")
+    g = gravity or getattr(session, "gravity", G0)
+    na = np.asarray(session.positions_acc, dtype=float)
+    ng = np.asarray(session.positions_gyro, dtype=float)
+    ns, ns2 = np.asarray(session.turn_sum, dtype=float), np.asarray(session.turn_sum2, dtype=float)
+    two_theta = 2 * np.asarray(session.turn_angle, dtype=float)
+    if na.shape[0] < 15:
+        raise ValueError(f"the accelerometer model has 15 parameters; {na.shape[0]} positions "
+                         "cannot determine them (record the 15 positions of the plan)")
+    if ns.shape[0] < 9:
+        raise ValueError(f"the gyroscope model has 9 parameters; {ns.shape[0]} turn pairs cannot "
+                         "determine them (record the 12 pairs of the plan)")
+    # ---- accelerometer (eq. 18), initial K1 from eq. (41)
+    if initial == "estimate":
+        q, *_ = np.linalg.lstsq(na**2, np.full(len(na), g**2), rcond=None)  # eq. (41): Σ K_j² N_j² = g²
+        k1 = np.sqrt(np.abs(q))
+    else:
+        k1 = np.full(3, 3 * MICRO_G)
+    n_max = np.max(np.abs(na), axis=0)
+    scales_a = np.concatenate([k1, k1 / n_max, k1 / n_max**2, np.full(3, 1e-4), np.full(3, 1e-2 * g)])
+    x0 = np.concatenate([k1, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3)])
+    xa, sol_a = _solve(lambda th, j: _poly_norm_residuals(th, scales_a, [na, na**2, na**3], 3, g**2,
+                                                         True, jac=j), x0, scales_a)
+    # ---- gyroscope scale and misalignment (eq. 30), initial K1 from eq. (42)
+    if initial == "estimate":
+        q, *_ = np.linalg.lstsq(ns**2, two_theta**2, rcond=None)  # eq. (42)
+        kg1 = np.sqrt(np.abs(q))
+    else:
+        kg1 = np.full(3, 3e-7 * DEG)
+    s_max = np.max(np.abs(ns), axis=0)
+    s2_max = np.max(np.abs(ns2), axis=0) + 1e-300
+    scales_g = np.concatenate([kg1, kg1 * s_max / s2_max, np.full(3, 1e-4)])
+    x0 = np.concatenate([kg1, np.zeros(3), np.zeros(3)])
+    xg, sol_g = _solve(lambda th, j: _poly_norm_residuals(th, scales_g, [ns, ns2], 2, two_theta**2,
+                                                         False, jac=j), x0, scales_g)
+    kg = xg[:6].reshape(2, 3)
+    eg = xg[6:9]
+    # ---- gyroscope bias (eq. 35)
+    scales_b = np.full(3, EARTH_RATE * 0.01)
+    xb, sol_b = _solve(lambda th, j: _poly_norm_residuals(th, scales_b, [ng, ng**2], 2,
+                                                         EARTH_RATE**2, True, k_fixed=(kg, eg), jac=j),
+                       np.zeros(3), scales_b)
+    ka = xa[:9].reshape(3, 3)
+    acc = TriadModel(misalignment=_lower(xa[9:12]), scale=ka[0], scale_quadratic=ka[1],
+                     scale_cubic=ka[2], output_bias=xa[12:15], shape="lower")
+    gyro = TriadModel(misalignment=_lower(eg), scale=kg[0], scale_quadratic=kg[1], output_bias=xb,
+                      shape="lower")
+    fit = {"positions": int(na.shape[0]), "turn_pairs": int(ns.shape[0]),
+           "accelerometer_cost": float(sol_a.cost), "gyroscope_cost": float(sol_g.cost),
+           "bias_cost": float(sol_b.cost),
+           "converged": bool(sol_a.success and sol_g.success and sol_b.success)}
+    return Calibration(accelerometer=acc, gyroscope=gyro, gravity=g, method="wang2019",
+                       model="wang2019", fit=fit)
+
+
+def parameter_errors_wang_units(estimate: Calibration, truth: Calibration) -> dict[str, np.ndarray]:
+    """Errors in the units of Wang 2019, Tables 2–3 (µg, µg/pulse, fg/pulse², zg/pulse³, 1e-4…)."""
+    a, ta = estimate.accelerometer, truth.accelerometer
+    g, tg = estimate.gyroscope, truth.gyroscope
+    low = [(1, 0), (2, 0), (2, 1)]
+    return {
+        "acc_bias_ug": (a.output_bias - ta.output_bias) / MICRO_G,
+        "acc_k1_ug_per_pulse": (a.scale - ta.scale) / MICRO_G,
+        "acc_k2_fg_per_pulse2": (a.scale_quadratic - ta.scale_quadratic) / (1e-15 * G0),
+        "acc_k3_zg_per_pulse3": (a.scale_cubic - ta.scale_cubic) / (1e-21 * G0),
+        "acc_misalignment_1e-4": np.array([a.misalignment[i] - ta.misalignment[i] for i in low]) / 1e-4,
+        "gyro_bias_1e-6_deg_s": (g.output_bias - tg.output_bias) / (1e-6 * DEG),
+        "gyro_k1_1e-7_deg_s_pulse": (g.scale - tg.scale) / (1e-7 * DEG),
+        "gyro_k2_1e-17_deg_s_pulse2": (g.scale_quadratic - tg.scale_quadratic) / (1e-17 * DEG),
+        "gyro_misalignment_1e-4": np.array([g.misalignment[i] - tg.misalignment[i] for i in low]) / 1e-4,
+    }
+
+
+def _mc_run(args):
+    seed, turntable_error, initial = args
+    from ..scenarios_wang2019 import session
+
+    sim = session(seed, turntable_error=turntable_error)
+    try:
+        cal = calibrate(sim, initial=initial)
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        return {"seed": seed, "error": str(exc)}
+    return {"seed": seed, "errors": parameter_errors_wang_units(cal, sim.truth)}
+
+
+#: divergence: an error beyond the parameter's own spread (its §5.1 distribution's half-width)
+DIVERGENCE = {"acc_bias_ug": 1e4, "acc_k1_ug_per_pulse": 2.0, "acc_k2_fg_per_pulse2": 5.0,
+              "acc_k3_zg_per_pulse3": 5.0, "acc_misalignment_1e-4": 5.0,
+              "gyro_bias_1e-6_deg_s": 5.0, "gyro_k1_1e-7_deg_s_pulse": 2.0,
+              "gyro_k2_1e-17_deg_s_pulse2": 5.0, "gyro_misalignment_1e-4": 5.0}
+
+
+def montecarlo(runs: int = 500, *, turntable_error: str = "3arcsec", seed: int = 0,
+               initial: str = "estimate", workers: int = 1) -> dict:
+    """Wang 2019 §5.1 Monte Carlo: RMS errors per parameter (Tables 2–3 units), divergent runs.
+
+    A run diverges when any error exceeds :data:`DIVERGENCE` (the half-width of
+    that parameter's distribution: the estimate is no better than a guess).
+    """
+    jobs = [(seed + i, turntable_error, initial) for i in range(runs)]
+    if workers > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(workers) as ex:
+            results = list(ex.map(_mc_run, jobs, chunksize=8))
+    else:
+        results = [_mc_run(j) for j in jobs]
+    ok = [r for r in results if "errors" in r]
+    diverged = [r["seed"] for r in ok
+                if any(np.any(np.abs(r["errors"][k]) > lim) for k, lim in DIVERGENCE.items())]
+    good = [r for r in ok if r["seed"] not in set(diverged)]
+    rms = {k: np.sqrt(np.mean([r["errors"][k] ** 2 for r in good], axis=0)).tolist() if good else None
+           for k in DIVERGENCE}
+    mean = {k: np.mean([r["errors"][k] for r in good], axis=0).tolist() if good else None
+            for k in DIVERGENCE}
+    return {"scenario": "wang2019", "method": "wang2019", "runs": runs,
+            "turntable_error": turntable_error, "initial": initial, "rms": rms, "mean": mean,
+            "divergent_runs": len(diverged), "divergent_seeds": diverged[:20],
+            "failures": [{"seed": r["seed"], "message": r["error"]} for r in results if "error" in r]}

@@ -1,0 +1,180 @@
+"""The ``wang2019`` scenario: a navigation-grade IMU on a low-precision turntable (Wang 2019, §5.1).
+
+Model (Wang 2019, eqs. 2 and 6), outputs ``N`` in pulses per second::
+
+    f = C_a (K_a1 N + K_a2 N² + K_a3 N³ + ∇)     C_a unit lower-triangular (eq. 5)
+    ω = C_g (K_g1 N + K_g2 N² + ε)                C_g unit lower-triangular (eq. 8)
+
+held canonically as ``TriadModel(shape="lower", output_bias=∇)`` in SI units
+(:mod:`imucalib.conventions`). Truth drawn as §5.1 states: biases
+U(−10⁴, 10⁴) µg plus a random bias of 100 µg (1σ), ``K1`` U(1, 5) µg/pulse,
+``K2`` U(−5, 5) fg/pulse², ``K3`` U(−5, 5) zg/pulse³, misalignments
+U(−5·10⁻⁴, 5·10⁻⁴); gyroscope (Table 3's distributions) bias U(−5, 5)·10⁻⁶ °/s
+plus 0.01 °/h (1σ), ``K1`` U(1, 5)·10⁻⁷ °/s/pulse, ``K2`` U(−5, 5)·10⁻¹⁷ °/s/pulse².
+
+The plan (Figures 2 and 3 are missing from the text; derived from the
+sensitivity analysis, eqs. 20–25 and 31–34):
+
+* **15 positions** — the scale factors and the bias of axis ``i`` are most
+  sensitive with axis ``i`` along gravity (eqs. 20–24): the six faces ±x, ±y,
+  ±z; the misalignment ``E_ij`` with gravity in the ``i–j`` plane at 45° or
+  135° to the axes (eq. 25): three directions in each of the x–y, x–z and y–z
+  planes (45°, 135°, 225°), nine in all.
+* **12 rotation pairs** — a clockwise and a counter-clockwise 360° turn at
+  10 °/s about: each axis and its opposite (eqs. 32–33: the scale factors are
+  most sensitive with the axis along the rotation vector; six) and, for
+  ``E_gij`` (eq. 34), an axis in each of the three planes at 45° and at 135°
+  to the plane's axes (six) — 12 pairs for the 9 parameters of eq. (30).
+
+Turntable angle errors (3″, 3′ or 3°, 1σ) tilt every position and every
+rotation axis away from the plan; the rotation angle itself (a full turn) is
+exact, as a turntable's stop is. Outputs are what the method uses: the mean
+of each static position (white noise averaged: 1 µg and 10⁻⁴ °/h, 1σ, by
+default) and, for each turn, the integrals ``∫N dt`` and ``∫N² dt`` computed
+from 100 Hz samples of the turn (white noise 10 µg and 0.01 °/s per sample).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .calibration import Calibration
+from .kinematics import quat_from_rotvec, quat_to_matrix
+from .models import TriadModel
+
+__all__ = ["EARTH_RATE", "G0", "TURNTABLE_ERRORS", "WangSession", "plan", "session"]
+
+G0 = 9.80665  # m/s² per g
+EARTH_RATE = 7.292115e-5  # rad/s
+MICRO_G = 1e-6 * G0
+DEG = np.pi / 180
+DEG_PER_HOUR = DEG / 3600
+TURNTABLE_ERRORS = {"3arcsec": 3 / 3600 * DEG, "3arcmin": 3 / 60 * DEG, "3deg": 3 * DEG}
+
+
+@dataclass
+class WangSession:
+    """Averaged static outputs and integrated turn outputs with the truth."""
+
+    positions_acc: np.ndarray  # (P, 3) mean accelerometer pulses/s per position
+    positions_gyro: np.ndarray  # (P, 3) mean gyroscope pulses/s per position
+    turn_sum: np.ndarray  # (R, 3) ∫(N⁺ − N⁻) dt, pulses
+    turn_sum2: np.ndarray  # (R, 3) ∫(N⁺² − N⁻²) dt, pulses²/s
+    turn_angle: np.ndarray  # (R,) the angle θ of each turn [rad]
+    truth: Calibration
+    latitude_deg: float
+    turntable_error: str
+    gravity: float = G0
+    scenario: str = "wang2019"
+    options: dict = field(default_factory=dict)
+
+    @property
+    def recording(self):  # the methods registry asks for one; this scenario has none
+        return None
+
+
+def plan() -> tuple[np.ndarray, np.ndarray]:
+    """The 15 gravity directions (body frame) and 12 rotation axes (body frame)."""
+    s = np.sqrt(0.5)
+    faces = np.vstack([np.eye(3), -np.eye(3)])
+    planes = []
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        for a in (45, 135, 225):
+            v = np.zeros(3)
+            v[i], v[j] = np.cos(np.radians(a)), np.sin(np.radians(a))
+            planes.append(v)
+    positions = np.vstack([faces, planes])
+    axes = []
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        for sign in (1, -1):
+            v = np.zeros(3)
+            v[i], v[j] = s, sign * s
+            axes.append(v)
+    axes = np.vstack([np.eye(3), -np.eye(3), axes])
+    return positions, axes
+
+
+def _frame_with_up(up: np.ndarray) -> np.ndarray:
+    """A rotation matrix body→navigation (ENU) that puts the body vector ``up`` on +U."""
+    up = up / np.linalg.norm(up)
+    helper = np.array([1.0, 0, 0]) if abs(up[0]) < 0.9 else np.array([0, 1.0, 0])
+    east = np.cross(helper, up)
+    east /= np.linalg.norm(east)
+    north = np.cross(up, east)
+    return np.vstack([east, north, up])  # rows: nav axes in body coordinates → R_nb
+
+
+def random_truth(rng) -> Calibration:
+    """Truth drawn from §5.1's distributions, canonical SI units (raw = pulses/s)."""
+    u = rng.uniform
+    acc = TriadModel(
+        misalignment=np.array([[1, 0, 0], [u(-5e-4, 5e-4), 1, 0], [u(-5e-4, 5e-4), u(-5e-4, 5e-4), 1]]),
+        scale=u(1, 5, 3) * MICRO_G, scale_quadratic=u(-5, 5, 3) * 1e-15 * G0,
+        scale_cubic=u(-5, 5, 3) * 1e-21 * G0,
+        output_bias=(u(-1e4, 1e4, 3) + rng.normal(0, 100, 3)) * MICRO_G, shape="lower")
+    gyro = TriadModel(
+        misalignment=np.array([[1, 0, 0], [u(-5e-4, 5e-4), 1, 0], [u(-5e-4, 5e-4), u(-5e-4, 5e-4), 1]]),
+        scale=u(1, 5, 3) * 1e-7 * DEG, scale_quadratic=u(-5, 5, 3) * 1e-17 * DEG,
+        output_bias=u(-5, 5, 3) * 1e-6 * DEG + rng.normal(0, 0.01, 3) * DEG_PER_HOUR, shape="lower")
+    return Calibration(accelerometer=acc, gyroscope=gyro, gravity=G0, method="truth", model="wang2019",
+                       units={"accelerometer": {"raw": "counts", "calibrated": "m/s^2"},
+                              "gyroscope": {"raw": "counts", "calibrated": "rad/s"}})
+
+
+def session(rng=None, *, turntable_error: str = "3arcsec", latitude_deg: float = 32.0,
+            noise: dict | None = None, truth: Calibration | None = None,
+            rate_deg_s: float = 10.0, sample_rate: float = 100.0) -> WangSession:
+    """Simulate one calibration (positions and CW/CCW turn pairs) with a drawn truth."""
+    rng = np.random.default_rng(rng)
+    if turntable_error not in TURNTABLE_ERRORS:
+        raise ValueError(f"turntable_error must be one of {', '.join(TURNTABLE_ERRORS)}; "
+                         f"got {turntable_error!r}")
+    sigma_tt = TURNTABLE_ERRORS[turntable_error]
+    noise = {"accelerometer_mean": 1.0 * MICRO_G, "gyroscope_mean": 1e-4 * DEG_PER_HOUR,
+             "accelerometer_sample": 10.0 * MICRO_G, "gyroscope_sample": 5e-5 * DEG, **(noise or {})}
+    truth = truth or random_truth(rng)
+    lat = np.radians(latitude_deg)
+    w_ie_n = EARTH_RATE * np.array([0.0, np.cos(lat), np.sin(lat)])
+    g_n = np.array([0.0, 0.0, G0])
+    positions, axes = plan()
+    acc_means, gyro_means = [], []
+    for up in positions:
+        tilt = quat_to_matrix(quat_from_rotvec(rng.normal(0, sigma_tt, 3)))
+        r_nb = tilt @ _frame_with_up(up)  # body → nav, with the turntable's error
+        f_b = r_nb.T @ g_n
+        w_b = r_nb.T @ w_ie_n
+        n_a = truth.accelerometer.inverse(f_b[None])[0]
+        n_a = n_a + rng.normal(0, noise["accelerometer_mean"], 3) / truth.accelerometer.scale
+        n_g = truth.gyroscope.inverse(w_b[None])[0]
+        n_g = n_g + rng.normal(0, noise["gyroscope_mean"], 3) / truth.gyroscope.scale
+        acc_means.append(n_a)
+        gyro_means.append(n_g)
+    # turns: the body axis `a` is put vertical (with a tilt error) and turned a full circle
+    rate = np.radians(rate_deg_s)
+    duration = 2 * np.pi / rate
+    t = np.arange(int(round(duration * sample_rate)) + 1) / sample_rate
+    dt = np.diff(t)
+    sums, sums2 = [], []
+    for a in axes:
+        r0 = quat_to_matrix(quat_from_rotvec(rng.normal(0, sigma_tt, 3))) @ _frame_with_up(a)  # body→nav rows
+        out = []
+        for sign in (1.0, -1.0):
+            # attitude: body turns about its own axis `a` at sign·rate; in nav the same vertical turn
+            ang = sign * rate * t
+            turn = quat_to_matrix(quat_from_rotvec(np.outer(ang, [0.0, 0.0, 1.0])))  # nav rotation
+            r_bn = np.einsum("ij,njk->nik", r0.T, turn.transpose(0, 2, 1))  # body←nav at each t
+            w_b = np.einsum("nij,j->ni", r_bn, w_ie_n) + sign * rate * (r0.T @ [0.0, 0.0, 1.0])
+            n_g = truth.gyroscope.inverse(w_b)
+            n_g = n_g + rng.normal(0, noise["gyroscope_sample"], n_g.shape) / truth.gyroscope.scale
+            mid, mid2 = 0.5 * (n_g[1:] + n_g[:-1]), 0.5 * (n_g[1:] ** 2 + n_g[:-1] ** 2)
+            out.append((mid.T @ dt, mid2.T @ dt))  # trapezoidal ∫N dt, ∫N² dt
+        sums.append(out[0][0] - out[1][0])
+        sums2.append(out[0][1] - out[1][1])
+    return WangSession(
+        positions_acc=np.array(acc_means), positions_gyro=np.array(gyro_means),
+        turn_sum=np.array(sums), turn_sum2=np.array(sums2), turn_angle=np.full(len(axes), 2 * np.pi),
+        truth=truth, latitude_deg=latitude_deg, turntable_error=turntable_error,
+        options={"noise": noise, "rate_deg_s": rate_deg_s, "sample_rate": sample_rate},
+    )

@@ -1,0 +1,70 @@
+"""Wang 2019: the scenario's plan and truth, exact recovery, a small Monte Carlo against Tables 2-3."""
+
+import numpy as np
+import pytest
+
+from imucalib.methods import calibrate
+from imucalib.methods.wang2019 import montecarlo, parameter_errors_wang_units
+from imucalib.scenarios_wang2019 import EARTH_RATE, G0, plan, session
+
+QUIET = {"accelerometer_mean": 0, "gyroscope_mean": 0, "accelerometer_sample": 0, "gyroscope_sample": 0}
+
+
+def test_plan_and_structure():
+    positions, axes = plan()
+    assert positions.shape == (15, 3) and axes.shape == (12, 3)
+    np.testing.assert_allclose(np.linalg.norm(positions, axis=1), 1.0)
+    # the six faces, and three 45°-type directions in each coordinate plane
+    assert sum(np.isclose(np.abs(p).max(), 1.0) for p in positions) == 6
+    sim = session(1)
+    assert sim.positions_acc.shape == (15, 3) and sim.turn_sum.shape == (12, 3)
+    t = sim.truth
+    assert t.accelerometer.shape == "lower"
+    k1_ug = t.accelerometer.scale / (1e-6 * G0)
+    assert np.all((k1_ug >= 1) & (k1_ug <= 5))
+    b = session(1)
+    np.testing.assert_array_equal(sim.positions_acc, b.positions_acc)  # deterministic
+    with pytest.raises(ValueError, match="turntable_error must be one of"):
+        session(1, turntable_error="1deg")
+
+
+def test_noise_free_outputs_are_consistent_and_recovered():
+    sim = session(4, noise=QUIET, turntable_error="3deg")
+    t = sim.truth
+    np.testing.assert_allclose(np.linalg.norm(t.accelerometer.forward(sim.positions_acc), axis=1), G0,
+                               rtol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(t.gyroscope.forward(sim.positions_gyro), axis=1),
+                               EARTH_RATE, rtol=1e-10)
+    cal = calibrate(sim, method="wang2019")
+    err = parameter_errors_wang_units(cal, t)
+    truth_scale = {"acc_k1_ug_per_pulse": t.accelerometer.scale / (1e-6 * G0),
+                   "gyro_k1_1e-7_deg_s_pulse": t.gyroscope.scale / (1e-7 * np.pi / 180)}
+    for key, true in truth_scale.items():
+        assert np.max(np.abs(err[key] / true)) < 1e-6
+    assert np.max(np.abs(err["acc_bias_ug"])) < 1e-4  # µg, of biases up to 1e4 µg
+    assert np.max(np.abs(err["acc_misalignment_1e-4"])) < 1e-6
+    assert np.max(np.abs(err["gyro_misalignment_1e-4"])) < 1e-6
+
+
+def test_small_montecarlo_within_the_papers_tables():
+    r = montecarlo(16, turntable_error="3arcmin", workers=1)
+    assert r["divergent_runs"] == 0 and not r["failures"]
+    rms = r["rms"]
+    # Table 2 (accelerometer), 3′ column, with 10 % slack for 16 runs
+    assert max(rms["acc_k1_ug_per_pulse"]) <= 3.41e-5 * 1.1
+    assert max(rms["acc_k2_fg_per_pulse2"]) <= 0.054 * 1.1
+    assert max(rms["acc_k3_zg_per_pulse3"]) <= 0.63 * 1.1
+    assert max(rms["acc_misalignment_1e-4"]) <= 0.0197 * 1.1
+    assert max(rms["acc_bias_ug"]) <= 2.11 * 1.5
+
+
+def test_clear_errors(tmp_path):
+    sim = session(2)
+    sim.positions_acc = sim.positions_acc[:10]
+    with pytest.raises(ValueError, match="15 parameters; 10 positions cannot determine them"):
+        calibrate(sim, method="wang2019")
+    from imucalib.recording import Recording
+
+    rec = Recording(np.arange(5) * 0.01, np.ones((5, 3)), np.ones((5, 3)))
+    with pytest.raises(ValueError, match="wang2019 needs turntable data"):
+        calibrate(rec, method="wang2019")
