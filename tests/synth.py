@@ -37,11 +37,14 @@ def linear_truth() -> Calibration:
 
 
 def tedaldi_session(truth=None, *, seed=0, poses=24, rest=8.0, hold=2.0, move=1.5,
-                    rate=100.0, noise_acc=0.0, noise_gyro=0.0):
+                    rate=100.0, noise_acc=0.0, noise_gyro=0.0, directions=None):
     """Initial rest, then ``poses`` static holds joined by smooth rotations.
 
     The gravity direction at every pose is the RK4 integration of the sampled
     true rates, so the gyroscope residual is exactly zero at the truth.
+
+    ``directions`` (body-frame unit gravity directions, the first one for the
+    rest) replaces the random turns by the shortest turns between them.
 
     Returns (recording in raw counts, truth, static intervals).
     """
@@ -53,17 +56,35 @@ def tedaldi_session(truth=None, *, seed=0, poses=24, rest=8.0, hold=2.0, move=1.
     blocks.append(np.zeros((n_rest, 3)))
     tau = (np.arange(n_move) + 0.5) / n_move
     bump = np.sin(np.pi * tau) ** 2  # smooth start and stop
-    for _ in range(poses):
-        axis = rng.normal(size=3)
-        axis /= np.linalg.norm(axis)
-        angle = rng.uniform(np.radians(60), np.radians(150))
+    turns = []
+    if directions is None:
+        for _ in range(poses):
+            axis = rng.normal(size=3)
+            turns.append((axis / np.linalg.norm(axis), rng.uniform(np.radians(60), np.radians(150))))
+    else:
+        d = np.asarray(directions, dtype=float)
+        for a0, a1 in zip(d[:-1], d[1:], strict=True):
+            axis = np.cross(a0, a1)
+            if np.linalg.norm(axis) < 1e-9:  # opposite faces: any perpendicular axis
+                axis = np.cross(a0, [1.0, 0, 0] if abs(a0[0]) < 0.9 else [0, 1.0, 0])
+            angle = np.arctan2(np.linalg.norm(np.cross(a0, a1)), a0 @ a1)
+            turns.append((-axis / np.linalg.norm(axis), angle))  # body rate turning g_b a0 → a1
+    for axis, angle in turns:
         w = np.outer(bump / bump.sum() * angle / dt, axis)
         blocks += [w, np.zeros((n_hold, 3))]
         intervals.append(Interval(pos + n_move, pos + n_move + n_hold))
         pos += n_move + n_hold
     w_true = np.concatenate(blocks)
     t = np.arange(w_true.shape[0]) * dt
-    q = kin.integrate(t, w_true, kin.quat_from_rotvec(rng.normal(size=3)))
+    if directions is None:
+        q0 = kin.quat_from_rotvec(rng.normal(size=3))
+    else:  # start with the body's directions[0] pointing up
+        d0 = np.asarray(directions[0], dtype=float)
+        axis = np.cross(d0, [0, 0, 1.0])
+        ang = np.arctan2(np.linalg.norm(axis), d0[2])
+        q0 = kin.quat_from_rotvec(axis / max(np.linalg.norm(axis), 1e-300) * ang if ang > 1e-12
+                                  else np.zeros(3))
+    q = kin.integrate(t, w_true, q0)
     g_world = np.array([0.0, 0.0, truth.gravity])
     acc_true = np.einsum("nji,j->ni", kin.quat_to_matrix(q), g_world)  # Rᵀ g
     acc_raw = truth.accelerometer.inverse(acc_true) + _noise(rng, noise_acc, truth.accelerometer, acc_true.shape)

@@ -165,14 +165,17 @@ def cmd_compare(args: argparse.Namespace) -> int:
         return 0
     print(f"{result['static_intervals']} static intervals; leave-one-pose-out over "
           f"{result['folds']} held-out poses")
-    print(f"{'method':<14}{'model':<11}{'CV |a|-g RMS [m/s^2]':>22}{'CV angle mean [deg]':>22}")
+    print(f"{'method':<14}{'model':<18}{'CV |a|-g RMS [m/s^2]':>22}{'CV angle mean [deg]':>22}")
     for row in result["methods"]:
+        model = row["model"] or "-"
+        if row.get("model_selected") and row["model_selected"] != row["model"]:
+            model = f"{model}->{row['model_selected']}"
         if row["ok"]:
-            print(f"{row['method']:<14}{row['model'] or '-':<11}"
+            print(f"{row['method']:<14}{model:<18}"
                   f"{row['cv_accelerometer_residual_rms']:>22.5f}"
                   f"{row['cv_gyroscope_angle_error_mean_deg']:>22.4f}")
         else:
-            print(f"{row['method']:<14}{row['model'] or '-':<11}  cannot run: {row['reason']}")
+            print(f"{row['method']:<14}{model:<18}  cannot run: {row['reason']}")
     return 0
 
 

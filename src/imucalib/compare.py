@@ -88,7 +88,10 @@ def compare(
 
         try:
             full = fit(intervals)
-            row["model"] = full.model
+            row["model"] = model or full.model
+            sel = full.fit.get("model_selection")
+            if sel:
+                row["model_selected"] = sel["selected"]
             row["fit"] = {k: v for k, v in full.fit.items() if isinstance(v, int | float)}
             say(f"{name}: cross-validating on {len(fold_list)} held-out poses")
             cv = leave_one_pose_out(recording, intervals, fit, gravity=gravity, folds=fold_list)

@@ -59,11 +59,25 @@ def _wang2019(data, *, model: str | None, gravity: float, **options: Any) -> Cal
     return wang2019.calibrate(data, gravity=gravity, **options)
 
 
+def _linear_only(module_name: str) -> Callable[..., Calibration]:
+    def run(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
+        import importlib
+
+        if model not in (None, "linear"):
+            raise ValueError(f"{module_name} fits the linear model only; got model={model!r}")
+        module = importlib.import_module(f"{__name__}.{module_name}")
+        return module.calibrate(_recording_of(data), gravity=gravity, **options)
+
+    return run
+
+
 #: method name → callable(data, *, model, gravity, **options) → Calibration
 METHODS: dict[str, Callable[..., Calibration]] = {
     "tedaldi2014": _tedaldi2014,
     "zhang2021": _zhang2021,
     "wang2019": _wang2019,
+    "ellipsoid": _linear_only("ellipsoid"),
+    "six_position": _linear_only("six_position"),
 }
 
 

@@ -94,3 +94,34 @@ def fit_ellipsoid(raw: np.ndarray, gravity: float) -> TriadModel:
     k = np.diag(tk).copy()
     t = np.triu(tk / k[None, :], 1) + np.eye(3)
     return TriadModel(misalignment=t, scale=k, bias=mu + s * c, shape="upper")
+
+
+def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False,
+              init_static: float | None = None):
+    """Accelerometer by the ellipsoid fit (Ru 2022, §3.2), gyroscope as in Tedaldi 2014.
+
+    The ellipsoid (norm) method is an accelerometer method: the static means of
+    ≥ 9 poses give ``T_a``, ``k1`` and ``b_a`` in closed form
+    (:func:`fit_ellipsoid`), optionally refined by Levenberg–Marquardt on the
+    gravity-norm residuals. The gyroscope bias is the mean of the initial rest
+    and its scale and misalignment come from the rotations between the poses
+    (:func:`imucalib.methods.tedaldi2014.calibrate_gyroscope`).
+    """
+    from ..calibration import Calibration
+    from ..metrics import fit_summary, interval_means
+    from .tedaldi2014 import calibrate_accelerometer, calibrate_gyroscope, detect_intervals
+
+    if intervals is None:
+        intervals = detect_intervals(recording, gravity, init_static=init_static)[0]
+    intervals = [iv for iv in intervals if iv.kind == "static"]
+    means = interval_means(recording.acc, intervals)
+    acc = fit_ellipsoid(means, gravity)
+    if refine:
+        acc, _ = calibrate_accelerometer(means, gravity, initial=acc)
+    bias = recording.gyro[intervals[0].slice].mean(axis=0)
+    gyro = calibrate_gyroscope(recording, intervals, acc, bias)
+    cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="ellipsoid",
+                      model="linear",
+                      units={"accelerometer": {"raw": recording.acc_unit, "calibrated": "m/s^2"},
+                             "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"}})
+    return cal.with_(fit=fit_summary(cal, recording, intervals, gravity))
