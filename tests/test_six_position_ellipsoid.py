@@ -2,12 +2,12 @@
 
 import numpy as np
 import pytest
-from synth import linear_truth, tedaldi_session
 
 from imucalib.calibration import Calibration
 from imucalib.methods import calibrate
 from imucalib.methods.six_position import find_faces
 from imucalib.models import TriadModel
+from synth import linear_truth, tedaldi_session
 
 FACES = [[0, 0, 1], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0], [0, 0, -1], [1, 1, 0], [0, 1, 1],
          [1, 0, 1], [-1, 1, 1], [1, -1, 1]]
