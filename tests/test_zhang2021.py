@@ -166,3 +166,20 @@ def test_clear_errors(truth, noise_free):
     with pytest.raises(ValueError, match="at least 10 static intervals"):
         zhang2021.calibrate(rec, model="linear", intervals=iv[:5])
     assert isinstance(truth, Calibration)
+
+
+def test_gyroscope_static_detector_eq22():
+    from imucalib.segment import detect_static_gyro, find_initial_rest
+    from imucalib.simulate import session
+
+    sim = session("zhang2021", rng=2, n2=20, n3=1)
+    found = detect_static_gyro(sim.recording, find_initial_rest(sim.recording))
+    truth = [s for s in sim.segments if s.kind == "static"]
+    assert len(found) == len(truth) == 40
+    for f, t in zip(found, truth, strict=True):
+        assert t.start <= f.start < f.stop <= t.stop  # never reaches into a motion
+        assert len(f) >= 0.3 * len(t)
+    cal = zhang2021.calibrate(sim.recording, weightless=sim.weightless, detector="gyroscope",
+                              gravity=sim.truth.gravity)
+    assert cal.fit["static_intervals"] == 40
+    np.testing.assert_allclose(cal.lever_arm, sim.truth.lever_arm, atol=1e-4)

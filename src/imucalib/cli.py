@@ -121,6 +121,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     options = {}
     if args.init_static is not None:
         options["init_static"] = args.init_static
+    if args.detector is not None:
+        options["detector"] = args.detector
     if say is not None:
         options["progress"] = say
     cal = calibrate(data, method=args.method, model=args.model, gravity=args.gravity, **options)
@@ -383,6 +385,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"local gravity [m/s^2] (default: {STANDARD_GRAVITY})")
     p.add_argument("--init-static", type=_positive_float, metavar="SECONDS",
                    help="length of the initial rest (default: found automatically)")
+    p.add_argument("--detector", choices=("accelerometer", "gyroscope"),
+                   help="zhang2021: static detector, Tedaldi's accelerometer variance (default) or "
+                   "the gyroscope norm of Zhang 2021 eq. (22)")
     p.add_argument("-o", "--output", help="write the calibration file (JSON) here")
     p.add_argument("--json", action="store_true", help="print the calibration as JSON on stdout")
     _add_reader_options(p)

@@ -149,3 +149,38 @@ def motion_between(static: list[Interval]) -> list[Interval]:
         for a, b in zip(static[:-1], static[1:], strict=True)
         if b.start > a.stop
     ]
+
+
+def detect_static_gyro(
+    recording: Recording,
+    rest: Interval,
+    *,
+    window: float = 2.0,
+    multiplier: float = 6.0,
+    min_interval: float = 1.0,
+) -> list[Interval]:
+    """Static intervals by the gyroscope detector of Zhang 2021, eq. (22).
+
+    ``ζ(t) = var_{t_w}(‖u_g − b‖)``, the variance of the bias-free raw
+    gyroscope norm over a centred window of ``window`` seconds, is compared
+    with ``multiplier × ζ_init`` (ζ over the initial rest; the paper uses
+    ``t_w = 2`` s and ``n = 6`` for RD1); a centred window that reaches into
+    a motion already exceeds it, so the runs stop short of the motions. Runs
+    shorter than ``min_interval`` seconds are dropped. Like the paper's, this
+    detector would take a perfectly steady turn for rest; the accelerometer
+    detector (:func:`detect_static`) would not.
+    """
+    rate = recording.rate
+    bias = recording.gyro[rest.slice].mean(axis=0)
+    norm = np.linalg.norm(recording.gyro - bias, axis=1)
+    win = max(int(round(window * rate)) | 1, 3)
+    zeta = moving_variance(norm, win)[:, 0]  # eq. (22)
+    zeta_init = float(np.var(norm[rest.slice]))
+    if zeta_init <= 0:
+        raise ValueError("the initial rest has zero gyroscope noise: eq. (22) cannot set a threshold")
+    mask = zeta < multiplier * zeta_init
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    starts, stops = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
+    n_min = max(int(round(min_interval * rate)), 2)
+    return [Interval(int(a), int(b), "static") for a, b in zip(starts, stops, strict=True)
+            if b - a >= n_min]

@@ -48,7 +48,7 @@ from ..kinematics import IntervalIntegrator, quat_to_matrix, skew
 from ..metrics import fit_summary, interval_means, transition_bounds
 from ..models import AXES, TriadModel, misalignment_entries
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
-from ..segment import moving_variance
+from ..segment import detect_static_gyro, find_initial_rest, moving_variance
 from ..solve import levenberg_marquardt
 from .tedaldi2014 import calibrate_accelerometer, calibrate_gyroscope, detect_intervals
 
@@ -513,6 +513,7 @@ def calibrate(
     max_iter: int = 200,
     fall_threshold: float = 2.5,
     select: bool = True,
+    detector: str = "accelerometer",
     progress: Callable[[str], None] | None = None,
 ) -> Calibration:
     """Calibrate by Zhang et al. 2021 (two-step initialisation + LM on eq. 21).
@@ -531,7 +532,10 @@ def calibrate(
         Local gravity [m/s²].
     intervals : sequence of Interval, optional
         Static intervals of ``recording`` (the first is the initial rest);
-        detected by the Tedaldi 2014 detector by default.
+        detected by default with ``detector``.
+    detector : {"accelerometer", "gyroscope"}
+        Tedaldi 2014's accelerometer-variance detector with its threshold scan
+        (default), or the gyroscope-norm detector of Zhang 2021, eq. (22).
     init_static : float, optional
         Length of the initial rest [s] for the detector.
     initial : {"step1", "identity"}
@@ -557,7 +561,17 @@ def calibrate(
         raise ValueError(f"initial must be 'step1' or 'identity'; got {initial!r}")
     # ---- RD1 segmentation
     say("detecting static intervals")
-    if intervals is None:
+    if intervals is None and detector == "gyroscope":
+        rest0 = (find_initial_rest(recording) if init_static is None
+                 else Interval(0, int(round(init_static * recording.rate)), "static"))
+        static = detect_static_gyro(recording, rest0)  # eq. (22), t_w = 2 s, n = 6
+        if len(static) < 10:
+            raise ValueError(f"the gyroscope detector (eq. 22) found {len(static)} static intervals; "
+                             "at least 10 are needed")
+        rest, acc0 = static[0], None
+    elif intervals is None:
+        if detector != "accelerometer":
+            raise ValueError(f"detector must be 'accelerometer' or 'gyroscope'; got {detector!r}")
         static, _, rest, acc0 = detect_intervals(recording, gravity, init_static=init_static)
     else:
         static = [iv for iv in intervals if iv.kind == "static"]
