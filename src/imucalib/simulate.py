@@ -51,12 +51,19 @@ from pathlib import Path
 import numpy as np
 
 from .calibration import Calibration
-from .kinematics import integrate, quat_normalize, quat_to_matrix
+from .kinematics import integrate, quat_from_rotvec, quat_normalize, quat_to_matrix
 from .models import TriadModel
 from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 
 __all__ = [
     "DEFAULT_NOISE",
+    "attitude_with_up",
+    "pose_session",
+    "qureshi_orientations",
+    "qureshi_session",
+    "qureshi_truth",
+    "qureshi_validation",
+    "turns_between",
     "SCENARIOS",
     "Session",
     "TossSequence",
@@ -408,3 +415,142 @@ def read_session(directory: str | Path) -> Session:
     return Session(scenario=meta["scenario"], seed=meta.get("seed"), recording=rec,
                    segments=segs("recording.csv"), truth=truth, weightless=weightless,
                    tests=tests, noise=meta.get("noise", {}), options=meta.get("options", {}))
+
+
+# ------------------------------------------------------- pose/turn sessions
+def turns_between(directions: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """Body-frame turns (unit axis, angle [rad]) carrying gravity through ``directions``.
+
+    A body turning by ``θ`` about ``n`` sees a fixed vector turn by ``−θ``, so the
+    shortest turn from body gravity direction ``a₀`` to ``a₁`` is ``−θ`` about
+    ``a₀ × a₁`` (any perpendicular axis for opposite directions).
+    """
+    d = np.asarray(directions, dtype=float)
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    out = []
+    for a0, a1 in zip(d[:-1], d[1:], strict=True):
+        axis = np.cross(a0, a1)
+        if np.linalg.norm(axis) < 1e-12:
+            axis = np.cross(a0, [1.0, 0, 0] if abs(a0[0]) < 0.9 else [0, 1.0, 0])
+        angle = float(np.arctan2(np.linalg.norm(np.cross(a0, a1)), a0 @ a1))
+        out.append((-axis / np.linalg.norm(axis), angle))
+    return out
+
+
+def attitude_with_up(direction: np.ndarray) -> np.ndarray:
+    """Quaternion of an attitude whose body vector ``direction`` points up (world +z)."""
+    d0 = np.asarray(direction, dtype=float)
+    d0 = d0 / np.linalg.norm(d0)
+    axis = np.cross(d0, [0.0, 0.0, 1.0])
+    angle = np.arctan2(np.linalg.norm(axis), d0[2])
+    if np.linalg.norm(axis) < 1e-12:
+        return quat_from_rotvec(np.array([np.pi if d0[2] < 0 else 0.0, 0.0, 0.0]))
+    return quat_from_rotvec(axis / np.linalg.norm(axis) * angle)
+
+
+def pose_session(truth: Calibration, turns, *, rng=None, up: np.ndarray | None = None,
+                 rest: float = 5.0, hold: float = 2.0, move: float = 1.5, rate: float = 100.0,
+                 noise=None) -> tuple[Recording, list[Interval]]:
+    """A rest, then static holds joined by smooth body-frame turns.
+
+    Each turn ``(axis, angle)`` is a rotation about the body axis with a
+    ``sin²`` rate profile over ``move`` seconds; the attitude is the RK4
+    integral of the sampled rates, so noise-free gravity directions and gyro
+    integration agree exactly. Returns the raw recording and the static
+    intervals (the rest first).
+    """
+    rng = np.random.default_rng(rng)
+    noise = _noise_levels(noise)
+    dt = 1.0 / rate
+    n_rest, n_hold, n_move = int(round(rest * rate)), int(round(hold * rate)), int(round(move * rate))
+    blocks = [np.zeros((n_rest, 3))]
+    intervals = [Interval(0, n_rest, "static")]
+    pos = n_rest
+    tau = (np.arange(n_move) + 0.5) / n_move
+    bump = np.sin(np.pi * tau) ** 2
+    for axis, angle in turns:
+        axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+        blocks += [np.outer(bump / bump.sum() * angle / dt, axis), np.zeros((n_hold, 3))]
+        intervals.append(Interval(pos + n_move, pos + n_move + n_hold, "static"))
+        pos += n_move + n_hold
+    w = np.concatenate(blocks)
+    t = np.arange(w.shape[0]) * dt
+    q0 = attitude_with_up(np.array([0.0, 0.0, 1.0]) if up is None else up)
+    q = integrate(t, w, q0)
+    a = np.einsum("nji,j->ni", quat_to_matrix(q), np.array([0.0, 0.0, truth.gravity]))  # Rᵀ g
+    acc, gyro = _distort(truth, a, w, rng, noise, None, None)
+    units = truth.units
+    return Recording(t, acc, gyro, acc_unit=units["accelerometer"]["raw"],
+                     gyro_unit=units["gyroscope"]["raw"]), intervals
+
+
+# ------------------------------------------------------------ Qureshi 2017
+def qureshi_orientations() -> np.ndarray:
+    """The 18 orientations of Qureshi 2017 §IV-B: 6 cube faces and 12 edges at 45° (gravity, body frame)."""
+    faces = np.vstack([np.eye(3), -np.eye(3)])
+    edges = []
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        for si in (1, -1):
+            for sj in (1, -1):
+                v = np.zeros(3)
+                v[i], v[j] = si, sj
+                edges.append(v / np.sqrt(2))
+    return np.vstack([faces, edges])
+
+
+def qureshi_truth(gravity: float = STANDARD_GRAVITY) -> Calibration:
+    """A truth like Qureshi 2017, Table II (accelerometer) and Table III (gyroscope scales, biases).
+
+    Raw accelerometer unit g, raw gyroscope unit °/s (nominal), so the canonical
+    scales are ``g·k`` and ``k·π/180``.
+    """
+    from .conventions import from_qureshi
+
+    acc = from_qureshi(np.array([0.0097, -0.0367, -0.0101, 1.0061 * gravity, 1.0067 * gravity,
+                                 0.9831 * gravity, -0.0122 * gravity, 0.0188 * gravity,
+                                 0.0005 * gravity]))
+    gyro = TriadModel(scale=np.radians([0.9754, 0.9830, 0.9747]), bias=[-0.0482, 0.0644, 0.0554],
+                      shape="full")
+    return Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="truth",
+                       model="linear",
+                       units={"accelerometer": {"raw": "g", "calibrated": "m/s^2"},
+                              "gyroscope": {"raw": "counts", "calibrated": "rad/s"}})
+
+
+#: BNO055-class noise per sample at 100 Hz: 150 µg/√Hz over ~45 Hz ≈ 0.01 m/s²; 0.1 °/s
+QURESHI_NOISE = {"accelerometer": 0.01, "gyroscope": float(np.radians(0.1))}
+
+
+def qureshi_session(rng=None, *, truth: Calibration | None = None, noise=None, hold: float = 2.0):
+    """The 18 orientations (2 s each at 100 Hz) then the per-axis rotations of Qureshi 2017, Fig. 2.
+
+    After the orientations the sensor returns to z up and is turned about x
+    (+60°, −120°, +60°) and about y (the same), then 90° about y, which puts
+    z horizontal, and about z (the same): every measured turn is about a
+    horizontal axis, so the accelerometer sees its angle. Returns
+    ``(recording, static intervals, truth)``.
+    """
+    truth = truth or qureshi_truth()
+    d = qureshi_orientations()
+    dirs = np.vstack([[0.0, 0.0, 1.0], d, [0.0, 0.0, 1.0]])
+    turns = turns_between(dirs)
+    seq = [60, -120, 60]
+    for axis in (np.array([1.0, 0, 0]), np.array([0, 1.0, 0])):
+        turns += [(axis, np.radians(a)) for a in seq]
+    turns.append((np.array([0, 1.0, 0]), np.radians(90)))
+    turns += [(np.array([0, 0, 1.0]), np.radians(a)) for a in seq]
+    rec, intervals = pose_session(truth, turns, rng=rng, hold=hold, move=1.5, rest=5.0,
+                                  noise=QURESHI_NOISE if noise is None else noise)
+    return rec, intervals, truth
+
+
+def qureshi_validation(truth: Calibration, rng=None, *, n: int = 92, samples: int = 200,
+                       noise=None) -> np.ndarray:
+    """Raw accelerometer means of ``n`` fresh random static orientations (for §IV-B's check)."""
+    rng = np.random.default_rng(rng)
+    noise = QURESHI_NOISE if noise is None else _noise_levels(noise)
+    d = rng.normal(size=(n, 3))
+    a = truth.gravity * d / np.linalg.norm(d, axis=1, keepdims=True)
+    raw = truth.accelerometer.inverse(a)
+    sigma = noise["accelerometer"] / truth.accelerometer.scale / np.sqrt(samples)
+    return raw + rng.normal(size=raw.shape) * sigma

@@ -78,6 +78,7 @@ METHODS: dict[str, Callable[..., Calibration]] = {
     "wang2019": _wang2019,
     "ellipsoid": _linear_only("ellipsoid"),
     "six_position": _linear_only("six_position"),
+    "qureshi2017": _linear_only("qureshi2017"),
 }
 
 
