@@ -70,11 +70,13 @@ def find_initial_rest(
     factor: float = 30.0,
     min_seconds: float = 2.0,
 ) -> Interval:
-    """Locate the initial rest period that starts a Tedaldi-style recording.
+    """Locate the initial rest period that starts a calibration recording.
 
-    The noise level is the median detector statistic over the first
-    ``min_seconds``; the rest ends where the statistic first exceeds
-    ``factor`` times that level (the start of the first movement), less half
+    For the accelerometer and the gyroscope alike, the noise level is the
+    median detector statistic (:func:`variance_norm`) over the first
+    ``min_seconds``; the rest ends where either statistic first exceeds
+    ``factor`` times its level (the first movement: the gyroscope catches a
+    turn about the vertical, which leaves the accelerometer still), less half
     a window.
 
     Raises
@@ -84,17 +86,20 @@ def find_initial_rest(
     """
     rate = recording.rate
     win = max(int(round(window_seconds * rate)) | 1, 3)
-    stat = variance_norm(recording.acc, win)
     n0 = int(round(min_seconds * rate))
     if n0 >= len(recording):
         raise ValueError(
             f"the recording is {recording.duration:.3g} s long: too short for an initial "
             f"rest of {min_seconds} s"
         )
-    level = float(np.median(stat[: max(n0, win)]))
-    moving = np.nonzero(stat > factor * max(level, np.finfo(float).tiny))[0]
-    end = int(moving[0]) - win // 2 if moving.size else len(recording)
-    end = max(end, 0)
+    first_motion = len(recording)
+    for signal in (recording.acc, recording.gyro):
+        stat = variance_norm(signal, win)
+        level = float(np.median(stat[: max(n0, win)]))
+        moving = np.nonzero(stat > factor * max(level, np.finfo(float).tiny))[0]
+        if moving.size:
+            first_motion = min(first_motion, int(moving[0]))
+    end = max(first_motion - win // 2, 0) if first_motion < len(recording) else len(recording)
     if end < n0:
         raise ValueError(
             f"no initial rest found: the sensor moves {end / rate:.3g} s after the start; "

@@ -79,6 +79,7 @@ METHODS: dict[str, Callable[..., Calibration]] = {
     "ellipsoid": _linear_only("ellipsoid"),
     "six_position": _linear_only("six_position"),
     "qureshi2017": _linear_only("qureshi2017"),
+    "ferraris": _linear_only("ferraris"),
 }
 
 
