@@ -68,3 +68,17 @@ def test_clear_errors(tmp_path):
     rec = Recording(np.arange(5) * 0.01, np.ones((5, 3)), np.ones((5, 3)))
     with pytest.raises(ValueError, match="wang2019 needs turntable data"):
         calibrate(rec, method="wang2019")
+
+
+def test_plan_shows_every_parameter_observable(capsys):
+    from imucalib.cli import main
+    from imucalib.methods.wang2019 import plan_report
+
+    rep = plan_report(0)
+    assert len(rep["positions_gravity_body"]) == 15 and len(rep["rotation_axes_body"]) == 12
+    assert len(rep["parameters"]) == 15 + 9 + 3
+    assert all(p["observable"] and np.isfinite(p["crlb_std"]) for p in rep["parameters"])
+    bias = next(p for p in rep["parameters"] if p["parameter"] == "bias_ax")
+    assert 0.5 < bias["crlb_std"] / (1e-6 * G0) < 5  # µg: the order the Monte Carlo shows (~2 µg)
+    assert main(["plan", "--method", "wang2019"]) == 0
+    assert "observable" in capsys.readouterr().out

@@ -365,6 +365,28 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_plan(args: argparse.Namespace) -> int:
+    if args.method != "wang2019":
+        raise CliError(f"a calibration plan is available for wang2019; got {args.method!r}")
+    from .methods.wang2019 import plan_report
+
+    rep = plan_report(args.seed)
+    if args.json:
+        print(json.dumps(rep))
+        return 0
+    print("positions (gravity direction in the body frame):")
+    for k, p in enumerate(rep["positions_gravity_body"], 1):
+        print(f"  {k:2d}: [{p[0]: .3f} {p[1]: .3f} {p[2]: .3f}]")
+    print(f"rotation pairs ({rep['turn_angle_deg']:g}° clockwise then counter-clockwise) about:")
+    for k, a in enumerate(rep["rotation_axes_body"], 1):
+        print(f"  {k:2d}: [{a[0]: .3f} {a[1]: .3f} {a[2]: .3f}]")
+    print(f"{'parameter':<10}{'value':>14}{'sensitivity':>14}{'Fisher info':>14}{'CRLB std':>12}  observable")
+    for p in rep["parameters"]:
+        print(f"{p['parameter']:<10}{p['value']:>14.4g}{p['sensitivity_rms']:>14.4g}"
+              f"{p['fisher_information']:>14.4g}{p['crlb_std']:>12.3g}  {'yes' if p['observable'] else 'NO'}")
+    return 0
+
+
 # ---------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
@@ -464,6 +486,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("plan", help="print a method's calibration plan and parameter observability",
+                       description="Print the positions and rotations of a method's optimal plan "
+                       "and, per parameter, its sensitivity and Fisher information.")
+    p.add_argument("--method", required=True, help="method (wang2019)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the typical truth used")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_plan)
     return parser
 
 
