@@ -18,11 +18,21 @@ from .recording import Interval, Recording
 
 __all__ = [
     "moving_variance",
+    "runs",
     "variance_norm",
     "find_initial_rest",
     "detect_static",
     "motion_between",
 ]
+
+
+def runs(mask: np.ndarray, min_length: int = 1, kind: str = "static") -> list[Interval]:
+    """Intervals ``[start, stop)`` of the True runs of a boolean mask at least ``min_length`` long."""
+    edges = np.diff(np.concatenate([[0], np.asarray(mask).astype(np.int8), [0]]))
+    starts = np.nonzero(edges == 1)[0]
+    stops = np.nonzero(edges == -1)[0]
+    return [Interval(int(a), int(b), kind) for a, b in zip(starts, stops, strict=True)
+            if b - a >= min_length]
 
 
 def moving_variance(x: np.ndarray, window: int) -> np.ndarray:
@@ -138,13 +148,7 @@ def detect_static(
         Non-overlapping static intervals in time order.
     """
     stat = variance_norm(acc, window) if statistic is None else statistic
-    static = stat < threshold
-    # run boundaries of the boolean mask
-    edges = np.diff(np.concatenate([[0], static.astype(np.int8), [0]]))
-    starts = np.nonzero(edges == 1)[0]
-    stops = np.nonzero(edges == -1)[0]
-    keep = (stops - starts) >= min_length
-    return [Interval(int(a), int(b), "static") for a, b in zip(starts[keep], stops[keep], strict=True)]
+    return runs(stat < threshold, min_length)
 
 
 def motion_between(static: list[Interval]) -> list[Interval]:
@@ -183,9 +187,4 @@ def detect_static_gyro(
     zeta_init = float(np.var(norm[rest.slice]))
     if zeta_init <= 0:
         raise ValueError("the initial rest has zero gyroscope noise: eq. (22) cannot set a threshold")
-    mask = zeta < multiplier * zeta_init
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    starts, stops = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
-    n_min = max(int(round(min_interval * rate)), 2)
-    return [Interval(int(a), int(b), "static") for a, b in zip(starts, stops, strict=True)
-            if b - a >= n_min]
+    return runs(zeta < multiplier * zeta_init, max(int(round(min_interval * rate)), 2))

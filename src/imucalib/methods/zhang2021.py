@@ -48,7 +48,7 @@ from ..kinematics import IntervalIntegrator, quat_to_matrix, skew
 from ..metrics import fit_summary, interval_means, transition_bounds
 from ..models import AXES, TriadModel, misalignment_entries
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
-from ..segment import detect_static_gyro, find_initial_rest, moving_variance
+from ..segment import detect_static_gyro, find_initial_rest, moving_variance, runs
 from ..solve import levenberg_marquardt
 from .tedaldi2014 import calibrate_accelerometer, calibrate_gyroscope, detect_intervals
 
@@ -367,15 +367,10 @@ def detect_weightless(
         min_rate = 50.0 * max(noise, np.finfo(float).tiny)
     threshold = np.maximum(multiplier * zeta_init, (relative * norm) ** 2)
     mask = (zeta < threshold) & (norm > min_rate)
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    starts = np.nonzero(edges == 1)[0]
-    stops = np.nonzero(edges == -1)[0]
     shrink = win // 2  # drop the window's reach into the toss and the catch
-    out = []
-    for s0, s1 in zip(starts + shrink, stops - shrink, strict=True):
-        if s1 - s0 >= max(int(round(min_length * rate)), 5):
-            out.append(Interval(int(s0), int(s1), "weightless"))
-    return out
+    n_min = max(int(round(min_length * rate)), 5)
+    return [Interval(iv.start + shrink, iv.stop - shrink, "weightless")
+            for iv in runs(mask) if len(iv) - 2 * shrink >= n_min]
 
 
 def fall_loss(calibration: Calibration, recording: Recording) -> np.ndarray:
@@ -399,12 +394,7 @@ def detect_fall(calibration: Calibration, recording: Recording, *, threshold: fl
     if len(recording) < 5:
         raise ValueError("fall detection needs at least 5 samples")
     loss = fall_loss(calibration, recording)
-    mask = loss < threshold
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    starts, stops = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
-    n_min = max(int(round(min_length * recording.rate)), 1)
-    return [Interval(int(a), int(b), "weightless")
-            for a, b in zip(starts, stops, strict=True) if b - a >= n_min]
+    return runs(loss < threshold, max(int(round(min_length * recording.rate)), 1), "weightless")
 
 
 # -------------------------------------------------------------------- weights
