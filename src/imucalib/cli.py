@@ -175,7 +175,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
         if row["ok"]:
             print(f"{row['method']:<14}{model:<18}"
                   f"{row['cv_accelerometer_residual_rms']:>22.5f}"
-                  f"{row['cv_gyroscope_angle_error_mean_deg']:>22.4f}")
+                  f"{row['cv_gyroscope_angle_error_mean_deg']:>22.4f}"
+                  + (f"   ({row['cv_folds_skipped']} folds could not run)" if row["cv_folds_skipped"] else ""))
         else:
             print(f"{row['method']:<14}{model:<18}  cannot run: {row['reason']}")
     return 0

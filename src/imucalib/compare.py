@@ -100,6 +100,7 @@ def compare(
             rows.append(row)
             continue
         row.update(ok=True, cv_accelerometer_residual_rms=cv["cv_accelerometer_residual_rms"],
-                   cv_gyroscope_angle_error_mean_deg=cv["cv_gyroscope_angle_error_mean_deg"])
+                   cv_gyroscope_angle_error_mean_deg=cv["cv_gyroscope_angle_error_mean_deg"],
+                   cv_folds=cv["folds"], cv_folds_skipped=len(cv["folds_skipped"]))
         rows.append(row)
     return {"static_intervals": len(intervals), "folds": len(fold_list), "methods": rows}

@@ -55,8 +55,10 @@ def leave_one_pose_out(
     -------
     dict
         ``cv_accelerometer_residual_rms`` [m/s²],
-        ``cv_gyroscope_angle_error_mean_deg``, ``folds`` (count) and the
-        per-fold values ``accelerometer_residuals`` and ``gyroscope_angle_errors_deg``.
+        ``cv_gyroscope_angle_error_mean_deg``, ``folds`` (folds that ran),
+        ``folds_skipped`` (folds where the method could not be fitted without the
+        held-out pose, with the reason) and the per-fold values
+        ``accelerometer_residuals`` and ``gyroscope_angle_errors_deg``.
     """
     intervals = list(intervals)
     m = len(intervals)
@@ -64,10 +66,16 @@ def leave_one_pose_out(
     if any(not 1 <= k < m for k in folds):
         raise ValueError(f"folds must lie in 1…{m - 1} (pose 0 is the initial rest)")
     raw_means = interval_means(recording.acc, intervals)
-    acc_res, angles = [], []
+    acc_res, angles, skipped = [], [], []
     for i, k in enumerate(folds):
         training = intervals[:k] + intervals[k + 1 :]
-        cal = fit(training)
+        try:
+            cal = fit(training)
+        except ValueError as exc:  # e.g. a face-based method that lost its only +x pose
+            skipped.append({"fold": k, "reason": str(exc)})
+            if progress is not None:
+                progress(i + 1, len(folds))
+            continue
         a = cal.accelerometer_si(raw_means[[k - 1, k]])
         acc_res.append(float(np.linalg.norm(a[1]) - gravity))
         integ = IntervalIntegrator(recording.t, np.array([intervals[k - 1].stop - 1]),
@@ -78,11 +86,15 @@ def leave_one_pose_out(
         angles.append(float(np.degrees(angle_between(u[1], rot.T @ u[0]))))
         if progress is not None:
             progress(i + 1, len(folds))
+    if not acc_res:
+        raise ValueError(f"the method could not be fitted without any of the held-out poses: "
+                         f"{skipped[0]['reason']}")
     acc_res_a = np.array(acc_res)
     return {
         "cv_accelerometer_residual_rms": float(np.sqrt(np.mean(acc_res_a**2))),
         "cv_gyroscope_angle_error_mean_deg": float(np.mean(angles)),
-        "folds": len(folds),
+        "folds": len(acc_res),
+        "folds_skipped": skipped,
         "accelerometer_residuals": acc_res,
         "gyroscope_angle_errors_deg": angles,
     }

@@ -24,7 +24,8 @@ directions before and after, about the rotation axis). Then either
 
 A rotation counts for axis ``i`` when its integrated raw rate lies within 20°
 of that axis, the axis is at least 45° from gravity and the turn is below
-170° (a half turn's sign is ambiguous) (the accelerometer
+170° (a half turn's sign is ambiguous); turns whose eq. (18) scale differs
+from the axis's median by more than 10 % are left out as not clean (the accelerometer
 cannot see rotations about gravity, hence the paper's Fig. 2 sequence that
 turns ``z`` horizontal first).
 """
@@ -169,6 +170,7 @@ def calibrate(recording, *, gravity: float, intervals=None, gyroscope: str = "st
     rotations = rotation_angles(recording, intervals, acc, rest_bias)
     k = np.empty(3)
     b = rest_bias.copy()
+    rejected = [0, 0, 0]
     for i in range(3):
         rows = [r for r in rotations if r["axis"] == i]
         need = 1 if gyroscope == "static" else 2
@@ -181,6 +183,15 @@ def calibrate(recording, *, gravity: float, intervals=None, gyroscope: str = "st
         theta = np.array([r["angle"] for r in rows])
         tk = np.array([r["duration"] for r in rows])
         wbar = np.array([r["mean_rate_trapezoid"] for r in rows])
+        # consensus: a turn whose eq. (18) scale disagrees with the median by > 10 % was not a
+        # clean turn about the axis (or crossed ±180°); it is left out
+        k_each = theta / ((wbar - rest_bias[i]) * tk)
+        good = np.abs(k_each / np.median(k_each) - 1) < 0.1
+        if np.count_nonzero(good) < need:
+            raise ValueError(f"the turns about the {'xyz'[i]} axis disagree (eq. 18 scales "
+                             f"{np.round(k_each, 9).tolist()}): turn about one axis at a time")
+        theta, tk, wbar = theta[good], tk[good], wbar[good]
+        rejected[i] = int(np.count_nonzero(~good))
         if gyroscope == "static":
             # eq. (18) for each rotation, combined by least squares over k
             x = (wbar - rest_bias[i]) * tk
@@ -196,6 +207,7 @@ def calibrate(recording, *, gravity: float, intervals=None, gyroscope: str = "st
                              "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"}})
     fit = fit_summary(cal, recording, intervals, gravity)
     fit.update(newton_iterations=info["newton_iterations"], gyroscope_approach=gyroscope,
-               rotations_used=[sum(r["axis"] == i for r in rotations) for i in range(3)],
+               rotations_used=[sum(r["axis"] == i for r in rotations) - rejected[i] for i in range(3)],
+               rotations_rejected=rejected,
                qureshi_X=to_qureshi(acc).tolist())
     return cal.with_(fit=fit)
