@@ -35,7 +35,7 @@ FACE_NAMES = ("+x", "+y", "+z", "-x", "-y", "-z")
 def find_faces(raw_means: np.ndarray, gravity: float, *, max_tilt: float = 15.0) -> np.ndarray:
     """Indices of the poses nearest to +x, +y, +z, −x, −y, −z (raises if one is missing)."""
     if raw_means.shape[0] < 6:
-        raise ValueError(f"the six-position method needs six static poses; got {raw_means.shape[0]}")
+        raise ValueError(f"this method needs the six faces as static poses; got {raw_means.shape[0]} poses")
     centre = fit_sphere(raw_means, gravity).bias if raw_means.shape[0] >= 4 else raw_means.mean(axis=0)
     d = raw_means - centre
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
@@ -46,7 +46,7 @@ def find_faces(raw_means: np.ndarray, gravity: float, *, max_tilt: float = 15.0)
     missing = [f"{FACE_NAMES[j]} ({tilt[j]:.0f}° off)" for j in range(6) if tilt[j] > max_tilt]
     if missing:
         raise ValueError(
-            "the six-position method needs each axis up and down within "
+            "this method needs the six faces, each axis up and down within "
             f"{max_tilt:g}° of gravity; the poses lack {', '.join(missing)}: record those faces"
         )
     return best
