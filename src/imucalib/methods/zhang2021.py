@@ -226,7 +226,8 @@ class _Problem:
         if not jac:
             return w, None
         n = raw_g.shape[0]
-        jw = np.zeros((n, 3, lay.size))
+        jw = np.empty((n, 3, lay.size))
+        jw[:, :, lay.n_acc + lay.n_gyro :] = 0.0  # the lever arm does not enter ω
         jw[:, :, : lay.n_acc] = -((dwdx @ g) @ ja)  # through G·a
         s = lay.n_acc
         o = lay.order
@@ -298,10 +299,13 @@ class _Problem:
                 dfc = (2 * r[None, :, None] * w_w[:, None, :] - wr[:, None, None] * np.eye(3)
                        - w_w[:, :, None] * r[None, None, :])
                 jwd = segmented_five_point(jw_w, self.wl_starts, self.wl_stops, self.dt)
-                j4 = -(dfc @ jw_w) - skew(r) @ jwd
-                j4[:, :, :na] += ja_w
-                j4[:, :, p - 3 :] = -lm
-                jacs.append(self.w4 * j4.reshape(3 * n, p))
+                # j4 = w4 (∂a − ∂f_C/∂ω ∂ω − [r]× ∂ω̇ − L ∂r), built in place (the largest block)
+                j4 = np.matmul(dfc, jw_w)
+                j4 += skew(r) @ jwd
+                j4 *= -self.w4
+                j4[:, :, :na] += self.w4 * ja_w
+                j4[:, :, p - 3 :] = -self.w4 * lm
+                jacs.append(j4.reshape(3 * n, p))
         r_all = np.concatenate(res)
         return (r_all, np.concatenate(jacs, axis=0)) if jac else r_all
 
