@@ -86,3 +86,32 @@ def test_issue_command_on_xsens_matches_imu_tk(capsys):
         doc["gyroscope"]["misalignment"],
         [[1, 0.00593634, 0.00111101], [0.00808812, 1, -0.0535569], [0.0253067, -0.0025513, 1]],
         atol=2e-3)
+
+
+def test_demo_simulate_detect_fall(capsys, tmp_path):
+    code, out, err = run(capsys, "demo", "--json")
+    assert code == 0, err
+    demo = json.loads(out)
+    k = {r["name"]: r for r in demo["parameters"]}["accelerometer.scale.x"]
+    assert abs(k["all"] - k["truth"]) < 1e-3 < abs(k["linear"] - k["truth"])
+    assert demo["metrics"]["all_vs_tedaldi2014_eq34_reduction"] >= 0.6412
+    assert demo["metrics"]["all_vs_tedaldi2014_eq35_reduction"] >= 0.4790
+    code, out, err = run(capsys, "simulate", "--seed", "4", "-o", tmp_path / "s", "--json")
+    assert code == 0 and json.loads(out)["weightless"] == 100
+    code, out, err = run(capsys, "calibrate", tmp_path / "s", "--method", "zhang2021", "--model", "all",
+                         "-o", tmp_path / "cal.json", "--json")
+    assert code == 0, err
+    cal = Calibration.load(tmp_path / "cal.json")
+    np.testing.assert_allclose(cal.lever_arm, [0.07, 0.07, 0.07], atol=1e-4)
+    # the first test toss of the session, as CSV, through detect-fall
+    from imucalib.simulate import read_session
+
+    toss = read_session(tmp_path / "s").tests[0]
+    write_csv(tmp_path / "toss.csv", toss.recording)
+    code, out, err = run(capsys, "detect-fall", tmp_path / "cal.json", tmp_path / "toss.csv",
+                         "--acc-unit", "g", "--json")
+    assert code == 0, err
+    falls = json.loads(out)["falls"]
+    spin = next(s for s in toss.segments if s.kind == "weightless")
+    assert len(falls) == 1
+    assert abs(falls[0]["start"] - spin.start) <= 3 and abs(falls[0]["stop"] - spin.stop) <= 3
