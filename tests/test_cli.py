@@ -115,3 +115,16 @@ def test_demo_simulate_detect_fall(capsys, tmp_path):
     spin = next(s for s in toss.segments if s.kind == "weightless")
     assert len(falls) == 1
     assert abs(falls[0]["start"] - spin.start) <= 3 and abs(falls[0]["stop"] - spin.stop) <= 3
+
+
+def test_plot_of_the_fit(capsys, tmp_path, session_csv):
+    pytest.importorskip("matplotlib", reason="plots need matplotlib (the plot extra)")
+    import matplotlib.image as mpimg
+
+    path, _ = session_csv
+    code, out, err = run(capsys, "calibrate", path, "--plot", tmp_path / "fit.png", "-o", tmp_path / "c.json")
+    assert code == 0, err
+    img = mpimg.imread(tmp_path / "fit.png")
+    assert img.shape[0] > 600 and img.shape[1] > 800  # a three-panel figure
+    cal = Calibration.load(tmp_path / "c.json")
+    assert len(cal.fit["intervals"]) == cal.fit["static_intervals"] == 25

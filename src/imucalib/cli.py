@@ -109,7 +109,10 @@ def _print_calibration(cal: Calibration) -> None:
     if cal.fit:
         print("fit:")
         for k, v in cal.fit.items():
-            print(f"  {k}: {v:.6g}" if isinstance(v, float) else f"  {k}: {v}")
+            if k == "intervals":
+                print(f"  intervals: {len(v)} (sample ranges in the JSON)")
+            else:
+                print(f"  {k}: {v:.6g}" if isinstance(v, float) else f"  {k}: {v}")
 
 
 # -------------------------------------------------------------------- commands
@@ -128,12 +131,23 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     cal = calibrate(data, method=args.method, model=args.model, gravity=args.gravity, **options)
     if args.output:
         cal.save(args.output)
+    if args.plot:
+        from .recording import Interval
+        from .report import plot_fit
+
+        rec = getattr(data, "recording", data)
+        if rec is None or "intervals" not in cal.fit:
+            raise CliError("this method's data has no static poses to plot")
+        ivs = [Interval(a, b) for a, b in cal.fit["intervals"]]
+        plot_fit(cal, rec, ivs, args.plot)
     if args.json:
         print(cal.to_json())
     else:
         _print_calibration(cal)
         if args.output:
             print(f"saved to {args.output}")
+        if args.plot:
+            print(f"plot written to {args.plot}")
     return 0
 
 
@@ -412,6 +426,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="zhang2021: static detector, Tedaldi's accelerometer variance (default) or "
                    "the gyroscope norm of Zhang 2021 eq. (22)")
     p.add_argument("-o", "--output", help="write the calibration file (JSON) here")
+    p.add_argument("--plot", metavar="FILE.png", help="write a figure of the fit (needs matplotlib)")
     p.add_argument("--json", action="store_true", help="print the calibration as JSON on stdout")
     _add_reader_options(p)
     p.set_defaults(func=cmd_calibrate)

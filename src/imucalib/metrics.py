@@ -93,6 +93,7 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
     out = {
         "static_intervals": len(intervals),
         "accelerometer_residual_rms": float(np.sqrt(np.mean(res**2))),
+        "intervals": [[int(iv.start), int(iv.stop)] for iv in intervals],  # sample indices [start, stop)
     }
     if len(intervals) >= 2:
         ang = np.degrees(gravity_direction_errors(calibration, recording, intervals))

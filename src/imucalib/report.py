@@ -1,0 +1,71 @@
+"""Plots of a calibration's fit, where a person would rather look than read.
+
+One figure, three panels over the recording used for the calibration:
+
+1. the norm of the calibrated accelerometer against ``g``, the static intervals shaded;
+2. ``‖a_k‖ − g`` per static pose [mm/s²] (the ``fit.accelerometer_residual_rms`` terms);
+3. the angle between measured and gyro-predicted gravity per transition [deg]
+   (the ``fit.gyroscope_angle_error_*`` terms).
+
+matplotlib is an optional dependency (``pip install "imucalib[plot]"``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .calibration import Calibration
+from .metrics import gravity_direction_errors, gravity_residuals
+from .recording import Interval, Recording
+
+__all__ = ["plot_fit"]
+
+
+def plot_fit(calibration: Calibration, recording: Recording, intervals: Sequence[Interval],
+             path: str | Path) -> Path:
+    """Write the fit figure (PNG, SVG or PDF by the file's suffix) and return its path."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise ValueError('plots need matplotlib: pip install "imucalib[plot]"') from None
+    intervals = [iv for iv in intervals if iv.kind == "static"]
+    out = calibration.apply(recording)
+    g = calibration.gravity
+    t = recording.t - recording.t[0]
+    res = gravity_residuals(calibration, recording, intervals) * 1e3
+    ang = np.degrees(gravity_direction_errors(calibration, recording, intervals)) if len(intervals) > 1 \
+        else np.array([])
+    fig, axes = plt.subplots(3, 1, figsize=(10, 8.5), constrained_layout=True)
+    ax = axes[0]
+    ax.plot(t, np.linalg.norm(out.acc, axis=1), lw=0.6, color="tab:blue", label="‖a‖ calibrated")
+    ax.axhline(g, color="k", lw=0.8, ls="--", label=f"g = {g:.5g} m/s²")
+    for k, iv in enumerate(intervals):
+        ax.axvspan(t[iv.start], t[iv.stop - 1], color="tab:green", alpha=0.15,
+                   label="static intervals" if k == 0 else None)
+    ax.set_ylabel("‖a‖ [m/s²]")
+    ax.set_xlabel("time [s]")
+    ax.set_title(f"{calibration.method} ({calibration.model}): {len(intervals)} static poses")
+    ax.legend(loc="upper right", fontsize=8)
+    ax = axes[1]
+    ax.bar(np.arange(len(res)), res, color="tab:blue")
+    rms = float(np.sqrt(np.mean((res / 1e3) ** 2)))
+    ax.set_ylabel("‖a‖ − g [mm/s²]")
+    ax.set_xlabel("static pose")
+    ax.set_title(f"gravity-norm residual per pose (RMS {rms:.3g} m/s²)")
+    ax = axes[2]
+    if ang.size:
+        ax.bar(np.arange(1, len(ang) + 1), ang, color="tab:orange")
+        ax.set_title(f"gravity direction predicted by the gyroscope (mean {ang.mean():.3g}°, "
+                     f"max {ang.max():.3g}°)")
+    ax.set_ylabel("angle error [deg]")
+    ax.set_xlabel("transition to pose")
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
