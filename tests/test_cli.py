@@ -128,3 +128,17 @@ def test_plot_of_the_fit(capsys, tmp_path, session_csv):
     assert img.shape[0] > 600 and img.shape[1] > 800  # a three-panel figure
     cal = Calibration.load(tmp_path / "c.json")
     assert len(cal.fit["intervals"]) == cal.fit["static_intervals"] == 25
+
+
+def test_noise_command_on_xsens(capsys):
+    if not DATA.is_dir():
+        pytest.skip("../shared/data/xsens_imu_tk not present (fresh clone): real-data test skipped")
+    code, out, err = run(capsys, "noise", DATA / "xsens_acc.mat", DATA / "xsens_gyro.mat", "--reader",
+                         "imutk", "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    assert 50 < doc["seconds"] < 53  # the ~51.5 s initial rest
+    rec = read([DATA / "xsens_acc.mat", DATA / "xsens_gyro.mat"], reader="imutk")
+    std = rec.acc[: doc["samples"]].std(axis=0)
+    # per-sample white noise from the Allan deviation ≈ the rest's standard deviation
+    np.testing.assert_allclose(doc["accelerometer"]["white_noise_per_sample"], std, rtol=0.3)

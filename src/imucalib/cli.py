@@ -380,6 +380,35 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_noise(args: argparse.Namespace) -> int:
+    from .noise import noise_parameters
+    from .segment import find_initial_rest
+
+    data = _read(args, args.data)
+    rec = getattr(data, "recording", data)
+    part = rec if args.whole else rec[find_initial_rest(rec)]
+    result = {"seconds": part.duration, "samples": len(part), "rate_hz": part.rate}
+    for name, x, unit in (("accelerometer", part.acc, part.acc_unit), ("gyroscope", part.gyro, part.gyro_unit)):
+        p = noise_parameters(x, part.rate)
+        result[name] = {"unit": unit, **{k: v.tolist() for k, v in p.items()}}
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    print(f"noise over {result['seconds']:.1f} s of rest ({result['samples']} samples, "
+          f"{result['rate_hz']:.4g} Hz), Allan deviation (IEEE 952 slopes):")
+    for name in ("accelerometer", "gyroscope"):
+        r = result[name]
+        u = r["unit"]
+        print(f"  {name}: white noise {_triple(r['white_noise_density'])} {u}·√s "
+              f"({_triple(r['white_noise_per_sample'])} {u} per sample), bias instability "
+              f"{_triple(r['bias_instability'])} {u}, random walk {_triple(r['random_walk'])} {u}/√s")
+    return 0
+
+
+def _triple(v) -> str:
+    return "[" + ", ".join("-" if not np.isfinite(x) else f"{x:.3g}" for x in v) + "]"
+
+
 def cmd_plan(args: argparse.Namespace) -> int:
     if args.method != "wang2019":
         raise CliError(f"a calibration plan is available for wang2019; got {args.method!r}")
@@ -502,6 +531,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("noise", help="Allan-deviation noise parameters of the initial rest",
+                       description="Estimate white noise, bias instability and random walk of both "
+                       "sensors from the Allan deviation of the recording's initial rest.")
+    p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
+    p.add_argument("--whole", action="store_true", help="use the whole recording (it must be at rest)")
+    p.add_argument("--json", action="store_true")
+    _add_reader_options(p)
+    p.set_defaults(func=cmd_noise)
 
     p = sub.add_parser("plan", help="print a method's calibration plan and parameter observability",
                        description="Print the positions and rotations of a method's optimal plan "
