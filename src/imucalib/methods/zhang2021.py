@@ -301,7 +301,10 @@ class _Problem:
                 jwd = segmented_five_point(jw_w, self.wl_starts, self.wl_stops, self.dt)
                 # j4 = w4 (∂a − ∂f_C/∂ω ∂ω − [r]× ∂ω̇ − L ∂r), built in place (the largest block)
                 j4 = np.matmul(dfc, jw_w)
-                j4 += skew(r) @ jwd
+                # + [r]× ω̇-Jacobian, column by column as r × v
+                j4[:, 0] += r[1] * jwd[:, 2] - r[2] * jwd[:, 1]
+                j4[:, 1] += r[2] * jwd[:, 0] - r[0] * jwd[:, 2]
+                j4[:, 2] += r[0] * jwd[:, 1] - r[1] * jwd[:, 0]
                 j4 *= -self.w4
                 j4[:, :, :na] += self.w4 * ja_w
                 j4[:, :, p - 3 :] = -self.w4 * lm
@@ -327,7 +330,12 @@ def segmented_five_point(x: np.ndarray, starts: np.ndarray, stops: np.ndarray, d
     segment end use second-order one-sided/central differences.
     """
     d = np.empty_like(x)
-    d[2:-2] = (x[:-4] - 8 * x[1:-3] + 8 * x[3:-1] - x[4:]) / (12 * dt)  # eq. (20)
+    inner = d[2:-2]  # eq. (20), built in place: (x₋₂ − 8x₋₁ + 8x₊₁ − x₊₂) / (12 dt)
+    np.subtract(x[3:-1], x[1:-3], out=inner)
+    inner *= 8.0
+    inner += x[:-4]
+    inner -= x[4:]
+    inner *= 1.0 / (12 * dt)
     a, b = np.asarray(starts), np.asarray(stops)
     d[a] = (-3 * x[a] + 4 * x[a + 1] - x[a + 2]) / (2 * dt)
     d[a + 1] = (x[a + 2] - x[a]) / (2 * dt)
