@@ -25,8 +25,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 import numpy as np
 
 from .calibration import Calibration
-from .kinematics import IntervalIntegrator, quat_to_matrix
-from .methods.zhang2021 import lever_arm_matrix, segmented_five_point
+from .kinematics import IntervalIntegrator, five_point_derivative, quat_to_matrix
+from .methods.zhang2021 import lever_arm_matrix
 
 __all__ = ["eq34", "eq35", "reductions", "parameter_errors", "montecarlo", "sequence_metrics"]
 
@@ -48,7 +48,7 @@ def eq34(calibration: Calibration, test, *, lever_arm: np.ndarray | None = None)
         if seg.kind != "weightless":
             continue
         w = out.gyro[seg.slice]
-        wd = segmented_five_point(w, np.array([0]), np.array([len(w)]), dt)  # eq. (20)
+        wd = five_point_derivative(w, dt)  # eq. (20)
         e = out.acc[seg.slice] - lever_arm_matrix(w, wd) @ r
         total += float(np.sum(e * e))
     return total

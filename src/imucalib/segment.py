@@ -21,6 +21,7 @@ __all__ = [
     "runs",
     "variance_norm",
     "find_initial_rest",
+    "gyro_norm_variance",
     "detect_static",
     "motion_between",
 ]
@@ -160,6 +161,18 @@ def motion_between(static: list[Interval]) -> list[Interval]:
     ]
 
 
+def gyro_norm_variance(recording: Recording, rest: Interval, window: float) -> tuple[np.ndarray, np.ndarray]:
+    """The statistic of Zhang 2021, eq. (22): ``ζ(t) = var_{t_w}(‖u_g − b‖)``.
+
+    Returns the bias-free raw gyroscope norm (bias = mean of ``rest``) and its
+    variance over a centred window of ``window`` seconds.
+    """
+    bias = recording.gyro[rest.slice].mean(axis=0)
+    norm = np.linalg.norm(recording.gyro - bias, axis=1)
+    win = max(int(round(window * recording.rate)) | 1, 3)
+    return norm, moving_variance(norm, win)[:, 0]
+
+
 def detect_static_gyro(
     recording: Recording,
     rest: Interval,
@@ -180,10 +193,7 @@ def detect_static_gyro(
     detector (:func:`detect_static`) would not.
     """
     rate = recording.rate
-    bias = recording.gyro[rest.slice].mean(axis=0)
-    norm = np.linalg.norm(recording.gyro - bias, axis=1)
-    win = max(int(round(window * rate)) | 1, 3)
-    zeta = moving_variance(norm, win)[:, 0]  # eq. (22)
+    norm, zeta = gyro_norm_variance(recording, rest, window)  # eq. (22)
     zeta_init = float(np.var(norm[rest.slice]))
     if zeta_init <= 0:
         raise ValueError("the initial rest has zero gyroscope noise: eq. (22) cannot set a threshold")

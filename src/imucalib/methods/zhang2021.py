@@ -44,11 +44,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..calibration import Calibration
-from ..kinematics import IntervalIntegrator, quat_to_matrix, skew
+from ..kinematics import IntervalIntegrator, five_point_derivative, quat_to_matrix, segmented_five_point, skew
 from ..metrics import fit_summary, interval_means, transition_bounds
 from ..models import AXES, TriadModel, misalignment_entries
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
-from ..segment import detect_static_gyro, find_initial_rest, moving_variance, runs
+from ..segment import detect_static_gyro, find_initial_rest, gyro_norm_variance, runs
 from ..solve import levenberg_marquardt
 from .tedaldi2014 import calibrate_accelerometer, calibrate_gyroscope, detect_intervals
 
@@ -60,7 +60,6 @@ __all__ = [
     "detect_fall",
     "fall_loss",
     "lever_arm_matrix",
-    "segmented_five_point",
     "weights",
 ]
 
@@ -323,27 +322,6 @@ def lever_arm_matrix(w: np.ndarray, wdot: np.ndarray) -> np.ndarray:
     return n2[:, None, None] * np.eye(3) - w[:, :, None] * w[:, None, :] - skew(wdot)
 
 
-def segmented_five_point(x: np.ndarray, starts: np.ndarray, stops: np.ndarray, dt: float) -> np.ndarray:
-    """Five-point derivative (Zhang 2021, eq. 20) within each segment ``[start, stop)``.
-
-    The segments are consecutive rows of ``x`` (N, ...); the two samples at each
-    segment end use second-order one-sided/central differences.
-    """
-    d = np.empty_like(x)
-    inner = d[2:-2]  # eq. (20), built in place: (x₋₂ − 8x₋₁ + 8x₊₁ − x₊₂) / (12 dt)
-    np.subtract(x[3:-1], x[1:-3], out=inner)
-    inner *= 8.0
-    inner += x[:-4]
-    inner -= x[4:]
-    inner *= 1.0 / (12 * dt)
-    a, b = np.asarray(starts), np.asarray(stops)
-    d[a] = (-3 * x[a] + 4 * x[a + 1] - x[a + 2]) / (2 * dt)
-    d[a + 1] = (x[a + 2] - x[a]) / (2 * dt)
-    d[b - 2] = (x[b - 1] - x[b - 3]) / (2 * dt)
-    d[b - 1] = (3 * x[b - 1] - 4 * x[b - 2] + x[b - 3]) / (2 * dt)
-    return d
-
-
 def detect_weightless(
     recording: Recording,
     *,
@@ -369,10 +347,8 @@ def detect_weightless(
     loss of eq. (19).
     """
     rate = recording.rate
-    bias = recording.gyro[rest.slice].mean(axis=0)
-    norm = np.linalg.norm(recording.gyro - bias, axis=1)
     win = max(int(round(window * rate)) | 1, 3)
-    zeta = moving_variance(norm, win)[:, 0]  # eq. (22)
+    norm, zeta = gyro_norm_variance(recording, rest, window)  # eq. (22)
     zeta_init = float(np.median(zeta[rest.slice]))
     noise = float(np.std(norm[rest.slice]))
     if min_rate is None:
@@ -395,7 +371,7 @@ def fall_loss(calibration: Calibration, recording: Recording) -> np.ndarray:
                          "'cubic' or 'all' and weightless data")
     out = calibration.apply(recording)
     dt = 1.0 / recording.rate
-    wd = segmented_five_point(out.gyro, np.array([0]), np.array([len(out)]), dt)
+    wd = five_point_derivative(out.gyro, dt)
     e = out.acc - lever_arm_matrix(out.gyro, wd) @ calibration.lever_arm
     return np.linalg.norm(e, axis=1)
 
