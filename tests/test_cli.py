@@ -142,3 +142,15 @@ def test_noise_command_on_xsens(capsys):
     std = rec.acc[: doc["samples"]].std(axis=0)
     # per-sample white noise from the Allan deviation ≈ the rest's standard deviation
     np.testing.assert_allclose(doc["accelerometer"]["white_noise_per_sample"], std, rtol=0.3)
+
+
+def test_every_method_accepts_a_progress_callback():
+    from imucalib.methods import calibrate
+    from imucalib.simulate import qureshi_session
+
+    rec, iv, truth = qureshi_session(1)
+    seen = []
+    for method in ("tedaldi2014", "ellipsoid", "qureshi2017"):
+        cal = calibrate(rec, method=method, gravity=truth.gravity, progress=seen.append)
+        assert cal.method == method
+    assert "detecting static intervals" in seen  # tedaldi2014 reports its stages

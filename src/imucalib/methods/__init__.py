@@ -56,7 +56,7 @@ def _wang2019(data, *, model: str | None, gravity: float, **options: Any) -> Cal
         raise ValueError("wang2019 needs turntable data (static position means and clockwise/"
                          "counter-clockwise turn integrals), as the wang2019 scenario provides; "
                          "it does not run on a free-hand recording")
-    return wang2019.calibrate(data, gravity=gravity, **options)
+    return wang2019.calibrate(data, gravity=gravity, **_accepted(wang2019.calibrate, options))
 
 
 def _linear_only(module_name: str) -> Callable[..., Calibration]:
@@ -66,7 +66,8 @@ def _linear_only(module_name: str) -> Callable[..., Calibration]:
         if model not in (None, "linear"):
             raise ValueError(f"{module_name} fits the linear model only; got model={model!r}")
         module = importlib.import_module(f"{__name__}.{module_name}")
-        return module.calibrate(_recording_of(data), gravity=gravity, **options)
+        return module.calibrate(_recording_of(data), gravity=gravity,
+                                **_accepted(module.calibrate, options))
 
     return run
 
@@ -86,6 +87,15 @@ METHODS: dict[str, Callable[..., Calibration]] = {
 def method_names() -> list[str]:
     """Names accepted by :func:`calibrate`."""
     return sorted(METHODS)
+
+
+def _accepted(fn: Callable, options: dict) -> dict:
+    """``options`` without ``progress`` when ``fn`` does not report progress."""
+    import inspect
+
+    if "progress" in options and "progress" not in inspect.signature(fn).parameters:
+        options = {k: v for k, v in options.items() if k != "progress"}
+    return options
 
 
 def _recording_of(data) -> Recording:
