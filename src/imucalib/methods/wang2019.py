@@ -240,7 +240,7 @@ def plan_report(seed: int = 0) -> dict:
     # residual noise: σ of ‖f‖² − g² from 1 µg position means; of the turn norms from the sample noise
     s_a = 2 * sim.gravity * sim.options["noise"]["accelerometer_mean"]
     s_g = 2 * (4 * np.pi) * np.sqrt(2 * 360 / sim.options["rate_deg_s"] / sim.options["sample_rate"]) \
-        * sim.options["noise"]["gyroscope_sample"] / np.sqrt(sim.options["sample_rate"])
+        * sim.options["noise"]["gyroscope_sample"]
     s_b = 2 * EARTH_RATE * sim.options["noise"]["gyroscope_mean"]
     names_a = [f"K_a1{c}" for c in "xyz"] + [f"K_a2{c}" for c in "xyz"] + [f"K_a3{c}" for c in "xyz"] \
         + ["E_ayx", "E_azx", "E_azy"] + [f"bias_a{c}" for c in "xyz"]
