@@ -82,3 +82,15 @@ def test_plan_shows_every_parameter_observable(capsys):
     assert 0.5 < bias["crlb_std"] / (1e-6 * G0) < 5  # µg: the order the Monte Carlo shows (~2 µg)
     assert main(["plan", "--method", "wang2019"]) == 0
     assert "observable" in capsys.readouterr().out
+
+
+def test_simulate_then_calibrate_a_wang_directory(tmp_path, capsys):
+    from imucalib.cli import main
+
+    assert main(["simulate", "--scenario", "wang2019", "--seed", "5", "-o", str(tmp_path / "w")]) == 0
+    assert main(["calibrate", str(tmp_path / "w"), "--method", "wang2019", "-o", str(tmp_path / "c.json")]) == 0
+    from imucalib.calibration import Calibration
+
+    cal, truth = Calibration.load(tmp_path / "c.json"), Calibration.load(tmp_path / "w" / "truth.json")
+    np.testing.assert_allclose(cal.accelerometer.scale, truth.accelerometer.scale, rtol=1e-5)
+    np.testing.assert_allclose(cal.accelerometer.output_bias, truth.accelerometer.output_bias, atol=1e-4)

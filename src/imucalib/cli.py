@@ -95,6 +95,8 @@ def _print_calibration(cal: Calibration) -> None:
         print("  scale k2: " + "  ".join(f"{v:.7g}" for v in a.scale_quadratic))
         print("  scale k3: " + "  ".join(f"{v:.7g}" for v in a.scale_cubic))
     print(f"  bias b [{ua}]: " + "  ".join(f"{v:.7g}" for v in a.bias))
+    if np.any(a.output_bias):
+        print("  output bias d [m/s^2]: " + "  ".join(f"{v:.7g}" for v in a.output_bias))
     print("gyroscope  ω = T_g · f(u − b − G·a)")
     print("  misalignment T_g:\n" + _fmt_matrix(g.misalignment))
     print(f"  scale k1 [rad/s per {ug}]: " + "  ".join(f"{v:.7g}" for v in g.scale))
@@ -102,6 +104,8 @@ def _print_calibration(cal: Calibration) -> None:
         print("  scale k2: " + "  ".join(f"{v:.7g}" for v in g.scale_quadratic))
         print("  scale k3: " + "  ".join(f"{v:.7g}" for v in g.scale_cubic))
     print(f"  bias b [{ug}]: " + "  ".join(f"{v:.7g}" for v in g.bias))
+    if np.any(g.output_bias):
+        print("  output bias d [rad/s]: " + "  ".join(f"{v:.7g}" for v in g.output_bias))
     if np.any(g.g_sensitivity):
         print("  g-sensitivity G:\n" + _fmt_matrix(g.g_sensitivity))
     if cal.lever_arm is not None:
@@ -135,7 +139,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         from .recording import Interval
         from .report import plot_fit
 
-        rec = getattr(data, "recording", data)
+        rec = data if not hasattr(data, "positions_acc") else None
+        rec = getattr(rec, "recording", rec)
         if rec is None or "intervals" not in cal.fit:
             raise CliError("this method's data has no static poses to plot")
         ivs = [Interval(a, b) for a, b in cal.fit["intervals"]]
@@ -559,6 +564,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.simplefilter("always", ImucalibWarning)
             warnings.showwarning = _show_warning
             return int(args.func(args) or 0)
+    except BrokenPipeError:  # output piped into e.g. head: not an error
+        sys.stderr.close()
+        return 0
     except (ValueError, TypeError, OSError, CliError) as exc:
         print(f"imucalib {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_ERROR

@@ -393,8 +393,8 @@ def write_session(sim: Session, directory: str | Path) -> Path:
     return d
 
 
-def read_session(directory: str | Path) -> Session:
-    """Read a directory written by :func:`write_session`."""
+def read_session(directory: str | Path):
+    """Read a directory written by :func:`write_session` (or a wang2019 one by ``imucalib simulate``)."""
     d = Path(directory)
     meta_path = d / "session.json"
     if not meta_path.is_file():
@@ -402,6 +402,16 @@ def read_session(directory: str | Path) -> Session:
     meta = json.loads(meta_path.read_text(encoding="utf-8"))
     if meta.get("format") != "imucalib.session":
         raise ValueError(f"{meta_path}: not an imucalib session file")
+    if meta.get("scenario") == "wang2019":  # turntable aggregates, not recordings
+        from .scenarios_wang2019 import WangSession
+
+        pos = np.loadtxt(d / "positions.csv", delimiter=",", skiprows=1, ndmin=2)
+        turns = np.loadtxt(d / "turns.csv", delimiter=",", skiprows=1, ndmin=2)
+        truth = Calibration.load(d / "truth.json") if (d / "truth.json").is_file() else None
+        return WangSession(positions_acc=pos[:, :3], positions_gyro=pos[:, 3:6], turn_sum=turns[:, :3],
+                           turn_sum2=turns[:, 3:6], turn_angle=turns[:, 6], truth=truth,
+                           latitude_deg=meta.get("latitude_deg", 0.0),
+                           turntable_error=meta.get("turntable_error", ""), options=meta.get("options", {}))
     units = meta["units"]
     files = meta["files"]
 
