@@ -7,7 +7,7 @@ One figure, three panels over the recording used for the calibration:
 3. the angle between measured and gyro-predicted gravity per transition [deg]
    (the ``fit.gyroscope_angle_error_*`` terms).
 
-matplotlib is an optional dependency (``pip install "imucalib[plot]"``).
+matplotlib is an optional dependency (the ``plot`` extra: ``pip install ".[plot]"``).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ def plot_fit(calibration: Calibration, recording: Recording, intervals: Sequence
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        raise ValueError('plots need matplotlib: pip install "imucalib[plot]"') from None
+        raise ValueError('plots need matplotlib: pip install ".[plot]" (or matplotlib)') from None
     intervals = [iv for iv in intervals if iv.kind == "static"]
     out = calibration.apply(recording)
     g = calibration.gravity
