@@ -70,10 +70,12 @@ def test_montecarlo_spread_equals_the_cramer_rao_bound():
 
     truth = session(0).truth
     report = {p["parameter"]: p["crlb_std"] for p in plan_report(0)["parameters"]}
-    errs = []
+    errs, reported = [], []
     for seed in range(100, 160):
         sim = session(seed, truth=truth)
         cal = calibrate(sim, method="wang2019")
+        u = cal.fit["uncertainty"]
+        reported.append([u[f"gyroscope.scale.{a}"] for a in "xyz"] + [u[f"gyroscope.output_bias.{a}"] for a in "xyz"])
         g, tg = cal.gyroscope, truth.gyroscope
         errs.append(np.concatenate([g.scale - tg.scale, [g.misalignment[1, 0] - tg.misalignment[1, 0]],
                                     g.output_bias - tg.output_bias,
@@ -83,6 +85,10 @@ def test_montecarlo_spread_equals_the_cramer_rao_bound():
                                          "bias_ax", "bias_ay", "bias_az")])
     ratio = rms / crlb
     assert np.all((ratio > 0.65) & (ratio < 1.4)), ratio  # 60 runs: the RMS is known to ~9 %
+    # the errors each fit reports (σ² from its residuals) agree with the spread on average
+    mean_reported = np.sqrt(np.mean(np.square(reported), axis=0))
+    spread = rms[[0, 1, 2, 4, 5, 6]]
+    assert np.all((mean_reported / spread > 0.6) & (mean_reported / spread < 1.6)), mean_reported / spread
 
 
 def test_noise_options_are_checked_and_reach_the_outputs():

@@ -80,41 +80,52 @@ def _progress(enabled: bool):
     return say
 
 
-def _fmt_matrix(m: np.ndarray) -> str:
-    return "\n".join("    [" + "  ".join(f"{v: .7g}" for v in row) + "]" for row in m)
-
-
 def _print_calibration(cal: Calibration) -> None:
+    """The calibration for a person: every parameter, with ± its 1σ error where the method gives one."""
+    unc = (cal.fit or {}).get("uncertainty") or {}
+
+    def pm(name: str, value: float, fmt: str = ".7g") -> str:
+        s = unc.get(name)
+        return f"{value:{fmt}}" + (f" ± {s:.2g}" if s is not None and np.isfinite(s) else "")
+
+    def vec(prefix: str, key: str, values) -> str:
+        return "  ".join(pm(f"{prefix}.{key}.{ax}", v) for ax, v in zip("xyz", values, strict=True))
+
+    def matrix(prefix: str, key: str, m) -> str:
+        cells = [[pm(f"{prefix}.{key}.{'xyz'[i]}{'xyz'[j]}", v, " .7g") for j, v in enumerate(row)]
+                 for i, row in enumerate(m)]
+        width = max(len(c) for row in cells for c in row)
+        return "\n".join("    [" + "  ".join(c.ljust(width) for c in row) + "]" for row in cells)
+
     a, g = cal.accelerometer, cal.gyroscope
     ua, ug = cal.units["accelerometer"]["raw"], cal.units["gyroscope"]["raw"]
     print(f"method: {cal.method}   model: {cal.model}   gravity: {cal.gravity} m/s^2")
-    print("accelerometer  a = T_a · f(u − b)")
-    print("  misalignment T_a:\n" + _fmt_matrix(a.misalignment))
-    print(f"  scale k1 [m/s^2 per {ua}]: " + "  ".join(f"{v:.7g}" for v in a.scale))
-    if not a.is_linear:
-        print("  scale k2: " + "  ".join(f"{v:.7g}" for v in a.scale_quadratic))
-        print("  scale k3: " + "  ".join(f"{v:.7g}" for v in a.scale_cubic))
-    print(f"  bias b [{ua}]: " + "  ".join(f"{v:.7g}" for v in a.bias))
-    if np.any(a.output_bias):
-        print("  output bias d [m/s^2]: " + "  ".join(f"{v:.7g}" for v in a.output_bias))
-    print("gyroscope  ω = T_g · f(u − b − G·a)")
-    print("  misalignment T_g:\n" + _fmt_matrix(g.misalignment))
-    print(f"  scale k1 [rad/s per {ug}]: " + "  ".join(f"{v:.7g}" for v in g.scale))
-    if not g.is_linear:
-        print("  scale k2: " + "  ".join(f"{v:.7g}" for v in g.scale_quadratic))
-        print("  scale k3: " + "  ".join(f"{v:.7g}" for v in g.scale_cubic))
-    print(f"  bias b [{ug}]: " + "  ".join(f"{v:.7g}" for v in g.bias))
-    if np.any(g.output_bias):
-        print("  output bias d [rad/s]: " + "  ".join(f"{v:.7g}" for v in g.output_bias))
-    if np.any(g.g_sensitivity):
-        print("  g-sensitivity G:\n" + _fmt_matrix(g.g_sensitivity))
+    if unc:
+        print("(± : 1σ standard error of the fit)")
+    for prefix, t, unit, cal_unit, formula in (
+            ("accelerometer", a, ua, "m/s^2", "a = T_a · f(u − b)"),
+            ("gyroscope", g, ug, "rad/s", "ω = T_g · f(u − b − G·a)")):
+        print(f"{prefix}  {formula}")
+        print(f"  misalignment T:\n{matrix(prefix, 'misalignment', t.misalignment)}")
+        print(f"  scale k1 [{cal_unit} per {unit}]: {vec(prefix, 'scale', t.scale)}")
+        if not t.is_linear:
+            print(f"  scale k2: {vec(prefix, 'scale_quadratic', t.scale_quadratic)}")
+            print(f"  scale k3: {vec(prefix, 'scale_cubic', t.scale_cubic)}")
+        print(f"  bias b [{unit}]: {vec(prefix, 'bias', t.bias)}")
+        if np.any(t.output_bias):
+            print(f"  output bias d [{cal_unit}]: {vec(prefix, 'output_bias', t.output_bias)}")
+        if np.any(t.g_sensitivity):
+            print(f"  g-sensitivity G:\n{matrix(prefix, 'g_sensitivity', t.g_sensitivity)}")
     if cal.lever_arm is not None:
-        print("lever arm r [m]: " + "  ".join(f"{v:.6g}" for v in cal.lever_arm))
+        print("lever arm r [m]: " + "  ".join(pm(f"lever_arm.{ax}", v, ".6g")
+                                               for ax, v in zip("xyz", cal.lever_arm, strict=True)))
     if cal.fit:
         print("fit:")
         for k, v in cal.fit.items():
             if k == "intervals":
                 print(f"  intervals: {len(v)} (sample ranges in the JSON)")
+            elif k == "uncertainty":
+                continue
             else:
                 print(f"  {k}: {v:.6g}" if isinstance(v, float) else f"  {k}: {v}")
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LMResult", "levenberg_marquardt", "covariance"]
+__all__ = ["LMResult", "levenberg_marquardt", "covariance", "standard_errors"]
 
 
 @dataclass
@@ -147,3 +147,40 @@ def covariance(jac: np.ndarray, residuals: np.ndarray, n_params: int | None = No
     dof = max(m - p, 1)
     s2 = float(residuals @ residuals) / dof
     return s2 * np.linalg.pinv(jac.T @ jac)
+
+
+def standard_errors(jac: np.ndarray, residuals: np.ndarray, *, dof: float | None = None,
+                    transform: np.ndarray | None = None, rcond: float = 1e-10) -> np.ndarray:
+    """1σ standard errors of least-squares estimates, NaN where the data do not determine them.
+
+    The covariance of a least-squares fit at its minimum is ``σ² (JᵀJ)⁻¹``
+    with ``σ² = ‖r‖² / dof`` (Gauss–Newton approximation; e.g. Nocedal &
+    Wright, *Numerical Optimization*, §10.3), ``dof`` the residuals' degrees
+    of freedom minus the parameters (default ``M − P``). ``transform`` (Q, P)
+    maps the fitted parameters to reported ones to first order (delta method:
+    ``A C Aᵀ``). The columns are scaled to unit norm before inverting, so
+    parameters spanning many orders of magnitude keep their accuracy; an
+    eigen-direction of the scaled ``JᵀJ`` below ``rcond`` times the largest is
+    unobservable, and every parameter with a visible share of it gets NaN
+    rather than a falsely small error. Returns NaN everywhere when there are
+    no degrees of freedom left to estimate ``σ²``.
+    """
+    m, p = jac.shape
+    dof = m - p if dof is None else dof
+    if dof <= 0:
+        return np.full(p if transform is None else transform.shape[0], np.nan)
+    s2 = float(residuals @ residuals) / dof
+    col = np.linalg.norm(jac, axis=0)
+    col = np.where(col > 0, col, 1.0)
+    js = jac / col
+    w, v = np.linalg.eigh(js.T @ js)
+    good = w > rcond * max(w[-1], np.finfo(float).tiny)
+    cov_s = (v[:, good] / w[good]) @ v[:, good].T
+    cov = s2 * cov_s / np.outer(col, col)
+    bad = np.any(np.abs(v[:, ~good]) > 1e-3, axis=1)  # loaded on an unobservable direction
+    if transform is not None:
+        bad = np.abs(transform) @ bad.astype(float) > 0
+        cov = transform @ cov @ transform.T
+    out = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    out[bad] = np.nan
+    return out

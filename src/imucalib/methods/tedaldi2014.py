@@ -31,7 +31,7 @@ import numpy as np
 from ..calibration import Calibration
 from ..kinematics import IntervalIntegrator, angle_between, quat_from_rotvec, quat_to_matrix
 from ..metrics import fit_summary, interval_means, transition_bounds
-from ..models import TriadModel
+from ..models import AXES, TriadModel
 from ..recording import STANDARD_GRAVITY, Interval, Recording
 from ..residuals import (
     AccelLayout,
@@ -41,10 +41,10 @@ from ..residuals import (
     gravity_norm_residuals,
 )
 from ..segment import detect_static, find_initial_rest, variance_norm
-from ..solve import levenberg_marquardt
+from ..solve import levenberg_marquardt, standard_errors
 from .ellipsoid import fit_ellipsoid, fit_sphere
 
-__all__ = ["calibrate", "calibrate_accelerometer", "calibrate_gyroscope", "detect_intervals"]
+__all__ = ["calibrate", "calibrate_accelerometer", "calibrate_gyroscope", "detect_intervals", "uncertainty"]
 
 MIN_INTERVALS = 9
 
@@ -167,30 +167,15 @@ def _gyro_scale_guess(
     return float(ks[int(np.argmin(cost))])
 
 
-def calibrate_gyroscope(
-    recording: Recording,
-    intervals: list[Interval],
-    accelerometer: TriadModel,
-    bias: np.ndarray,
-    *,
-    estimate_bias: bool = False,
-) -> TriadModel:
-    """Gyroscope ``T_g``, ``K_g`` (and ``b_g``) from gravity directions between poses.
-
-    Minimises the residuals of Zhang 2021, eq. (14) (unit gravity directions)
-    with Levenberg–Marquardt and the analytic first-order Jacobian of
-    :func:`~imucalib.residuals.gravity_direction_residuals_jac`.
-    """
-    if len(intervals) < 4:
-        raise ValueError(f"gyroscope calibration needs at least 4 static poses; got {len(intervals)}")
+def _gyro_problem(recording, intervals, accelerometer, bias, estimate_bias):
+    """Residuals of Zhang 2021, eq. (14) in the :class:`GyroLayout` parameters, their Jacobian, the pose directions."""
     acc = accelerometer.forward(interval_means(recording.acc, intervals))
     dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
     starts, stops = transition_bounds(intervals)
     integrator = IntervalIntegrator(recording.t, starts, stops)
     raw = recording.gyro[integrator.samples]  # only the samples the integration reads
-    n = raw.shape[0]
     layout = GyroLayout(estimate_bias)
-    d = np.zeros((n, 3, layout.size))
+    d = np.zeros((raw.shape[0], 3, layout.size))
 
     def split(th):
         return th[:9].reshape(3, 3), (th[9:12] if estimate_bias else bias)
@@ -208,10 +193,71 @@ def calibrate_gyroscope(
             d[:, :, 9:12] = -m
         return gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1]
 
+    return fun, jac, layout, dirs, (starts, stops)
+
+
+def calibrate_gyroscope(
+    recording: Recording,
+    intervals: list[Interval],
+    accelerometer: TriadModel,
+    bias: np.ndarray,
+    *,
+    estimate_bias: bool = False,
+) -> TriadModel:
+    """Gyroscope ``T_g``, ``K_g`` (and ``b_g``) from gravity directions between poses.
+
+    Minimises the residuals of Zhang 2021, eq. (14) (unit gravity directions)
+    with Levenberg–Marquardt and the analytic first-order Jacobian of
+    :func:`~imucalib.residuals.gravity_direction_residuals_jac`.
+    """
+    if len(intervals) < 4:
+        raise ValueError(f"gyroscope calibration needs at least 4 static poses; got {len(intervals)}")
+    fun, jac, layout, dirs, (starts, stops) = _gyro_problem(recording, intervals, accelerometer, bias,
+                                                            estimate_bias)
     k = _gyro_scale_guess(recording.gyro - bias, recording.t, starts, stops, dirs)
     theta0 = layout.pack(TriadModel(scale=np.full(3, k), bias=bias))
     sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-12, ftol=1e-12)
     return layout.unpack(sol.x, bias)
+
+
+def uncertainty(recording: Recording, intervals: list[Interval], calibration: Calibration, *,
+                estimate_gyro_bias: bool = False) -> dict[str, float]:
+    """1σ standard errors of the linear model's parameters, by name (``DESIGN.md``).
+
+    From the Jacobians of the two fits at the solution
+    (:func:`~imucalib.solve.standard_errors`): the gravity-norm residuals of
+    the static means for the accelerometer, the eq. (14) gravity-direction
+    residuals for the gyroscope. A direction residual has two degrees of
+    freedom, not three (both directions are unit vectors), which sets ``σ²``.
+    The gyroscope's errors treat the accelerometer's as fixed, and its bias as
+    exact unless it is estimated. NaN where the data cannot determine a
+    parameter.
+    """
+    acc, gyro = calibration.accelerometer, calibration.gyroscope
+    means = interval_means(recording.acc, intervals)
+    lay_a = AccelLayout("upper", 1)
+    r, j = gravity_norm_residuals(lay_a.pack(acc), lay_a, means, calibration.gravity, jacobian=True)
+    out = dict(zip(lay_a.names("accelerometer"), standard_errors(j, r), strict=True))
+    fun, jac, layout, _, _ = _gyro_problem(recording, intervals, acc, gyro.bias, estimate_gyro_bias)
+    theta = layout.pack(gyro)
+    r, j = fun(theta), jac(theta)
+    m = theta[:9].reshape(3, 3)
+    # delta method: (M) → (T_ij = M_ij / M_jj for i ≠ j, k_j = M_jj) [, b]
+    off = [(i, jj) for i in range(3) for jj in range(3) if i != jj]
+    names = [f"gyroscope.misalignment.{AXES[i]}{AXES[jj]}" for i, jj in off]
+    names += [f"gyroscope.scale.{a}" for a in AXES]
+    a = np.zeros((9 + (3 if estimate_gyro_bias else 0), layout.size))
+    for row, (i, jj) in enumerate(off):
+        a[row, 3 * i + jj] = 1.0 / m[jj, jj]
+        a[row, 4 * jj] = -m[i, jj] / m[jj, jj] ** 2
+    for jj in range(3):
+        a[6 + jj, 4 * jj] = 1.0
+    if estimate_gyro_bias:
+        names += [f"gyroscope.bias.{ax}" for ax in AXES]
+        a[9:12, 9:12] = np.eye(3)
+    dof = 2 * (len(r) // 3) - layout.size
+    out.update(zip(names, standard_errors(j, r, dof=dof, transform=a), strict=True))
+    return {k: float(v) for k, v in out.items()}
 
 
 def calibrate(
@@ -287,4 +333,5 @@ def calibrate(
     fit = fit_summary(cal, recording, intervals, gravity)
     fit["threshold_multiplier"] = mult
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
+    fit["uncertainty"] = uncertainty(recording, intervals, cal, estimate_gyro_bias=estimate_gyro_bias)
     return cal.with_(fit=fit)

@@ -18,7 +18,12 @@ Model (eqs. 2, 6): ``f = C_a (K_a1 N + K_a2 N² + K_a3 N³ + ∇)``,
   Figs. 4–5 comparison.
 
 All minimisations are Levenberg–Marquardt (:func:`imucalib.solve.levenberg_marquardt`)
-with analytic Jacobians, on parameters scaled to order one.
+with analytic Jacobians, on parameters scaled to order one. ``fit["uncertainty"]``
+holds 1σ errors from each fit's Jacobian and residuals
+(:func:`imucalib.solve.standard_errors`); the plan's 15 positions exactly
+determine the accelerometer's 15 parameters, so its errors are not available
+(null) unless more positions are recorded, and the gyroscope's rest on the
+3 degrees of freedom left by 12 turn pairs (a rough estimate).
 """
 
 from __future__ import annotations
@@ -28,7 +33,7 @@ import numpy as np
 from ..calibration import Calibration
 from ..models import TriadModel
 from ..scenarios_wang2019 import DEG, EARTH_RATE, G0, MICRO_G
-from ..solve import levenberg_marquardt
+from ..solve import levenberg_marquardt, standard_errors
 
 __all__ = ["PAPER_RMS", "calibrate", "parameter_errors_wang_units", "montecarlo", "plan_report"]
 
@@ -135,10 +140,23 @@ def calibrate(session, *, gravity: float | None = None, initial: str = "estimate
                      scale_cubic=ka[2], output_bias=xa[12:15], shape="lower")
     gyro = TriadModel(misalignment=_lower(eg), scale=kg[0], scale_quadratic=kg[1], output_bias=xb,
                       shape="lower")
+    names_k = ("scale", "scale_quadratic", "scale_cubic")
+    low = ("yx", "zx", "zy")
+    unc = {}
+    for prefix, sol, scales, keys in (
+            ("accelerometer", sol_a, scales_a, [*names_k, "misalignment", "output_bias"]),
+            ("gyroscope", sol_g, scales_g, [*names_k[:2], "misalignment"]),
+            ("gyroscope", sol_b, scales_b, ["output_bias"])):
+        names = [f"{prefix}.{k}.{c}" for k in keys for c in (low if k == "misalignment" else "xyz")]
+        unc.update(zip(names, standard_errors(sol.jac, sol.fun) * scales, strict=True))
     fit = {"positions": int(na.shape[0]), "turn_pairs": int(ns.shape[0]),
            "accelerometer_cost": float(sol_a.cost), "gyroscope_cost": float(sol_g.cost),
            "bias_cost": float(sol_b.cost),
-           "converged": bool(sol_a.success and sol_g.success and sol_b.success)}
+           "converged": bool(sol_a.success and sol_g.success and sol_b.success),
+           "uncertainty": {k: float(v) for k, v in unc.items()}}
+    if not np.isfinite(unc["accelerometer.scale.x"]):
+        fit["uncertainty_unavailable"] = (f"accelerometer: {na.shape[0]} positions for 15 parameters leave no "
+                                          "degrees of freedom to estimate the noise from the residuals")
     return Calibration(accelerometer=acc, gyroscope=gyro, gravity=g, method="wang2019",
                        model="wang2019", fit=fit)
 

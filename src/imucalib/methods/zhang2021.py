@@ -49,7 +49,7 @@ from ..metrics import fit_summary, interval_means, transition_bounds
 from ..models import AXES, TriadModel, misalignment_entries
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 from ..segment import detect_static_gyro, find_initial_rest, gyro_norm_variance, runs
-from ..solve import levenberg_marquardt
+from ..solve import levenberg_marquardt, standard_errors
 from .tedaldi2014 import calibrate_accelerometer, calibrate_gyroscope, detect_intervals
 
 __all__ = [
@@ -688,6 +688,9 @@ def calibrate(
     fit = fit_summary(cal, recording, static, gravity)
     fit["weights"] = {k: float(np.mean(v)) for k, v in c.items()}  # means over intervals
     fit["cost"] = float(sol.cost)
+    # 1σ errors from the weighted Jacobian at the solution, σ² from the weighted residuals
+    fit["uncertainty"] = {k: float(v) for k, v in
+                          zip(layout.names(), standard_errors(sol.jac, sol.fun), strict=True)}
     fit["iterations"] = int(sol.njev)
     fit["converged"] = bool(sol.success)
     if selection is not None:
