@@ -212,12 +212,17 @@ def calibrate_gyroscope(
     """
     if len(intervals) < 4:
         raise ValueError(f"gyroscope calibration needs at least 4 static poses; got {len(intervals)}")
+    return _fit_gyroscope(recording, intervals, accelerometer, bias, estimate_bias)[0]
+
+
+def _fit_gyroscope(recording, intervals, accelerometer, bias, estimate_bias):
+    """:func:`calibrate_gyroscope`, also returning its 1σ errors by name."""
     fun, jac, layout, dirs, (starts, stops) = _gyro_problem(recording, intervals, accelerometer, bias,
                                                             estimate_bias)
     k = _gyro_scale_guess(recording.gyro - bias, recording.t, starts, stops, dirs)
     theta0 = layout.pack(TriadModel(scale=np.full(3, k), bias=bias))
     sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-12, ftol=1e-12)
-    return layout.unpack(sol.x, bias)
+    return layout.unpack(sol.x, bias), _gyro_errors(sol.x, sol.jac, sol.fun, layout)
 
 
 def uncertainty(recording: Recording, intervals: list[Interval], calibration: Calibration, *,
@@ -231,33 +236,38 @@ def uncertainty(recording: Recording, intervals: list[Interval], calibration: Ca
     freedom, not three (both directions are unit vectors), which sets ``σ²``.
     The gyroscope's errors treat the accelerometer's as fixed, and its bias as
     exact unless it is estimated. NaN where the data cannot determine a
-    parameter.
+    parameter. :func:`calibrate` stores the same figures in ``fit["uncertainty"]``.
     """
     acc, gyro = calibration.accelerometer, calibration.gyroscope
-    means = interval_means(recording.acc, intervals)
-    lay_a = AccelLayout("upper", 1)
-    r, j = gravity_norm_residuals(lay_a.pack(acc), lay_a, means, calibration.gravity, jacobian=True)
-    out = dict(zip(lay_a.names("accelerometer"), standard_errors(j, r), strict=True))
+    out = _acc_errors(acc, interval_means(recording.acc, intervals), calibration.gravity)
     fun, jac, layout, _, _ = _gyro_problem(recording, intervals, acc, gyro.bias, estimate_gyro_bias)
     theta = layout.pack(gyro)
-    r, j = fun(theta), jac(theta)
+    return out | _gyro_errors(theta, jac(theta), fun(theta), layout)
+
+
+def _acc_errors(acc: TriadModel, means: np.ndarray, gravity: float) -> dict[str, float]:
+    lay = AccelLayout("upper", 1)
+    r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
+    return {k: float(v) for k, v in zip(lay.names("accelerometer"), standard_errors(j, r), strict=True)}
+
+
+def _gyro_errors(theta: np.ndarray, jac: np.ndarray, res: np.ndarray, layout: GyroLayout) -> dict[str, float]:
+    """Errors of ``M = T_g diag(k1)`` (and ``b``) carried to ``T_g`` and ``k1`` by the delta method."""
     m = theta[:9].reshape(3, 3)
-    # delta method: (M) → (T_ij = M_ij / M_jj for i ≠ j, k_j = M_jj) [, b]
-    off = [(i, jj) for i in range(3) for jj in range(3) if i != jj]
-    names = [f"gyroscope.misalignment.{AXES[i]}{AXES[jj]}" for i, jj in off]
+    off = [(i, j) for i in range(3) for j in range(3) if i != j]
+    names = [f"gyroscope.misalignment.{AXES[i]}{AXES[j]}" for i, j in off]
     names += [f"gyroscope.scale.{a}" for a in AXES]
-    a = np.zeros((9 + (3 if estimate_gyro_bias else 0), layout.size))
-    for row, (i, jj) in enumerate(off):
-        a[row, 3 * i + jj] = 1.0 / m[jj, jj]
-        a[row, 4 * jj] = -m[i, jj] / m[jj, jj] ** 2
-    for jj in range(3):
-        a[6 + jj, 4 * jj] = 1.0
-    if estimate_gyro_bias:
+    a = np.zeros((layout.size, layout.size))
+    for row, (i, j) in enumerate(off):  # T_ij = M_ij / M_jj
+        a[row, 3 * i + j] = 1.0 / m[j, j]
+        a[row, 4 * j] = -m[i, j] / m[j, j] ** 2
+    for j in range(3):  # k_j = M_jj
+        a[6 + j, 4 * j] = 1.0
+    if layout.estimate_bias:
         names += [f"gyroscope.bias.{ax}" for ax in AXES]
         a[9:12, 9:12] = np.eye(3)
-    dof = 2 * (len(r) // 3) - layout.size
-    out.update(zip(names, standard_errors(j, r, dof=dof, transform=a), strict=True))
-    return {k: float(v) for k, v in out.items()}
+    dof = 2 * (len(res) // 3) - layout.size  # two degrees of freedom per direction residual
+    return {k: float(v) for k, v in zip(names, standard_errors(jac, res, dof=dof, transform=a), strict=True)}
 
 
 def calibrate(
@@ -317,8 +327,7 @@ def calibrate(
         acc_model, _ = calibrate_accelerometer(interval_means(recording.acc, intervals), gravity)
     say("calibrating the gyroscope")
     bias = recording.gyro[rest.slice].mean(axis=0)
-    gyro_model = calibrate_gyroscope(recording, intervals, acc_model, bias,
-                                     estimate_bias=estimate_gyro_bias)
+    gyro_model, gyro_errors = _fit_gyroscope(recording, intervals, acc_model, bias, estimate_gyro_bias)
     cal = Calibration(
         accelerometer=acc_model,
         gyroscope=gyro_model,
@@ -333,5 +342,5 @@ def calibrate(
     fit = fit_summary(cal, recording, intervals, gravity)
     fit["threshold_multiplier"] = mult
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
-    fit["uncertainty"] = uncertainty(recording, intervals, cal, estimate_gyro_bias=estimate_gyro_bias)
+    fit["uncertainty"] = _acc_errors(acc_model, interval_means(recording.acc, intervals), gravity) | gyro_errors
     return cal.with_(fit=fit)
