@@ -40,8 +40,9 @@ def _positive_float(text: str) -> float:
 
 def _add_reader_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("reading the data")
-    g.add_argument("--reader", choices=("csv", "imutk", "mat", "session"),
+    g.add_argument("--reader", choices=("csv", "imutk", "mat", "rosbag", "session"),
                    help="input format (default: guessed from the file)")
+    g.add_argument("--topic", help="ROS bags: the sensor_msgs/Imu topic (needed when there are several)")
     g.add_argument("--columns", help="comma-separated column names or 0-based indices in the "
                    "order t,ax,ay,az,gx,gy,gz ('-' for no time column)")
     g.add_argument("--acc-unit", choices=("counts", "g", "m/s^2"),
@@ -55,7 +56,8 @@ def _add_reader_options(p: argparse.ArgumentParser) -> None:
 
 
 def _read(args: argparse.Namespace, paths: Sequence[str]):
-    if args.reader == "session" or (len(paths) == 1 and Path(paths[0]).is_dir()):
+    if args.reader == "session" or (args.reader is None and len(paths) == 1 and Path(paths[0]).is_dir()
+                                    and not (Path(paths[0]) / "metadata.yaml").is_file()):
         from .simulate import read_session
 
         return read_session(paths[0])
@@ -65,7 +67,7 @@ def _read(args: argparse.Namespace, paths: Sequence[str]):
     return read(
         list(paths), reader=args.reader, columns=columns, acc_unit=args.acc_unit,
         gyro_unit=args.gyro_unit, rate=args.rate, variable=args.variable,
-        time_unit=args.time_unit,
+        time_unit=args.time_unit, topic=args.topic,
     )
 
 

@@ -1,4 +1,4 @@
-"""Readers: generic CSV, imu_tk's two-file text format, MATLAB ``.mat``.
+"""Readers: generic CSV, imu_tk's two-file text format, MATLAB ``.mat``, ROS bags (:mod:`.rosbag`).
 
 Every reader returns a :class:`~imucalib.recording.Recording` and reports bad
 input with a :class:`ReaderError` naming the file, the line (1-based, as an
@@ -16,10 +16,11 @@ from pathlib import Path
 import numpy as np
 
 from ..recording import ACC_UNITS, GYRO_UNITS, ImucalibWarning, Recording
+from .rosbag import is_rosbag, read_rosbag
 
 __all__ = ["READERS", "ReaderError", "read", "guess_reader"]
 
-READERS = ("csv", "imutk", "mat")
+READERS = ("csv", "imutk", "mat", "rosbag")
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 FIELDS = ("t", "ax", "ay", "az", "gx", "gy", "gz")
 
@@ -39,14 +40,16 @@ def read(
     rate: float | None = None,
     variable: str | None = None,
     time_unit: str | None = None,
+    topic: str | None = None,
 ) -> Recording:
     """Read a recording.
 
     Parameters
     ----------
     paths : path or sequence of paths
-        One CSV or MAT file, or two imu_tk files (accelerometer, then gyroscope).
-    reader : {"csv", "imutk", "mat"}, optional
+        One CSV or MAT file, two imu_tk files (accelerometer, then gyroscope),
+        or one ROS bag (a ROS 1 ``.bag``, a ROS 2 bag directory, an ``.mcap``).
+    reader : {"csv", "imutk", "mat", "rosbag"}, optional
         The format; guessed from the file(s) when omitted (:func:`guess_reader`).
     columns : sequence of str, optional
         Column names (or 0-based indices as strings) in the order
@@ -63,6 +66,8 @@ def read(
     time_unit : {"s", "ms", "us", "ns"}, optional
         Unit of the time column (default: from the header, else inferred from
         the median step: see :func:`_infer_time_unit`).
+    topic : str, optional
+        ROS bags: the ``sensor_msgs/Imu`` topic, when the bag has several.
     """
     if isinstance(paths, str | Path):
         paths = [paths]
@@ -72,8 +77,8 @@ def read(
     for p in paths:
         if not p.exists():
             raise ReaderError(f"{p}: file not found")
-        if p.is_dir():
-            raise ReaderError(f"{p}: is a directory, not a data file")
+        if p.is_dir() and not is_rosbag(p):
+            raise ReaderError(f"{p}: is a directory, not a data file (a ROS 2 bag directory holds metadata.yaml)")
     if acc_unit is not None and acc_unit not in ACC_UNITS:
         raise ReaderError(f"unknown accelerometer unit {acc_unit!r}; use one of {', '.join(ACC_UNITS)}")
     if gyro_unit is not None and gyro_unit not in GYRO_UNITS:
@@ -91,7 +96,17 @@ def read(
         what = ("two files: the accelerometer file, then the gyroscope file" if expected == 2
                 else "one file")
         raise ReaderError(f"the {reader} reader takes {what}; got {len(paths)}")
-    if reader == "imutk":
+    if reader == "rosbag":
+        ignored = [name for name, v in (("columns", columns), ("acc_unit", acc_unit), ("gyro_unit", gyro_unit),
+                                        ("rate", rate), ("variable", variable), ("time_unit", time_unit))
+                   if v is not None]
+        if ignored:
+            raise ReaderError(f"a ROS bag's sensor_msgs/Imu fixes the fields, units and time; "
+                              f"{', '.join(ignored)} cannot be set")
+        rec = read_rosbag(paths[0], topic=topic)
+    elif topic is not None:
+        raise ReaderError(f"topic applies to ROS bags; the {reader} reader has none")
+    elif reader == "imutk":
         rec = _read_imutk(paths[0], paths[1], acc_unit, gyro_unit, time_unit)
     elif reader == "mat":
         rec = _read_mat(paths[0], columns, acc_unit, gyro_unit, rate, variable, time_unit)
@@ -103,7 +118,9 @@ def read(
 
 
 def guess_reader(paths: Sequence[Path]) -> str:
-    """``"mat"`` for MATLAB files, ``"imutk"`` for two 4-column text files, else ``"csv"``."""
+    """``"rosbag"`` for ROS bags, ``"mat"`` for MATLAB files, ``"imutk"`` for two files, else ``"csv"``."""
+    if is_rosbag(paths[0]):
+        return "rosbag"
     head = paths[0].open("rb").read(128)
     if head.startswith(b"MATLAB") or (head[:4] in (b"\x00\x00\x00\x00",) and paths[0].suffix == ".mat"):
         return "mat"
