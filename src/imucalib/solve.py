@@ -47,6 +47,7 @@ def levenberg_marquardt(
     gtol: float = 1e-8,
     max_iter: int = 200,
     lambda0: float = 1e-3,
+    stol: float = 0.0,
 ) -> LMResult:
     """Minimise ``½‖fun(x)‖²`` by Levenberg–Marquardt.
 
@@ -65,6 +66,15 @@ def levenberg_marquardt(
         Jacobian column is below ``gtol`` (status 1, MINPACK's test).
     max_iter : int
         Most iterations (status 0 when reached).
+    stol : float
+        Also stop (status 4) when an accepted step lowers the cost by less
+        than ``stol`` times the residual variance ``‖r‖²/(M − P)``: the fit
+        moved by ``√(2·stol)`` standard errors at most, far below what the
+        noise can resolve, and Gauss–Newton's quadratic convergence makes the
+        rest smaller still. The result's ``jac`` is then the one of the
+        previous iterate (the point differs by that step), which saves a
+        Jacobian evaluation. 0 (default) disables the test, as noise-free
+        data need.
     """
     x = np.array(x0, dtype=np.float64)
     r = np.asarray(fun(x), dtype=np.float64)
@@ -104,6 +114,10 @@ def levenberg_marquardt(
         if rho > 0:
             reduction = cost - cost_new
             x, r, cost = x_new, r_new, cost_new
+            dof = max(r.size - x.size, 1)
+            if stol > 0 and reduction <= stol * 2.0 * cost / dof:
+                status, message = 4, "the last step is negligible against the noise (stol)"
+                break
             j = None
             lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
             nu = 2.0

@@ -183,7 +183,9 @@ def _triad(t, k, x, entries, jac):
     jt = np.zeros((n, 3, len(entries)))
     for c, (i, j) in enumerate(entries):
         jt[:, i, c] = f[:, j]  # ∂(T f)/∂T_ij = e_i f_j
-    jk = np.concatenate([t[None, :, :] * p[:, None, :] for p in powers], axis=2)  # T[:, j] x_j^n
+    jk = np.empty((n, 3, 3 * len(powers)))
+    for m, p in enumerate(powers):
+        np.multiply(t[None, :, :], p[:, None, :], out=jk[:, :, 3 * m : 3 * m + 3])  # T[:, j] x_j^n
     dfdx = np.broadcast_to(k[0], x.shape) + sum(
         (m + 1) * k[m] * powers[m - 1] for m in range(1, k.shape[0]))
     dydx = t[None, :, :] * dfdx[:, None, :]
@@ -225,9 +227,8 @@ class _Problem:
         if not jac:
             return w, None
         n = raw_g.shape[0]
-        jw = np.empty((n, 3, lay.size))
-        jw[:, :, lay.n_acc + lay.n_gyro :] = 0.0  # the lever arm does not enter ω
-        jw[:, :, : lay.n_acc] = -((dwdx @ g) @ ja)  # through G·a
+        jw = np.zeros((n, 3, lay.size))  # the lever-arm columns stay zero: r does not enter ω
+        np.matmul(dwdx @ -g, ja, out=jw[:, :, : lay.n_acc])  # through G·a
         s = lay.n_acc
         o = lay.order
         jw[:, :, s : s + 6] = jt
@@ -300,10 +301,7 @@ class _Problem:
                 jwd = segmented_five_point(jw_w, self.wl_starts, self.wl_stops, self.dt)
                 # j4 = w4 (∂a − ∂f_C/∂ω ∂ω − [r]× ∂ω̇ − L ∂r), built in place (the largest block)
                 j4 = np.matmul(dfc, jw_w)
-                # + [r]× ω̇-Jacobian, column by column as r × v
-                j4[:, 0] += r[1] * jwd[:, 2] - r[2] * jwd[:, 1]
-                j4[:, 1] += r[2] * jwd[:, 0] - r[0] * jwd[:, 2]
-                j4[:, 2] += r[0] * jwd[:, 1] - r[1] * jwd[:, 0]
+                j4 += np.matmul(skew(r), jwd)  # + [r]× ∂ω̇
                 j4 *= -self.w4
                 j4[:, :, :na] += self.w4 * ja_w
                 j4[:, :, p - 3 :] = -self.w4 * lm
@@ -656,7 +654,8 @@ def calibrate(
         else:
             th0 = lay.pack(TriadModel(shape="upper"), TriadModel(shape="full"), np.zeros(3))
         return prob, levenberg_marquardt(
-            prob.residuals, lambda th: prob.residuals(th, jac=True)[1], th0, max_iter=max_iter)
+            prob.residuals, lambda th: prob.residuals(th, jac=True)[1], th0, max_iter=max_iter,
+            stol=1e-4 if noise_weights else 0.0)
 
     problem, sol = solve(layout)
     selection = None
