@@ -93,3 +93,38 @@ def test_calibrate_prints_the_errors(capsys, tmp_path):
                  "--gravity", str(truth.gravity)]) == 0
     out = capsys.readouterr().out
     assert "1σ standard error" in out and out.count(" ± ") >= 18
+
+
+def test_qureshi_and_ellipsoid_errors_match_the_spread():
+    from imucalib.simulate import qureshi_session
+
+    z = []
+    for seed in range(12):
+        rec, iv, truth = qureshi_session(seed)
+        for approach in ("static", "dynamic"):
+            cal = calibrate(rec, method="qureshi2017", gravity=truth.gravity, intervals=iv, gyroscope=approach)
+            unc = cal.fit["uncertainty"]
+            keys = [k for k in unc if k.startswith("gyroscope.scale")]
+            assert len(keys) == 3 and all(np.isfinite(unc[k]) for k in keys)
+            est, tru = cal.parameters(), truth.parameters()
+            if approach == "static":  # the accelerometer is the same fit for both approaches
+                z += [(est[k] - tru[k]) / unc[k] for k in unc if k.startswith("accelerometer")]
+            z += [(est[k] - tru[k]) / unc[k] for k in keys]
+    rms = np.sqrt(np.mean(np.square(z)))
+    assert 0.6 < rms < 1.6, rms
+    rec, truth, iv = tedaldi_session(seed=5, noise_acc=0.02, noise_gyro=0.003, poses=30)
+    cal = calibrate(rec, method="ellipsoid", gravity=truth.gravity, intervals=iv)
+    assert len(cal.fit["uncertainty"]) == 18 and all(np.isfinite(list(cal.fit["uncertainty"].values())))
+
+
+def test_exactly_determined_methods_say_why_they_have_no_errors():
+    from imucalib.simulate import ferraris_session
+    from synth import linear_truth
+
+    truth = linear_truth()
+    rec, iv, _ = ferraris_session(truth, 1)
+    cal = calibrate(rec, method="ferraris", gravity=truth.gravity, intervals=iv)
+    assert "no residual" in cal.fit["uncertainty_unavailable"] and "uncertainty" not in cal.fit
+    cal = calibrate(rec, method="six_position", gravity=truth.gravity, intervals=iv)
+    assert "six faces determine" in cal.fit["uncertainty_unavailable"]
+    assert all(k.startswith("gyroscope.") for k in cal.fit["uncertainty"])

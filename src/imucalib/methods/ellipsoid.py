@@ -109,7 +109,7 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     """
     from ..calibration import Calibration
     from ..metrics import fit_summary, interval_means
-    from .tedaldi2014 import calibrate_accelerometer, calibrate_gyroscope, detect_intervals
+    from .tedaldi2014 import accelerometer_errors, calibrate_accelerometer, detect_intervals, fit_gyroscope
 
     if intervals is None:
         intervals = detect_intervals(recording, gravity, init_static=init_static)[0]
@@ -119,9 +119,12 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     if refine:
         acc, _ = calibrate_accelerometer(means, gravity, initial=acc)
     bias = recording.gyro[intervals[0].slice].mean(axis=0)
-    gyro = calibrate_gyroscope(recording, intervals, acc, bias)
+    gyro, gyro_errors = fit_gyroscope(recording, intervals, acc, bias, False)
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="ellipsoid",
                       model="linear",
                       units={"accelerometer": {"raw": recording.acc_unit, "calibrated": "m/s^2"},
                              "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"}})
-    return cal.with_(fit=fit_summary(cal, recording, intervals, gravity))
+    fit = fit_summary(cal, recording, intervals, gravity)
+    # first-order errors of the gravity-norm fit at this solution (the algebraic fit is close to it)
+    fit["uncertainty"] = accelerometer_errors(acc, means, gravity) | gyro_errors
+    return cal.with_(fit=fit)

@@ -123,4 +123,6 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
                              "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"}})
     fit = fit_summary(cal, recording, intervals, gravity) if sections is None else {}
     fit["turns"] = {("x", "y", "z")[i]: len(turns[i]) for i in range(3)}
+    fit["uncertainty_unavailable"] = ("the closed form determines every parameter exactly from the six faces "
+                                      "and the turns, which leaves no residual to estimate the noise from")
     return cal.with_(fit=fit)

@@ -22,6 +22,11 @@ directions before and after, about the rotation axis). Then either
 * ``"dynamic"`` — ``[ω̄_ik T_k, −T_k] [k_i, k_i b_i]ᵀ = Δθ_ik`` solved by least
   squares for ``k_i`` and ``b_i`` together (eqs. 19–21).
 
+``fit["uncertainty"]``: the accelerometer's 1σ errors from the gravity-norm
+residuals' Jacobian at the solution (as :mod:`.tedaldi2014`), the
+gyroscope's from each axis's least-squares regression over its turns (NaN
+with as many turns as unknowns).
+
 A rotation counts for axis ``i`` when its integrated raw rate lies within 20°
 of that axis, the axis is at least 45° from gravity and the turn is below
 170° (a half turn's sign is ambiguous); turns whose eq. (18) scale differs
@@ -38,8 +43,9 @@ from ..calibration import Calibration
 from ..conventions import from_qureshi, to_qureshi
 from ..metrics import fit_summary, interval_means, transition_bounds
 from ..models import TriadModel
+from ..solve import standard_errors
 from .six_position import find_faces
-from .tedaldi2014 import detect_intervals
+from .tedaldi2014 import accelerometer_errors, detect_intervals
 
 __all__ = ["calibrate", "calibrate_accelerometer", "newton_backtracking", "rotation_angles"]
 
@@ -171,6 +177,7 @@ def calibrate(recording, *, gravity: float, intervals=None, gyroscope: str = "st
     k = np.empty(3)
     b = rest_bias.copy()
     rejected = [0, 0, 0]
+    errors = accelerometer_errors(acc, means, gravity)
     for i in range(3):
         rows = [r for r in rotations if r["axis"] == i]
         need = 1 if gyroscope == "static" else 2
@@ -196,10 +203,14 @@ def calibrate(recording, *, gravity: float, intervals=None, gyroscope: str = "st
             # eq. (18) for each rotation, combined by least squares over k
             x = (wbar - rest_bias[i]) * tk
             k[i] = float(x @ theta / (x @ x))
+            errors[f"gyroscope.scale.{'xyz'[i]}"] = float(standard_errors(x[:, None], k[i] * x - theta)[0])
         else:
             a_mat = np.column_stack([wbar * tk, -tk])  # eq. (19)
             sol = np.linalg.solve(a_mat.T @ a_mat, a_mat.T @ theta)  # eq. (21)
             k[i], b[i] = sol[0], sol[1] / sol[0]
+            to_kb = np.array([[1.0, 0.0], [-sol[1] / sol[0] ** 2, 1.0 / sol[0]]])  # (k, k·b) → (k, b)
+            se = standard_errors(a_mat, a_mat @ sol - theta, transform=to_kb)
+            errors[f"gyroscope.scale.{'xyz'[i]}"], errors[f"gyroscope.bias.{'xyz'[i]}"] = map(float, se)
     gyro = TriadModel(scale=k, bias=b, shape="full")
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="qureshi2017",
                       model="linear",
@@ -209,5 +220,5 @@ def calibrate(recording, *, gravity: float, intervals=None, gyroscope: str = "st
     fit.update(newton_iterations=info["newton_iterations"], gyroscope_approach=gyroscope,
                rotations_used=[sum(r["axis"] == i for r in rotations) - rejected[i] for i in range(3)],
                rotations_rejected=rejected,
-               qureshi_X=to_qureshi(acc).tolist())
+               qureshi_X=to_qureshi(acc).tolist(), uncertainty=errors)
     return cal.with_(fit=fit)

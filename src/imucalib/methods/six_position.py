@@ -25,7 +25,7 @@ from ..calibration import Calibration
 from ..metrics import fit_summary, interval_means
 from ..models import TriadModel
 from .ellipsoid import fit_sphere
-from .tedaldi2014 import calibrate_gyroscope, detect_intervals
+from .tedaldi2014 import detect_intervals, fit_gyroscope
 
 __all__ = ["calibrate", "find_faces"]
 
@@ -65,11 +65,15 @@ def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15
     b = (up + down) / 2  # eq. (8)
     s = (up - down) / (2 * gravity)  # eq. (9), raw per m/s²
     acc = TriadModel(scale=1.0 / s, bias=b, shape="upper")
-    gyro = calibrate_gyroscope(recording, intervals, acc, recording.gyro[intervals[0].slice].mean(axis=0))
+    gyro, gyro_errors = fit_gyroscope(recording, intervals, acc, recording.gyro[intervals[0].slice].mean(axis=0),
+                                       False)
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="six_position",
                       model="linear",
                       units={"accelerometer": {"raw": recording.acc_unit, "calibrated": "m/s^2"},
                              "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"}})
     fit = fit_summary(cal, recording, intervals, gravity)
     fit["faces"] = {name: int(i) for name, i in zip(FACE_NAMES, faces, strict=True)}
+    fit["uncertainty"] = gyro_errors
+    fit["uncertainty_unavailable"] = ("accelerometer: the six faces determine its six parameters exactly "
+                                      "(eqs. 8-9), which leaves no residual to estimate the noise from")
     return cal.with_(fit=fit)

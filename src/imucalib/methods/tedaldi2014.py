@@ -44,7 +44,8 @@ from ..segment import detect_static, find_initial_rest, variance_norm
 from ..solve import levenberg_marquardt, standard_errors
 from .ellipsoid import fit_ellipsoid, fit_sphere
 
-__all__ = ["calibrate", "calibrate_accelerometer", "calibrate_gyroscope", "detect_intervals", "uncertainty"]
+__all__ = ["accelerometer_errors", "calibrate", "calibrate_accelerometer", "calibrate_gyroscope", "detect_intervals",
+           "fit_gyroscope", "uncertainty"]
 
 MIN_INTERVALS = 9
 
@@ -212,10 +213,11 @@ def calibrate_gyroscope(
     """
     if len(intervals) < 4:
         raise ValueError(f"gyroscope calibration needs at least 4 static poses; got {len(intervals)}")
-    return _fit_gyroscope(recording, intervals, accelerometer, bias, estimate_bias)[0]
+    return fit_gyroscope(recording, intervals, accelerometer, bias, estimate_bias)[0]
 
 
-def _fit_gyroscope(recording, intervals, accelerometer, bias, estimate_bias):
+def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, bias: np.ndarray,
+                  estimate_bias: bool = False) -> tuple[TriadModel, dict[str, float]]:
     """:func:`calibrate_gyroscope`, also returning its 1σ errors by name."""
     fun, jac, layout, dirs, (starts, stops) = _gyro_problem(recording, intervals, accelerometer, bias,
                                                             estimate_bias)
@@ -239,13 +241,14 @@ def uncertainty(recording: Recording, intervals: list[Interval], calibration: Ca
     parameter. :func:`calibrate` stores the same figures in ``fit["uncertainty"]``.
     """
     acc, gyro = calibration.accelerometer, calibration.gyroscope
-    out = _acc_errors(acc, interval_means(recording.acc, intervals), calibration.gravity)
+    out = accelerometer_errors(acc, interval_means(recording.acc, intervals), calibration.gravity)
     fun, jac, layout, _, _ = _gyro_problem(recording, intervals, acc, gyro.bias, estimate_gyro_bias)
     theta = layout.pack(gyro)
     return out | _gyro_errors(theta, jac(theta), fun(theta), layout)
 
 
-def _acc_errors(acc: TriadModel, means: np.ndarray, gravity: float) -> dict[str, float]:
+def accelerometer_errors(acc: TriadModel, means: np.ndarray, gravity: float) -> dict[str, float]:
+    """1σ errors of a linear upper-triangular accelerometer model from the gravity-norm fit at ``acc``."""
     lay = AccelLayout("upper", 1)
     r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
     return {k: float(v) for k, v in zip(lay.names("accelerometer"), standard_errors(j, r), strict=True)}
@@ -327,7 +330,7 @@ def calibrate(
         acc_model, _ = calibrate_accelerometer(interval_means(recording.acc, intervals), gravity)
     say("calibrating the gyroscope")
     bias = recording.gyro[rest.slice].mean(axis=0)
-    gyro_model, gyro_errors = _fit_gyroscope(recording, intervals, acc_model, bias, estimate_gyro_bias)
+    gyro_model, gyro_errors = fit_gyroscope(recording, intervals, acc_model, bias, estimate_gyro_bias)
     cal = Calibration(
         accelerometer=acc_model,
         gyroscope=gyro_model,
@@ -342,5 +345,6 @@ def calibrate(
     fit = fit_summary(cal, recording, intervals, gravity)
     fit["threshold_multiplier"] = mult
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
-    fit["uncertainty"] = _acc_errors(acc_model, interval_means(recording.acc, intervals), gravity) | gyro_errors
+    means = interval_means(recording.acc, intervals)
+    fit["uncertainty"] = accelerometer_errors(acc_model, means, gravity) | gyro_errors
     return cal.with_(fit=fit)
