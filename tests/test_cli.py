@@ -144,6 +144,18 @@ def test_noise_command_on_xsens(capsys):
     np.testing.assert_allclose(doc["accelerometer"]["white_noise_per_sample"], std, rtol=0.3)
 
 
+def test_noise_plot(capsys, tmp_path, session_csv):
+    pytest.importorskip("matplotlib", reason="plots need matplotlib (the plot extra)")
+    import matplotlib.image as mpimg
+
+    path, _ = session_csv
+    code, out, err = run(capsys, "noise", path, "--plot", tmp_path / "allan.png")
+    assert code == 0, err
+    assert "plot written to" in out and "white noise" in out
+    img = mpimg.imread(tmp_path / "allan.png")
+    assert img.shape[1] > 1000  # two panels side by side
+
+
 def test_every_method_accepts_a_progress_callback():
     from imucalib.methods import calibrate
     from imucalib.simulate import qureshi_session

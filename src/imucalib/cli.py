@@ -436,9 +436,15 @@ def cmd_noise(args: argparse.Namespace) -> int:
     for name, x, unit in (("accelerometer", part.acc, part.acc_unit), ("gyroscope", part.gyro, part.gyro_unit)):
         p = noise_parameters(x, part.rate)
         result[name] = {"unit": unit, **{k: v.tolist() for k, v in p.items()}}
+    if args.plot:
+        from .report import plot_allan
+
+        plot_allan(part, args.plot)
     if args.json:
         print(json.dumps(result))
         return 0
+    if args.plot:
+        print(f"plot written to {args.plot}")
     print(f"noise over {result['seconds']:.1f} s of rest ({result['samples']} samples, "
           f"{result['rate_hz']:.4g} Hz), Allan deviation (IEEE 952 slopes):")
     for name in ("accelerometer", "gyroscope"):
@@ -590,6 +596,7 @@ def build_parser() -> argparse.ArgumentParser:
                        "sensors from the Allan deviation of the recording's initial rest.")
     p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
     p.add_argument("--whole", action="store_true", help="use the whole recording (it must be at rest)")
+    p.add_argument("--plot", metavar="FILE", help="also draw the Allan deviation (PNG/SVG/PDF; plot extra)")
     p.add_argument("--json", action="store_true")
     _add_reader_options(p)
     p.set_defaults(func=cmd_noise)
