@@ -166,3 +166,43 @@ def test_without_rosbags_the_error_says_how_to_install(tmp_path, session_si, mon
     monkeypatch.setitem(sys.modules, "rosbags.highlevel", None)
     with pytest.raises(ReaderError, match=r'pip install "imucalib\[ros\]"'):
         read(bag)
+
+
+@pytest.mark.parametrize("kind", ["ros1", "sqlite", "mcap"])
+def test_apply_writes_a_calibrated_bag(tmp_path, session_si, kind, capsys):
+    from imucalib.calibration import Calibration
+    from imucalib.cli import main
+    from imucalib.models import TriadModel
+
+    si, _, _ = session_si
+    n = 400
+    src = write_bag(tmp_path / ("in.bag" if kind == "ros1" else "in"), kind,
+                    {"/imu": (si.t[:n], si.acc[:n], si.gyro[:n]), "/imu_other": (si.t[:5], si.acc[:5], si.gyro[:5])})
+    cal = Calibration(
+        accelerometer=TriadModel(misalignment=[[1, 0.01, -0.02], [0, 1, 0.03], [0, 0, 1]], scale=[1.01, 0.99, 1.02],
+                                 bias=[0.1, -0.2, 0.05], shape="upper"),
+        gyroscope=TriadModel(scale=[1.02, 0.98, 1.0], bias=[0.01, 0.0, -0.01], shape="full",
+                             g_sensitivity=np.full((3, 3), 1e-3)),
+        units={"accelerometer": {"raw": "m/s^2", "calibrated": "m/s^2"},
+               "gyroscope": {"raw": "rad/s", "calibrated": "rad/s"}})
+    cal.save(tmp_path / "c.json")
+    dst = tmp_path / ("out.bag" if kind == "ros1" else "out")
+    assert main(["apply", str(tmp_path / "c.json"), str(src), "-o", str(dst), "--topic", "/imu", "--json"]) == 0
+    summary = __import__("json").loads(capsys.readouterr().out)
+    assert summary["corrected"] == n and summary["copied"] == 5
+    out = read(dst, topic="/imu")
+    expected = cal.apply(read(src, topic="/imu"))
+    np.testing.assert_allclose(out.acc, expected.acc, rtol=1e-15, atol=1e-12)
+    np.testing.assert_allclose(out.gyro, expected.gyro, rtol=1e-15, atol=1e-12)
+    np.testing.assert_array_equal(out.t, expected.t)
+    other_in, other_out = read(src, topic="/imu_other"), read(dst, topic="/imu_other")
+    np.testing.assert_array_equal(other_out.acc, other_in.acc)  # other topics unchanged
+    # never overwrite; a counts calibration does not fit a bag's SI readings
+    assert main(["apply", str(tmp_path / "c.json"), str(src), "-o", str(dst), "--topic", "/imu"]) == 2
+    assert "never overwritten" in capsys.readouterr().err
+    cal.with_(units={"accelerometer": {"raw": "counts", "calibrated": "m/s^2"},
+                     "gyroscope": {"raw": "counts", "calibrated": "rad/s"}}).save(tmp_path / "k.json")
+    assert main(["apply", str(tmp_path / "k.json"), str(src), "-o", str(tmp_path / "x"), "--topic", "/imu"]) == 2
+    assert "expects raw accelerometer readings in counts" in capsys.readouterr().err
+    # to CSV as before when asked
+    assert main(["apply", str(tmp_path / "c.json"), str(src), "-o", str(tmp_path / "o.csv"), "--topic", "/imu"]) == 0

@@ -173,6 +173,19 @@ def cmd_apply(args: argparse.Namespace) -> int:
     from .io import write_csv
 
     cal = Calibration.load(args.calibration)
+    from .io.rosbag import is_rosbag
+
+    if (args.reader == "rosbag" or is_rosbag(Path(args.data))) and Path(args.output).suffix.lower() != ".csv":
+        from .io.rosbag import write_calibrated_bag
+
+        summary = write_calibrated_bag(args.data, args.output, cal, topic=args.topic)
+        summary["calibration"] = str(args.calibration)
+        if args.json:
+            print(json.dumps(summary))
+        else:
+            print(f"wrote {args.output}: {summary['corrected']} {summary['topic']} messages calibrated, "
+                  f"{summary['copied']} other messages copied unchanged")
+        return 0
     rec = _read(args, [args.data])
     out = cal.apply(rec)
     write_csv(args.output, rec, calibrated_acc=out.acc, calibrated_gyro=out.gyro)
@@ -513,10 +526,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("apply", help="apply a calibration to a recording",
                        description="Write the recording with calibrated columns added "
-                       "(every input row and column is kept).")
+                       "(every input row and column is kept). A ROS bag is written as a bag "
+                       "with the IMU topic calibrated and everything else copied, unless "
+                       "OUTPUT ends in .csv.")
     p.add_argument("calibration", help="calibration file (JSON)")
     p.add_argument("data", help="data file to correct")
-    p.add_argument("-o", "--output", required=True, help="output CSV file")
+    p.add_argument("-o", "--output", required=True, help="output CSV file (or, for a ROS bag, the calibrated bag)")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     _add_reader_options(p)
     p.set_defaults(func=cmd_apply)

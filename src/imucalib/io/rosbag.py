@@ -23,7 +23,7 @@ import numpy as np
 
 from ..recording import ImucalibWarning, Recording
 
-__all__ = ["read_rosbag", "is_rosbag"]
+__all__ = ["read_rosbag", "is_rosbag", "write_calibrated_bag"]
 
 IMU_TYPE = "sensor_msgs/msg/Imu"
 
@@ -45,17 +45,26 @@ def _reader_error(message: str):
     return ReaderError(message)
 
 
-def read_rosbag(path: str | Path, *, topic: str | None = None) -> Recording:
-    """Read the IMU messages of one topic of a ROS bag.
+def _choose_topic(reader, topic: str | None, path: Path) -> str:
+    """The IMU topic: the one given (checked) or the bag's only ``sensor_msgs/Imu`` topic."""
+    imu = sorted({c.topic for c in reader.connections if c.msgtype == IMU_TYPE})
+    if topic is None:
+        if not imu:
+            types = sorted({f"{c.topic} ({c.msgtype})" for c in reader.connections})
+            raise _reader_error(f"{path}: no sensor_msgs/Imu topic in the bag; it has: "
+                                f"{', '.join(types) or 'no topics'}")
+        if len(imu) > 1:
+            raise _reader_error(f"{path}: several sensor_msgs/Imu topics ({', '.join(imu)}); "
+                                "choose one with --topic")
+        return imu[0]
+    if topic not in imu:
+        others = {c.topic: c.msgtype for c in reader.connections}
+        why = f"it is {others[topic]}, not sensor_msgs/Imu" if topic in others else "no such topic"
+        raise _reader_error(f"{path}: topic {topic!r}: {why}; IMU topics: {', '.join(imu) or 'none'}")
+    return topic
 
-    Parameters
-    ----------
-    path : path
-        A ROS 1 ``.bag`` file, a ROS 2 bag directory, or an ``.mcap`` file.
-    topic : str, optional
-        The ``sensor_msgs/Imu`` topic; needed only when the bag has several.
-    """
-    path = Path(path)
+
+def _open(path: Path):
     try:
         from rosbags.highlevel import AnyReader
         from rosbags.typesys import Stores, get_typestore
@@ -67,22 +76,23 @@ def read_rosbag(path: str | Path, *, topic: str | None = None) -> Recording:
         reader.open()
     except Exception as exc:  # the library's own errors (corrupt file, unknown storage)
         raise _reader_error(f"{path}: not a readable ROS bag ({exc})") from None
+    return reader
+
+
+def read_rosbag(path: str | Path, *, topic: str | None = None) -> Recording:
+    """Read the IMU messages of one topic of a ROS bag.
+
+    Parameters
+    ----------
+    path : path
+        A ROS 1 ``.bag`` file, a ROS 2 bag directory, or an ``.mcap`` file.
+    topic : str, optional
+        The ``sensor_msgs/Imu`` topic; needed only when the bag has several.
+    """
+    path = Path(path)
+    reader = _open(path)
     try:
-        imu = sorted({c.topic for c in reader.connections if c.msgtype == IMU_TYPE})
-        if topic is None:
-            if not imu:
-                types = sorted({f"{c.topic} ({c.msgtype})" for c in reader.connections})
-                raise _reader_error(f"{path}: no sensor_msgs/Imu topic in the bag; it has: "
-                                    f"{', '.join(types) or 'no topics'}")
-            if len(imu) > 1:
-                raise _reader_error(f"{path}: several sensor_msgs/Imu topics ({', '.join(imu)}); "
-                                    "choose one with --topic")
-            topic = imu[0]
-        elif topic not in imu:
-            others = {c.topic: c.msgtype for c in reader.connections}
-            why = (f"it is {others[topic]}, not sensor_msgs/Imu" if topic in others
-                   else "no such topic")
-            raise _reader_error(f"{path}: topic {topic!r}: {why}; IMU topics: {', '.join(imu) or 'none'}")
+        topic = _choose_topic(reader, topic, path)
         conns = [c for c in reader.connections if c.topic == topic]
         n = sum(c.msgcount for c in conns)
         stamp = np.empty(n, dtype=np.int64)
@@ -133,3 +143,83 @@ def read_rosbag(path: str | Path, *, topic: str | None = None) -> Recording:
     return Recording(t, data[:, :3], data[:, 3:], acc_unit="m/s^2", gyro_unit="rad/s",
                      metadata={"topic": topic, "frame_id": sorted(frames), "time_source": source,
                                "start_time_ns": int(stamp[0])})
+
+
+def write_calibrated_bag(source: str | Path, destination: str | Path, calibration, *,
+                         topic: str | None = None) -> dict:
+    """Copy a ROS bag with the IMU topic's readings replaced by their calibrated values.
+
+    Every other topic, every message's stamp, record time, frame and
+    covariances are copied unchanged; only ``linear_acceleration`` and
+    ``angular_velocity`` of the chosen ``sensor_msgs/Imu`` topic change, by
+    :meth:`~imucalib.calibration.Calibration.apply`'s model (the bag's SI
+    readings are the calibration's raw input, so the calibration must have
+    been made from this driver's output: units ``m/s^2`` and ``rad/s``). A
+    ROS 1 bag is written as a ROS 1 bag, a ROS 2 bag as a ROS 2 bag directory
+    (MCAP storage when the source is MCAP, else SQLite).
+
+    Returns a summary: the topic, the messages corrected and copied.
+    """
+    source, destination = Path(source), Path(destination)
+    for sensor, unit in (("accelerometer", "m/s^2"), ("gyroscope", "rad/s")):
+        raw = calibration.units[sensor]["raw"]
+        if raw != unit:
+            raise _reader_error(f"the calibration expects raw {sensor} readings in {raw}; a sensor_msgs/Imu "
+                                f"holds {unit}: calibrate from a recording of this bag's topic")
+    if destination.exists():
+        raise _reader_error(f"{destination}: exists; choose a new name (a bag is never overwritten)")
+    reader = _open(source)
+    try:
+        topic = _choose_topic(reader, topic, source)
+        imu_conns = [c for c in reader.connections if c.topic == topic]
+        raw = []
+        for conn, _, data in reader.messages(connections=imu_conns):
+            m = reader.deserialize(data, conn.msgtype)
+            a, w = m.linear_acceleration, m.angular_velocity
+            raw.append((a.x, a.y, a.z, w.x, w.y, w.z))
+        raw = np.asarray(raw, dtype=float).reshape(-1, 6)
+        acc = calibration.accelerometer_si(raw[:, :3])
+        gyro = calibration.gyroscope.forward(raw[:, 3:], acc)
+        writer, serialize = _writer_like(reader, source, destination)
+        copied = corrected = 0
+        with writer:
+            out = {}
+            for c in reader.connections:
+                out[c.id] = _add_connection_like(writer, c, reader.is2)
+            for conn, log_ns, data in reader.messages():
+                if conn.topic == topic:
+                    m = reader.deserialize(data, conn.msgtype)
+                    a, w = acc[corrected], gyro[corrected]
+                    m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z = map(float, a)
+                    m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z = map(float, w)
+                    data = serialize(m, conn.msgtype)
+                    corrected += 1
+                else:
+                    copied += 1
+                writer.write(out[conn.id], log_ns, data)
+    finally:
+        reader.close()
+    return {"topic": topic, "corrected": corrected, "copied": copied, "output": str(destination)}
+
+
+def _writer_like(reader, source: Path, destination: Path):
+    """A writer of the source's kind, and the matching message serializer."""
+    if not reader.is2:
+        from rosbags.rosbag1 import Writer
+
+        return Writer(destination), reader.typestore.serialize_ros1
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    mcap = source.suffix == ".mcap" or (source.is_dir() and any(source.glob("*.mcap")))
+    plugin = StoragePlugin.MCAP if mcap else StoragePlugin.SQLITE3
+    return Writer(destination, version=9, storage_plugin=plugin), reader.typestore.serialize_cdr
+
+
+def _add_connection_like(writer, c, is2: bool):
+    if not is2:
+        return writer.add_connection(c.topic, c.msgtype, msgdef=c.msgdef.data, md5sum=c.digest,
+                                     callerid=c.ext.callerid, latching=c.ext.latching)
+    return writer.add_connection(c.topic, c.msgtype, msgdef=c.msgdef.data,
+                                 rihs01=c.digest if c.digest.startswith("RIHS01_") else None,
+                                 serialization_format=c.ext.serialization_format,
+                                 offered_qos_profiles=c.ext.offered_qos_profiles)
