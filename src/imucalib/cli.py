@@ -403,8 +403,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     elapsed = time.perf_counter() - t0
     truth = sim.truth.parameters()
     est = {"linear": lin.parameters(), "all": full.parameters()}
-    rows = [{"name": k, "truth": v, "linear": est["linear"].get(k), "all": est["all"].get(k)}
-            for k, v in truth.items()]
+    unc = full.fit.get("uncertainty", {})
+    rows = [{"name": k, "truth": v, "linear": est["linear"].get(k), "all": est["all"].get(k),
+             "all_std": unc.get(k)} for k, v in truth.items()]
     result = {
         "scenario": "zhang2021", "seed": args.seed, "seconds": round(elapsed, 3),
         "parameters": rows,
@@ -422,10 +423,21 @@ def cmd_demo(args: argparse.Namespace) -> int:
         print(json.dumps(result))
         return 0
     print("Zhang 2021 synthetic session (Table I truth): linear model vs the full model")
-    print(f"{'parameter':<36}{'truth':>14}{'linear':>14}{'all':>14}")
+    print(f"{'parameter':<36}{'truth':>14}{'linear':>14}{'all':>14}{'± 1σ':>11}{'error/σ':>9}")
+    within = []
     for r in rows:
         lv = "-" if r["linear"] is None else f"{r['linear']:.6g}"
-        print(f"{r['name']:<36}{r['truth']:>14.6g}{lv:>14}{r['all']:>14.6g}")
+        sd = r["all_std"]
+        if sd is not None and np.isfinite(sd) and sd > 0:
+            z = (r["all"] - r["truth"]) / sd
+            within.append(abs(z) <= 2)
+            tail = f"{sd:>11.2g}{z:>9.2f}"
+        else:
+            tail = f"{'-':>11}{'-':>9}"
+        print(f"{r['name']:<36}{r['truth']:>14.6g}{lv:>14}{r['all']:>14.6g}{tail}")
+    if within:
+        print(f"the full model's reported 1σ errors: {sum(within)} of {len(within)} estimates within 2σ "
+              "of the truth (about 95 % expected)")
     mt = result["metrics"]
     print("\ntest tosses (Zhang 2021 §IV-B):          tedaldi2014      linear         all")
     print(f"  eq. (34) weightless error [(m/s^2)^2] {mt['eq34_mean']['tedaldi2014']:>12.4g}"
