@@ -166,3 +166,32 @@ def test_every_method_accepts_a_progress_callback():
         cal = calibrate(rec, method=method, gravity=truth.gravity, progress=seen.append)
         assert cal.method == method
     assert "detecting static intervals" in seen  # tedaldi2014 reports its stages
+
+
+def test_validate_on_a_second_recording(capsys, tmp_path, session_csv):
+    path, truth = session_csv
+    code, _, err = run(capsys, "calibrate", path, "-o", tmp_path / "c.json", "--json")
+    assert code == 0, err
+    rec2, _, _ = tedaldi_session(truth, seed=13, noise_acc=0.003, noise_gyro=0.002)  # same sensor, new poses
+    write_csv(tmp_path / "second.csv", rec2)
+    code, out, err = run(capsys, "validate", tmp_path / "c.json", tmp_path / "second.csv", "--json")
+    assert code == 0, err
+    good = json.loads(out)
+    then = good["at_calibration"]
+    assert good["static_intervals"] >= 20
+    assert good["accelerometer_residual_rms"] < 2 * then["accelerometer_residual_rms"]
+    assert good["gyroscope_angle_error_mean_deg"] < 2 * then["gyroscope_angle_error_mean_deg"]
+    # a calibration 1 % off in one accelerometer scale shows on the new recording
+    cal = Calibration.load(tmp_path / "c.json")
+    bad = cal.with_(accelerometer=cal.accelerometer.with_(scale=cal.accelerometer.scale * [1.01, 1, 1]))
+    bad.save(tmp_path / "bad.json")
+    code, out, err = run(capsys, "validate", tmp_path / "bad.json", tmp_path / "second.csv")
+    assert code == 0, err
+    assert "not refitted" in out and "at calibration" in out
+    code, out, err = run(capsys, "validate", tmp_path / "bad.json", tmp_path / "second.csv", "--json")
+    assert json.loads(out)["accelerometer_residual_rms"] > 10 * good["accelerometer_residual_rms"]
+    # units must match
+    rec2.acc_unit = "g"
+    write_csv(tmp_path / "g.csv", rec2)
+    code, out, err = run(capsys, "validate", tmp_path / "c.json", tmp_path / "g.csv")
+    assert code == 2 and "maps accelerometer readings in 'counts'" in err

@@ -267,3 +267,14 @@ def test_xsens_files(tmp_path):
     assert rec.rate == pytest.approx(100.0, rel=5e-3)
     np.testing.assert_array_equal(rec.acc[0], [33108, 33329, 36429])
     assert rec.acc_unit == "counts" and rec.gyro_unit == "counts"
+
+
+def test_written_units_are_read_back(tmp_path):
+    from imucalib.io import write_csv
+    from imucalib.recording import Recording
+
+    rec = Recording(np.arange(5) * 0.01, np.ones((5, 3)), np.full((5, 3), 2.0), acc_unit="g", gyro_unit="deg/s")
+    write_csv(tmp_path / "u.csv", rec)
+    back = read(tmp_path / "u.csv")
+    assert (back.acc_unit, back.gyro_unit) == ("g", "deg/s")
+    np.testing.assert_array_equal(back.gyro, rec.gyro)

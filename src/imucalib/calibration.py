@@ -103,7 +103,7 @@ class Calibration:
 
         The recording must be in the raw units this calibration was made for.
         """
-        self._check_units(recording)
+        self.check_units(recording)
         acc = self.accelerometer_si(recording.acc)
         gyro = self.gyroscope.forward(recording.gyro, acc)
         return Recording(
@@ -117,7 +117,8 @@ class Calibration:
             metadata={**recording.metadata, "calibration": self.method},
         )
 
-    def _check_units(self, recording: Recording) -> None:
+    def check_units(self, recording: Recording) -> None:
+        """Raise ValueError unless the recording is in the raw units this calibration maps."""
         for sensor, unit in (("accelerometer", recording.acc_unit),
                              ("gyroscope", recording.gyro_unit)):
             expected = self.units[sensor]["raw"]

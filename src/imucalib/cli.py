@@ -227,6 +227,45 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_validate(args: argparse.Namespace) -> int:
+    """A calibration's fit figures on a recording it was not made from (no refit)."""
+    from .methods.tedaldi2014 import detect_intervals
+    from .metrics import fit_summary
+
+    cal = Calibration.load(args.calibration)
+    data = _read(args, args.data)
+    rec = getattr(data, "recording", data)
+    if rec is None:
+        raise CliError("validate needs a recording with static poses")
+    gravity = args.gravity or cal.gravity
+    cal.check_units(rec)
+    intervals = detect_intervals(rec, gravity)[0]
+    fit = fit_summary(cal, rec, intervals, gravity)
+    keys = ("accelerometer_residual_rms", "gyroscope_angle_error_mean_deg", "gyroscope_angle_error_max_deg")
+    result = {"calibration": str(args.calibration), "method": cal.method, "gravity": gravity,
+              "static_intervals": fit["static_intervals"], **{k: fit.get(k) for k in keys},
+              "at_calibration": {k: (cal.fit or {}).get(k) for k in ("static_intervals", *keys)}}
+    if args.plot:
+        from .report import plot_fit
+
+        plot_fit(cal, rec, intervals, args.plot)
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    then = result["at_calibration"]
+    print(f"{cal.method} calibration on {len(intervals)} static poses of this recording (not refitted):")
+    for k, label, unit in ((keys[0], "‖a‖ − g RMS", "m/s^2"), (keys[1], "gyro angle error mean", "deg"),
+                           (keys[2], "gyro angle error max", "deg")):
+        now = result[k]
+        if now is None:
+            continue
+        ref = f"   (at calibration {then[k]:.4g}: ×{now / then[k]:.2f})" if then.get(k) else ""
+        print(f"  {label:<24}{now:10.4g} {unit}{ref}")
+    if args.plot:
+        print(f"plot written to {args.plot}")
+    return 0
+
+
 def cmd_detect_fall(args: argparse.Namespace) -> int:
     from .methods.zhang2021 import detect_fall
 
@@ -561,6 +600,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the comparison as JSON")
     _add_reader_options(p)
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("validate", help="check a calibration on another recording (no refit)",
+                       description="Detect the static poses of a recording made after (or apart from) "
+                       "the calibration and report the calibration's gravity-norm residual and "
+                       "gyroscope angle errors on them, beside the figures it had when it was made.")
+    p.add_argument("calibration", help="calibration file (JSON)")
+    p.add_argument("data", nargs="+", help="data file(s) with static poses, as for calibrate")
+    p.add_argument("--gravity", type=_positive_float, help="local gravity [m/s^2] (default: the calibration's)")
+    p.add_argument("--plot", metavar="FILE", help="also draw the fit figure (PNG/SVG/PDF; plot extra)")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    _add_reader_options(p)
+    p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("detect-fall", help="find free-fall intervals (Zhang 2021, §IV-C)",
                        description="Mark samples whose weightless loss (Zhang 2021, eq. 19) is "

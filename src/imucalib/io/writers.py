@@ -34,7 +34,7 @@ def write_csv(
 
     Columns keep the names and order they had in a CSV input (``metadata
     ["column_names"]``) and time keeps its original unit; otherwise the
-    columns are ``t [s], ax … gz`` followed by any extra columns. The added
+    columns are ``t [s], ax [unit] … gz [unit]`` followed by any extra columns. The added
     columns are ``acc_x_cal [m/s^2]`` … and ``gyro_x_cal [rad/s]`` ….
     """
     rec = recording
@@ -55,10 +55,10 @@ def write_csv(
     else:
         unit = rec.metadata.get("time_unit") or "s"
         cols[f"t [{unit}]"] = _original_time(rec)
+        for i, a in enumerate("xyz"):  # the unit in the name, so that reading the file back keeps it
+            cols[f"a{a} [{rec.acc_unit}]"] = rec.acc[:, i]
         for i, a in enumerate("xyz"):
-            cols[f"a{a}"] = rec.acc[:, i]
-        for i, a in enumerate("xyz"):
-            cols[f"g{a}"] = rec.gyro[:, i]
+            cols[f"g{a} [{rec.gyro_unit}]"] = rec.gyro[:, i]
         for k, v in rec.extra.items():
             cols[k] = v
     if calibrated_acc is not None:
