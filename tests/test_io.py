@@ -278,3 +278,10 @@ def test_written_units_are_read_back(tmp_path):
     back = read(tmp_path / "u.csv")
     assert (back.acc_unit, back.gyro_unit) == ("g", "deg/s")
     np.testing.assert_array_equal(back.gyro, rec.gyro)
+
+
+def test_an_empty_cell_is_an_error_even_when_the_counts_balance(tmp_path):
+    p = tmp_path / "e.csv"
+    p.write_text("t,ax,ay,az,gx,gy,gz\n0,1,2,,4,5,6\n0.01,1,2,3,4,5,6,7\n")
+    with pytest.raises(ReaderError, match=r"line [23]"):  # rejected, never read shifted
+        read(p)

@@ -134,14 +134,22 @@ def _parse_block(path: Path, lines: list[str], first_line: int, ncols: int | Non
                  sep: str | None, names: Sequence[str] | None) -> np.ndarray:
     """Parse text rows into a float array; on failure find the first bad cell."""
     text = "\n".join(lines)
+    separators_ok = True
+    if sep not in (None, " "):
+        # an empty cell would vanish in the whitespace parse: count the separators first
+        separators_ok = ncols is not None and text.count(sep) == (ncols - 1) * len(lines)
+        text = text.replace(sep, " ")
     try:
-        flat = np.array(text.replace(sep, " ").split() if sep not in (None, " ") else text.split(),
-                        dtype=np.float64)
+        if not separators_ok:
+            raise ValueError("separator count")
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # numpy warns (not raises) when it stops at a bad cell
+            flat = np.fromstring(text, dtype=np.float64, sep=" ")  # C parser; a bad cell → slow path
         if ncols is not None and flat.size == ncols * len(lines):
             data = flat.reshape(len(lines), ncols)
             if np.all(np.isfinite(data)):
                 return data
-    except ValueError:
+    except (ValueError, DeprecationWarning):
         pass
     # slow path: locate the first problem precisely
     rows = []

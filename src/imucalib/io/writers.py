@@ -70,15 +70,17 @@ def write_csv(
     for k, v in cols.items():
         if len(v) != n:
             raise ValueError(f"column {k!r} has {len(v)} rows; the recording has {n}")
-    text_cols = []
+    values, formats = [], []
     for v in cols.values():
-        if np.asarray(v).dtype.kind in "fiu":
-            text_cols.append(np.char.mod(float_format, np.asarray(v, dtype=np.float64)))
-        else:
-            text_cols.append(np.asarray(v).astype(str))
-    header = ",".join(cols)
-    body = np.stack(text_cols, axis=1) if text_cols else np.empty((n, 0), dtype=str)
+        v = np.asarray(v)
+        numeric = v.dtype.kind in "fiub"
+        values.append(v.astype(np.float64) if numeric else v.astype(str))
+        formats.append(float_format if numeric else "%s")
+    row_format = ",".join(formats)
     with Path(path).open("w", encoding="utf-8", newline="\n") as fh:
-        fh.write(header + "\n")
-        fh.write("\n".join(",".join(row) for row in body))
-        fh.write("\n")
+        fh.write(",".join(cols) + "\n")
+        chunk = 100_000  # rows formatted at a time: one format per row is ~3x faster than per column
+        for start in range(0, n, chunk):
+            rows = zip(*(v[start : start + chunk].tolist() for v in values), strict=True)
+            fh.write("\n".join(row_format % row for row in rows))
+            fh.write("\n")
