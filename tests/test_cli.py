@@ -195,3 +195,15 @@ def test_validate_on_a_second_recording(capsys, tmp_path, session_csv):
     write_csv(tmp_path / "g.csv", rec2)
     code, out, err = run(capsys, "validate", tmp_path / "c.json", tmp_path / "g.csv")
     assert code == 2 and "maps accelerometer readings in 'counts'" in err
+
+
+def test_html_report(capsys, tmp_path, session_csv):
+    path, _ = session_csv
+    code, out, err = run(capsys, "calibrate", path, "--report", tmp_path / "r.html")
+    assert code == 0, err
+    page = (tmp_path / "r.html").read_text(encoding="utf-8")
+    assert page.startswith("<!DOCTYPE html>") and "report written to" in out
+    assert "accelerometer.scale.x" in page and "± 1σ" in page and "scale_cubic" not in page
+    assert page.count("<tr>") >= 18 + 4
+    if __import__("importlib").util.find_spec("matplotlib"):
+        assert "data:image/png;base64," in page  # the fit figure, embedded

@@ -145,19 +145,29 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         options["detector"] = args.detector
     if say is not None:
         options["progress"] = say
-    cal = calibrate(data, method=args.method, model=args.model, gravity=args.gravity, **options)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ImucalibWarning)
+        cal = calibrate(data, method=args.method, model=args.model, gravity=args.gravity, **options)
+    for w in caught:  # shown as usual, and kept for the report
+        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     if args.output:
         cal.save(args.output)
+    from .recording import Interval
+
+    rec = data if not hasattr(data, "positions_acc") else None
+    rec = getattr(rec, "recording", rec)
+    ivs = [Interval(a, b) for a, b in cal.fit.get("intervals", [])]
     if args.plot:
-        from .recording import Interval
         from .report import plot_fit
 
-        rec = data if not hasattr(data, "positions_acc") else None
-        rec = getattr(rec, "recording", rec)
-        if rec is None or "intervals" not in cal.fit:
+        if rec is None or not ivs:
             raise CliError("this method's data has no static poses to plot")
-        ivs = [Interval(a, b) for a, b in cal.fit["intervals"]]
         plot_fit(cal, rec, ivs, args.plot)
+    if args.report:
+        from .report import html_report
+
+        html_report(cal, args.report, recording=rec, intervals=ivs,
+                    notes=[str(w.message) for w in caught if issubclass(w.category, ImucalibWarning)])
     if args.json:
         print(cal.to_json())
     else:
@@ -166,6 +176,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             print(f"saved to {args.output}")
         if args.plot:
             print(f"plot written to {args.plot}")
+        if args.report:
+            print(f"report written to {args.report}")
     return 0
 
 
@@ -571,6 +583,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "the gyroscope norm of Zhang 2021 eq. (22)")
     p.add_argument("-o", "--output", help="write the calibration file (JSON) here")
     p.add_argument("--plot", metavar="FILE.png", help="write a figure of the fit (needs matplotlib)")
+    p.add_argument("--report", metavar="FILE.html",
+                   help="write a self-contained HTML report: fit, parameters with errors, warnings, figure")
     p.add_argument("--json", action="store_true", help="print the calibration as JSON on stdout")
     _add_reader_options(p)
     p.set_defaults(func=cmd_calibrate)

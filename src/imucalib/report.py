@@ -24,7 +24,7 @@ from .calibration import Calibration
 from .metrics import gravity_direction_errors, gravity_residuals
 from .recording import Interval, Recording
 
-__all__ = ["plot_allan", "plot_fit"]
+__all__ = ["html_report", "plot_allan", "plot_fit"]
 
 
 def _pyplot():
@@ -39,8 +39,8 @@ def _pyplot():
 
 
 def plot_fit(calibration: Calibration, recording: Recording, intervals: Sequence[Interval],
-             path: str | Path) -> Path:
-    """Write the fit figure (PNG, SVG or PDF by the file's suffix) and return its path."""
+             path) -> Path:
+    """Write the fit figure (PNG, SVG or PDF by the file's suffix, or PNG into a binary file object)."""
     plt = _pyplot()
     intervals = [iv for iv in intervals if iv.kind == "static"]
     out = calibration.apply(recording)
@@ -73,10 +73,18 @@ def plot_fit(calibration: Calibration, recording: Recording, intervals: Sequence
                      f"max {ang.max():.3g}°)")
     ax.set_ylabel("angle error [deg]")
     ax.set_xlabel("transition to pose")
-    path = Path(path)
-    fig.savefig(path, dpi=110)
+    return _save(fig, path, plt)
+
+
+def _save(fig, target, plt):
+    """Save to a path (format by its suffix) or to a binary file object (PNG)."""
+    if hasattr(target, "write"):
+        fig.savefig(target, format="png", dpi=110)
+    else:
+        target = Path(target)
+        fig.savefig(target, dpi=110)
     plt.close(fig)
-    return path
+    return target
 
 
 def plot_allan(recording: Recording, path: str | Path) -> Path:
@@ -113,7 +121,91 @@ def plot_allan(recording: Recording, path: str | Path) -> Path:
     fig.suptitle(f"Allan deviation over {recording.duration:.1f} s at rest ({len(recording)} samples); "
                  "dashed: white noise N/√τ, dotted: bias instability 0.664·B, dash-dot: random walk K√(τ/3)",
                  fontsize=10)
+    return _save(fig, path, plt)
+
+
+def html_report(calibration: Calibration, path: str | Path, *, recording: Recording | None = None,
+                intervals: Sequence[Interval] | None = None, notes: Sequence[str] = (),
+                title: str | None = None) -> Path:
+    """Write a self-contained HTML page about one calibration and return its path.
+
+    The page holds what a person checks before trusting a calibration: the
+    method and units, the fit figures (``DESIGN.md``), every parameter with
+    its 1σ error and relative error where the method gives one, the reasons
+    when it cannot, the warnings of the run (``notes``), and the fit figure
+    of :func:`plot_fit` embedded as PNG when matplotlib and the recording
+    are at hand. No external files or scripts.
+    """
+    import base64
+    import html
+    import io
+
+    cal = calibration
+    fit = cal.fit or {}
+    unc = fit.get("uncertainty") or {}
+    esc = html.escape
+    title = title or f"imucalib calibration: {cal.method} ({cal.model})"
+    parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title><style>"
+             "body{font-family:system-ui,sans-serif;margin:2em;max-width:70em}"
+             "table{border-collapse:collapse;margin:1em 0}td,th{padding:.25em .8em;border-bottom:1px solid #ddd;"
+             "text-align:right;font-variant-numeric:tabular-nums}th{background:#f4f4f4}td:first-child,"
+             "th:first-child{text-align:left}.warn{background:#fff4e0;padding:.5em 1em;border-left:4px solid #e90}"
+             "img{max-width:100%}</style></head><body>", f"<h1>{esc(title)}</h1>"]
+    units = cal.units
+    parts.append("<table><tr><th>item</th><th>value</th></tr>"
+                 f"<tr><td>method / model</td><td>{esc(cal.method)} / {esc(cal.model)}</td></tr>"
+                 f"<tr><td>gravity</td><td>{cal.gravity:.6g} m/s²</td></tr>"
+                 f"<tr><td>accelerometer units</td><td>{esc(units['accelerometer']['raw'])} → "
+                 f"{esc(units['accelerometer']['calibrated'])}</td></tr>"
+                 f"<tr><td>gyroscope units</td><td>{esc(units['gyroscope']['raw'])} → "
+                 f"{esc(units['gyroscope']['calibrated'])}</td></tr>")
+    if recording is not None:
+        src = recording.metadata.get("source")
+        parts.append(f"<tr><td>recording</td><td>{esc(', '.join(src) if isinstance(src, list) else str(src or '-'))}"
+                     f": {len(recording)} samples, {recording.duration:.1f} s at {recording.rate:.4g} Hz</td></tr>")
+    parts.append("</table>")
+    quality = [("static poses", fit.get("static_intervals"), "{:d}"),
+               ("‖a‖ − g RMS over the poses [m/s²]", fit.get("accelerometer_residual_rms"), "{:.3g}"),
+               ("gyroscope angle error, mean [deg]", fit.get("gyroscope_angle_error_mean_deg"), "{:.3g}"),
+               ("gyroscope angle error, max [deg]", fit.get("gyroscope_angle_error_max_deg"), "{:.3g}")]
+    rows = "".join(f"<tr><td>{esc(k)}</td><td>{f.format(v)}</td></tr>" for k, v, f in quality if v is not None)
+    if rows:
+        parts.append(f"<h2>Fit</h2><table><tr><th>figure</th><th>value</th></tr>{rows}</table>")
+    all_notes = list(notes)
+    if fit.get("uncertainty_unavailable"):
+        all_notes.append(f"errors not available: {fit['uncertainty_unavailable']}")
+    if isinstance(fit.get("model_selection"), dict):
+        sel = fit["model_selection"]
+        all_notes.append(f"model selection ({sel.get('criterion')}): requested {sel.get('requested')}, "
+                         f"returned {sel.get('selected')}")
+    for n in all_notes:
+        parts.append(f"<p class='warn'>{esc(n)}</p>")
+    parts.append("<h2>Parameters</h2><p>The model's terms that were estimated or are not zero.</p>"
+                 "<table><tr><th>parameter</th><th>value</th><th>± 1σ</th><th>σ / |value|</th></tr>")
+    for name, value in cal.parameters().items():
+        s = unc.get(name)
+        if s is None and value == 0:
+            continue  # a term of the model family this calibration does not use
+        known = s is not None and np.isfinite(s)
+        rel = f"{abs(s / value):.2g}" if known and value != 0 else "-"
+        parts.append(f"<tr><td>{esc(name)}</td><td>{value:.8g}</td><td>{f'{s:.2g}' if known else '-'}</td>"
+                     f"<td>{rel}</td></tr>")
+    if cal.lever_arm is not None:
+        for axis, v in zip("xyz", cal.lever_arm, strict=True):
+            s = unc.get(f"lever_arm.{axis}")
+            parts.append(f"<tr><td>lever_arm.{axis} [m]</td><td>{v:.6g}</td>"
+                         f"<td>{f'{s:.2g}' if s is not None and np.isfinite(s) else '-'}</td><td>-</td></tr>")
+    parts.append("</table>")
+    if recording is not None and intervals:
+        try:
+            buf = io.BytesIO()
+            plot_fit(cal, recording, intervals, buf)
+            data = base64.b64encode(buf.getvalue()).decode("ascii")
+            parts.append(f"<h2>Figure</h2><img alt='fit' src='data:image/png;base64,{data}'>")
+        except ValueError as exc:  # matplotlib missing
+            parts.append(f"<p class='warn'>{esc(str(exc))}</p>")
+    parts.append("<p><small>written by imucalib; the calibration file (JSON) holds the same numbers.</small></p>"
+                 "</body></html>")
     path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    path.write_text("\n".join(parts), encoding="utf-8")
     return path
