@@ -56,8 +56,10 @@ def _add_reader_options(p: argparse.ArgumentParser) -> None:
 
 
 def _read(args: argparse.Namespace, paths: Sequence[str]):
+    from .io.rosbag import is_rosbag
+
     if args.reader == "session" or (args.reader is None and len(paths) == 1 and Path(paths[0]).is_dir()
-                                    and not (Path(paths[0]) / "metadata.yaml").is_file()):
+                                    and not is_rosbag(Path(paths[0]))):
         from .simulate import read_session
 
         return read_session(paths[0])
@@ -183,10 +185,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 def cmd_apply(args: argparse.Namespace) -> int:
     from .io import write_csv
-
-    cal = Calibration.load(args.calibration)
     from .io.rosbag import is_rosbag
 
+    cal = Calibration.load(args.calibration)
     if (args.reader == "rosbag" or is_rosbag(Path(args.data))) and Path(args.output).suffix.lower() != ".csv":
         from .io.rosbag import write_calibrated_bag
 

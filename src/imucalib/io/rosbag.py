@@ -64,6 +64,17 @@ def _choose_topic(reader, topic: str | None, path: Path) -> str:
     return topic
 
 
+def _imu_messages(reader, connections):
+    """``(record time [ns], message)`` of the given connections, in record order."""
+    for conn, log_ns, raw in reader.messages(connections=connections):
+        yield log_ns, reader.deserialize(raw, conn.msgtype)
+
+
+def _readings(m) -> tuple[float, ...]:
+    a, w = m.linear_acceleration, m.angular_velocity
+    return a.x, a.y, a.z, w.x, w.y, w.z
+
+
 def _open(path: Path):
     try:
         from rosbags.highlevel import AnyReader
@@ -100,12 +111,10 @@ def read_rosbag(path: str | Path, *, topic: str | None = None) -> Recording:
         data = np.empty((n, 6))
         frames = set()
         i = 0
-        for conn, log_ns, raw in reader.messages(connections=conns):
-            m = reader.deserialize(raw, conn.msgtype)
+        for log_ns, m in _imu_messages(reader, conns):
             stamp[i] = m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec
             logged[i] = log_ns
-            a, w = m.linear_acceleration, m.angular_velocity
-            data[i] = (a.x, a.y, a.z, w.x, w.y, w.z)
+            data[i] = _readings(m)
             frames.add(m.header.frame_id)
             i += 1
     finally:
@@ -172,12 +181,7 @@ def write_calibrated_bag(source: str | Path, destination: str | Path, calibratio
     try:
         topic = _choose_topic(reader, topic, source)
         imu_conns = [c for c in reader.connections if c.topic == topic]
-        raw = []
-        for conn, _, data in reader.messages(connections=imu_conns):
-            m = reader.deserialize(data, conn.msgtype)
-            a, w = m.linear_acceleration, m.angular_velocity
-            raw.append((a.x, a.y, a.z, w.x, w.y, w.z))
-        raw = np.asarray(raw, dtype=float).reshape(-1, 6)
+        raw = np.asarray([_readings(m) for _, m in _imu_messages(reader, imu_conns)], dtype=float).reshape(-1, 6)
         acc = calibration.accelerometer_si(raw[:, :3])
         gyro = calibration.gyroscope.forward(raw[:, 3:], acc)
         writer, serialize = _writer_like(reader, source, destination)
