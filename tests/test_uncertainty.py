@@ -47,6 +47,11 @@ def test_tedaldi_errors_match_the_monte_carlo_spread():
         assert len(unc) == 9 + 9 and all(np.isfinite(v) and v > 0 for v in unc.values())
         for k, s in unc.items():
             z[k.split(".")[0]].append((est[k] - tru[k]) / s)
+        if seed == 0:  # the same errors, computed afterwards from the calibration and its recording
+            from imucalib.methods.tedaldi2014 import uncertainty
+
+            again = uncertainty(rec, iv, cal)
+            np.testing.assert_allclose([again[k] for k in unc], list(unc.values()), rtol=1e-6)
     for sensor, values in z.items():
         rms = np.sqrt(np.mean(np.square(values)))
         assert 0.75 < rms < 1.3, (sensor, rms)  # 180 z-scores each: ~5 % sampling error
