@@ -207,3 +207,20 @@ def test_html_report(capsys, tmp_path, session_csv):
     assert page.count("<tr>") >= 18 + 4
     if __import__("importlib").util.find_spec("matplotlib"):
         assert "data:image/png;base64," in page  # the fit figure, embedded
+
+
+def test_pose_coverage_flags_a_missing_orientation():
+    from imucalib.methods import calibrate
+
+    rng = np.random.default_rng(4)
+    d = rng.normal(size=(30, 3))
+    d[:, 0] = np.abs(d[:, 0])  # the x axis never points down
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    rec, truth, iv = tedaldi_session(seed=4, directions=d, noise_acc=0.02, noise_gyro=0.003)
+    cal = calibrate(rec, method="tedaldi2014", gravity=truth.gravity, intervals=iv)
+    flags = cal.fit["quality_flags"]
+    assert len(flags) == 1 and "x axis within 60° of down" in flags[0]
+    assert cal.fit["pose_coverage"]["x"][0] > -0.2
+    rec, truth, iv = tedaldi_session(seed=5, noise_acc=0.02, noise_gyro=0.003, poses=30)
+    cal = calibrate(rec, method="tedaldi2014", gravity=truth.gravity, intervals=iv)
+    assert "quality_flags" not in cal.fit and cal.fit["pose_coverage"]["z"][1] > 0.5

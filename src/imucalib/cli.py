@@ -130,6 +130,12 @@ def _print_calibration(cal: Calibration) -> None:
                 print(f"  intervals: {len(v)} (sample ranges in the JSON)")
             elif k == "uncertainty":
                 continue
+            elif k == "pose_coverage":
+                print("  pose_coverage (gravity component, min..max): "
+                      + "  ".join(f"{a} {lo:+.2f}..{hi:+.2f}" for a, (lo, hi) in v.items()))
+            elif k == "quality_flags":
+                for flag in v:
+                    print(f"  quality flag: {flag}")
             else:
                 print(f"  {k}: {v:.6g}" if isinstance(v, float) else f"  {k}: {v}")
 

@@ -25,6 +25,7 @@ __all__ = [
     "predicted_gravity",
     "gravity_direction_errors",
     "fit_summary",
+    "pose_coverage",
 ]
 
 
@@ -99,4 +100,32 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
         ang = np.degrees(gravity_direction_errors(calibration, recording, intervals))
         out["gyroscope_angle_error_mean_deg"] = float(np.mean(ang))
         out["gyroscope_angle_error_max_deg"] = float(np.max(ang))
+    coverage, flags = pose_coverage(calibration.accelerometer_si(interval_means(recording.acc, intervals)))
+    out["pose_coverage"] = coverage
+    if flags:
+        out["quality_flags"] = flags
     return out
+
+
+def pose_coverage(acc_means: np.ndarray, *, cone_deg: float = 60.0) -> tuple[dict, list[str]]:
+    """How the static poses cover each axis's up and down, and advice where they do not.
+
+    For each body axis, the range of the gravity direction's component over
+    the poses (``[min, max]`` of ``a/‖a‖``, 1 = straight up). An axis that is
+    never within ``cone_deg`` of up (or of down) leaves its bias and scale
+    factor to be told apart by the other side alone (Ru 2022, §3.1: each
+    axis is calibrated from both orientations), so it gets a flag naming the
+    missing orientation.
+    """
+    u = acc_means / np.linalg.norm(acc_means, axis=1, keepdims=True)
+    lo, hi = u.min(axis=0), u.max(axis=0)
+    limit = np.cos(np.radians(cone_deg))
+    coverage = {a: [float(lo[i]), float(hi[i])] for i, a in enumerate("xyz")}
+    flags = []
+    for i, a in enumerate("xyz"):
+        for side, ok in (("up", hi[i] >= limit), ("down", lo[i] <= -limit)):
+            if not ok:
+                flags.append(f"no pose has the {a} axis within {cone_deg:.0f}° of {side} "
+                             f"(its gravity component spans {lo[i]:+.2f}..{hi[i]:+.2f}): its bias and scale "
+                             f"are poorly separated; add poses with {a} pointing {side}")
+    return coverage, flags

@@ -171,7 +171,7 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
     rows = "".join(f"<tr><td>{esc(k)}</td><td>{f.format(v)}</td></tr>" for k, v, f in quality if v is not None)
     if rows:
         parts.append(f"<h2>Fit</h2><table><tr><th>figure</th><th>value</th></tr>{rows}</table>")
-    all_notes = list(notes)
+    all_notes = list(notes) + [f"quality flag: {f}" for f in fit.get("quality_flags", [])]
     if fit.get("uncertainty_unavailable"):
         all_notes.append(f"errors not available: {fit['uncertainty_unavailable']}")
     if isinstance(fit.get("model_selection"), dict):
