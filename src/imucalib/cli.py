@@ -545,7 +545,7 @@ def _triple(v) -> str:
 
 def cmd_plan(args: argparse.Namespace) -> int:
     if args.method != "wang2019":
-        raise CliError(f"a calibration plan is available for wang2019; got {args.method!r}")
+        return _plan_accelerometer(args)
     from .methods.wang2019 import plan_report
 
     rep = plan_report(args.seed)
@@ -562,6 +562,30 @@ def cmd_plan(args: argparse.Namespace) -> int:
     for p in rep["parameters"]:
         print(f"{p['parameter']:<10}{p['value']:>14.4g}{p['sensitivity_rms']:>14.4g}"
               f"{p['fisher_information']:>14.4g}{p['crlb_std']:>12.3g}  {'yes' if p['observable'] else 'NO'}")
+    return 0
+
+
+def _plan_accelerometer(args: argparse.Namespace) -> int:
+    from .methods import METHODS
+    from .plans import accelerometer_plan
+
+    if args.method not in METHODS:
+        raise CliError(f"unknown method {args.method!r}; use one of {', '.join(METHODS)}")
+    poses = args.poses or ("six" if args.method in ("six_position", "ferraris") else "nine")
+    rep = accelerometer_plan(poses, noise=args.noise_acc)
+    if args.json:
+        print(json.dumps(rep))
+        return 0
+    print(f"{rep['poses']} static poses (up direction in the body frame), for the linear accelerometer "
+          f"model of {args.method}:")
+    for k, d in enumerate(rep["directions"], 1):
+        print(f"  {k:2d}: [{d[0]: .3f} {d[1]: .3f} {d[2]: .3f}]")
+    print(f"Cramér–Rao bound with {rep['noise']:g} m/s^2 of noise on each pose's mean "
+          "(scales relative, misalignments in rad, biases in m/s^2):")
+    for p in rep["parameters"]:
+        bound = f"{p['crlb_std']:.3g}" if p["observable"] else "-"
+        verdict = "observable" if p["observable"] else "NOT determined by these poses"
+        print(f"  {p['parameter']:<34}{bound:>12}  {verdict}")
     return 0
 
 
@@ -703,8 +727,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("plan", help="print a method's calibration plan and parameter observability",
                        description="Print the positions and rotations of a method's optimal plan "
                        "and, per parameter, its sensitivity and Fisher information.")
-    p.add_argument("--method", required=True, help="method (wang2019)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the typical truth used")
+    p.add_argument("--method", required=True,
+                   help="wang2019 (turntable plan), or any other method (its accelerometer pose plan)")
+    p.add_argument("--seed", type=int, default=0, help="wang2019: seed of the typical truth used")
+    p.add_argument("--poses", help="six, nine (Ru 2022 Table 3) or a number of evenly spread poses "
+                   "(default: six for six_position/ferraris, else nine)")
+    p.add_argument("--noise-acc", type=_positive_float, default=0.002,
+                   help="noise of one pose's mean [m/s^2] (default 0.002)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_plan)
     return parser
