@@ -495,6 +495,22 @@ class IntervalIntegrator:
         """(M, L+1) positions in :attr:`samples` of each interval's samples (0 = padding)."""
         return self._sample_pos
 
+    def weighted_sum(self, weights: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """``Σ_j A_j v_j`` over each interval's samples: (M, 3, P) from the weights of :meth:`sensitivity`.
+
+        ``values`` (len(samples), 3, P) are per-sample Jacobians (e.g. ``∂ω/∂θ``).
+        Each interval's samples are consecutive in :attr:`samples`, so this is
+        one (3 × 3n)·(3n × P) product per interval over its own samples, with
+        no gathered copy and no work on the padding.
+        """
+        nsteps = self.stops - self.starts
+        first = self._sample_pos[:, 0]
+        out = np.empty((len(nsteps), 3, values.shape[2]))
+        for m, (p0, n) in enumerate(zip(first, nsteps + 1, strict=True)):
+            a = weights[m, :n].transpose(1, 0, 2).reshape(3, 3 * n)  # [A_0 A_1 …]
+            out[m] = a @ values[p0 : p0 + n].reshape(3 * n, -1)
+        return out
+
 
 def five_point_derivative(x: np.ndarray, dt: float) -> np.ndarray:
     """Time derivative by the five-point stencil (Zhang 2021, eq. 20).

@@ -216,11 +216,6 @@ def gravity_direction_residuals_jac(
     q_end, weights = integrator.sensitivity(rates)
     r = quat_to_matrix(q_end)
     predicted = np.einsum("kji,kj->ki", r, gravity_dirs[:-1])
-    m, l1 = weights.shape[:2]
-    p = rate_jac.shape[-1]
-    d = rate_jac[integrator.sample_index]  # (M, L+1, 3, P)
-    # Σ_j A_j D_j as one batched product: (M, 3, (L+1)·3) @ (M, (L+1)·3, P)
-    a = weights.transpose(0, 2, 1, 3).reshape(m, 3, l1 * 3)
-    summed = a @ d.reshape(m, l1 * 3, p)
+    summed = integrator.weighted_sum(weights, rate_jac)  # Σ_j A_j ∂ω_j/∂θ
     jac = -skew(predicted) @ np.swapaxes(r, 1, 2) @ summed
-    return (gravity_dirs[1:] - predicted).ravel(), jac.reshape(3 * m, p)
+    return (gravity_dirs[1:] - predicted).ravel(), jac.reshape(-1, rate_jac.shape[-1])

@@ -278,9 +278,7 @@ class _Problem:
         res.append(self.w3 * (a_s[1:] - pred).ravel())
         if jac:
             mm = rot.shape[0]
-            l1 = wts.shape[1]
-            d = jw_m[self.integ.sample_index]  # (M−1, L+1, 3, P)
-            summed = wts.transpose(0, 2, 1, 3).reshape(mm, 3, l1 * 3) @ d.reshape(mm, l1 * 3, p)
+            summed = self.integ.weighted_sum(wts, jw_m)  # Σ_j A_j ∂ω_j/∂θ per transition
             j3 = -skew(pred) @ np.swapaxes(rot, 1, 2) @ summed
             j3[:, :, :na] += ja_s[1:] - np.swapaxes(rot, 1, 2) @ ja_s[:-1]
             jacs.append(self.w3[:, None] * j3.reshape(3 * mm, p))
