@@ -1,4 +1,4 @@
-"""Levenberg–Marquardt for tall least-squares problems, and parameter covariance.
+"""Levenberg–Marquardt for tall least-squares problems, and the standard errors of its estimates.
 
 The calibration problems have tens of parameters and up to ~10⁵ residuals.
 MINPACK (``scipy.optimize.least_squares(method="lm")``) factorises the whole
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LMResult", "levenberg_marquardt", "covariance", "standard_errors"]
+__all__ = ["LMResult", "levenberg_marquardt", "standard_errors"]
 
 
 @dataclass
@@ -148,19 +148,6 @@ def _solve_damped(a: np.ndarray, g: np.ndarray, lam: float) -> np.ndarray:
         return np.linalg.solve(c.T, y)
     except np.linalg.LinAlgError:
         return np.linalg.lstsq(m, -g, rcond=None)[0]
-
-
-def covariance(jac: np.ndarray, residuals: np.ndarray, n_params: int | None = None) -> np.ndarray:
-    """Parameter covariance ``σ² (JᵀJ)⁻¹`` with ``σ² = ‖r‖² / (M − P)``.
-
-    Uses the pseudo-inverse, so unobservable directions get zero variance
-    instead of failing; check the rank where that matters.
-    """
-    m, p = jac.shape
-    p = n_params or p
-    dof = max(m - p, 1)
-    s2 = float(residuals @ residuals) / dof
-    return s2 * np.linalg.pinv(jac.T @ jac)
 
 
 def standard_errors(jac: np.ndarray, residuals: np.ndarray, *, dof: float | None = None,
