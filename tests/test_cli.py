@@ -224,3 +224,20 @@ def test_pose_coverage_flags_a_missing_orientation():
     rec, truth, iv = tedaldi_session(seed=5, noise_acc=0.02, noise_gyro=0.003, poses=30)
     cal = calibrate(rec, method="tedaldi2014", gravity=truth.gravity, intervals=iv)
     assert "quality_flags" not in cal.fit and cal.fit["pose_coverage"]["z"][1] > 0.5
+
+
+def test_temperature_is_recorded_and_compared(capsys, tmp_path):
+    rec, truth, _ = tedaldi_session(seed=12, noise_acc=0.003, noise_gyro=0.002)
+    rec.temperature = np.linspace(24.0, 26.0, len(rec))
+    write_csv(tmp_path / "warm.csv", rec)
+    code, out, err = run(capsys, "calibrate", tmp_path / "warm.csv", "-o", tmp_path / "c.json", "--report",
+                         tmp_path / "r.html")
+    assert code == 0, err
+    cal = Calibration.load(tmp_path / "c.json")
+    np.testing.assert_allclose(cal.fit["temperature_c"], [24.0, 25.0, 26.0], atol=1e-6)
+    assert "temperature min / mean / max" in (tmp_path / "r.html").read_text(encoding="utf-8")
+    rec.temperature = rec.temperature + 15.0
+    write_csv(tmp_path / "hot.csv", rec)
+    code, out, err = run(capsys, "validate", tmp_path / "c.json", tmp_path / "hot.csv")
+    assert code == 0, err
+    assert "temperature 40.0 °C (at calibration 25.0 °C)" in out and "biases may have drifted" in out

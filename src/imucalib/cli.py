@@ -261,6 +261,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     intervals = detect_intervals(rec, gravity)[0]
     fit = fit_summary(cal, rec, intervals, gravity)
     keys = ("accelerometer_residual_rms", "gyroscope_angle_error_mean_deg", "gyroscope_angle_error_max_deg")
+    keys = (*keys, "temperature_c")
     result = {"calibration": str(args.calibration), "method": cal.method, "gravity": gravity,
               "static_intervals": fit["static_intervals"], **{k: fit.get(k) for k in keys},
               "at_calibration": {k: (cal.fit or {}).get(k) for k in ("static_intervals", *keys)}}
@@ -273,6 +274,10 @@ def cmd_validate(args: argparse.Namespace) -> int:
         return 0
     then = result["at_calibration"]
     print(f"{cal.method} calibration on {len(intervals)} static poses of this recording (not refitted):")
+    if fit.get("temperature_c") and (cal.fit or {}).get("temperature_c"):
+        t_now, t_then = fit["temperature_c"][1], cal.fit["temperature_c"][1]
+        print(f"  temperature {t_now:.1f} °C (at calibration {t_then:.1f} °C)"
+              + ("  — more than 5 °C apart: biases may have drifted" if abs(t_now - t_then) > 5 else ""))
     for k, label, unit in ((keys[0], "‖a‖ − g RMS", "m/s^2"), (keys[1], "gyro angle error mean", "deg"),
                            (keys[2], "gyro angle error max", "deg")):
         now = result[k]

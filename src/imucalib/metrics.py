@@ -102,6 +102,10 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
         out["gyroscope_angle_error_max_deg"] = float(np.max(ang))
     coverage, flags = pose_coverage(calibration.accelerometer_si(interval_means(recording.acc, intervals)))
     out["pose_coverage"] = coverage
+    if recording.temperature is not None and np.any(np.isfinite(recording.temperature)):
+        # biases and scales of MEMS sensors drift with temperature: say where this calibration holds
+        temp = recording.temperature[np.isfinite(recording.temperature)]
+        out["temperature_c"] = [float(temp.min()), float(temp.mean()), float(temp.max())]
     if flags:
         out["quality_flags"] = flags
     return out

@@ -168,6 +168,9 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
                ("‖a‖ − g RMS over the poses [m/s²]", fit.get("accelerometer_residual_rms"), "{:.3g}"),
                ("gyroscope angle error, mean [deg]", fit.get("gyroscope_angle_error_mean_deg"), "{:.3g}"),
                ("gyroscope angle error, max [deg]", fit.get("gyroscope_angle_error_max_deg"), "{:.3g}")]
+    if fit.get("temperature_c"):
+        quality.append(("temperature min / mean / max [°C]", fit["temperature_c"],
+                        "{0[0]:.1f} / {0[1]:.1f} / {0[2]:.1f}"))
     rows = "".join(f"<tr><td>{esc(k)}</td><td>{f.format(v)}</td></tr>" for k, v, f in quality if v is not None)
     if rows:
         parts.append(f"<h2>Fit</h2><table><tr><th>figure</th><th>value</th></tr>{rows}</table>")

@@ -34,7 +34,8 @@ def write_csv(
 
     Columns keep the names and order they had in a CSV input (``metadata
     ["column_names"]``) and time keeps its original unit; otherwise the
-    columns are ``t [s], ax [unit] … gz [unit]`` followed by any extra columns. The added
+    columns are ``t [s], ax [unit] … gz [unit]``, the temperature if there is one,
+    then any extra columns. The added
     columns are ``acc_x_cal [m/s^2]`` … and ``gyro_x_cal [rad/s]`` ….
     """
     rec = recording
@@ -59,6 +60,8 @@ def write_csv(
             cols[f"a{a} [{rec.acc_unit}]"] = rec.acc[:, i]
         for i, a in enumerate("xyz"):
             cols[f"g{a} [{rec.gyro_unit}]"] = rec.gyro[:, i]
+        if rec.temperature is not None:
+            cols["temperature [C]"] = rec.temperature
         for k, v in rec.extra.items():
             cols[k] = v
     if calibrated_acc is not None:
