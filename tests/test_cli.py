@@ -241,3 +241,20 @@ def test_temperature_is_recorded_and_compared(capsys, tmp_path):
     code, out, err = run(capsys, "validate", tmp_path / "c.json", tmp_path / "hot.csv")
     assert code == 0, err
     assert "temperature 40.0 °C (at calibration 25.0 °C)" in out and "biases may have drifted" in out
+
+
+def test_a_gap_inside_a_rotation_is_flagged():
+    from imucalib.methods import calibrate
+    from imucalib.recording import Interval, Recording
+
+    rec, truth, iv = tedaldi_session(seed=6, noise_acc=0.02, noise_gyro=0.003, poses=30)
+    a, b = iv[4].stop, iv[5].start  # the rotation from pose 5 to pose 6
+    drop = np.arange(a + 20, a + 40)  # 0.2 s of samples lost mid-rotation
+    keep = np.setdiff1d(np.arange(len(rec)), drop)
+    gappy = Recording(rec.t[keep], rec.acc[keep], rec.gyro[keep], acc_unit=rec.acc_unit, gyro_unit=rec.gyro_unit)
+    shift = np.searchsorted(keep, [[i.start, i.stop] for i in iv])
+    iv2 = [Interval(int(s), int(e)) for s, e in shift]
+    cal = calibrate(gappy, method="tedaldi2014", gravity=truth.gravity, intervals=iv2)
+    flags = cal.fit["quality_flags"]
+    assert len(flags) == 1 and "from pose 5 to 6 has 1 sampling gap" in flags[0] and "0.21 s" in flags[0]
+    assert b > a

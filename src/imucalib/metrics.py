@@ -26,6 +26,7 @@ __all__ = [
     "gravity_direction_errors",
     "fit_summary",
     "pose_coverage",
+    "gap_flags",
 ]
 
 
@@ -101,6 +102,7 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
         out["gyroscope_angle_error_mean_deg"] = float(np.mean(ang))
         out["gyroscope_angle_error_max_deg"] = float(np.max(ang))
     coverage, flags = pose_coverage(calibration.accelerometer_si(interval_means(recording.acc, intervals)))
+    flags += gap_flags(recording, intervals)
     out["pose_coverage"] = coverage
     if recording.temperature is not None and np.any(np.isfinite(recording.temperature)):
         # biases and scales of MEMS sensors drift with temperature: say where this calibration holds
@@ -109,6 +111,31 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
     if flags:
         out["quality_flags"] = flags
     return out
+
+
+def gap_flags(recording: Recording, intervals: Sequence[Interval], *, factor: float = 2.5) -> list[str]:
+    """Advice on sampling gaps (a step over ``factor`` × the median) inside the rotations between poses.
+
+    The attitude change of a rotation is integrated sample to sample (RK4,
+    Zhang 2021 eq. 23); across a gap the rate is only interpolated, so that
+    rotation's gravity-direction residual (eq. 14) is unreliable.
+    """
+    if len(recording) < 3 or len(intervals) < 2:
+        return []
+    dt = np.diff(recording.t)
+    big = np.nonzero(dt > factor * np.median(dt))[0]
+    if big.size == 0:
+        return []
+    starts, stops = transition_bounds(intervals)
+    flags = []
+    for k, (a, b) in enumerate(zip(starts, stops, strict=True)):
+        inside = big[(big >= a) & (big < b)]
+        if inside.size:
+            i = int(inside[np.argmax(dt[inside])])
+            flags.append(f"the rotation from pose {k + 1} to {k + 2} has {inside.size} sampling gap(s), the longest "
+                         f"{dt[i]:.3g} s at t = {recording.t[i] - recording.t[0]:.3f} s: the gyroscope is "
+                         "integrated across it by interpolation, so this rotation's residual is unreliable")
+    return flags
 
 
 def pose_coverage(acc_means: np.ndarray, *, cone_deg: float = 60.0) -> tuple[dict, list[str]]:
