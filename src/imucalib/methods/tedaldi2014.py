@@ -211,14 +211,14 @@ def calibrate_gyroscope(
     with Levenberg–Marquardt and the analytic first-order Jacobian of
     :func:`~imucalib.residuals.gravity_direction_residuals_jac`.
     """
-    if len(intervals) < 4:
-        raise ValueError(f"gyroscope calibration needs at least 4 static poses; got {len(intervals)}")
     return fit_gyroscope(recording, intervals, accelerometer, bias, estimate_bias)[0]
 
 
 def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, bias: np.ndarray,
                   estimate_bias: bool = False) -> tuple[TriadModel, dict[str, float]]:
     """:func:`calibrate_gyroscope`, also returning its 1σ errors by name."""
+    if len(intervals) < 4:
+        raise ValueError(f"gyroscope calibration needs at least 4 static poses; got {len(intervals)}")
     fun, jac, layout, dirs, (starts, stops) = _gyro_problem(recording, intervals, accelerometer, bias,
                                                             estimate_bias)
     k = _gyro_scale_guess(recording.gyro - bias, recording.t, starts, stops, dirs)
