@@ -290,6 +290,19 @@ def cmd_validate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_export(args: argparse.Namespace) -> int:
+    from .export import to_c
+
+    cal = Calibration.load(args.calibration)
+    text = to_c(cal, prefix=args.prefix, ctype="float" if args.float else "double")
+    if args.output:
+        Path(args.output).write_text(text, encoding="utf-8")
+        print(f"wrote {args.output}: {args.prefix}_apply(acc_raw, gyro_raw, acc, gyro)")
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
 def cmd_detect_fall(args: argparse.Namespace) -> int:
     from .methods.zhang2021 import detect_fall
 
@@ -662,6 +675,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     _add_reader_options(p)
     p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser("export", help="write a calibration as C source for the device",
+                       description="Print (or write) a C99 header with the calibration's constants and "
+                       "a function PREFIX_apply(acc_raw, gyro_raw, acc, gyro) that corrects one sample "
+                       "exactly as 'imucalib apply' does.")
+    p.add_argument("calibration", help="calibration file (JSON)")
+    p.add_argument("-o", "--output", help="header file to write (default: standard output)")
+    p.add_argument("--prefix", default="imucalib", help="prefix of the C names (default: imucalib)")
+    p.add_argument("--float", action="store_true", help="single precision (default: double)")
+    p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("detect-fall", help="find free-fall intervals (Zhang 2021, §IV-C)",
                        description="Mark samples whose weightless loss (Zhang 2021, eq. 19) is "
