@@ -620,7 +620,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Estimate biases, scale factors and misalignments from a "
                        "recording of static poses and rotations between them.")
     p.add_argument("data", nargs="+", help="data file(s): one CSV/MAT file, two imu_tk files "
-                   "(accelerometer then gyroscope), or a simulated session directory")
+                   "(accelerometer then gyroscope), a ROS bag, or a simulated session directory")
     p.add_argument("--method", default="tedaldi2014", help="calibration method (default: tedaldi2014)")
     p.add_argument("--model", help="model variant, e.g. linear, quadratic, cubic, all")
     p.add_argument("--gravity", type=_positive_float, default=STANDARD_GRAVITY,
