@@ -73,3 +73,16 @@ def test_missing_rotations_are_named():
     rec, iv, truth = qureshi_session(2)
     with pytest.raises(ValueError, match="gyroscope must be 'static' or 'dynamic'"):
         calibrate(rec, method="qureshi2017", gravity=truth.gravity, intervals=iv, gyroscope="rate")
+
+
+def test_montecarlo_command_reproduces_the_papers_figures(capsys):
+    import json
+
+    from imucalib.cli import main
+
+    assert main(["montecarlo", "--scenario", "qureshi2017", "--method", "qureshi2017", "--runs", "4", "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["runs"] == 4 and len(r["per_run"]) == 4
+    assert r["reduction_fold_min"] >= 9  # the paper: 0.0129 g → 0.0014 g
+    assert r["gyro_scale_rel_error_max"]["static"] < 0.0041 and r["gyro_scale_rel_error_max"]["dynamic"] < 0.0041
+    assert main(["montecarlo", "--scenario", "qureshi2017", "--method", "tedaldi2014"]) == 2
