@@ -133,6 +133,8 @@ def test_xsens_matches_imu_tk(xsens):
     # at least as good as imu_tk's own parameters under the same metric definitions
     assert fit["accelerometer_residual_rms"] <= 0.00112
     assert fit["gyroscope_angle_error_mean_deg"] <= 0.481
+    # the real sensor's residual is a few times its white-noise floor: close to noise, not flagged
+    assert 1.5 < fit["accelerometer_residual_to_noise"] < 5 and "quality_flags" not in fit
     # imu_tk's estimates (other intervals of the same recording) lie within 2.5σ of the errors we report
     unc, ref = fit["uncertainty"], Calibration(
         accelerometer=TriadModel(misalignment=IMU_TK["acc_T"], scale=IMU_TK["acc_K"], bias=IMU_TK["acc_b"],

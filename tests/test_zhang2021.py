@@ -183,3 +183,19 @@ def test_gyroscope_static_detector_eq22():
                               gravity=sim.truth.gravity)
     assert cal.fit["static_intervals"] == 40
     np.testing.assert_allclose(cal.lever_arm, sim.truth.lever_arm, atol=1e-4)
+
+
+def test_residual_against_the_noise_floor_tells_model_error():
+    import warnings
+
+    from imucalib.simulate import session
+
+    sim = session("zhang2021", rng=0)  # a sensor with cubic scale factors
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lin = zhang2021.calibrate(sim.recording, weightless=sim.weightless, model="linear", gravity=sim.truth.gravity)
+        full = zhang2021.calibrate(sim.recording, weightless=sim.weightless, model="all", gravity=sim.truth.gravity)
+    assert lin.fit["accelerometer_residual_to_noise"] > 10  # the linear model leaves structure …
+    assert any("what the sensor noise explains" in f for f in lin.fit["quality_flags"])
+    assert 0.5 < full.fit["accelerometer_residual_to_noise"] < 1.5  # … the full model only noise
+    assert "quality_flags" not in full.fit

@@ -27,6 +27,7 @@ __all__ = [
     "fit_summary",
     "pose_coverage",
     "gap_flags",
+    "gravity_noise_floor",
 ]
 
 
@@ -103,6 +104,15 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
         out["gyroscope_angle_error_max_deg"] = float(np.max(ang))
     coverage, flags = pose_coverage(calibration.accelerometer_si(interval_means(recording.acc, intervals)))
     flags += gap_flags(recording, intervals)
+    floor = gravity_noise_floor(calibration, recording, intervals)
+    if floor > 0:
+        out["accelerometer_noise_floor"] = floor
+        ratio = out["accelerometer_residual_rms"] / floor
+        out["accelerometer_residual_to_noise"] = ratio
+        if ratio > 5:
+            flags.append(f"the gravity-norm residual is {ratio:.0f}× what the sensor noise explains: the model "
+                         "leaves structure (nonlinear scale factors? temperature drift?) or some poses were not "
+                         "still; compare the model variants (imucalib compare)")
     out["pose_coverage"] = coverage
     if recording.temperature is not None and np.any(np.isfinite(recording.temperature)):
         # biases and scales of MEMS sensors drift with temperature: say where this calibration holds
@@ -111,6 +121,25 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
     if flags:
         out["quality_flags"] = flags
     return out
+
+
+def gravity_noise_floor(calibration, recording: Recording, intervals: Sequence[Interval]) -> float:
+    """RMS over the poses of the white-noise error of ``‖ā_k‖`` [m/s²], the floor of the gravity-norm residual.
+
+    For pose ``k`` with ``n_k`` samples, ``‖ā_k‖`` carries the noise of the
+    samples along the mean direction divided by ``√n_k``; a perfect model
+    would leave residuals of about this size, so ``residual / floor`` well
+    above 1 means model error or poses that were not still.
+    """
+    var = []
+    for iv in intervals:
+        a = calibration.accelerometer_si(recording.acc[iv.slice])
+        if a.shape[0] < 2:
+            continue
+        u = a.mean(axis=0)
+        along = a @ (u / np.linalg.norm(u))
+        var.append(np.var(along, ddof=1) / a.shape[0])
+    return float(np.sqrt(np.mean(var))) if var else 0.0
 
 
 def gap_flags(recording: Recording, intervals: Sequence[Interval], *, factor: float = 2.5) -> list[str]:
