@@ -166,6 +166,9 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
     parts.append("</table>")
     quality = [("static poses", fit.get("static_intervals"), "{:d}"),
                ("‖a‖ − g RMS over the poses [m/s²]", fit.get("accelerometer_residual_rms"), "{:.3g}"),
+               ("… its white-noise floor [m/s²]", fit.get("accelerometer_noise_floor"), "{:.3g}"),
+               ("… residual / noise floor (≈ 1: only noise left)", fit.get("accelerometer_residual_to_noise"),
+                "{:.2f}"),
                ("gyroscope angle error, mean [deg]", fit.get("gyroscope_angle_error_mean_deg"), "{:.3g}"),
                ("gyroscope angle error, max [deg]", fit.get("gyroscope_angle_error_max_deg"), "{:.3g}")]
     if fit.get("temperature_c"):
