@@ -31,3 +31,39 @@ def test_errors():
         allan_deviation(np.ones(5), 100.0)
     with pytest.raises(ValueError, match="no cluster time fits"):
         allan_deviation(np.ones(100), 100.0, taus=[10.0])
+
+
+def test_kalibr_file_from_a_long_rest(tmp_path, capsys):
+    from imucalib.cli import main
+    from imucalib.io import write_csv
+    from imucalib.recording import Recording
+
+    rng = np.random.default_rng(3)
+    rate, n = 100.0, 400_000  # 4000 s at rest
+    na, ng = 2e-3, 2e-4  # white noise densities [unit·√s]
+    ka, kg = 3e-4, 2e-5  # rate random walks [unit/√s]
+    walk = lambda k: np.cumsum(rng.normal(0, k / np.sqrt(rate), (n, 3)), axis=0)  # noqa: E731
+    acc = np.array([0.0, 0.0, 9.81]) + rng.normal(0, na * np.sqrt(rate), (n, 3)) + walk(ka)
+    gyro = rng.normal(0, ng * np.sqrt(rate), (n, 3)) + walk(kg)
+    write_csv(tmp_path / "rest.csv", Recording(np.arange(n) / rate, acc, gyro, acc_unit="m/s^2", gyro_unit="rad/s"))
+    assert main(["noise", str(tmp_path / "rest.csv"), "--whole", "--kalibr", str(tmp_path / "imu.yaml"),
+                 "--json"]) == 0
+    doc = __import__("json").loads(capsys.readouterr().out)
+    values = {}
+    for line in (tmp_path / "imu.yaml").read_text().splitlines():
+        if ":" in line and not line.startswith("#"):
+            key, rest = line.split(":", 1)
+            values[key] = rest.split("#")[0].strip()
+    assert float(values["accelerometer_noise_density"]) == pytest.approx(na, rel=0.15)
+    assert float(values["gyroscope_noise_density"]) == pytest.approx(ng, rel=0.15)
+    # the file holds the largest axis; each axis's random walk is near the truth (long clusters are few: ±30 %)
+    for name, k in (("accelerometer", ka), ("gyroscope", kg)):
+        per_axis = np.array(doc[name]["random_walk"])
+        assert float(values[f"{name}_random_walk"]) == pytest.approx(per_axis.max(), rel=1e-6)
+        assert np.median(per_axis) == pytest.approx(k, rel=0.35)
+    assert float(values["update_rate"]) == pytest.approx(rate)
+    capsys.readouterr()
+    raw = Recording(np.arange(1000) / rate, acc[:1000], gyro[:1000])  # counts
+    write_csv(tmp_path / "raw.csv", raw)
+    assert main(["noise", str(tmp_path / "raw.csv"), "--whole", "--kalibr", str(tmp_path / "x.yaml")]) == 2
+    assert "needs SI units" in capsys.readouterr().err

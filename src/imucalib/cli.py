@@ -544,16 +544,29 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def cmd_noise(args: argparse.Namespace) -> int:
-    from .noise import noise_parameters
+    from .noise import kalibr_yaml, noise_parameters, random_walk_bound
     from .segment import find_initial_rest
 
     data = _read(args, args.data)
     rec = getattr(data, "recording", data)
+    if args.calibration:  # noise in SI units, through the calibration
+        rec = Calibration.load(args.calibration).apply(rec)
     part = rec if args.whole else rec[find_initial_rest(rec)]
     result = {"seconds": part.duration, "samples": len(part), "rate_hz": part.rate}
     for name, x, unit in (("accelerometer", part.acc, part.acc_unit), ("gyroscope", part.gyro, part.gyro_unit)):
         p = noise_parameters(x, part.rate)
-        result[name] = {"unit": unit, **{k: v.tolist() for k, v in p.items()}}
+        result[name] = {"unit": unit, **{k: v.tolist() for k, v in p.items()},
+                        "random_walk_bound": random_walk_bound(x, part.rate).tolist()}
+    if args.kalibr:
+        if (part.acc_unit, part.gyro_unit) != ("m/s^2", "rad/s"):
+            raise CliError(f"the Kalibr file needs SI units; this recording is in {part.acc_unit} and "
+                           f"{part.gyro_unit}: pass --calibration CALIBRATION.json (or read data in m/s^2, rad/s)")
+        text, notes = kalibr_yaml(result["accelerometer"], result["gyroscope"], part.rate,
+                                  topic=rec.metadata.get("topic") or "/imu0")
+        Path(args.kalibr).write_text(text, encoding="utf-8")
+        for n in notes:
+            _show_warning(n, ImucalibWarning, "", 0)
+        result["kalibr"] = str(args.kalibr)
     if args.plot:
         from .report import plot_allan
 
@@ -563,6 +576,8 @@ def cmd_noise(args: argparse.Namespace) -> int:
         return 0
     if args.plot:
         print(f"plot written to {args.plot}")
+    if args.kalibr:
+        print(f"Kalibr noise file written to {args.kalibr}")
     print(f"noise over {result['seconds']:.1f} s of rest ({result['samples']} samples, "
           f"{result['rate_hz']:.4g} Hz), Allan deviation (IEEE 952 slopes):")
     for name in ("accelerometer", "gyroscope"):
@@ -765,6 +780,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
     p.add_argument("--whole", action="store_true", help="use the whole recording (it must be at rest)")
     p.add_argument("--plot", metavar="FILE", help="also draw the Allan deviation (PNG/SVG/PDF; plot extra)")
+    p.add_argument("--calibration", metavar="CALIBRATION.json",
+                   help="apply this calibration first: the noise in m/s^2 and rad/s")
+    p.add_argument("--kalibr", metavar="imu.yaml",
+                   help="write the IMU noise file of Kalibr/OpenVINS/VINS (needs SI units)")
     p.add_argument("--json", action="store_true")
     _add_reader_options(p)
     p.set_defaults(func=cmd_noise)

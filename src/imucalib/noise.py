@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["allan_deviation", "noise_parameters"]
+__all__ = ["allan_deviation", "kalibr_yaml", "noise_parameters"]
 
 
 def allan_deviation(x: np.ndarray, rate: float, taus: np.ndarray | None = None,
@@ -86,3 +86,51 @@ def noise_parameters(x: np.ndarray, rate: float) -> dict[str, np.ndarray]:
             k[j] = adev[i, j] / np.sqrt(taus[i] / 3)
     return {"white_noise_density": white, "bias_instability": bias, "random_walk": k,
             "white_noise_per_sample": white * np.sqrt(rate)}
+
+
+def random_walk_bound(x: np.ndarray, rate: float) -> np.ndarray:
+    """Upper bound of the rate random walk ``K`` per column when the record is too short to show it.
+
+    A rate random walk adds ``K√(τ/3)`` to the Allan deviation, so the
+    deviation at the longest cluster time ``τ_max`` bounds it:
+    ``K ≤ σ(τ_max)·√(3/τ_max)``.
+    """
+    taus, adev = allan_deviation(x, rate)
+    adev = adev if adev.ndim == 2 else adev[:, None]
+    return adev[-1] * np.sqrt(3.0 / taus[-1])
+
+
+def kalibr_yaml(acc: dict, gyro: dict, rate: float, *, topic: str = "/imu0") -> tuple[str, list[str]]:
+    """The IMU noise file of Kalibr / OpenVINS / VINS (``imu.yaml``) from SI noise parameters.
+
+    ``acc`` and ``gyro`` hold ``white_noise_density`` and ``random_walk``
+    per axis (:func:`noise_parameters`, in m/s² and rad/s, optionally
+    ``random_walk_bound`` where the record was too short); the file takes the
+    largest axis of each. Returns the text and notes on what was bounded
+    rather than measured.
+    """
+    notes = []
+
+    def pick(d, name):
+        n = float(np.max(d["white_noise_density"]))
+        k = np.asarray(d["random_walk"], dtype=float)
+        if np.all(np.isfinite(k)):
+            return n, float(np.max(k))
+        axes = ", ".join(a for a, v in zip("xyz", k, strict=True) if not np.isfinite(v))
+        notes.append(f"{name} {axes}: the record is too short to show the bias random walk; the file uses its "
+                     "upper bound from the longest cluster time (record a longer rest for the value)")
+        return n, float(np.max(np.where(np.isfinite(k), k, d["random_walk_bound"])))
+
+    na, ka = pick(acc, "accelerometer")
+    ng, kg = pick(gyro, "gyroscope")
+    text = "\n".join([
+        "# IMU noise from the Allan deviation of a rest (imucalib noise), largest axis; Kalibr's format",
+        f"accelerometer_noise_density: {na:.6e}   # [ m / s^2 / sqrt(Hz) ]   ( accel \"white noise\" )",
+        f"accelerometer_random_walk: {ka:.6e}     # [ m / s^3 / sqrt(Hz) ]   ( accel bias diffusion )",
+        f"gyroscope_noise_density: {ng:.6e}       # [ rad / s / sqrt(Hz) ]   ( gyro \"white noise\" )",
+        f"gyroscope_random_walk: {kg:.6e}         # [ rad / s^2 / sqrt(Hz) ] ( gyro bias diffusion )",
+        f"rostopic: {topic}",
+        f"update_rate: {rate:.6g}   # [ Hz ]",
+        "",
+    ])
+    return text, notes
