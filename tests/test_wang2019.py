@@ -155,3 +155,16 @@ def test_simulate_then_calibrate_a_wang_directory(tmp_path, capsys):
     cal, truth = Calibration.load(tmp_path / "c.json"), Calibration.load(tmp_path / "w" / "truth.json")
     np.testing.assert_allclose(cal.accelerometer.scale, truth.accelerometer.scale, rtol=1e-5)
     np.testing.assert_allclose(cal.accelerometer.output_bias, truth.accelerometer.output_bias, atol=1e-4)
+
+
+def test_commands_that_need_samples_refuse_a_turntable_session(tmp_path, capsys):
+    from imucalib.cli import main
+
+    assert main(["simulate", "--scenario", "wang2019", "--seed", "2", "-o", str(tmp_path / "w")]) == 0
+    assert main(["calibrate", str(tmp_path / "w"), "--method", "wang2019", "-o", str(tmp_path / "c.json")]) == 0
+    capsys.readouterr()
+    for argv in (["apply", str(tmp_path / "c.json"), str(tmp_path / "w"), "-o", str(tmp_path / "o.csv")],
+                 ["validate", str(tmp_path / "c.json"), str(tmp_path / "w")],
+                 ["noise", str(tmp_path / "w")], ["compare", str(tmp_path / "w")]):
+        assert main(argv) == 2, argv
+        assert "needs a recording of samples" in capsys.readouterr().err

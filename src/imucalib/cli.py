@@ -18,7 +18,7 @@ import numpy as np
 
 from . import __version__
 from .calibration import Calibration
-from .recording import STANDARD_GRAVITY, ImucalibWarning
+from .recording import STANDARD_GRAVITY, ImucalibWarning, Recording
 
 EXIT_ERROR = 2
 
@@ -71,6 +71,16 @@ def _read(args: argparse.Namespace, paths: Sequence[str]):
         gyro_unit=args.gyro_unit, rate=args.rate, variable=args.variable,
         time_unit=args.time_unit, topic=args.topic,
     )
+
+
+def _read_recording(args: argparse.Namespace, paths: Sequence[str]) -> Recording:
+    """The recording in ``paths`` (a simulated session's main recording); a clear error for turntable aggregates."""
+    data = _read(args, paths)
+    rec = getattr(data, "recording", data)
+    if not isinstance(rec, Recording):
+        raise CliError(f"imucalib {args.command} needs a recording of samples; {paths[0]} holds turntable "
+                       "aggregates (a wang2019 session), which only 'calibrate --method wang2019' reads")
+    return rec
 
 
 def _progress(enabled: bool):
@@ -205,7 +215,7 @@ def cmd_apply(args: argparse.Namespace) -> int:
             print(f"wrote {args.output}: {summary['corrected']} {summary['topic']} messages calibrated, "
                   f"{summary['copied']} other messages copied unchanged")
         return 0
-    rec = _read(args, [args.data])
+    rec = _read_recording(args, [args.data])
     out = cal.apply(rec)
     write_csv(args.output, rec, calibrated_acc=out.acc, calibrated_gyro=out.gyro)
     summary = {"input": str(args.data), "output": str(args.output), "samples": len(rec),
@@ -221,8 +231,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from .compare import compare
 
     say = _progress(not args.json and sys.stderr.isatty())
-    data = _read(args, args.data)
-    rec = getattr(data, "recording", data)
+    rec = _read_recording(args, args.data)
     methods = args.methods.split(",") if args.methods else None
     result = compare(rec, gravity=args.gravity, methods=methods,
                      folds=None if args.folds == 0 else args.folds, progress=say)
@@ -252,10 +261,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from .metrics import fit_summary
 
     cal = Calibration.load(args.calibration)
-    data = _read(args, args.data)
-    rec = getattr(data, "recording", data)
-    if rec is None:
-        raise CliError("validate needs a recording with static poses")
+    rec = _read_recording(args, args.data)
     gravity = args.gravity or cal.gravity
     cal.check_units(rec)
     intervals = detect_intervals(rec, gravity)[0]
@@ -307,8 +313,7 @@ def cmd_detect_fall(args: argparse.Namespace) -> int:
     from .methods.zhang2021 import detect_fall
 
     cal = Calibration.load(args.calibration)
-    data = _read(args, [args.data])
-    rec = getattr(data, "recording", data)
+    rec = _read_recording(args, [args.data])
     falls = detect_fall(cal, rec, threshold=args.threshold)
     out = {"threshold": args.threshold, "falls": [
         {"start": iv.start, "stop": iv.stop, "t_start": float(rec.t[iv.start]),
@@ -547,8 +552,7 @@ def cmd_noise(args: argparse.Namespace) -> int:
     from .noise import kalibr_yaml, noise_parameters, random_walk_bound
     from .segment import find_initial_rest
 
-    data = _read(args, args.data)
-    rec = getattr(data, "recording", data)
+    rec = _read_recording(args, args.data)
     if args.calibration:  # noise in SI units, through the calibration
         rec = Calibration.load(args.calibration).apply(rec)
     part = rec if args.whole else rec[find_initial_rest(rec)]
