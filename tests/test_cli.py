@@ -60,6 +60,9 @@ def test_errors_go_to_stderr_with_nonzero_exit(capsys, tmp_path, session_csv):
     (tmp_path / "bad.json").write_text("{}")
     code, out, err = run(capsys, "apply", tmp_path / "bad.json", path, "-o", tmp_path / "o.csv")
     assert code == 2 and "not an imucalib calibration" in err
+    (tmp_path / "bare.json").write_text('{"format": "imucalib.calibration", "format_version": 1}')
+    code, out, err = run(capsys, "apply", tmp_path / "bare.json", path, "-o", tmp_path / "o.csv")
+    assert code == 2 and "lacks the accelerometer and gyroscope section(s)" in err
 
 
 def test_issue_command_on_xsens_matches_imu_tk(capsys):

@@ -190,6 +190,9 @@ class Calibration:
                 f"calibration format_version {version!r} is not supported "
                 f"(this imucalib reads version {FORMAT_VERSION})"
             )
+        missing = [k for k in ("accelerometer", "gyroscope") if not isinstance(d.get(k), dict)]
+        if missing:
+            raise ValueError(f"calibration lacks the {' and '.join(missing)} section(s)")
         return cls(
             accelerometer=TriadModel.from_dict(d["accelerometer"], default_shape="upper"),
             gyroscope=TriadModel.from_dict(d["gyroscope"], default_shape="full"),
