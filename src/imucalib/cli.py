@@ -736,7 +736,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("simulate", help="write a simulated session with known truth",
                        description="Simulate a calibration session (raw recordings, truth.json, "
                        "session.json with the segments) into a directory.")
-    p.add_argument("--scenario", default="zhang2021", help="scenario (default: zhang2021)")
+    p.add_argument("--scenario", default="zhang2021", choices=("zhang2021", "wang2019"),
+                   help="scenario (default: zhang2021)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--noise-acc", type=float, help="accelerometer noise [m/s^2] per sample")
     p.add_argument("--noise-gyro", type=float, help="gyroscope noise [rad/s] per sample")
@@ -751,7 +752,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("montecarlo", help="seeded simulate → calibrate → compare runs",
                        description="Run a method on many simulated sessions and summarise the "
                        "parameter errors against the truth.")
-    p.add_argument("--scenario", default="zhang2021", help="zhang2021 (default), wang2019 or qureshi2017")
+    p.add_argument("--scenario", default="zhang2021", choices=("zhang2021", "wang2019", "qureshi2017"),
+                   help="scenario (default: zhang2021)")
     p.add_argument("--method", required=True)
     p.add_argument("--model", help="model variant")
     p.add_argument("--runs", type=int, default=20)

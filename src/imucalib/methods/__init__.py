@@ -104,6 +104,9 @@ def _recording_of(data) -> Recording:
     rec = getattr(data, "recording", None)
     if isinstance(rec, Recording):
         return rec
+    if hasattr(data, "positions_acc"):
+        raise ValueError("this is a turntable session (static position means and turn integrals), not a "
+                         "recording of samples: only --method wang2019 calibrates it")
     raise TypeError(f"expected a Recording or a simulated session; got {type(data).__name__}")
 
 
