@@ -7,7 +7,7 @@ import json
 
 from _common import median_time
 
-from imucalib.simulate import session
+from imucalib.scenarios import session
 
 
 def main() -> None:

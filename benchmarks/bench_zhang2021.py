@@ -15,7 +15,7 @@ from _common import median_time
 
 from imucalib.evaluate import montecarlo
 from imucalib.methods import calibrate
-from imucalib.simulate import session
+from imucalib.scenarios import session
 
 
 def main() -> None:

@@ -1,7 +1,7 @@
 """Robustness of the Zhang 2021 solution to the truth: random truths, two starting points.
 
 For ``--truths`` random truths around Table I (every nonlinear term, misalignment
-up to 0.05, G and r drawn; :func:`imucalib.simulate.random_truth`), a default
+up to 0.05, G and r drawn; :func:`imucalib.scenarios.zhang2021.random_truth`), a default
 session with default noise is calibrated with model 'all' starting LM from the
 Step-1 initial values (the paper) and from the identity model (unit scales,
 zero biases). A run converges when every parameter lies within ten times the
@@ -18,7 +18,7 @@ import warnings
 from concurrent.futures import ProcessPoolExecutor
 
 from imucalib.methods import calibrate
-from imucalib.simulate import random_truth, session
+from imucalib.scenarios import random_truth, session
 
 MAX_ITER = 60  # LM iterations allowed from either start (Step 1 needs about 10)
 TOLERANCE = {"misalignment": 1e-3, "scale": 1e-2, "scale_quadratic": 1e-2, "scale_cubic": 1e-2,

@@ -6,7 +6,7 @@ from imucalib import kinematics as kin
 from imucalib.calibration import Calibration
 from imucalib.models import TriadModel
 from imucalib.recording import Interval, Recording
-from imucalib.simulate import table1_truth  # noqa: F401  (re-exported for the tests)
+from imucalib.scenarios import table1_truth  # noqa: F401  (re-exported for the tests)
 
 G = 9.80665
 
@@ -95,7 +95,7 @@ def tedaldi_session(truth=None, *, seed=0, poses=24, rest=8.0, hold=2.0, move=1.
 
 def weightless_segments(truth, *, n=100, seed=0, rate=100.0, noise_acc=0.0, noise_gyro=0.0):
     """Spinning free-fall segments, 1 s each (Zhang 2021, eqs. 17, 18, 33), via the simulator's parts."""
-    from imucalib.simulate import _spin, _weightless_force
+    from imucalib.scenarios.zhang2021 import _spin, _weightless_force
 
     rng = np.random.default_rng(seed)
     t = np.arange(int(rate)) / rate

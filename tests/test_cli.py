@@ -107,7 +107,7 @@ def test_demo_simulate_detect_fall(capsys, tmp_path):
     cal = Calibration.load(tmp_path / "cal.json")
     np.testing.assert_allclose(cal.lever_arm, [0.07, 0.07, 0.07], atol=1e-4)
     # the first test toss of the session, as CSV, through detect-fall
-    from imucalib.simulate import read_session
+    from imucalib.scenarios import read_session
 
     toss = read_session(tmp_path / "s").tests[0]
     write_csv(tmp_path / "toss.csv", toss.recording)
@@ -161,7 +161,7 @@ def test_noise_plot(capsys, tmp_path, session_csv):
 
 def test_every_method_accepts_a_progress_callback():
     from imucalib.methods import calibrate
-    from imucalib.simulate import qureshi_session
+    from imucalib.scenarios import qureshi_session
 
     rec, iv, truth = qureshi_session(1)
     seen = []

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from imucalib import conventions as cv
-from imucalib.simulate import table1_truth
+from imucalib.scenarios import table1_truth
 
 
 def test_zhang_table1_round_trip():

@@ -8,7 +8,7 @@ from imucalib.evaluate import eq34, eq35, montecarlo, parameter_errors, reductio
 from imucalib.metrics import fit_summary, gravity_residuals
 from imucalib.models import TriadModel
 from imucalib.recording import Interval, Recording
-from imucalib.simulate import TossSequence, session
+from imucalib.scenarios import TossSequence, session
 
 
 def test_metrics_are_exact_at_the_truth():

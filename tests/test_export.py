@@ -39,7 +39,7 @@ int main(void) {{
 @pytest.mark.skipif(CC is None, reason="no C compiler on this machine")
 def test_compiled_c_matches_apply_for_the_full_model(tmp_path):
     from imucalib.methods import calibrate
-    from imucalib.simulate import session
+    from imucalib.scenarios import session
 
     sim = session("zhang2021", rng=2)
     with warnings.catch_warnings():
@@ -57,7 +57,7 @@ def test_compiled_c_matches_apply_for_the_full_model(tmp_path):
 
 @pytest.mark.skipif(CC is None, reason="no C compiler on this machine")
 def test_compiled_c_with_an_output_bias_in_single_precision(tmp_path):
-    from imucalib.scenarios_wang2019 import session
+    from imucalib.scenarios.wang2019 import session
 
     cal = session(0).truth  # Wang's model: lower-triangular T, output bias, quadratic and cubic terms
     rng = np.random.default_rng(1)
@@ -74,7 +74,7 @@ def test_compiled_c_with_an_output_bias_in_single_precision(tmp_path):
 
 def test_export_command_and_errors(tmp_path, capsys):
     from imucalib.cli import main
-    from imucalib.scenarios_wang2019 import session
+    from imucalib.scenarios.wang2019 import session
 
     session(0).truth.save(tmp_path / "c.json")
     assert main(["export", str(tmp_path / "c.json"), "--prefix", "imu0"]) == 0

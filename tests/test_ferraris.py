@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from imucalib.methods import calibrate
-from imucalib.methods.ferraris import find_turns
-from imucalib.methods.six_position import find_faces
+from imucalib.segment import find_turns
+from imucalib.segment import find_faces
 from imucalib.metrics import interval_means
-from imucalib.simulate import ferraris_session
+from imucalib.scenarios import ferraris_session
 from synth import linear_truth
 
 

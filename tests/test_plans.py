@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from imucalib.methods.tedaldi2014 import calibrate_accelerometer
+from imucalib.fit.accelerometer import fit_gravity_norm as calibrate_accelerometer
 from imucalib.plans import accelerometer_plan, plan_directions
 
 G = 9.80665

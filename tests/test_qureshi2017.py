@@ -5,8 +5,8 @@ import pytest
 
 from imucalib.conventions import to_qureshi
 from imucalib.methods import calibrate
-from imucalib.methods.qureshi2017 import _g_and_derivatives
-from imucalib.simulate import qureshi_orientations, qureshi_session, qureshi_truth, qureshi_validation
+from imucalib.fit.accelerometer import qureshi_cost as _g_and_derivatives
+from imucalib.scenarios import qureshi_orientations, qureshi_session, qureshi_truth, qureshi_validation
 
 
 def test_protocol_structure():
@@ -61,7 +61,7 @@ def test_reproduces_the_papers_figures_on_simulation():
 
 
 def test_missing_rotations_are_named():
-    from imucalib.simulate import pose_session
+    from imucalib.scenarios import pose_session
 
     truth = qureshi_truth()
     x, y = np.array([1.0, 0, 0]), np.array([0, 1.0, 0])

@@ -5,7 +5,7 @@ import pytest
 
 from imucalib import kinematics as kin
 from imucalib.recording import ImucalibWarning
-from imucalib.simulate import random_truth, read_session, session, table1_truth, write_session
+from imucalib.scenarios import random_truth, read_session, session, table1_truth, write_session
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@ import pytest
 
 from imucalib.calibration import Calibration
 from imucalib.methods import calibrate
-from imucalib.methods.six_position import find_faces
+from imucalib.segment import find_faces
 from imucalib.models import TriadModel
 from synth import linear_truth, tedaldi_session
 

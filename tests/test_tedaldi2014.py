@@ -7,7 +7,7 @@ import pytest
 
 from imucalib.calibration import Calibration
 from imucalib.methods import calibrate, tedaldi2014
-from imucalib.methods.ellipsoid import fit_ellipsoid
+from imucalib.fit.accelerometer import fit_ellipsoid
 from imucalib.models import TriadModel
 from imucalib.recording import Recording
 from synth import linear_truth, tedaldi_session

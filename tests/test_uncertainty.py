@@ -58,7 +58,7 @@ def test_tedaldi_errors_match_the_monte_carlo_spread():
 
 
 def test_zhang_errors_match_the_monte_carlo_spread():
-    from imucalib.simulate import session
+    from imucalib.scenarios import session
 
     zs = []
     for seed in range(5):
@@ -75,7 +75,7 @@ def test_zhang_errors_match_the_monte_carlo_spread():
 
 
 def test_wang_errors_and_their_absence_are_reported():
-    from imucalib.scenarios_wang2019 import session
+    from imucalib.scenarios.wang2019 import session
 
     sim = session(0)
     cal = calibrate(sim, method="wang2019")
@@ -101,7 +101,7 @@ def test_calibrate_prints_the_errors(capsys, tmp_path):
 
 
 def test_qureshi_and_ellipsoid_errors_match_the_spread():
-    from imucalib.simulate import qureshi_session
+    from imucalib.scenarios import qureshi_session
 
     z = []
     for seed in range(12):
@@ -123,7 +123,7 @@ def test_qureshi_and_ellipsoid_errors_match_the_spread():
 
 
 def test_exactly_determined_methods_say_why_they_have_no_errors():
-    from imucalib.simulate import ferraris_session
+    from imucalib.scenarios import ferraris_session
     from synth import linear_truth
 
     truth = linear_truth()

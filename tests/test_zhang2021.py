@@ -170,7 +170,7 @@ def test_clear_errors(truth, noise_free):
 
 def test_gyroscope_static_detector_eq22():
     from imucalib.segment import detect_static_gyro, find_initial_rest
-    from imucalib.simulate import session
+    from imucalib.scenarios import session
 
     sim = session("zhang2021", rng=2, n2=20, n3=1)
     found = detect_static_gyro(sim.recording, find_initial_rest(sim.recording))
@@ -188,7 +188,7 @@ def test_gyroscope_static_detector_eq22():
 def test_residual_against_the_noise_floor_tells_model_error():
     import warnings
 
-    from imucalib.simulate import session
+    from imucalib.scenarios import session
 
     sim = session("zhang2021", rng=0)  # a sensor with cubic scale factors
     with warnings.catch_warnings():

@@ -241,3 +241,9 @@ def _jsonable(x: Any) -> Any:
     if isinstance(x, float) and not np.isfinite(x):
         return None  # strict JSON has no NaN/Infinity: "not available"
     return x
+
+
+def units_of(recording: Recording) -> dict:
+    """The ``units`` entry of a calibration made from ``recording`` (raw in, SI out)."""
+    return {"accelerometer": {"raw": recording.acc_unit, "calibrated": "m/s^2"},
+            "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"}}

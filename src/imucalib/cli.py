@@ -60,7 +60,7 @@ def _read(args: argparse.Namespace, paths: Sequence[str]):
 
     if args.reader == "session" or (args.reader is None and len(paths) == 1 and Path(paths[0]).is_dir()
                                     and not is_rosbag(Path(paths[0]))):
-        from .simulate import read_session
+        from .scenarios import read_session
 
         return read_session(paths[0])
     from .io import read
@@ -257,7 +257,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def cmd_validate(args: argparse.Namespace) -> int:
     """A calibration's fit figures on a recording it was not made from (no refit)."""
-    from .methods.tedaldi2014 import detect_intervals
+    from .segment import detect_intervals
     from .metrics import fit_summary
 
     cal = Calibration.load(args.calibration)
@@ -339,7 +339,7 @@ def _noise_options(args: argparse.Namespace) -> dict | None:
 
 
 def _simulate_wang(args: argparse.Namespace) -> int:
-    from .scenarios_wang2019 import session
+    from .scenarios.wang2019 import session
 
     sim = session(args.seed, turntable_error=args.turntable_error, noise=_noise_options(args),
                   dwell_s=args.dwell)
@@ -366,7 +366,7 @@ def _simulate_wang(args: argparse.Namespace) -> int:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    from .simulate import session, write_session
+    from .scenarios import session, write_session
 
     if args.scenario == "wang2019":
         return _simulate_wang(args)
@@ -423,7 +423,7 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     if args.scenario == "wang2019":
         if args.method != "wang2019":
             raise CliError("the wang2019 scenario holds turntable data: use --method wang2019")
-        from .methods.wang2019 import montecarlo as wang_mc
+        from .scenarios.wang2019 import montecarlo as wang_mc
 
         result = wang_mc(args.runs, turntable_error=args.turntable_error, seed=args.seed,
                          initial=args.initial, workers=args.workers, noise=_noise_options(args),
@@ -436,7 +436,7 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     if args.scenario == "qureshi2017":
         if args.method != "qureshi2017":
             raise CliError("the qureshi2017 scenario reproduces Qureshi 2017 §IV: use --method qureshi2017")
-        from .methods.qureshi2017 import montecarlo as qureshi_mc
+        from .scenarios.qureshi2017 import montecarlo as qureshi_mc
 
         result = qureshi_mc(args.runs, seed=args.seed, workers=args.workers)
         if args.json:
@@ -478,7 +478,7 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
 def cmd_demo(args: argparse.Namespace) -> int:
     from .evaluate import reductions, sequence_metrics
     from .methods import calibrate
-    from .simulate import session
+    from .scenarios import session
 
     say = _progress(not args.json and sys.stderr.isatty())
     t0 = time.perf_counter()
@@ -600,7 +600,7 @@ def _triple(v) -> str:
 def cmd_plan(args: argparse.Namespace) -> int:
     if args.method != "wang2019":
         return _plan_accelerometer(args)
-    from .methods.wang2019 import plan_report
+    from .scenarios.wang2019 import plan_report
 
     rep = plan_report(args.seed)
     if args.json:

@@ -69,7 +69,7 @@ def compare(
         "reason", "cv_accelerometer_residual_rms", "cv_gyroscope_angle_error_mean_deg",
         "fit"}, …]}``
     """
-    from .methods.tedaldi2014 import detect_intervals
+    from .segment import detect_intervals
 
     say = progress or (lambda msg: None)
     if intervals is None:

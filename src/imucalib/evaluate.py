@@ -101,7 +101,7 @@ def _one_run(args) -> dict:
     import warnings
 
     from .methods import calibrate
-    from .simulate import session
+    from .scenarios import session
 
     try:
         sim = session(scenario, rng=seed, **sim_options)
@@ -144,7 +144,7 @@ def montecarlo(
     "parameters": [{"name", "truth", "mean", "std", "rms_error"}, …],
     "metrics": {…}, "failures": [{"seed", "message"}, …]}``.
     """
-    from .simulate import session
+    from .scenarios import session
 
     if runs < 1:
         raise ValueError(f"runs must be ≥ 1; got {runs}")

@@ -1,4 +1,11 @@
-"""Static / motion segmentation of a recording.
+"""Poses and motions: every segmentation stage the methods share.
+
+* :func:`find_initial_rest` — the rest that starts a session;
+* :func:`detect_static` and :func:`detect_intervals` — the accelerometer
+  variance detector of Tedaldi 2014 with its threshold-multiplier scan;
+* :func:`detect_static_gyro` — the gyroscope-norm detector (Zhang 2021, eq. 22);
+* :func:`find_faces` — the six faces (each axis up and down);
+* :func:`find_turns` — turns about one axis between rests in the same pose.
 
 The accelerometer detector follows Tedaldi et al. (ICRA 2014) as summarised
 in the static/dynamic interval detection fragment (§2): an initial rest of
@@ -14,6 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .fit.accelerometer import fit_gravity_norm, fit_sphere
+from .kinematics import angle_between
+from .metrics import interval_means, transition_bounds
+from .models import TriadModel
 from .recording import Interval, Recording
 
 __all__ = [
@@ -23,8 +34,21 @@ __all__ = [
     "find_initial_rest",
     "gyro_norm_variance",
     "detect_static",
+    "detect_static_gyro",
+    "detect_intervals",
+    "find_faces",
+    "find_turns",
+    "initial_rest",
     "motion_between",
+    "static_poses",
+    "FACE_NAMES",
+    "MIN_INTERVALS",
 ]
+
+#: the fewest static intervals the accelerometer detector's scan accepts
+MIN_INTERVALS = 10
+#: the six faces in the order :func:`find_faces` returns them
+FACE_NAMES = ("+x", "+y", "+z", "-x", "-y", "-z")
 
 
 def runs(mask: np.ndarray, min_length: int = 1, kind: str = "static") -> list[Interval]:
@@ -198,3 +222,113 @@ def detect_static_gyro(
     if zeta_init <= 0:
         raise ValueError("the initial rest has zero gyroscope noise: eq. (22) cannot set a threshold")
     return runs(zeta < multiplier * zeta_init, max(int(round(min_interval * rate)), 2))
+
+
+def initial_rest(recording: Recording, init_static: float | None = None) -> Interval:
+    """The initial rest: ``init_static`` seconds when given, else found by :func:`find_initial_rest`."""
+    if init_static is None:
+        return find_initial_rest(recording)
+    n = int(round(init_static * recording.rate))
+    if not 1 < n < len(recording):
+        raise ValueError(f"--init-static {init_static} s does not fit the {recording.duration:.3g} s recording")
+    return Interval(0, n, "static")
+
+
+def detect_intervals(
+    recording: Recording,
+    gravity: float,
+    *,
+    init_static: float | None = None,
+    multipliers: Iterable[float] = range(2, 11),
+    window: float = 1.0,
+    min_interval: float = 1.0,
+) -> tuple[list[Interval], float, Interval, TriadModel]:
+    """Static intervals by the Tedaldi 2014 detector with the multiplier scan.
+
+    Returns the intervals, the chosen multiplier, the initial rest and the
+    accelerometer model calibrated on those intervals.
+    """
+    rate = recording.rate
+    rest = initial_rest(recording, init_static)
+    base = float(np.linalg.norm(np.var(recording.acc[rest.slice], axis=0)))
+    if base <= 0:
+        raise ValueError(
+            "the initial rest has zero accelerometer variance (quantised or synthetic "
+            "noise-free data?): the detector threshold cannot be set from it"
+        )
+    win = int(round(window * rate)) | 1
+    min_len = max(int(round(min_interval * rate)), 2)
+    stat = variance_norm(recording.acc, win)
+    best = None
+    tried = []
+    for mult in multipliers:
+        intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
+        tried.append((mult, len(intervals)))
+        if len(intervals) < MIN_INTERVALS:
+            continue
+        means = interval_means(recording.acc, intervals)
+        try:
+            model, res = fit_gravity_norm(means, gravity)
+        except ValueError:
+            continue
+        score = float(res @ res) / len(res)  # per residual
+        if best is None or score < best[0]:
+            best = (score, mult, intervals, model)
+    if best is None:
+        counts = ", ".join(f"×{m}: {c}" for m, c in tried)
+        raise ValueError(
+            "too few static intervals for a calibration at every detector threshold "
+            f"({counts}; at least {MIN_INTERVALS} are needed): hold the sensor still "
+            f"for at least {min_interval} s in each of many poses"
+        )
+    _, mult, intervals, model = best
+    return intervals, float(mult), rest, model
+
+
+def static_poses(recording: Recording, gravity: float, intervals: list[Interval] | None = None, *,
+                 init_static: float | None = None) -> list[Interval]:
+    """The static intervals given, or those :func:`detect_intervals` finds; the first is the initial rest."""
+    if intervals is None:
+        intervals = detect_intervals(recording, gravity, init_static=init_static)[0]
+    return [iv for iv in intervals if iv.kind == "static"]
+
+
+def find_faces(raw_means: np.ndarray, gravity: float, *, max_tilt: float = 15.0) -> np.ndarray:
+    """Indices of the poses nearest to +x, +y, +z, −x, −y, −z (raises if one is missing)."""
+    if raw_means.shape[0] < 6:
+        raise ValueError(f"this method needs the six faces as static poses; got {raw_means.shape[0]} poses")
+    centre = fit_sphere(raw_means, gravity).bias if raw_means.shape[0] >= 4 else raw_means.mean(axis=0)
+    d = raw_means - centre
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    targets = np.vstack([np.eye(3), -np.eye(3)])
+    cos = d @ targets.T  # (M, 6)
+    best = np.argmax(cos, axis=0)
+    tilt = np.degrees(np.arccos(np.clip(cos[best, np.arange(6)], -1, 1)))
+    missing = [f"{FACE_NAMES[j]} ({tilt[j]:.0f}° off)" for j in range(6) if tilt[j] > max_tilt]
+    if missing:
+        raise ValueError(
+            "this method needs the six faces, each axis up and down within "
+            f"{max_tilt:g}° of gravity; the poses lack {', '.join(missing)}: record those faces"
+        )
+    return best
+
+
+def find_turns(recording, intervals, bias: np.ndarray, *, angle: float = 2 * np.pi,
+               same_pose: float = 5.0) -> dict[int, list[tuple[int, int, int]]]:
+    """Turns about each axis: ``{axis: [(start, stop, sign), …]}`` between consecutive poses."""
+    acc = interval_means(recording.acc, intervals)
+    dirs = acc - np.mean(acc, axis=0)  # rough centring is enough to compare directions
+    starts, stops = transition_bounds(intervals)
+    out: dict[int, list[tuple[int, int, int]]] = {0: [], 1: [], 2: []}
+    raw = recording.gyro - bias
+    c = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (raw[1:] + raw[:-1]) * np.diff(recording.t)[:, None],
+                                                   axis=0)])
+    for k, (s0, s1) in enumerate(zip(starts, stops, strict=True)):
+        if np.degrees(angle_between(dirs[k], dirs[k + 1])) > same_pose:
+            continue
+        phi = c[s1] - c[s0]
+        i = int(np.argmax(np.abs(phi)))
+        if abs(phi[i]) < 0.8 * np.linalg.norm(phi):  # not about one axis
+            continue
+        out[i].append((int(s0), int(s1), int(np.sign(phi[i]))))
+    return out

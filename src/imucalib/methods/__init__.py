@@ -1,8 +1,11 @@
 """Calibration methods, one module per published method, behind one entry point.
 
 ``calibrate(data, method=NAME, ...)`` runs a method on a :class:`Recording`
-(or on a simulated session, whose ``recording`` is used) and returns a
-:class:`~imucalib.calibration.Calibration`.
+and returns a :class:`~imucalib.calibration.Calibration`. ``data`` may also be
+a session: an object with a ``recording`` (or turntable aggregates, for
+``wang2019``) and ``method_options(method)``, the keyword options it brings
+(a simulated session's static layout, Zhang 2021's weightless spins); options
+given here take precedence.
 """
 
 from __future__ import annotations
@@ -16,35 +19,10 @@ from ..recording import STANDARD_GRAVITY, Recording
 __all__ = ["METHODS", "calibrate", "method_names"]
 
 
-def _tedaldi2014(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
-    from . import tedaldi2014
-
-    if model not in (None, "linear"):
-        raise ValueError(f"tedaldi2014 fits the linear model only; got model={model!r}")
-    return tedaldi2014.calibrate(_recording_of(data), gravity=gravity, **options)
-
-
 def _zhang2021(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
     from . import zhang2021
 
-    weightless = options.pop("weightless", None)
-    if weightless is None and not isinstance(data, Recording):
-        weightless = getattr(data, "weightless", None)
-    if "intervals" not in options and not isinstance(data, Recording):
-        segments = getattr(data, "segments", None)
-        noise = getattr(data, "noise", None)
-        # noise-free simulations cannot set a detector threshold: use their layout
-        if segments is not None and noise is not None and not any(_noise_values(noise)):
-            options["intervals"] = [s for s in segments if s.kind == "static"]
-            options.setdefault("noise_weights", False)
-    return zhang2021.calibrate(_recording_of(data), weightless=weightless,
-                               model=model or "all", gravity=gravity, **options)
-
-
-def _noise_values(noise) -> list[float]:
-    if isinstance(noise, dict):
-        return [float(v) for v in noise.values()]
-    return [float(noise)]
+    return zhang2021.calibrate(_recording_of(data), model=model or "all", gravity=gravity, **options)
 
 
 def _wang2019(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
@@ -74,7 +52,7 @@ def _linear_only(module_name: str) -> Callable[..., Calibration]:
 
 #: method name → callable(data, *, model, gravity, **options) → Calibration
 METHODS: dict[str, Callable[..., Calibration]] = {
-    "tedaldi2014": _tedaldi2014,
+    "tedaldi2014": _linear_only("tedaldi2014"),
     "zhang2021": _zhang2021,
     "wang2019": _wang2019,
     "ellipsoid": _linear_only("ellipsoid"),
@@ -107,7 +85,7 @@ def _recording_of(data) -> Recording:
     if hasattr(data, "positions_acc"):
         raise ValueError("this is a turntable session (static position means and turn integrals), not a "
                          "recording of samples: only --method wang2019 calibrates it")
-    raise TypeError(f"expected a Recording or a simulated session; got {type(data).__name__}")
+    raise TypeError(f"expected a Recording or a session with a recording; got {type(data).__name__}")
 
 
 def calibrate(
@@ -123,8 +101,8 @@ def calibrate(
     Parameters
     ----------
     data : Recording or session
-        Raw readings (a simulated session contributes its ``recording`` and,
-        for methods that use them, its weightless segments).
+        Raw readings (a session contributes its ``recording`` and the options
+        of its ``method_options(method)``).
     method : str
         One of :func:`method_names`.
     model : str, optional
@@ -140,4 +118,7 @@ def calibrate(
         raise ValueError(
             f"unknown method {method!r}; choose one of {', '.join(method_names())}"
         ) from None
+    session_options = getattr(data, "method_options", None)
+    if not isinstance(data, Recording) and callable(session_options):
+        options = {**session_options(method), **options}
     return fn(data, model=model, gravity=gravity, **options)

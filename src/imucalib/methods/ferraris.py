@@ -25,36 +25,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..calibration import Calibration
-from ..kinematics import angle_between
-from ..metrics import fit_summary, interval_means, transition_bounds
-from ..models import TriadModel
-from ..recording import Interval
-from ..segment import detect_static_gyro, find_initial_rest
-from .six_position import find_faces
+from ..calibration import Calibration, units_of
+from ..fit.accelerometer import faces_full
+from ..fit.gyroscope import fit_known_turns
+from ..metrics import fit_summary, interval_means
+from ..segment import detect_static_gyro, find_faces, find_turns, initial_rest
 
-__all__ = ["calibrate", "find_turns"]
-
-
-def find_turns(recording, intervals, bias: np.ndarray, *, angle: float = 2 * np.pi,
-               same_pose: float = 5.0) -> dict[int, list[tuple[int, int, int]]]:
-    """Turns about each axis: ``{axis: [(start, stop, sign), …]}`` between consecutive poses."""
-    acc = interval_means(recording.acc, intervals)
-    dirs = acc - np.mean(acc, axis=0)  # rough centring is enough to compare directions
-    starts, stops = transition_bounds(intervals)
-    out: dict[int, list[tuple[int, int, int]]] = {0: [], 1: [], 2: []}
-    raw = recording.gyro - bias
-    c = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (raw[1:] + raw[:-1]) * np.diff(recording.t)[:, None],
-                                                   axis=0)])
-    for k, (s0, s1) in enumerate(zip(starts, stops, strict=True)):
-        if np.degrees(angle_between(dirs[k], dirs[k + 1])) > same_pose:
-            continue
-        phi = c[s1] - c[s0]
-        i = int(np.argmax(np.abs(phi)))
-        if abs(phi[i]) < 0.8 * np.linalg.norm(phi):  # not about one axis
-            continue
-        out[i].append((int(s0), int(s1), int(np.sign(phi[i]))))
-    return out
+__all__ = ["calibrate"]
 
 
 def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0,
@@ -75,26 +52,16 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
         if intervals is None:
             # turns about the vertical leave the accelerometer still: detect rest with the
             # gyroscope (Zhang 2021, eq. 22)
-            rest = (find_initial_rest(recording) if init_static is None
-                    else Interval(0, int(round(init_static * recording.rate)), "static"))
-            intervals = detect_static_gyro(recording, rest, window=1.0)
+            intervals = detect_static_gyro(recording, initial_rest(recording, init_static), window=1.0)
         intervals = [iv for iv in intervals if iv.kind == "static"]
-        means = interval_means(recording.acc, intervals)
-        idx = find_faces(means, gravity, max_tilt=max_tilt)
+        idx = find_faces(interval_means(recording.acc, intervals), gravity, max_tilt=max_tilt)
         faces = [intervals[j] for j in idx]
     else:
         faces, turns = sections
         intervals = list(faces)
-    acc_f = interval_means(recording.acc, faces)
+    acc = faces_full(interval_means(recording.acc, faces), gravity)
     gyr_f = interval_means(recording.gyro, faces)
-    s_a = (acc_f[:3] - acc_f[3:]).T / (2 * gravity)  # columns S_a e_i
-    b_a = acc_f.mean(axis=0)
-    m_a = np.linalg.inv(s_a)
-    k_a = np.diag(m_a).copy()
-    t_a = m_a / k_a[None, :]
-    np.fill_diagonal(t_a, 1.0)  # m_ii / m_ii, exactly one
-    acc = TriadModel(misalignment=t_a, scale=k_a, bias=b_a, shape="full")
-    g_sens = (gyr_f[:3] - gyr_f[3:]).T / (2 * gravity)  # raw per m/s²
+    g_sens = (gyr_f[:3] - gyr_f[3:]).T / (2 * gravity)  # G e_i, raw per m/s²
     b_g = gyr_f.mean(axis=0)
     if sections is None:
         turns = find_turns(recording, intervals, b_g, angle=theta)
@@ -103,24 +70,9 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
         raise ValueError(f"no turn about the {', '.join(missing)} axis found: turn the sensor by "
                          f"{angle:g}° about each axis while that axis is vertical, resting before "
                          "and after")
-    s_g = np.empty((3, 3))
-    a_cal = acc.forward(recording.acc)
-    for i in range(3):
-        cols = []
-        for s0, s1, sign in turns[i]:
-            t = recording.t[s0 : s1 + 1]
-            u = recording.gyro[s0 : s1 + 1] - b_g - a_cal[s0 : s1 + 1] @ g_sens.T
-            cols.append(sign * np.trapezoid(u, t, axis=0) / theta)
-        s_g[:, i] = np.mean(cols, axis=0)
-    m_g = np.linalg.inv(s_g)
-    k_g = np.diag(m_g).copy()
-    t_g = m_g / k_g[None, :]
-    np.fill_diagonal(t_g, 1.0)
-    gyro = TriadModel(misalignment=t_g, scale=k_g, bias=b_g, g_sensitivity=g_sens, shape="full")
+    gyro = fit_known_turns(recording, turns, theta, b_g, g_sens, acc.forward(recording.acc))
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="ferraris",
-                      model="linear",
-                      units={"accelerometer": {"raw": recording.acc_unit, "calibrated": "m/s^2"},
-                             "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"}})
+                      model="linear", units=units_of(recording))
     fit = fit_summary(cal, recording, intervals, gravity) if sections is None else {}
     fit["turns"] = {("x", "y", "z")[i]: len(turns[i]) for i in range(3)}
     fit["uncertainty_unavailable"] = ("the closed form determines every parameter exactly from the six faces "

@@ -28,203 +28,16 @@ from collections.abc import Callable, Iterable
 
 import numpy as np
 
-from ..calibration import Calibration
-from ..kinematics import IntervalIntegrator, angle_between, quat_from_rotvec, quat_to_matrix
-from ..metrics import fit_summary, interval_means, transition_bounds
-from ..models import AXES, TriadModel
+from ..calibration import Calibration, units_of
+from ..fit.accelerometer import accelerometer_errors, fit_gravity_norm
+from ..fit.gyroscope import fit_gravity_direction, gravity_direction_problem, gyroscope_errors
+from ..metrics import fit_summary, interval_means
 from ..recording import STANDARD_GRAVITY, Interval, Recording
-from ..residuals import (
-    AccelLayout,
-    GyroLayout,
-    gravity_direction_residuals,
-    gravity_direction_residuals_jac,
-    gravity_norm_residuals,
-)
-from ..segment import detect_static, find_initial_rest, variance_norm
-from ..solve import levenberg_marquardt, standard_errors
-from .ellipsoid import fit_ellipsoid, fit_sphere
+from ..segment import detect_intervals
 
-__all__ = ["accelerometer_errors", "calibrate", "calibrate_accelerometer", "calibrate_gyroscope", "detect_intervals",
-           "fit_gyroscope", "uncertainty"]
+__all__ = ["calibrate", "uncertainty"]
 
 MIN_INTERVALS = 9
-
-
-def calibrate_accelerometer(
-    raw_means: np.ndarray, gravity: float, *, order: int = 1, initial: TriadModel | None = None
-) -> tuple[TriadModel, np.ndarray]:
-    """Fit ``a = T_a f(u − b)`` to ``‖a‖ = g`` on static means (Tedaldi 2014).
-
-    Returns the model and the final residuals ``‖a_k‖ − g`` [m/s²].
-    """
-    if initial is None:
-        try:
-            initial = fit_ellipsoid(raw_means, gravity)
-        except ValueError:
-            initial = fit_sphere(raw_means, gravity)
-    layout = AccelLayout("upper", order)
-    theta0 = layout.pack(initial)
-    if raw_means.shape[0] < layout.size:
-        raise ValueError(
-            f"the accelerometer model has {layout.size} parameters but only "
-            f"{raw_means.shape[0]} static poses were found: record more poses"
-        )
-
-    def fun(th):
-        return gravity_norm_residuals(th, layout, raw_means, gravity)
-
-    def jac(th):
-        return gravity_norm_residuals(th, layout, raw_means, gravity, jacobian=True)[1]
-
-    sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-14, ftol=1e-14)
-    return layout.unpack(sol.x, initial), sol.fun
-
-
-def detect_intervals(
-    recording: Recording,
-    gravity: float,
-    *,
-    init_static: float | None = None,
-    multipliers: Iterable[float] = range(2, 11),
-    window: float = 1.0,
-    min_interval: float = 1.0,
-) -> tuple[list[Interval], float, Interval, TriadModel]:
-    """Static intervals by the Tedaldi 2014 detector with the multiplier scan.
-
-    Returns the intervals, the chosen multiplier, the initial rest and the
-    accelerometer model calibrated on those intervals.
-    """
-    rate = recording.rate
-    if init_static is None:
-        rest = find_initial_rest(recording)
-    else:
-        n = int(round(init_static * rate))
-        if not 1 < n < len(recording):
-            raise ValueError(
-                f"--init-static {init_static} s does not fit the {recording.duration:.3g} s recording"
-            )
-        rest = Interval(0, n, "static")
-    base = float(np.linalg.norm(np.var(recording.acc[rest.slice], axis=0)))
-    if base <= 0:
-        raise ValueError(
-            "the initial rest has zero accelerometer variance (quantised or synthetic "
-            "noise-free data?): the detector threshold cannot be set from it"
-        )
-    win = int(round(window * rate)) | 1
-    min_len = max(int(round(min_interval * rate)), 2)
-    stat = variance_norm(recording.acc, win)
-    best = None
-    tried = []
-    for mult in multipliers:
-        intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
-        tried.append((mult, len(intervals)))
-        if len(intervals) < max(MIN_INTERVALS, 10):
-            continue
-        means = interval_means(recording.acc, intervals)
-        try:
-            model, res = calibrate_accelerometer(means, gravity)
-        except ValueError:
-            continue
-        score = float(res @ res) / len(res)  # per residual
-        if best is None or score < best[0]:
-            best = (score, mult, intervals, model)
-    if best is None:
-        counts = ", ".join(f"×{m}: {c}" for m, c in tried)
-        raise ValueError(
-            "too few static intervals for a calibration at every detector threshold "
-            f"({counts}; at least {max(MIN_INTERVALS, 10)} are needed): hold the sensor still "
-            f"for at least {min_interval} s in each of many poses"
-        )
-    _, mult, intervals, model = best
-    return intervals, float(mult), rest, model
-
-
-def _gyro_scale_guess(
-    v: np.ndarray, t: np.ndarray, starts: np.ndarray, stops: np.ndarray, gravity_dirs: np.ndarray,
-) -> float:
-    """Common gyroscope scale [rad/s per raw unit] for the initial values.
-
-    Each motion is approximated by one rotation about the axis of its integrated
-    raw rate ``Φ_i = ∫(u − b) dt``, by the angle ``k‖Φ_i‖``; ``k`` minimises the
-    gravity-direction residuals of these rotations over a dense logarithmic grid
-    around ``median(angle between poses / ∫‖u − b‖dt)`` (no sensor-specific guess).
-    """
-    dt = np.diff(t, append=t[-1])[:, None]
-    c = np.concatenate([np.zeros((1, 4)),
-                        np.cumsum(np.column_stack([v * dt, np.linalg.norm(v, axis=1) * dt[:, 0]]), axis=0)])
-    phi_vec = c[stops, :3] - c[starts, :3]
-    path = c[stops, 3] - c[starts, 3]
-    theta = angle_between(gravity_dirs[:-1], gravity_dirs[1:])
-    ok = (theta > np.radians(10)) & (path > 0)
-    if not np.any(ok):
-        ok = path > 0
-    if not np.any(ok):
-        raise ValueError("the gyroscope does not move between the static poses")
-    k0 = float(np.median(theta[ok] / path[ok]))
-    ks = k0 * np.geomspace(0.3, 30.0, 600)
-    rot = quat_to_matrix(quat_from_rotvec(ks[:, None, None] * phi_vec[None, :, :]))
-    pred = np.einsum("skji,kj->ski", rot, gravity_dirs[:-1])
-    cost = np.sum((gravity_dirs[None, 1:] - pred) ** 2, axis=(1, 2))
-    return float(ks[int(np.argmin(cost))])
-
-
-def _gyro_problem(recording, intervals, accelerometer, bias, estimate_bias):
-    """Residuals of Zhang 2021, eq. (14) in the :class:`GyroLayout` parameters, their Jacobian, the pose directions."""
-    acc = accelerometer.forward(interval_means(recording.acc, intervals))
-    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
-    starts, stops = transition_bounds(intervals)
-    integrator = IntervalIntegrator(recording.t, starts, stops)
-    raw = recording.gyro[integrator.samples]  # only the samples the integration reads
-    layout = GyroLayout(estimate_bias)
-    d = np.zeros((raw.shape[0], 3, layout.size))
-
-    def split(th):
-        return th[:9].reshape(3, 3), (th[9:12] if estimate_bias else bias)
-
-    def fun(th):
-        m, b = split(th)
-        return gravity_direction_residuals((raw - b) @ m.T, integrator.from_samples, dirs)
-
-    def jac(th):
-        m, b = split(th)
-        v = raw - b
-        for a in range(3):
-            d[:, a, 3 * a : 3 * a + 3] = v  # ∂(M v)_a / ∂M_aj = v_j
-        if estimate_bias:
-            d[:, :, 9:12] = -m
-        return gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1]
-
-    return fun, jac, layout, dirs, (starts, stops)
-
-
-def calibrate_gyroscope(
-    recording: Recording,
-    intervals: list[Interval],
-    accelerometer: TriadModel,
-    bias: np.ndarray,
-    *,
-    estimate_bias: bool = False,
-) -> TriadModel:
-    """Gyroscope ``T_g``, ``K_g`` (and ``b_g``) from gravity directions between poses.
-
-    Minimises the residuals of Zhang 2021, eq. (14) (unit gravity directions)
-    with Levenberg–Marquardt and the analytic first-order Jacobian of
-    :func:`~imucalib.residuals.gravity_direction_residuals_jac`.
-    """
-    return fit_gyroscope(recording, intervals, accelerometer, bias, estimate_bias)[0]
-
-
-def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, bias: np.ndarray,
-                  estimate_bias: bool = False) -> tuple[TriadModel, dict[str, float]]:
-    """:func:`calibrate_gyroscope`, also returning its 1σ errors by name."""
-    if len(intervals) < 4:
-        raise ValueError(f"gyroscope calibration needs at least 4 static poses; got {len(intervals)}")
-    fun, jac, layout, dirs, (starts, stops) = _gyro_problem(recording, intervals, accelerometer, bias,
-                                                            estimate_bias)
-    k = _gyro_scale_guess(recording.gyro - bias, recording.t, starts, stops, dirs)
-    theta0 = layout.pack(TriadModel(scale=np.full(3, k), bias=bias))
-    sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-12, ftol=1e-12)
-    return layout.unpack(sol.x, bias), _gyro_errors(sol.x, sol.jac, sol.fun, layout)
 
 
 def uncertainty(recording: Recording, intervals: list[Interval], calibration: Calibration, *,
@@ -242,35 +55,9 @@ def uncertainty(recording: Recording, intervals: list[Interval], calibration: Ca
     """
     acc, gyro = calibration.accelerometer, calibration.gyroscope
     out = accelerometer_errors(acc, interval_means(recording.acc, intervals), calibration.gravity)
-    fun, jac, layout, _, _ = _gyro_problem(recording, intervals, acc, gyro.bias, estimate_gyro_bias)
+    fun, jac, layout, _, _ = gravity_direction_problem(recording, intervals, acc, gyro.bias, estimate_gyro_bias)
     theta = layout.pack(gyro)
-    return out | _gyro_errors(theta, jac(theta), fun(theta), layout)
-
-
-def accelerometer_errors(acc: TriadModel, means: np.ndarray, gravity: float) -> dict[str, float]:
-    """1σ errors of a linear upper-triangular accelerometer model from the gravity-norm fit at ``acc``."""
-    lay = AccelLayout("upper", 1)
-    r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
-    return {k: float(v) for k, v in zip(lay.names("accelerometer"), standard_errors(j, r), strict=True)}
-
-
-def _gyro_errors(theta: np.ndarray, jac: np.ndarray, res: np.ndarray, layout: GyroLayout) -> dict[str, float]:
-    """Errors of ``M = T_g diag(k1)`` (and ``b``) carried to ``T_g`` and ``k1`` by the delta method."""
-    m = theta[:9].reshape(3, 3)
-    off = [(i, j) for i in range(3) for j in range(3) if i != j]
-    names = [f"gyroscope.misalignment.{AXES[i]}{AXES[j]}" for i, j in off]
-    names += [f"gyroscope.scale.{a}" for a in AXES]
-    a = np.zeros((layout.size, layout.size))
-    for row, (i, j) in enumerate(off):  # T_ij = M_ij / M_jj
-        a[row, 3 * i + j] = 1.0 / m[j, j]
-        a[row, 4 * j] = -m[i, j] / m[j, j] ** 2
-    for j in range(3):  # k_j = M_jj
-        a[6 + j, 4 * j] = 1.0
-    if layout.estimate_bias:
-        names += [f"gyroscope.bias.{ax}" for ax in AXES]
-        a[9:12, 9:12] = np.eye(3)
-    dof = 2 * (len(res) // 3) - layout.size  # two degrees of freedom per direction residual
-    return {k: float(v) for k, v in zip(names, standard_errors(jac, res, dof=dof, transform=a), strict=True)}
+    return out | gyroscope_errors(theta, jac(theta), fun(theta), layout)
 
 
 def calibrate(
@@ -327,20 +114,17 @@ def calibrate(
         if len(intervals) < MIN_INTERVALS:
             raise ValueError(f"at least {MIN_INTERVALS} static intervals are needed; got {len(intervals)}")
         mult, rest = float("nan"), intervals[0]
-        acc_model, _ = calibrate_accelerometer(interval_means(recording.acc, intervals), gravity)
+        acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
     say("calibrating the gyroscope")
     bias = recording.gyro[rest.slice].mean(axis=0)
-    gyro_model, gyro_errors = fit_gyroscope(recording, intervals, acc_model, bias, estimate_gyro_bias)
+    gyro_model, gyro_errors = fit_gravity_direction(recording, intervals, acc_model, bias, estimate_gyro_bias)
     cal = Calibration(
         accelerometer=acc_model,
         gyroscope=gyro_model,
         gravity=gravity,
         method="tedaldi2014",
         model="linear",
-        units={
-            "accelerometer": {"raw": recording.acc_unit, "calibrated": "m/s^2"},
-            "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"},
-        },
+        units=units_of(recording),
     )
     fit = fit_summary(cal, recording, intervals, gravity)
     fit["threshold_multiplier"] = mult

@@ -43,14 +43,15 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..calibration import Calibration
+from ..calibration import Calibration, units_of
+from ..fit.accelerometer import fit_gravity_norm
+from ..fit.gyroscope import fit_gravity_direction
 from ..kinematics import IntervalIntegrator, five_point_derivative, quat_to_matrix, segmented_five_point, skew
 from ..metrics import fit_summary, interval_means, transition_bounds
 from ..models import AXES, TriadModel, misalignment_entries
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
-from ..segment import detect_static_gyro, find_initial_rest, gyro_norm_variance, runs
+from ..segment import detect_intervals, detect_static_gyro, find_initial_rest, gyro_norm_variance, runs
 from ..solve import levenberg_marquardt, standard_errors
-from .tedaldi2014 import calibrate_accelerometer, calibrate_gyroscope, detect_intervals
 
 __all__ = [
     "MODELS",
@@ -556,7 +557,7 @@ def calibrate(
     static_acc = interval_means(recording.acc, static)
     static_gyro = interval_means(recording.gyro, static)
     if acc0 is None:
-        acc0, _ = calibrate_accelerometer(static_acc, gravity)
+        acc0, _ = fit_gravity_norm(static_acc, gravity)
     # ---- RD2
     dt = 1.0 / recording.rate
     if layout.with_r:
@@ -584,7 +585,7 @@ def calibrate(
     if layout.with_g:
         gyro_rec = Recording(recording.t, recording.acc,
                              recording.gyro - acc0.forward(recording.acc) @ g0.T)
-    gyro_lin = calibrate_gyroscope(gyro_rec, list(static), acc0, bg0)  # eq. (14)
+    gyro_lin = fit_gravity_direction(gyro_rec, list(static), acc0, bg0)[0]  # eq. (14)
     gyro0 = gyro_lin.with_(g_sensitivity=g0)
     r0 = None
     if layout.with_r:
@@ -679,8 +680,7 @@ def calibrate(
     cal = Calibration(
         accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity,
         method="zhang2021", model=model if selection is None else selection["selected"],
-        units={"accelerometer": {"raw": recording.acc_unit, "calibrated": "m/s^2"},
-               "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"}},
+        units=units_of(recording),
     )
     fit = fit_summary(cal, recording, static, gravity)
     fit["weights"] = {k: float(np.mean(v)) for k, v in c.items()}  # means over intervals

@@ -1,0 +1,1 @@
+"""Estimator building blocks (accelerometer, gyroscope) that the methods compose."""

@@ -1,0 +1,228 @@
+"""Accelerometer estimators: building blocks the methods compose.
+
+Every block works on the raw means of static poses (``(M, 3)``, any raw unit)
+and returns the canonical model ``a = T_a f(u − b)`` (``DESIGN.md``):
+
+* :func:`fit_sphere`, :func:`fit_ellipsoid` — algebraic, no initial guess
+  (Ru 2022, §3.2, the ellipsoid/norm methods);
+* :func:`fit_gravity_norm` — ``‖a_k‖ = g`` by Levenberg–Marquardt (Tedaldi 2014;
+  Zhang 2021, eq. 10), linear or polynomial, with :func:`accelerometer_errors`;
+* :func:`six_position` — each axis up and down (Ru 2022, eqs. 8–9);
+* :func:`faces_full` — the six faces with full misalignment (Ferraris 1995);
+* :func:`qureshi_cost`, :func:`newton_backtracking` — Qureshi 2017, eqs. 11–12.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..models import TriadModel
+from ..residuals import AccelLayout, gravity_norm_residuals
+from ..solve import levenberg_marquardt, standard_errors
+
+__all__ = ["accelerometer_errors", "faces_full", "full_from_sensitivity", "fit_ellipsoid", "fit_gravity_norm", "fit_sphere",
+           "newton_backtracking", "qureshi_cost", "six_position"]
+
+
+def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:
+    """Centre and one common scale from a sphere fit (≥ 4 well-spread poses).
+
+    ``‖u − b‖² = ρ²`` is linear in ``(b, ρ² − ‖b‖²)``; the scale is ``g / ρ``.
+    """
+    raw = np.asarray(raw, dtype=np.float64)
+    if raw.shape[0] < 4:
+        raise ValueError(f"a sphere fit needs at least 4 static poses; got {raw.shape[0]}")
+    mu = raw.mean(axis=0)
+    s = np.abs(raw - mu).max() or 1.0
+    z = (raw - mu) / s
+    design = np.column_stack([2 * z, np.ones(len(z))])
+    sol, *_ = np.linalg.lstsq(design, np.sum(z * z, axis=1), rcond=None)
+    c = sol[:3]
+    rho2 = sol[3] + c @ c
+    if not rho2 > 0:
+        raise ValueError("the static poses do not determine a sphere (too few directions)")
+    k = gravity / (np.sqrt(rho2) * s)
+    return TriadModel(scale=np.full(3, k), bias=mu + s * c, shape="upper")
+
+
+def fit_ellipsoid(raw: np.ndarray, gravity: float) -> TriadModel:
+    """Linear accelerometer model from static means by an algebraic ellipsoid fit.
+
+    Parameters
+    ----------
+    raw : (M, 3) array_like
+        Raw accelerometer means of M ≥ 9 static poses, spread over directions.
+    gravity : float
+        ``g`` [m/s²].
+
+    Returns
+    -------
+    TriadModel
+        ``T`` unit upper-triangular, ``k1`` (SI per raw unit), ``b`` (raw units).
+
+    Raises
+    ------
+    ValueError
+        Too few poses, or poses that do not determine an ellipsoid (e.g. all
+        about one axis): the quadric is then not positive definite.
+    """
+    raw = np.asarray(raw, dtype=np.float64)
+    if raw.ndim != 2 or raw.shape[1] != 3:
+        raise ValueError(f"raw must have shape (M, 3); got {raw.shape}")
+    if raw.shape[0] < 9:
+        raise ValueError(
+            f"an ellipsoid fit needs at least 9 static poses in different directions; "
+            f"got {raw.shape[0]}"
+        )
+    mu = raw.mean(axis=0)
+    s = np.abs(raw - mu).max() or 1.0
+    z = (raw - mu) / s  # conditioning: centred, unit range
+    x, y, w = z[:, 0], z[:, 1], z[:, 2]
+    design = np.column_stack([x * x, y * y, w * w, 2 * x * y, 2 * x * w, 2 * y * w, 2 * x, 2 * y, 2 * w])
+    p, *_ = np.linalg.lstsq(design, np.ones(len(z)), rcond=None)
+    a = np.array([[p[0], p[3], p[4]], [p[3], p[1], p[5]], [p[4], p[5], p[2]]])
+    v = p[6:9]
+    try:
+        c = -np.linalg.solve(a, v)
+    except np.linalg.LinAlgError:
+        raise ValueError("the static poses do not determine an ellipsoid (singular quadric)") from None
+    kappa = 1.0 + c @ a @ c
+    q = a * (gravity**2 / kappa) / s**2  # (u − b)ᵀ Q (u − b) = g² in raw units
+    try:
+        lower = np.linalg.cholesky(q)
+    except np.linalg.LinAlgError:
+        raise ValueError(
+            "the static poses do not determine an ellipsoid (the fitted quadric is not "
+            "positive definite): record poses spread over all directions"
+        ) from None
+    tk = lower.T  # upper triangular, (T K)ᵀ (T K) = Q
+    k = np.diag(tk).copy()
+    t = np.triu(tk / k[None, :], 1) + np.eye(3)
+    return TriadModel(misalignment=t, scale=k, bias=mu + s * c, shape="upper")
+
+
+def fit_gravity_norm(
+    raw_means: np.ndarray, gravity: float, *, order: int = 1, initial: TriadModel | None = None
+) -> tuple[TriadModel, np.ndarray]:
+    """Fit ``a = T_a f(u − b)`` to ``‖a‖ = g`` on static means (Tedaldi 2014).
+
+    Returns the model and the final residuals ``‖a_k‖ − g`` [m/s²].
+    """
+    if initial is None:
+        try:
+            initial = fit_ellipsoid(raw_means, gravity)
+        except ValueError:
+            initial = fit_sphere(raw_means, gravity)
+    layout = AccelLayout("upper", order)
+    theta0 = layout.pack(initial)
+    if raw_means.shape[0] < layout.size:
+        raise ValueError(
+            f"the accelerometer model has {layout.size} parameters but only "
+            f"{raw_means.shape[0]} static poses were found: record more poses"
+        )
+
+    def fun(th):
+        return gravity_norm_residuals(th, layout, raw_means, gravity)
+
+    def jac(th):
+        return gravity_norm_residuals(th, layout, raw_means, gravity, jacobian=True)[1]
+
+    sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-14, ftol=1e-14)
+    return layout.unpack(sol.x, initial), sol.fun
+
+
+def accelerometer_errors(acc: TriadModel, means: np.ndarray, gravity: float) -> dict[str, float]:
+    """1σ errors of a linear upper-triangular accelerometer model from the gravity-norm fit at ``acc``."""
+    lay = AccelLayout("upper", 1)
+    r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
+    return {k: float(v) for k, v in zip(lay.names("accelerometer"), standard_errors(j, r), strict=True)}
+
+
+def six_position(up: np.ndarray, down: np.ndarray, gravity: float) -> TriadModel:
+    """Bias and scale from each axis's raw reading up and down (Ru 2022, eqs. 8–9).
+
+    ``b = (u_up + u_down)/2`` (eq. 8), ``s = (u_up − u_down)/(2g)`` raw per m/s²
+    (eq. 9), so ``k1 = 1/s``; ``T_a = I``.
+    """
+    b = (up + down) / 2  # eq. (8)
+    s = (up - down) / (2 * gravity)  # eq. (9), raw per m/s²
+    return TriadModel(scale=1.0 / s, bias=b, shape="upper")
+
+
+def faces_full(faces: np.ndarray, gravity: float) -> TriadModel:
+    """Ferraris 1995: ``S_a e_i = (ū₊ᵢ − ū₋ᵢ)/(2g)``, ``b_a`` = the mean of the six faces.
+
+    ``faces`` holds the raw means of +x, +y, +z, −x, −y, −z. The cube's faces
+    define the frame, so the misalignment is full: ``T_a diag(k) = S_a⁻¹``.
+    """
+    s_a = (faces[:3] - faces[3:]).T / (2 * gravity)  # columns S_a e_i
+    return full_from_sensitivity(s_a, faces.mean(axis=0))
+
+
+def full_from_sensitivity(s: np.ndarray, bias: np.ndarray, **extra) -> TriadModel:
+    """``u = S x + b`` as the canonical ``x = T diag(k) (u − b)``: ``T diag(k) = S⁻¹``, ``T_ii = 1``."""
+    m = np.linalg.inv(s)
+    k = np.diag(m).copy()
+    t = m / k[None, :]
+    np.fill_diagonal(t, 1.0)  # m_ii / m_ii, exactly one
+    return TriadModel(misalignment=t, scale=k, bias=bias, shape="full", **extra)
+
+
+def qureshi_cost(x: np.ndarray, means: np.ndarray, gravity: float):
+    """G(X) (eq. 11), its gradient and its Hessian (exact, analytic)."""
+    b, k, kxy, kxz, kyz = x[:3], x[3:6], x[6], x[7], x[8]
+    m = np.array([[k[0], kxy, kxz], [0.0, k[1], kyz], [0.0, 0.0, k[2]]])
+    d = means - b  # (N, 3)
+    h = d @ m.T  # eq. (8)
+    r = np.sum(h * h, axis=1) - gravity**2
+    # ∂h/∂X for each sample: (N, 3, 9)
+    n = means.shape[0]
+    dh = np.zeros((n, 3, 9))
+    dh[:, :, 0:3] = -m[None, :, :]  # ∂h/∂b = −M
+    dh[:, 0, 3] = d[:, 0]
+    dh[:, 1, 4] = d[:, 1]
+    dh[:, 2, 5] = d[:, 2]
+    dh[:, 0, 6] = d[:, 1]
+    dh[:, 0, 7] = d[:, 2]
+    dh[:, 1, 8] = d[:, 2]
+    dr = 2 * np.einsum("ni,nip->np", h, dh)  # ∂r/∂X
+    # ∂²r/∂X² = 2 (∂h)ᵀ(∂h) + 2 Σ_i h_i ∂²h_i ; h is bilinear in (b, M): ∂²h_i/∂b_j∂M_il = −δ
+    d2r = 2 * np.einsum("nip,niq->npq", dh, dh)
+    m_index = {(0, 0): 3, (1, 1): 4, (2, 2): 5, (0, 1): 6, (0, 2): 7, (1, 2): 8}
+    for (i, j), p in m_index.items():
+        # h_i = Σ_j M_ij (u_j − b_j): ∂²h_i/∂M_ij∂b_j = −1
+        d2r[:, p, j] += -2 * h[:, i]
+        d2r[:, j, p] += -2 * h[:, i]
+    value = float(r @ r)
+    grad = 2 * dr.T @ r
+    hess = 2 * (dr.T @ dr + np.einsum("n,npq->pq", r, d2r))
+    return value, grad, hess
+
+
+def newton_backtracking(x0: np.ndarray, means: np.ndarray, gravity: float, *, max_iter: int = 100,
+                        tol: float = 1e-14) -> tuple[np.ndarray, int]:
+    """Minimise eq. (11) by Newton's method with an Armijo backtracking line search (eq. 12).
+
+    Where the Hessian is not positive definite the step falls back to steepest
+    descent. Returns the minimiser and the number of iterations.
+    """
+    x = np.array(x0, dtype=float)
+    scale = np.maximum(np.abs(x), 1e-3)  # work in relative units for conditioning
+    for it in range(1, max_iter + 1):
+        value, grad, hess = qureshi_cost(x, means, gravity)
+        gs, hs = grad * scale, hess * scale[:, None] * scale[None, :]
+        try:
+            c = np.linalg.cholesky(hs)
+            step = -np.linalg.solve(c.T, np.linalg.solve(c, gs))
+        except np.linalg.LinAlgError:
+            step = -gs
+        t = 1.0
+        while True:  # backtracking: sufficient decrease (Armijo, c = 1e-4), halving t
+            trial = x + t * step * scale
+            if qureshi_cost(trial, means, gravity)[0] <= value + 1e-4 * t * (gs @ step) or t < 1e-12:
+                break
+            t *= 0.5
+        x = trial
+        if np.max(np.abs(t * step)) < tol or value == 0.0:
+            return x, it
+    return x, max_iter

@@ -1,0 +1,246 @@
+"""What every simulated session shares: the session record, the distortion by a true calibration, pose plans.
+
+Raw readings are made by distorting true signals with a true
+:class:`~imucalib.calibration.Calibration` (Zhang 2021, eqs. 31–32: the exact
+inverse of the canonical model), then Gaussian noise, quantisation and
+saturation. Everything is deterministic for a given seed.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..calibration import Calibration
+from ..kinematics import integrate, quat_from_rotvec, quat_to_matrix
+from ..recording import ImucalibWarning, Interval, Recording
+
+__all__ = ["DEFAULT_NOISE", "Session", "TossSequence", "attitude_with_up", "distort", "noise_levels",
+           "pose_session", "read_session", "turns_between", "write_session"]
+
+#: default per-sample noise: σ_a [m/s²], σ_g [rad/s] (ICM-42605-like at 100 Hz)
+DEFAULT_NOISE = {"accelerometer": 0.005, "gyroscope": 0.0005}
+
+
+@dataclass
+class TossSequence:
+    """One RD3 toss: the raw recording and its segments (static, motion, weightless)."""
+
+    recording: Recording
+    segments: list[Interval]
+
+
+@dataclass
+class Session:
+    """A simulated session: raw recordings, the truth and the segment layout."""
+
+    scenario: str
+    seed: int | None
+    recording: Recording
+    segments: list[Interval]
+    truth: Calibration
+    weightless: list[Recording] = field(default_factory=list)
+    tests: list[TossSequence] = field(default_factory=list)
+    noise: dict = field(default_factory=dict)
+    options: dict = field(default_factory=dict)
+
+    def method_options(self, method: str) -> dict:
+        """The keyword options this session gives ``imucalib.methods.calibrate(..., method=method)``.
+
+        Zhang 2021 gets the weightless spins; a noise-free session hands over its
+        static layout (no detector can set a threshold without noise) and
+        unweighted residuals.
+        """
+        if method != "zhang2021":
+            return {}
+        out: dict = {"weightless": self.weightless}
+        levels = self.noise.values() if isinstance(self.noise, dict) else [self.noise]
+        if self.segments and not any(float(v) for v in levels):
+            out["intervals"] = [s for s in self.segments if s.kind == "static"]
+            out["noise_weights"] = False
+        return out
+
+
+# ------------------------------------------------------------ distortion
+def noise_levels(noise) -> dict:
+    if noise is None:
+        return dict(DEFAULT_NOISE)
+    if isinstance(noise, int | float):
+        return {"accelerometer": float(noise), "gyroscope": float(noise)}
+    unknown = set(noise) - {"accelerometer", "gyroscope"}
+    if unknown:
+        raise ValueError(f"noise keys must be 'accelerometer' and 'gyroscope'; got {sorted(unknown)}")
+    out = dict(DEFAULT_NOISE)
+    out.update({k: float(v) for k, v in noise.items()})
+    if any(v < 0 for v in out.values()):
+        raise ValueError(f"noise levels must be ≥ 0; got {out}")
+    return out
+
+
+def distort(truth: Calibration, a: np.ndarray, w: np.ndarray, rng, noise: dict,
+             full_scale: dict | None, lsb: dict | None) -> tuple[np.ndarray, np.ndarray]:
+    """Raw readings from true specific force and rate (Zhang 2021, eqs. 31–32)."""
+    acc = truth.accelerometer.inverse(a)  # eq. (31)
+    gyro = truth.gyroscope.inverse(w, a)  # eq. (32): includes G·a
+    if noise["accelerometer"]:
+        acc = acc + rng.normal(size=acc.shape) * (noise["accelerometer"] / truth.accelerometer.scale)
+    if noise["gyroscope"]:
+        gyro = gyro + rng.normal(size=gyro.shape) * (noise["gyroscope"] / truth.gyroscope.scale)
+    for name, arr in (("accelerometer", acc), ("gyroscope", gyro)):
+        if lsb and lsb.get(name):
+            arr[:] = np.round(arr / lsb[name]) * lsb[name]
+        if full_scale and full_scale.get(name) is not None:
+            limit = float(full_scale[name])
+            clipped = int(np.count_nonzero(np.abs(arr) > limit))
+            if clipped:
+                np.clip(arr, -limit, limit, out=arr)
+                warnings.warn(f"{clipped} {name} values beyond ±{limit:g} (raw) were clipped, "
+                              "as a saturated sensor would report them", ImucalibWarning,
+                              stacklevel=3)
+    return acc, gyro
+
+
+# ------------------------------------------------------------------ files
+def _write_rec(path: Path, rec: Recording) -> None:
+    data = np.column_stack([rec.t, rec.acc, rec.gyro])
+    np.savetxt(path, data, delimiter=",", fmt="%.17g", header="t,ax,ay,az,gx,gy,gz", comments="")
+
+
+def _read_rec(path: Path, units: dict) -> Recording:
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return Recording(data[:, 0], data[:, 1:4], data[:, 4:7], acc_unit=units["accelerometer"],
+                     gyro_unit=units["gyroscope"], metadata={"source": [str(path)]})
+
+
+def write_session(sim: Session, directory: str | Path) -> Path:
+    """Write ``recording.csv``, ``weightless_NNN.csv``, ``test_NN.csv``, ``truth.json``, ``session.json``."""
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    _write_rec(d / "recording.csv", sim.recording)
+    for i, w in enumerate(sim.weightless):
+        _write_rec(d / f"weightless_{i:03d}.csv", w)
+    for i, ts in enumerate(sim.tests):
+        _write_rec(d / f"test_{i:02d}.csv", ts.recording)
+    sim.truth.save(d / "truth.json")
+    meta = {
+        "format": "imucalib.session", "format_version": 1,
+        "scenario": sim.scenario, "seed": sim.seed, "noise": sim.noise, "options": sim.options,
+        "units": {"accelerometer": sim.recording.acc_unit, "gyroscope": sim.recording.gyro_unit},
+        "files": {
+            "recording.csv": [s.to_dict() for s in sim.segments],
+            **{f"weightless_{i:03d}.csv": [{"start": 0, "stop": len(w), "kind": "weightless"}]
+               for i, w in enumerate(sim.weightless)},
+            **{f"test_{i:02d}.csv": [s.to_dict() for s in ts.segments]
+               for i, ts in enumerate(sim.tests)},
+        },
+    }
+    (d / "session.json").write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
+    return d
+
+
+def read_session(directory: str | Path):
+    """Read a directory written by :func:`write_session` (or a wang2019 one by ``imucalib simulate``)."""
+    d = Path(directory)
+    meta_path = d / "session.json"
+    if not meta_path.is_file():
+        raise ValueError(f"{d}: not a simulated session directory (no session.json)")
+    meta = json.loads(meta_path.read_text(encoding="utf-8"))
+    if meta.get("format") != "imucalib.session":
+        raise ValueError(f"{meta_path}: not an imucalib session file")
+    if meta.get("scenario") == "wang2019":  # turntable aggregates, not recordings
+        from .wang2019 import WangSession
+
+        pos = np.loadtxt(d / "positions.csv", delimiter=",", skiprows=1, ndmin=2)
+        turns = np.loadtxt(d / "turns.csv", delimiter=",", skiprows=1, ndmin=2)
+        truth = Calibration.load(d / "truth.json") if (d / "truth.json").is_file() else None
+        return WangSession(positions_acc=pos[:, :3], positions_gyro=pos[:, 3:6], turn_sum=turns[:, :3],
+                           turn_sum2=turns[:, 3:6], turn_angle=turns[:, 6], truth=truth,
+                           latitude_deg=meta.get("latitude_deg", 0.0),
+                           turntable_error=meta.get("turntable_error", ""), options=meta.get("options", {}))
+    units = meta["units"]
+    files = meta["files"]
+
+    def segs(name):
+        return [Interval(s["start"], s["stop"], s["kind"]) for s in files[name]]
+
+    rec = _read_rec(d / "recording.csv", units)
+    weightless = [_read_rec(d / n, units) for n in sorted(files) if n.startswith("weightless_")]
+    tests = [TossSequence(_read_rec(d / n, units), segs(n))
+             for n in sorted(files) if n.startswith("test_")]
+    truth = Calibration.load(d / "truth.json") if (d / "truth.json").is_file() else None
+    return Session(scenario=meta["scenario"], seed=meta.get("seed"), recording=rec,
+                   segments=segs("recording.csv"), truth=truth, weightless=weightless,
+                   tests=tests, noise=meta.get("noise", {}), options=meta.get("options", {}))
+
+
+# ------------------------------------------------------- pose/turn sessions
+def turns_between(directions: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """Body-frame turns (unit axis, angle [rad]) carrying gravity through ``directions``.
+
+    A body turning by ``θ`` about ``n`` sees a fixed vector turn by ``−θ``, so the
+    shortest turn from body gravity direction ``a₀`` to ``a₁`` is ``−θ`` about
+    ``a₀ × a₁`` (any perpendicular axis for opposite directions).
+    """
+    d = np.asarray(directions, dtype=float)
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    out = []
+    for a0, a1 in zip(d[:-1], d[1:], strict=True):
+        axis = np.cross(a0, a1)
+        if np.linalg.norm(axis) < 1e-12:
+            axis = np.cross(a0, [1.0, 0, 0] if abs(a0[0]) < 0.9 else [0, 1.0, 0])
+        angle = float(np.arctan2(np.linalg.norm(np.cross(a0, a1)), a0 @ a1))
+        out.append((-axis / np.linalg.norm(axis), angle))
+    return out
+
+
+def attitude_with_up(direction: np.ndarray) -> np.ndarray:
+    """Quaternion of an attitude whose body vector ``direction`` points up (world +z)."""
+    d0 = np.asarray(direction, dtype=float)
+    d0 = d0 / np.linalg.norm(d0)
+    axis = np.cross(d0, [0.0, 0.0, 1.0])
+    angle = np.arctan2(np.linalg.norm(axis), d0[2])
+    if np.linalg.norm(axis) < 1e-12:
+        return quat_from_rotvec(np.array([np.pi if d0[2] < 0 else 0.0, 0.0, 0.0]))
+    return quat_from_rotvec(axis / np.linalg.norm(axis) * angle)
+
+
+def pose_session(truth: Calibration, turns, *, rng=None, up: np.ndarray | None = None,
+                 rest: float = 5.0, hold: float = 2.0, move: float = 1.5, rate: float = 100.0,
+                 noise=None) -> tuple[Recording, list[Interval]]:
+    """A rest, then static holds joined by smooth body-frame turns.
+
+    Each turn ``(axis, angle)`` is a rotation about the body axis with a
+    ``sin²`` rate profile over ``move`` seconds; the attitude is the RK4
+    integral of the sampled rates, so noise-free gravity directions and gyro
+    integration agree exactly. Returns the raw recording and the static
+    intervals (the rest first).
+    """
+    rng = np.random.default_rng(rng)
+    noise = noise_levels(noise)
+    dt = 1.0 / rate
+    n_rest, n_hold, n_move = int(round(rest * rate)), int(round(hold * rate)), int(round(move * rate))
+    blocks = [np.zeros((n_rest, 3))]
+    intervals = [Interval(0, n_rest, "static")]
+    pos = n_rest
+    tau = (np.arange(n_move) + 0.5) / n_move
+    bump = np.sin(np.pi * tau) ** 2
+    for axis, angle in turns:
+        axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+        blocks += [np.outer(bump / bump.sum() * angle / dt, axis), np.zeros((n_hold, 3))]
+        intervals.append(Interval(pos + n_move, pos + n_move + n_hold, "static"))
+        pos += n_move + n_hold
+    w = np.concatenate(blocks)
+    t = np.arange(w.shape[0]) * dt
+    q0 = attitude_with_up(np.array([0.0, 0.0, 1.0]) if up is None else up)
+    q = integrate(t, w, q0)
+    a = np.einsum("nji,j->ni", quat_to_matrix(q), np.array([0.0, 0.0, truth.gravity]))  # Rᵀ g
+    acc, gyro = distort(truth, a, w, rng, noise, None, None)
+    units = truth.units
+    return Recording(t, acc, gyro, acc_unit=units["accelerometer"]["raw"],
+                     gyro_unit=units["gyroscope"]["raw"]), intervals
+
+
