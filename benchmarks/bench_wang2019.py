@@ -16,8 +16,7 @@ import time
 from _common import median_time
 
 from imucalib.methods.wang2019 import calibrate
-from imucalib.scenarios.wang2019 import montecarlo
-from imucalib.scenarios.wang2019 import session
+from imucalib.scenarios.wang2019 import montecarlo, session
 
 
 def main() -> None:

@@ -4,10 +4,9 @@ import numpy as np
 import pytest
 
 from imucalib.methods import calibrate
-from imucalib.segment import find_turns
-from imucalib.segment import find_faces
 from imucalib.metrics import interval_means
 from imucalib.scenarios import ferraris_session
+from imucalib.segment import find_faces, find_turns
 from synth import linear_truth
 
 

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from imucalib.conventions import to_qureshi
-from imucalib.methods import calibrate
 from imucalib.fit.accelerometer import qureshi_cost as _g_and_derivatives
+from imucalib.methods import calibrate
 from imucalib.scenarios import qureshi_orientations, qureshi_session, qureshi_truth, qureshi_validation
 
 

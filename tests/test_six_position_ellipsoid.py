@@ -5,8 +5,8 @@ import pytest
 
 from imucalib.calibration import Calibration
 from imucalib.methods import calibrate
-from imucalib.segment import find_faces
 from imucalib.models import TriadModel
+from imucalib.segment import find_faces
 from synth import linear_truth, tedaldi_session
 
 FACES = [[0, 0, 1], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0], [0, 0, -1], [1, 1, 0], [0, 1, 1],

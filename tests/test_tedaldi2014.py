@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from imucalib.calibration import Calibration
-from imucalib.methods import calibrate, tedaldi2014
 from imucalib.fit.accelerometer import fit_ellipsoid
+from imucalib.methods import calibrate, tedaldi2014
 from imucalib.models import TriadModel
 from imucalib.recording import Recording
 from synth import linear_truth, tedaldi_session

@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from imucalib.methods import calibrate
-from imucalib.scenarios.wang2019 import montecarlo, parameter_errors_wang_units
-from imucalib.scenarios.wang2019 import EARTH_RATE, G0, plan, session
+from imucalib.scenarios.wang2019 import EARTH_RATE, G0, montecarlo, parameter_errors_wang_units, plan, session
 
 QUIET = {"accelerometer": 0, "gyroscope": 0}
 

@@ -169,8 +169,8 @@ def test_clear_errors(truth, noise_free):
 
 
 def test_gyroscope_static_detector_eq22():
-    from imucalib.segment import detect_static_gyro, find_initial_rest
     from imucalib.scenarios import session
+    from imucalib.segment import detect_static_gyro, find_initial_rest
 
     sim = session("zhang2021", rng=2, n2=20, n3=1)
     found = detect_static_gyro(sim.recording, find_initial_rest(sim.recording))

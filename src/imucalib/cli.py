@@ -257,8 +257,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def cmd_validate(args: argparse.Namespace) -> int:
     """A calibration's fit figures on a recording it was not made from (no refit)."""
-    from .segment import detect_intervals
     from .metrics import fit_summary
+    from .segment import detect_intervals
 
     cal = Calibration.load(args.calibration)
     rec = _read_recording(args, args.data)

@@ -19,6 +19,8 @@ given.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
 from .fit.accelerometer import fit_gravity_norm, fit_sphere

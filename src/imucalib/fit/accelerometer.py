@@ -20,8 +20,8 @@ from ..models import TriadModel
 from ..residuals import AccelLayout, gravity_norm_residuals
 from ..solve import levenberg_marquardt, standard_errors
 
-__all__ = ["accelerometer_errors", "faces_full", "full_from_sensitivity", "fit_ellipsoid", "fit_gravity_norm", "fit_sphere",
-           "newton_backtracking", "qureshi_cost", "six_position"]
+__all__ = ["accelerometer_errors", "faces_full", "fit_ellipsoid", "fit_gravity_norm", "fit_sphere",
+           "full_from_sensitivity", "newton_backtracking", "qureshi_cost", "six_position"]
 
 
 def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:

@@ -26,8 +26,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 
-import numpy as np
-
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import accelerometer_errors, fit_gravity_norm
 from ..fit.gyroscope import fit_gravity_direction, gravity_direction_problem, gyroscope_errors

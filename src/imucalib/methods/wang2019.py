@@ -31,11 +31,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..calibration import Calibration
+from ..constants import DEG, EARTH_RATE, G0, MICRO_G
 from ..models import TriadModel
-from ..constants import EARTH_RATE, G0
 from ..solve import levenberg_marquardt, standard_errors
 
-__all__ = ["PAPER_RMS", "calibrate", "parameter_errors_wang_units", "montecarlo", "plan_report"]
+__all__ = ["calibrate"]
 
 
 def _lower(e: np.ndarray) -> np.ndarray:
