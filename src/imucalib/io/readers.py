@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..recording import ACC_UNITS, GYRO_UNITS, ImucalibWarning, Recording
+from .errors import ReaderError
 from .rosbag import is_rosbag, read_rosbag
 
 __all__ = ["READERS", "ReaderError", "read", "guess_reader"]
@@ -23,10 +24,6 @@ __all__ = ["READERS", "ReaderError", "read", "guess_reader"]
 READERS = ("csv", "imutk", "mat", "rosbag")
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 FIELDS = ("t", "ax", "ay", "az", "gx", "gy", "gz")
-
-
-class ReaderError(ValueError):
-    """Input that cannot be read; the message names the file, line/column and the fix."""
 
 
 # ------------------------------------------------------------------ entry

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..recording import ImucalibWarning, Recording
+from .errors import ReaderError
 
 __all__ = ["read_rosbag", "is_rosbag", "write_calibrated_bag"]
 
@@ -39,9 +40,7 @@ def is_rosbag(path: Path) -> bool:
     return head.startswith(b"#ROSBAG V2.0") or head.startswith(b"\x89MCAP0\r\n")
 
 
-def _reader_error(message: str):
-    from .readers import ReaderError
-
+def _reader_error(message: str) -> ReaderError:
     return ReaderError(message)
 
 
