@@ -43,6 +43,9 @@ __all__ = [
     "initial_rest",
     "motion_between",
     "static_poses",
+    "gyro_still",
+    "moving_mean",
+    "still_intervals",
     "FACE_NAMES",
     "MIN_INTERVALS",
 ]
@@ -236,6 +239,53 @@ def initial_rest(recording: Recording, init_static: float | None = None) -> Inte
     return Interval(0, n, "static")
 
 
+#: a pose is still when the gyroscope's mean rate over ``STILL_WINDOW`` s, bias removed, stays below this [rad/s]
+STILL_RATE = np.radians(0.7)
+STILL_WINDOW = 0.25
+
+
+def moving_mean(x: np.ndarray, window: int) -> np.ndarray:
+    """Mean over a centred window of ``window`` samples, per column (truncated at the ends)."""
+    x = np.asarray(x, dtype=np.float64)
+    n = x.shape[0]
+    half = max(int(window) // 2, 0)
+    ref = x[0]
+    c = np.concatenate([np.zeros((1, x.shape[1])), np.cumsum(x - ref, axis=0)])
+    idx = np.arange(n)
+    lo = np.clip(idx - half, 0, n)
+    hi = np.clip(idx + half + 1, 0, n)
+    return (c[hi] - c[lo]) / (hi - lo)[:, None] + ref
+
+
+def gyro_still(recording: Recording, rest: Interval, scale: float, *, rate_limit: float = STILL_RATE,
+               window: float = STILL_WINDOW, n_sigma: float = 6.0) -> np.ndarray:
+    """Samples where the gyroscope says the sensor is still: a mask (N,).
+
+    The accelerometer alone cannot tell a still pose from a turn about the
+    vertical, or from a slow creep after the hand lets go (Tedaldi 2014 and
+    imu_tk look at it alone). A sample is still here when the norm of the
+    gyroscope's mean over a centred ``window`` (bias = mean of ``rest``) is
+    below ``max(rate_limit, n_sigma × its noise)``; ``scale`` [rad/s per raw
+    unit] is a rough gyroscope scale (:func:`imucalib.fit.gyroscope.rough_scale`)
+    that puts ``rate_limit`` in raw units, the noise is the rest's.
+    """
+    n = max(int(round(window * recording.rate)), 1)
+    raw = recording.gyro[rest.slice]
+    bias = raw.mean(axis=0)
+    noise = float(np.linalg.norm(raw.std(axis=0))) / np.sqrt(n)
+    limit = max(rate_limit / abs(scale), n_sigma * noise)
+    return np.linalg.norm(moving_mean(recording.gyro - bias, n), axis=1) < limit
+
+
+def still_intervals(intervals: list[Interval], still: np.ndarray, min_length: int) -> list[Interval]:
+    """Each interval cut to its runs of ``still`` samples at least ``min_length`` long."""
+    out = []
+    for iv in intervals:
+        out += [Interval(iv.start + r.start, iv.start + r.stop, iv.kind)
+                for r in runs(still[iv.slice], min_length)]
+    return out
+
+
 def detect_intervals(
     recording: Recording,
     gravity: float,
@@ -244,14 +294,35 @@ def detect_intervals(
     multipliers: Iterable[float] = range(2, 11),
     window: float = 1.0,
     min_interval: float = 1.0,
+    gyro_gate: bool = True,
 ) -> tuple[list[Interval], float, Interval, TriadModel]:
-    """Static intervals by the Tedaldi 2014 detector with the multiplier scan.
+    """Static intervals by the Tedaldi 2014 detector with the multiplier scan, still for the gyroscope too.
+
+    The accelerometer variance detector with the multiplier scan (Tedaldi 2014,
+    as summarised in the interval-detection fragment, §2) runs first; with
+    ``gyro_gate``, its intervals give a rough gyroscope scale, the samples where
+    the gyroscope is not still (:func:`gyro_still`) are taken out of the
+    detector statistic and the scan runs again, so a turn about the vertical or
+    a slow settle after a flip is never averaged into a pose.
 
     Returns the intervals, the chosen multiplier, the initial rest and the
     accelerometer model calibrated on those intervals.
     """
-    rate = recording.rate
     rest = initial_rest(recording, init_static)
+    intervals, mult, model = _scan(recording, gravity, rest, multipliers, window, min_interval, None)
+    if gyro_gate:
+        from .fit.gyroscope import rough_scale
+
+        scale = rough_scale(recording, intervals, model, recording.gyro[rest.slice].mean(axis=0))
+        still = gyro_still(recording, rest, scale)
+        intervals, mult, model = _scan(recording, gravity, rest, multipliers, window, min_interval, still)
+    return intervals, mult, rest, model
+
+
+def _scan(recording: Recording, gravity: float, rest: Interval, multipliers: Iterable[float], window: float,
+          min_interval: float, still: np.ndarray | None) -> tuple[list[Interval], float, TriadModel]:
+    """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded)."""
+    rate = recording.rate
     base = float(np.linalg.norm(np.var(recording.acc[rest.slice], axis=0)))
     if base <= 0:
         raise ValueError(
@@ -261,6 +332,8 @@ def detect_intervals(
     win = int(round(window * rate)) | 1
     min_len = max(int(round(min_interval * rate)), 2)
     stat = variance_norm(recording.acc, win)
+    if still is not None:
+        stat = np.where(still, stat, np.inf)
     best = None
     tried = []
     for mult in multipliers:
@@ -284,7 +357,7 @@ def detect_intervals(
             f"for at least {min_interval} s in each of many poses"
         )
     _, mult, intervals, model = best
-    return intervals, float(mult), rest, model
+    return intervals, float(mult), model
 
 
 def static_poses(recording: Recording, gravity: float, intervals: list[Interval] | None = None, *,

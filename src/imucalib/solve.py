@@ -151,7 +151,8 @@ def _solve_damped(a: np.ndarray, g: np.ndarray, lam: float) -> np.ndarray:
 
 
 def standard_errors(jac: np.ndarray, residuals: np.ndarray, *, dof: float | None = None,
-                    transform: np.ndarray | None = None, rcond: float = 1e-10) -> np.ndarray:
+                    transform: np.ndarray | None = None, rcond: float = 1e-10,
+                    extra_cov: np.ndarray | None = None) -> np.ndarray:
     """1σ standard errors of least-squares estimates, NaN where the data do not determine them.
 
     The covariance of a least-squares fit at its minimum is ``σ² (JᵀJ)⁻¹``
@@ -164,7 +165,9 @@ def standard_errors(jac: np.ndarray, residuals: np.ndarray, *, dof: float | None
     eigen-direction of the scaled ``JᵀJ`` below ``rcond`` times the largest is
     unobservable, and every parameter with a visible share of it gets NaN
     rather than a falsely small error. Returns NaN everywhere when there are
-    no degrees of freedom left to estimate ``σ²``.
+    no degrees of freedom left to estimate ``σ²``. ``extra_cov`` (P, P) is added
+    to the fitted parameters' covariance before ``transform``: what an input
+    held fixed in the fit (a bias taken from the rest) contributes.
     """
     m, p = jac.shape
     dof = m - p if dof is None else dof
@@ -179,6 +182,8 @@ def standard_errors(jac: np.ndarray, residuals: np.ndarray, *, dof: float | None
     cov_s = (v[:, good] / w[good]) @ v[:, good].T
     cov = s2 * cov_s / np.outer(col, col)
     bad = np.any(np.abs(v[:, ~good]) > 1e-3, axis=1)  # loaded on an unobservable direction
+    if extra_cov is not None:
+        cov = cov + extra_cov
     if transform is not None:
         bad = np.abs(transform) @ bad.astype(float) > 0
         cov = transform @ cov @ transform.T

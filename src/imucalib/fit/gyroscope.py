@@ -12,6 +12,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 
 from ..kinematics import IntervalIntegrator, angle_between, quat_from_rotvec, quat_to_matrix
@@ -22,7 +24,8 @@ from ..residuals import GyroLayout, gravity_direction_residuals, gravity_directi
 from ..solve import levenberg_marquardt, standard_errors
 from .accelerometer import full_from_sensitivity
 
-__all__ = ["MIN_POSES", "fit_gravity_direction", "fit_known_turns", "fit_measured_rotations",
+__all__ = ["MIN_POSES", "GyroFit", "errors_at", "fit_gravity_direction", "fit_gyroscope", "fit_known_turns",
+           "fit_measured_rotations", "rest_bias", "rough_scale", "transition_errors",
            "gravity_direction_problem", "gyroscope_errors", "rotation_angles"]
 
 #: the fewest static poses a gravity-direction fit takes
@@ -31,6 +34,7 @@ MIN_POSES = 4
 
 def _gyro_scale_guess(
     v: np.ndarray, t: np.ndarray, starts: np.ndarray, stops: np.ndarray, gravity_dirs: np.ndarray,
+    pairs: np.ndarray | None = None,
 ) -> float:
     """Common gyroscope scale [rad/s per raw unit] for the initial values.
 
@@ -38,13 +42,18 @@ def _gyro_scale_guess(
     raw rate ``Φ_i = ∫(u − b) dt``, by the angle ``k‖Φ_i‖``; ``k`` minimises the
     gravity-direction residuals of these rotations over a dense logarithmic grid
     around ``median(angle between poses / ∫‖u − b‖dt)`` (no sensor-specific guess).
+    ``pairs`` are the transitions' first poses when not all consecutive poses are used.
     """
+    if pairs is not None:
+        gravity_dirs = np.stack([gravity_dirs[pairs], gravity_dirs[pairs + 1]], axis=1)
+    else:
+        gravity_dirs = np.stack([gravity_dirs[:-1], gravity_dirs[1:]], axis=1)
     dt = np.diff(t, append=t[-1])[:, None]
     c = np.concatenate([np.zeros((1, 4)),
                         np.cumsum(np.column_stack([v * dt, np.linalg.norm(v, axis=1) * dt[:, 0]]), axis=0)])
     phi_vec = c[stops, :3] - c[starts, :3]
     path = c[stops, 3] - c[starts, 3]
-    theta = angle_between(gravity_dirs[:-1], gravity_dirs[1:])
+    theta = angle_between(gravity_dirs[:, 0], gravity_dirs[:, 1])
     ok = (theta > np.radians(10)) & (path > 0)
     if not np.any(ok):
         ok = path > 0
@@ -53,13 +62,25 @@ def _gyro_scale_guess(
     k0 = float(np.median(theta[ok] / path[ok]))
     ks = k0 * np.geomspace(0.3, 30.0, 600)
     rot = quat_to_matrix(quat_from_rotvec(ks[:, None, None] * phi_vec[None, :, :]))
-    pred = np.einsum("skji,kj->ski", rot, gravity_dirs[:-1])
-    cost = np.sum((gravity_dirs[None, 1:] - pred) ** 2, axis=(1, 2))
+    pred = np.einsum("skji,kj->ski", rot, gravity_dirs[:, 0])
+    cost = np.sum((gravity_dirs[None, :, 1] - pred) ** 2, axis=(1, 2))
     return float(ks[int(np.argmin(cost))])
 
 
-def gravity_direction_problem(recording, intervals, accelerometer, bias, estimate_bias):
-    """Residuals of Zhang 2021, eq. (14) in the :class:`GyroLayout` parameters, their Jacobian, the pose directions."""
+def rough_scale(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
+                bias: np.ndarray) -> float:
+    """A common gyroscope scale [rad/s per raw unit] good to a few per cent, from the rotations between poses."""
+    acc = accelerometer.forward(interval_means(recording.acc, intervals))
+    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
+    return _gyro_scale_guess(recording.gyro - bias, recording.t, *transition_bounds(intervals), dirs)
+
+
+def gravity_direction_problem(recording, intervals, accelerometer, bias, estimate_bias, weights=None):
+    """Residuals of Zhang 2021, eq. (14) in the :class:`GyroLayout` parameters, their Jacobian, the pose directions.
+
+    ``weights`` (one per transition between consecutive poses) scale each
+    transition's three residuals; 0 leaves a transition out.
+    """
     acc = accelerometer.forward(interval_means(recording.acc, intervals))
     dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
     starts, stops = transition_bounds(intervals)
@@ -67,13 +88,15 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
     raw = recording.gyro[integrator.samples]  # only the samples the integration reads
     layout = GyroLayout(estimate_bias)
     d = np.zeros((raw.shape[0], 3, layout.size))
+    w = None if weights is None else np.repeat(np.asarray(weights, dtype=float), 3)
 
     def split(th):
         return th[:9].reshape(3, 3), (th[9:12] if estimate_bias else bias)
 
     def fun(th):
         m, b = split(th)
-        return gravity_direction_residuals((raw - b) @ m.T, integrator.from_samples, dirs)
+        r = gravity_direction_residuals((raw - b) @ m.T, integrator.from_samples, dirs)
+        return r if w is None else r * w
 
     def jac(th):
         m, b = split(th)
@@ -82,30 +105,153 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
             d[:, a, 3 * a : 3 * a + 3] = v  # ∂(M v)_a / ∂M_aj = v_j
         if estimate_bias:
             d[:, :, 9:12] = -m
-        return gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1]
+        j = gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1]
+        return j if w is None else j * w[:, None]
 
     return fun, jac, layout, dirs, (starts, stops)
 
 
 def fit_gravity_direction(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, bias: np.ndarray,
-                  estimate_bias: bool = False) -> tuple[TriadModel, dict[str, float]]:
+                          estimate_bias: bool = False, *, weights: np.ndarray | None = None,
+                          bias_cov: np.ndarray | None = None) -> tuple[TriadModel, dict[str, float]]:
     """Gyroscope ``T_g``, ``K_g`` (and ``b_g``) from gravity directions between poses, and its 1σ errors.
 
     Minimises the residuals of Zhang 2021, eq. (14) (unit gravity directions)
     with Levenberg–Marquardt and the analytic first-order Jacobian of
-    :func:`~imucalib.residuals.gravity_direction_residuals_jac`.
+    :func:`~imucalib.residuals.gravity_direction_residuals_jac`. ``weights``
+    (one per transition, 0 to leave it out) weight the residuals; with the
+    bias held at ``bias``, ``bias_cov`` (3, 3) is its covariance, carried into
+    the other parameters' errors and reported as the bias's own error.
     """
     if len(intervals) < MIN_POSES:
-        raise ValueError(f"gyroscope calibration needs at least 4 static poses; got {len(intervals)}")
+        raise ValueError(f"gyroscope calibration needs at least {MIN_POSES} static poses; got {len(intervals)}")
     fun, jac, layout, dirs, (starts, stops) = gravity_direction_problem(recording, intervals, accelerometer, bias,
-                                                            estimate_bias)
-    k = _gyro_scale_guess(recording.gyro - bias, recording.t, starts, stops, dirs)
+                                                                        estimate_bias, weights)
+    keep = np.ones(len(starts), bool) if weights is None else np.asarray(weights) > 0
+    k = _gyro_scale_guess(recording.gyro - bias, recording.t, starts[keep], stops[keep],
+                          dirs, pairs=np.nonzero(keep)[0])
     theta0 = layout.pack(TriadModel(scale=np.full(3, k), bias=bias))
     sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-12, ftol=1e-12)
-    return layout.unpack(sol.x, bias), gyroscope_errors(sol.x, sol.jac, sol.fun, layout)
+    model = layout.unpack(sol.x, bias)
+    return model, errors_at(recording, intervals, accelerometer, model, estimate_bias, weights=weights,
+                            bias_cov=bias_cov)
 
 
-def gyroscope_errors(theta: np.ndarray, jac: np.ndarray, res: np.ndarray, layout: GyroLayout) -> dict[str, float]:
+def errors_at(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, gyroscope: TriadModel,
+              estimate_bias: bool, *, weights: np.ndarray | None = None,
+              bias_cov: np.ndarray | None = None) -> dict[str, float]:
+    """1σ errors of a gravity-direction gyroscope fit at its solution ``gyroscope``, by name.
+
+    From the Jacobian and residuals of eq. (14) (:func:`~imucalib.solve.standard_errors`;
+    a direction residual has two degrees of freedom, not three). With the bias
+    held fixed, ``bias_cov`` is carried into the other parameters to first
+    order (``∂θ̂/∂b = −J⁺ J_b``) and reported as the bias's own error.
+    """
+    fun, jac, layout, _, _ = gravity_direction_problem(recording, intervals, accelerometer, gyroscope.bias, True,
+                                                       weights)
+    j12 = jac(layout.pack(gyroscope))
+    n = len(intervals) - 1 if weights is None else int(np.count_nonzero(weights))
+    res = fun(layout.pack(gyroscope))
+    if estimate_bias:
+        return gyroscope_errors(layout.pack(gyroscope), j12, res, layout, n_transitions=n)
+    fixed = GyroLayout(False)
+    extra = None
+    if bias_cov is not None:
+        sens = -np.linalg.lstsq(j12[:, :9], j12[:, 9:], rcond=None)[0]
+        extra = sens @ bias_cov @ sens.T
+    errors = gyroscope_errors(fixed.pack(gyroscope), j12[:, :9], res, fixed, n_transitions=n, extra_cov=extra)
+    if bias_cov is not None:
+        errors |= {f"gyroscope.bias.{a}": float(s) for a, s in zip(AXES, np.sqrt(np.diag(bias_cov)), strict=True)}
+    return errors
+
+
+def transition_errors(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
+                      gyroscope: TriadModel) -> np.ndarray:
+    """‖r_k‖ of eq. (14) for each transition: the gravity-direction error [rad, small-angle]."""
+    fun, _, layout, _, _ = gravity_direction_problem(recording, intervals, accelerometer, gyroscope.bias, False)
+    return np.linalg.norm(fun(layout.pack(gyroscope)).reshape(-1, 3), axis=1)
+
+
+def rest_bias(recording: Recording, intervals: list[Interval], rest: Interval) -> tuple[np.ndarray, np.ndarray]:
+    """The gyroscope bias from the rest and its covariance as the poses see it.
+
+    The covariance is that of the rest's mean (white noise) plus the mean
+    square of the static poses' gyroscope means about it: what bias drift,
+    turn-on changes and g-sensitivity make the bias differ from the rest's
+    during the session.
+    """
+    raw = recording.gyro[rest.slice]
+    bias = raw.mean(axis=0)
+    cov = np.cov(raw.T) / max(len(raw), 1)
+    d = interval_means(recording.gyro, intervals) - bias
+    return bias, cov + d.T @ d / max(len(d), 1)
+
+
+@dataclass
+class GyroFit:
+    """A gyroscope calibrated from the rotations between static poses, with what was decided on the way."""
+
+    model: TriadModel
+    errors: dict[str, float]
+    bias_source: str  # "rest" or "fit"
+    left_out: dict[int, str] = field(default_factory=dict)  # transition k (pose k → k+1) → why
+
+
+#: a transition whose error exceeds this many robust standard deviations of the others is left out
+OUTLIER_SIGMA = 5.0
+
+
+def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, rest: Interval, *,
+                  estimate_bias: bool | str = "auto", exclude: dict[int, str] | None = None,
+                  robust: bool = True) -> GyroFit:
+    """The gyroscope by gravity-direction propagation (Zhang 2021, eq. 14), robust and with the bias chosen by the data.
+
+    * Transitions in ``exclude`` (index ``k``: from pose ``k`` to ``k+1`` → the
+      reason: saturated or spiking samples, a gap) are left out.
+    * ``robust``: a transition whose error is more than :data:`OUTLIER_SIGMA`
+      robust standard deviations (the median of the 2-D error norms is
+      ``1.1774 σ``, Rayleigh) is left out and the fit repeated, at most a fifth
+      of them; one bad rotation does not drag the rest.
+    * ``estimate_bias="auto"``: the bias is estimated with the other
+      parameters when that lowers the Bayesian information criterion of the
+      residuals (``n ln(RSS/n) + p ln n``, ``n`` = 2 per transition), else taken
+      from the rest with the covariance of :func:`rest_bias`.
+    """
+    left_out = dict(exclude or {})
+    n_tr = len(intervals) - 1
+    b_rest, b_cov = rest_bias(recording, intervals, rest)
+    options = [False, True] if estimate_bias == "auto" else [bool(estimate_bias)]
+    for _ in range(3):
+        weights = np.ones(n_tr)
+        weights[list(left_out)] = 0.0
+        fits = []
+        for est in options:
+            model, errors = fit_gravity_direction(recording, intervals, accelerometer, b_rest, est, weights=weights,
+                                                  bias_cov=None if est else b_cov)
+            e = transition_errors(recording, intervals, accelerometer, model)
+            n = 2 * int(np.count_nonzero(weights))
+            rss = float(np.sum((e * weights) ** 2))
+            bic = n * np.log(max(rss, 1e-300) / n) + (12 if est else 9) * np.log(n)
+            fits.append((bic, est, model, errors, e))
+        bic, est, model, errors, e = min(fits, key=lambda f: f[0])
+        if est and not all(np.isfinite(errors.get(f"gyroscope.bias.{a}", np.nan)) for a in AXES):
+            bic, est, model, errors, e = fits[0]  # the bias is not observable from these rotations
+        if not robust:
+            break
+        kept = weights > 0
+        sigma = float(np.median(e[kept])) / 1.1774
+        worst = [int(k) for k in np.argsort(-e) if kept[k] and e[k] > OUTLIER_SIGMA * sigma]
+        room = n_tr // 5 - sum(1 for k in left_out if k not in (exclude or {}))
+        if not worst or room <= 0:
+            break
+        for k in worst[:room]:
+            left_out[k] = (f"its gravity-direction error {np.degrees(e[k]):.2f}° is {e[k] / sigma:.0f}× the "
+                           f"others' robust σ ({np.degrees(sigma):.3f}°)")
+    return GyroFit(model, errors, "fit" if est else "rest", left_out)
+
+
+def gyroscope_errors(theta: np.ndarray, jac: np.ndarray, res: np.ndarray, layout: GyroLayout, *,
+                     n_transitions: int | None = None, extra_cov: np.ndarray | None = None) -> dict[str, float]:
     """Errors of ``M = T_g diag(k1)`` (and ``b``) carried to ``T_g`` and ``k1`` by the delta method."""
     m = theta[:9].reshape(3, 3)
     off = [(i, j) for i in range(3) for j in range(3) if i != j]
@@ -120,8 +266,10 @@ def gyroscope_errors(theta: np.ndarray, jac: np.ndarray, res: np.ndarray, layout
     if layout.estimate_bias:
         names += [f"gyroscope.bias.{ax}" for ax in AXES]
         a[9:12, 9:12] = np.eye(3)
-    dof = 2 * (len(res) // 3) - layout.size  # two degrees of freedom per direction residual
-    return {k: float(v) for k, v in zip(names, standard_errors(jac, res, dof=dof, transform=a), strict=True)}
+    n = len(res) // 3 if n_transitions is None else n_transitions
+    dof = 2 * n - layout.size  # two degrees of freedom per direction residual
+    se = standard_errors(jac, res, dof=dof, transform=a, extra_cov=extra_cov)
+    return {k: float(v) for k, v in zip(names, se, strict=True)}
 
 
 def rotation_angles(recording, intervals, acc_model: TriadModel, bias: np.ndarray, *,

@@ -26,9 +26,11 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 
+import numpy as np
+
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import accelerometer_errors, fit_gravity_norm
-from ..fit.gyroscope import fit_gravity_direction, gravity_direction_problem, gyroscope_errors
+from ..fit.gyroscope import errors_at, fit_gyroscope, rest_bias
 from ..metrics import fit_summary, interval_means
 from ..recording import STANDARD_GRAVITY, Interval, Recording
 from ..segment import detect_intervals
@@ -38,24 +40,26 @@ __all__ = ["calibrate", "uncertainty"]
 MIN_INTERVALS = 9
 
 
-def uncertainty(recording: Recording, intervals: list[Interval], calibration: Calibration, *,
-                estimate_gyro_bias: bool = False) -> dict[str, float]:
+def uncertainty(recording: Recording, intervals: list[Interval], calibration: Calibration) -> dict[str, float]:
     """1σ standard errors of the linear model's parameters, by name (``DESIGN.md``).
 
     From the Jacobians of the two fits at the solution
     (:func:`~imucalib.solve.standard_errors`): the gravity-norm residuals of
     the static means for the accelerometer, the eq. (14) gravity-direction
-    residuals for the gyroscope. A direction residual has two degrees of
-    freedom, not three (both directions are unit vectors), which sets ``σ²``.
-    The gyroscope's errors treat the accelerometer's as fixed, and its bias as
-    exact unless it is estimated. NaN where the data cannot determine a
-    parameter. :func:`calibrate` stores the same figures in ``fit["uncertainty"]``.
+    residuals for the gyroscope (:func:`imucalib.fit.gyroscope.errors_at`, with
+    the rotations :func:`calibrate` left out, and the bias's covariance when it
+    came from the rest, the first interval). The gyroscope's errors treat the
+    accelerometer's as fixed. NaN where the data cannot determine a parameter.
+    :func:`calibrate` stores the same figures in ``fit["uncertainty"]``.
     """
     acc, gyro = calibration.accelerometer, calibration.gyroscope
+    fit = calibration.fit or {}
     out = accelerometer_errors(acc, interval_means(recording.acc, intervals), calibration.gravity)
-    fun, jac, layout, _, _ = gravity_direction_problem(recording, intervals, acc, gyro.bias, estimate_gyro_bias)
-    theta = layout.pack(gyro)
-    return out | gyroscope_errors(theta, jac(theta), fun(theta), layout)
+    weights = np.ones(len(intervals) - 1)
+    weights[[int(k) for k in fit.get("rotations_left_out", {})]] = 0.0
+    estimated = fit.get("gyroscope_bias_source") == "fit"
+    bias_cov = None if estimated else rest_bias(recording, intervals, intervals[0])[1]
+    return out | errors_at(recording, intervals, acc, gyro, estimated, weights=weights, bias_cov=bias_cov)
 
 
 def calibrate(
@@ -66,7 +70,7 @@ def calibrate(
     multipliers: Iterable[float] = range(2, 11),
     window: float = 1.0,
     min_interval: float = 1.0,
-    estimate_gyro_bias: bool = False,
+    estimate_gyro_bias: bool | str = "auto",
     intervals: list[Interval] | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Calibration:
@@ -85,9 +89,11 @@ def calibrate(
         Detector thresholds to scan, in units of the initial rest's variance norm.
     window, min_interval : float
         Detector window and shortest static interval [s].
-    estimate_gyro_bias : bool
-        Estimate the gyroscope bias with the other parameters instead of taking
-        the mean of the initial rest.
+    estimate_gyro_bias : bool or "auto"
+        Estimate the gyroscope bias with the other parameters (True), take the
+        mean of the initial rest (False), or let the data decide ("auto",
+        :func:`imucalib.fit.gyroscope.fit_gyroscope`: estimated when that lowers
+        the information criterion of the rotations' residuals).
     intervals : list of Interval, optional
         Static intervals to use instead of detecting them (the first one is
         then taken as the initial rest).
@@ -114,8 +120,8 @@ def calibrate(
         mult, rest = float("nan"), intervals[0]
         acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
     say("calibrating the gyroscope")
-    bias = recording.gyro[rest.slice].mean(axis=0)
-    gyro_model, gyro_errors = fit_gravity_direction(recording, intervals, acc_model, bias, estimate_gyro_bias)
+    gyro = fit_gyroscope(recording, intervals, acc_model, rest, estimate_bias=estimate_gyro_bias)
+    gyro_model, gyro_errors = gyro.model, gyro.errors
     cal = Calibration(
         accelerometer=acc_model,
         gyroscope=gyro_model,
@@ -126,6 +132,9 @@ def calibrate(
     )
     fit = fit_summary(cal, recording, intervals, gravity)
     fit["threshold_multiplier"] = mult
+    fit["gyroscope_bias_source"] = gyro.bias_source
+    if gyro.left_out:
+        fit["rotations_left_out"] = {str(k): why for k, why in sorted(gyro.left_out.items())}
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
     means = interval_means(recording.acc, intervals)
     fit["uncertainty"] = accelerometer_errors(acc_model, means, gravity) | gyro_errors
