@@ -15,6 +15,7 @@ from typing import Any
 
 from ..calibration import Calibration
 from ..recording import STANDARD_GRAVITY, Recording
+from ..verdict import with_verdict
 
 __all__ = ["METHODS", "calibrate", "method_names"]
 
@@ -111,6 +112,12 @@ def calibrate(
         Local gravity [m/s²].
     **options
         Method-specific keyword options (see each method's ``calibrate``).
+
+    Returns
+    -------
+    Calibration
+        With ``fit["verdict"]`` (``accepted``, ``suspect`` or ``rejected``) and
+        ``fit["verdict_reasons"]`` (:mod:`imucalib.verdict`).
     """
     try:
         fn = METHODS[method]
@@ -121,4 +128,6 @@ def calibrate(
     session_options = getattr(data, "method_options", None)
     if not isinstance(data, Recording) and callable(session_options):
         options = {**session_options(method), **options}
-    return fn(data, model=model, gravity=gravity, **options)
+    cal = fn(data, model=model, gravity=gravity, **options)
+    recording = data if isinstance(data, Recording) else getattr(data, "recording", None)
+    return with_verdict(cal, recording if isinstance(recording, Recording) else None)

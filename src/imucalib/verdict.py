@@ -1,0 +1,341 @@
+"""The verdict every calibration gets: ``accepted``, ``suspect`` or ``rejected``, with reasons.
+
+A calibration's own cost says how well it fits the data it was fitted to; it
+cannot say that the data or the model was wrong. The checks here use figures
+the fit did not minimise, or that it cannot change:
+
+* **time base** — the rate and the angular speed the *accelerometer* sees
+  between poses (the angle between the gravity directions of consecutive poses
+  over the time between them) must be a hand's: a 1000× time error cannot pass;
+* **gravity** — the declared gravity must be one found on Earth's surface, and
+  with physical accelerometer units the raw ``|a|`` at rest must agree with it;
+* **plausibility** — scales near the declared unit's nominal factor (deg/s data
+  declared rad/s is 57× off), cross-axis terms below 3°, a solver that converged;
+* **redundancy** — poses per estimated accelerometer parameter; the gravity-norm
+  residual against the white-noise floor, too high (model or poses wrong) and
+  too low for the poses' degrees of freedom (an over-fit);
+* **the gyroscope against the noise** — the gravity-direction error between
+  poses against what the sensor noise alone predicts for these rotations
+  (:func:`predicted_direction_error`);
+* **known turns** — each turn by a known angle re-integrated with the calibration;
+* **usefulness** — parameters whose 1σ is too large to be of use, or undetermined.
+
+Thresholds (:data:`THRESHOLDS`) come from Monte Carlo on the hand-held
+scenario (``benchmarks/verdict_thresholds.py``): none of its good sessions
+is suspect or rejected, with a margin of at least 2× on every figure.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .metrics import interval_means, transition_bounds
+from .recording import Interval, Recording
+
+__all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "predicted_direction_error", "with_verdict"]
+
+LEVELS = ("accepted", "suspect", "rejected")
+
+#: gravity on Earth's surface spans about 9.76 (equator, altitude) to 9.84 m/s² (poles)
+EARTH_GRAVITY = (9.74, 9.87)
+
+#: (suspect, rejected) limits of each figure; see the module docstring for where they come from
+THRESHOLDS = {
+    # sampling rate [Hz] outside which no IMU records
+    "rate_hz": (5.0, 50_000.0),
+    # median angular speed the accelerometer sees between poses [deg/s]: a hand turns at 2-1500 deg/s
+    "turn_speed_deg_s": (2.0, 1500.0),
+    # |a| at rest against the declared gravity with physical units: relative difference
+    "rest_norm_rel": (0.05, 0.15),
+    # calibrated scale against the declared unit's nominal factor: relative difference
+    "nominal_scale_rel": (0.15, 0.5),
+    # accelerometer cross-axis (misalignment) terms [deg]: one die's own axes
+    "cross_axis_deg": (3.0, 15.0),
+    # gyroscope cross-axis terms [deg]: T_g also holds the rotation between the gyroscope's and the
+    # accelerometer's frames (two dies, or a package mounted askew); the Xsens MTi of ../shared/data has a
+    # 3.1° term (imu_tk finds the same), so 3° would call a real, good sensor suspect
+    "gyro_cross_axis_deg": (6.0, 15.0),
+    # static poses per estimated accelerometer parameter
+    "poses_per_parameter": (2.0, 1.0),
+    # gravity-norm residual / white-noise floor, too high
+    "residual_to_noise_high": (8.0, 40.0),
+    # the same, normalised by sqrt((M - p) / M), too low: an over-fit
+    "residual_to_noise_low": 0.4,
+    # gyroscope gravity-direction error / noise prediction (means over the rotations)
+    "gyro_error_to_noise": (10.0, 40.0),
+    # below this mean gravity-direction error [deg] the gyroscope check never complains
+    "gyro_error_floor_deg": 0.25,
+    # known-angle turns re-integrated: relative error of the angle
+    "turn_angle_rel": (0.03, 0.2),
+    # 1 sigma of a scale factor, relative; of a misalignment term [deg]
+    "scale_sigma_rel": 0.02,
+    "misalignment_sigma_deg": 1.0,
+}
+
+#: raw-unit factors to SI of the physical units (``"g"`` uses the calibration's gravity)
+_NOMINAL = {"m/s^2": 1.0, "rad/s": 1.0, "deg/s": np.pi / 180}
+
+
+@dataclass(frozen=True)
+class Check:
+    """One finding: ``level`` 1 makes the calibration suspect, 2 rejects it; 0 is a note."""
+
+    level: int
+    text: str
+
+
+def predicted_direction_error(calibration, recording: Recording, intervals: list[Interval],
+                              rest: Interval | None = None) -> np.ndarray:
+    """The mean gravity-direction error [rad] each rotation would show from sensor noise alone.
+
+    Per rotation ``k`` (pose ``k`` to ``k+1``, duration ``T_k``), the error has
+    two components perpendicular to gravity, each of variance
+
+    ``σ_g² T_k Δt`` (the gyroscope's white noise integrated: angle random walk)
+    ``+ σ_b² T_k²`` (the bias's error over the turn) ``+ (σ_a/g)² (1/n_k + 1/n_{k+1})``
+    (the two poses' mean directions),
+
+    with ``σ_g``, ``σ_a`` the calibrated per-sample noise of the rest, ``Δt`` the
+    sampling interval and ``σ_b`` the bias's 1σ (the rest's mean, or the fit's);
+    a 2-D Gaussian error of that variance has the mean norm ``√(π v / 2)``.
+    """
+    rest = rest or intervals[0]
+    acc = calibration.accelerometer_si(recording.acc[rest.slice])
+    gyro = calibration.gyroscope_si(recording.gyro[rest.slice], recording.acc[rest.slice])
+    s_a2 = float(np.mean(np.var(acc, axis=0)))
+    s_g2 = float(np.mean(np.var(gyro, axis=0)))
+    unc = (calibration.fit or {}).get("uncertainty", {})
+    k1 = calibration.gyroscope.scale
+    sb = [unc.get(f"gyroscope.bias.{a}") for a in "xyz"]
+    s_b2 = (float(np.mean((np.asarray(sb, float) * k1) ** 2)) if all(v is not None and np.isfinite(v) for v in sb)
+            else s_g2 / max(len(gyro), 1))
+    starts, stops = transition_bounds(intervals)
+    t = recording.t
+    dur = t[stops] - t[starts]
+    dt = float(np.median(np.diff(t)))
+    n = np.array([len(iv) for iv in intervals], dtype=float)
+    g = calibration.gravity
+    v = s_g2 * dur * dt + s_b2 * dur**2 + s_a2 / g**2 * (1 / n[:-1] + 1 / n[1:])
+    return np.sqrt(np.pi * v / 2)
+
+
+def _level(value: float, limits: tuple[float, float]) -> int:
+    return 2 if value > limits[1] else 1 if value > limits[0] else 0
+
+
+def _time_base(calibration, recording: Recording, intervals: list[Interval]) -> list[Check]:
+    out = []
+    rate = recording.rate
+    lo, hi = THRESHOLDS["rate_hz"]
+    if not lo <= rate <= hi:
+        out.append(Check(2, f"the sampling rate is {rate:.4g} Hz, outside {lo:g}-{hi:g} Hz where IMUs record: the "
+                            "time column's unit is probably wrong (ms read as s, or s as ms)"))
+    if len(intervals) >= 2:
+        acc = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+        u = acc / np.linalg.norm(acc, axis=1, keepdims=True)
+        ang = np.degrees(np.arccos(np.clip(np.sum(u[:-1] * u[1:], axis=1), -1, 1)))
+        starts, stops = transition_bounds(intervals)
+        dur = recording.t[stops] - recording.t[starts]
+        ok = (ang > 10) & (dur > 0)
+        if np.any(ok):
+            speed = float(np.median(ang[ok] / dur[ok]))
+            lo, hi = THRESHOLDS["turn_speed_deg_s"]
+            if not lo / 10 <= speed <= hi * 10:
+                out.append(Check(2, f"between poses the accelerometer sees the sensor turn at {speed:.3g} deg/s "
+                                    f"(median), where a hand turns at {lo:g}-{hi:g} deg/s: the time base is wrong "
+                                    "(check the time column's unit)"))
+            elif not lo <= speed <= hi:
+                out.append(Check(1, f"between poses the accelerometer sees the sensor turn at {speed:.3g} deg/s "
+                                    f"(median), outside the {lo:g}-{hi:g} deg/s of a hand: check the time base"))
+    return out
+
+
+def _gravity(calibration, recording: Recording | None, intervals: list[Interval]) -> list[Check]:
+    g = calibration.gravity
+    out = []
+    lo, hi = EARTH_GRAVITY
+    if not lo <= g <= hi:
+        out.append(Check(2, f"the declared gravity {g:.5g} m/s² is outside {lo}-{hi} m/s², the range on Earth's "
+                            "surface (a typo, or a value in g?); every accelerometer scale factor is off by the "
+                            "same ratio"))
+    unit = calibration.units["accelerometer"]["raw"]
+    if recording is not None and intervals and unit in ("g", "m/s^2"):
+        factor = g if unit == "g" else 1.0
+        norm = float(np.median(np.linalg.norm(interval_means(recording.acc, intervals), axis=1))) * factor
+        rel = abs(norm / g - 1)
+        level = _level(rel, THRESHOLDS["rest_norm_rel"])
+        if level:
+            out.append(Check(level, f"the raw |a| at rest is {norm:.4g} m/s² (read as {unit}), {100 * rel:.1f} % "
+                                    f"from the declared gravity {g:.5g} m/s²: check --gravity and --acc-unit"))
+    return out
+
+
+def _plausibility(calibration) -> list[Check]:
+    out = []
+    fit = calibration.fit or {}
+    if fit.get("converged") is False:
+        out.append(Check(2, "the solver did not converge: these parameters are not a minimum of the fit"))
+    for sensor, model in (("accelerometer", calibration.accelerometer), ("gyroscope", calibration.gyroscope)):
+        unit = calibration.units[sensor]["raw"]
+        nominal = calibration.gravity if unit == "g" else _NOMINAL.get(unit)
+        if nominal is not None:
+            rel = np.abs(model.scale / nominal - 1)
+            worst = int(np.argmax(rel))
+            level = _level(float(rel[worst]), THRESHOLDS["nominal_scale_rel"])
+            if level:
+                out.append(Check(level, f"the {sensor} scale factor of axis {'xyz'[worst]} is "
+                                        f"{model.scale[worst] / nominal:.4g}× the nominal factor of the declared "
+                                        f"unit {unit!r}: the unit (or the time base) is probably wrong"))
+        off = np.abs(model.misalignment - np.diag(np.diag(model.misalignment)))
+        deg = float(np.degrees(np.arctan(off.max())))
+        limits = THRESHOLDS["cross_axis_deg" if sensor == "accelerometer" else "gyro_cross_axis_deg"]
+        level = _level(deg, limits)
+        if level:
+            i, j = np.unravel_index(int(np.argmax(off)), off.shape)
+            out.append(Check(level, f"the {sensor} cross-axis term {'xyz'[i]}{'xyz'[j]} is {deg:.1f}° (limit "
+                                    f"{limits[0]:g}°): axes that far from orthogonal are implausible for a "
+                                    "MEMS sensor"))
+        if np.any(~np.isfinite(model.scale)) or np.any(model.scale == 0):
+            out.append(Check(2, f"the {sensor} scale factors are not finite and non-zero"))
+    return out
+
+
+def _accelerometer_parameters(calibration) -> int:
+    acc = calibration.accelerometer
+    n = 6 + {"upper": 3, "lower": 3, "full": 6, "diagonal": 0}.get(acc.shape, 3)
+    n += 3 * int(np.any(acc.scale_quadratic)) + 3 * int(np.any(acc.scale_cubic))
+    return n
+
+
+def _redundancy(calibration) -> list[Check]:
+    fit = calibration.fit or {}
+    out = []
+    m = fit.get("static_intervals")
+    exact = "accelerometer" in str(fit.get("uncertainty_unavailable", "")) or calibration.method in (
+        "six_position", "ferraris")
+    if not m or exact:
+        return out
+    p = _accelerometer_parameters(calibration)
+    per = m / p
+    lim = THRESHOLDS["poses_per_parameter"]
+    if per <= lim[1] or per < lim[0]:
+        out.append(Check(2 if per <= lim[1] else 1,
+                         f"{m} static poses for {p} accelerometer parameters ({per:.2g} per parameter, at least "
+                         f"{lim[0]:g} wanted): the fit can follow the noise; record more poses"))
+    ratio = fit.get("accelerometer_residual_to_noise")
+    if ratio is not None and np.isfinite(ratio):
+        level = _level(ratio, THRESHOLDS["residual_to_noise_high"])
+        if level:
+            out.append(Check(level, f"the gravity-norm residual is {ratio:.3g}× the white-noise floor (limit "
+                                    f"{THRESHOLDS['residual_to_noise_high'][0]:g}×): the model leaves structure or "
+                                    "some poses were not still"))
+        if m > p:
+            expected = np.sqrt((m - p) / m)
+            if ratio / expected < THRESHOLDS["residual_to_noise_low"]:
+                out.append(Check(1, f"the gravity-norm residual is {ratio:.3g}× the white-noise floor, "
+                                    f"{ratio / expected:.2g}× what {m} poses leave after fitting {p} parameters: "
+                                    "an over-fit (or the poses' noise is overestimated)"))
+    return out
+
+
+def _gyroscope(calibration, recording: Recording, intervals: list[Interval]) -> tuple[list[Check], dict]:
+    fit = calibration.fit or {}
+    mean_deg = fit.get("gyroscope_angle_error_mean_deg")
+    if mean_deg is None or len(intervals) < 2:
+        return [], {}
+    pred = predicted_direction_error(calibration, recording, intervals)
+    left = {int(k) for k in fit.get("rotations_left_out", {})}
+    keep = np.array([k not in left for k in range(len(pred))])
+    pred_deg = float(np.degrees(np.mean(pred[keep]))) if np.any(keep) else float("nan")
+    ratio = mean_deg / pred_deg if pred_deg > 0 else float("inf")
+    figures = {"gyroscope_angle_error_predicted_deg": pred_deg, "gyroscope_error_to_noise": ratio}
+    level = _level(ratio, THRESHOLDS["gyro_error_to_noise"]) if mean_deg > THRESHOLDS["gyro_error_floor_deg"] else 0
+    out = []
+    if level:
+        out.append(Check(level, f"the gyroscope's gravity-direction error between poses is {mean_deg:.3g}° (mean), "
+                                f"{ratio:.3g}× the {pred_deg:.2g}° the sensor noise alone predicts for these "
+                                f"rotations (limit {THRESHOLDS['gyro_error_to_noise'][0]:g}×): the gyroscope "
+                                "calibration does not explain the rotations"))
+    for k, why in sorted(fit.get("rotations_left_out", {}).items(), key=lambda kv: int(kv[0])):
+        out.append(Check(0, f"the rotation from pose {int(k) + 1} to {int(k) + 2} was left out of the gyroscope "
+                            f"fit: {why}"))
+    return out, figures
+
+
+def _known_turns(calibration, recording: Recording) -> list[Check]:
+    fit = calibration.fit or {}
+    turns = fit.get("turn_sections")
+    angle = fit.get("turn_angle_deg")
+    if not turns or not angle:
+        return []
+    out = []
+    lim = THRESHOLDS["turn_angle_rel"]
+    for sec in turns:
+        s0, s1, axis = int(sec["start"]), int(sec["stop"]), int(sec["axis"])
+        measured = sec.get("measured_deg")
+        if measured is None:
+            w = calibration.gyroscope_si(recording.gyro[s0:s1], recording.acc[s0:s1])
+            measured = float(np.degrees(abs(np.trapezoid(w[:, axis], recording.t[s0:s1]))))
+        rel = abs(measured / angle - 1)
+        level = _level(rel, lim)
+        if level:
+            how = "by the poses' rough gyroscope scale" if "measured_deg" in sec else "with this calibration"
+            out.append(Check(level, f"the turn about {'xyz'[axis]} (samples {s0}-{s1}) measures {measured:.4g}° "
+                                    f"{how}, {100 * rel:.0f} % from the known angle {angle:g}° (limit "
+                                    f"{100 * lim[0]:g} %): a wrong --turn-angle, or a motion that is not the turn"))
+    return out
+
+
+def _usefulness(calibration) -> list[Check]:
+    unc = (calibration.fit or {}).get("uncertainty") or {}
+    out = []
+    params = calibration.parameters()
+    for name, s in unc.items():
+        value = params.get(name)
+        if value is None:
+            continue
+        if s is None or not np.isfinite(s):
+            out.append(Check(1, f"{name} is not determined by these poses and rotations (no finite 1σ)"))
+        elif ".scale." in name and ("scale_quadratic" not in name and "scale_cubic" not in name) and value:
+            if s / abs(value) > THRESHOLDS["scale_sigma_rel"]:
+                out.append(Check(1, f"{name} has a 1σ of {100 * s / abs(value):.2g} % (limit "
+                                    f"{100 * THRESHOLDS['scale_sigma_rel']:g} %): too uncertain to be of use"))
+        elif ".misalignment." in name and np.degrees(s) > THRESHOLDS["misalignment_sigma_deg"]:
+            out.append(Check(1, f"{name} has a 1σ of {np.degrees(s):.2g}° (limit "
+                                f"{THRESHOLDS['misalignment_sigma_deg']:g}°): too uncertain to be of use"))
+    return out
+
+
+def assess(calibration, recording: Recording | None = None, intervals: list[Interval] | None = None) -> dict:
+    """Every check on ``calibration`` (with the recording it was made from, when there is one).
+
+    Returns ``{"verdict": …, "verdict_reasons": [...], "verdict_notes": [...], **figures}``:
+    the verdict is the worst level among the checks; reasons are the
+    sentences of the suspect and rejecting ones, notes the rest.
+    """
+    fit = calibration.fit or {}
+    if intervals is None and fit.get("intervals"):
+        intervals = [Interval(int(a), int(b), "static") for a, b in fit["intervals"]]
+    intervals = intervals or []
+    checks: list[Check] = []
+    figures: dict = {}
+    checks += _plausibility(calibration)
+    checks += _gravity(calibration, recording, intervals)
+    checks += _redundancy(calibration)
+    checks += _usefulness(calibration)
+    if recording is not None:
+        checks += _time_base(calibration, recording, intervals)
+        gyro_checks, figures = _gyroscope(calibration, recording, intervals)
+        checks += gyro_checks
+        checks += _known_turns(calibration, recording)
+    level = max((c.level for c in checks), default=0)
+    return {"verdict": LEVELS[level],
+            "verdict_reasons": [c.text for c in sorted(checks, key=lambda c: -c.level) if c.level > 0],
+            "verdict_notes": [c.text for c in checks if c.level == 0], **figures}
+
+
+def with_verdict(calibration, recording: Recording | None = None, intervals: list[Interval] | None = None):
+    """``calibration`` with ``fit`` holding its verdict, reasons, notes and the figures they rest on."""
+    return calibration.with_(fit={**(calibration.fit or {}), **assess(calibration, recording, intervals)})
