@@ -41,12 +41,13 @@ def test_sections_found_automatically_match_the_layout(truth):
         expected = layout["faces"][name]
         # +x and the pose after the turn about x are the same face: either is right
         assert k in (expected, expected + 1 if name[0] == "+" else expected)
-    turns = find_turns(rec, iv, rec.gyro[iv[0].slice].mean(axis=0))
+    turns = find_turns(rec, iv, rec.gyro[iv[0].slice].mean(axis=0), float(np.mean(truth.gyroscope.scale)))
     starts = {iv_.start: k for k, iv_ in enumerate(iv)}
     for axis, name in enumerate("xyz"):
         assert len(turns[axis]) == 1
-        s0, s1, sign = turns[axis][0]
-        assert starts[s1] == layout["turns"][name] and sign == 1
+        turn = turns[axis][0]
+        assert starts[turn.stop] == layout["turns"][name] and turn.sign == 1
+        assert turn.matches and abs(turn.angle_deg - 360) < 18  # by one scale for all three axes
     cal = calibrate(rec, method="ferraris", gravity=truth.gravity)
     assert cal.fit["turns"] == {"x": 1, "y": 1, "z": 1}
     np.testing.assert_allclose(cal.gyroscope.scale, truth.gyroscope.scale, rtol=2e-3)

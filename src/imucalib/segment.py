@@ -20,6 +20,7 @@ given.
 from __future__ import annotations
 
 from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -40,6 +41,7 @@ __all__ = [
     "detect_intervals",
     "find_faces",
     "find_turns",
+    "Turn",
     "initial_rest",
     "motion_between",
     "static_poses",
@@ -388,22 +390,75 @@ def find_faces(raw_means: np.ndarray, gravity: float, *, max_tilt: float = 15.0)
     return best
 
 
-def find_turns(recording, intervals, bias: np.ndarray, *, angle: float = 2 * np.pi,
-               same_pose: float = 5.0) -> dict[int, list[tuple[int, int, int]]]:
-    """Turns about each axis: ``{axis: [(start, stop, sign), …]}`` between consecutive poses."""
+@dataclass(frozen=True)
+class Turn:
+    """A turn about one body axis between two rests in the same pose.
+
+    ``start``/``stop`` are the samples the integration runs over (the last of
+    the rest before, the first of the rest after); ``sign`` the direction of
+    the raw rate about ``axis``; ``angle_deg`` its angle by the rough scale
+    it was found with; ``matches`` whether that is within the tolerance of
+    the known angle.
+    """
+
+    axis: int
+    start: int
+    stop: int
+    sign: int
+    angle_deg: float
+    matches: bool
+
+    def to_dict(self) -> dict:
+        return {"axis": self.axis, "start": self.start, "stop": self.stop, "sign": self.sign,
+                "measured_deg": self.angle_deg, "matches": self.matches}
+
+
+def find_turns(recording: Recording, intervals: list[Interval], bias: np.ndarray, scale: float, *,
+               angle: float = 2 * np.pi, same_pose: float = 5.0, tolerance: float = 0.2,
+               min_angle: float = np.radians(45)) -> dict[int, list[Turn]]:
+    """Turns by a known angle about each axis, each a chain of motions between rests in one pose.
+
+    A hand turns a board by 360° as several quarter turns; where it pauses
+    long enough the detector sees rests in between, all in the same pose (a
+    turn about the vertical leaves gravity where it is). Every run of
+    consecutive motions whose rests all share one gravity direction (within
+    ``same_pose`` degrees) is a candidate, and so is each contiguous part of
+    it; a candidate whose integrated raw rate ``Φ = ∫(u − b) dt`` lies along
+    one axis (≥ 0.8 of its norm) turns by ``scale·|Φ|``. Per axis, the
+    candidates within ``tolerance`` of ``angle`` are taken, closest first and
+    without overlap; where none is, the closest one above ``min_angle`` is
+    taken with ``matches=False`` so the verdict can reject the calibration
+    (a 13° nudge is never a 360° turn). ``scale`` is the rough gyroscope
+    scale (:func:`imucalib.fit.gyroscope.rough_scale`).
+    """
     acc = interval_means(recording.acc, intervals)
     dirs = acc - np.mean(acc, axis=0)  # rough centring is enough to compare directions
     starts, stops = transition_bounds(intervals)
-    out: dict[int, list[tuple[int, int, int]]] = {0: [], 1: [], 2: []}
     raw = recording.gyro - bias
     c = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (raw[1:] + raw[:-1]) * np.diff(recording.t)[:, None],
                                                    axis=0)])
-    for k, (s0, s1) in enumerate(zip(starts, stops, strict=True)):
-        if np.degrees(angle_between(dirs[k], dirs[k + 1])) > same_pose:
-            continue
-        phi = c[s1] - c[s0]
-        i = int(np.argmax(np.abs(phi)))
-        if abs(phi[i]) < 0.8 * np.linalg.norm(phi):  # not about one axis
-            continue
-        out[i].append((int(s0), int(s1), int(np.sign(phi[i]))))
+    same = np.degrees(angle_between(dirs[:-1], dirs[1:])) <= same_pose
+    candidates = []  # (axis, first transition, last transition, angle, sign)
+    for run in runs(same):
+        for a in range(run.start, run.stop):
+            for b in range(a, run.stop):
+                phi = c[stops[b]] - c[starts[a]]
+                i = int(np.argmax(np.abs(phi)))
+                if abs(phi[i]) < 0.8 * np.linalg.norm(phi):  # not about one axis
+                    continue
+                candidates.append((i, a, b, abs(scale) * abs(phi[i]), int(np.sign(phi[i]))))
+    out: dict[int, list[Turn]] = {0: [], 1: [], 2: []}
+    for axis in range(3):
+        mine = sorted((cd for cd in candidates if cd[0] == axis), key=lambda cd: abs(cd[3] / angle - 1))
+        used: set[int] = set()
+        for _, a, b, ang, sign in mine:
+            ok = abs(ang / angle - 1) <= tolerance
+            if not ok and (out[axis] or ang < min_angle):
+                continue
+            if used & set(range(a, b + 1)):
+                continue
+            used |= set(range(a, b + 1))
+            out[axis].append(Turn(axis, int(starts[a]), int(stops[b]), sign, float(np.degrees(ang)), ok))
+            if not ok:
+                break
     return out

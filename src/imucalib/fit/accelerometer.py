@@ -149,14 +149,23 @@ def six_position(up: np.ndarray, down: np.ndarray, gravity: float) -> TriadModel
     return TriadModel(scale=1.0 / s, bias=b, shape="upper")
 
 
-def faces_full(faces: np.ndarray, gravity: float) -> TriadModel:
-    """Ferraris 1995: ``S_a e_i = (ū₊ᵢ − ū₋ᵢ)/(2g)``, ``b_a`` = the mean of the six faces.
+def faces_full(faces: np.ndarray, gravity: float, *, bias: str = "axis") -> TriadModel:
+    """Ferraris 1995: ``S_a e_i = (ū₊ᵢ − ū₋ᵢ)/(2g)`` and the bias from the faces.
 
     ``faces`` holds the raw means of +x, +y, +z, −x, −y, −z. The cube's faces
     define the frame, so the misalignment is full: ``T_a diag(k) = S_a⁻¹``.
+    ``bias="axis"``: ``b_i = (ū₊ᵢ,ᵢ + ū₋ᵢ,ᵢ)/2``, each axis from its own pair, where
+    a face's tilt enters to second order; ``"mean"``: the mean of the six faces
+    (what ``imucal`` does), where it enters to first order.
     """
     s_a = (faces[:3] - faces[3:]).T / (2 * gravity)  # columns S_a e_i
-    return full_from_sensitivity(s_a, faces.mean(axis=0))
+    if bias == "axis":
+        b = (faces[np.arange(3), np.arange(3)] + faces[3 + np.arange(3), np.arange(3)]) / 2
+    elif bias == "mean":
+        b = faces.mean(axis=0)
+    else:
+        raise ValueError(f"bias must be 'axis' or 'mean'; got {bias!r}")
+    return full_from_sensitivity(s_a, b)
 
 
 def full_from_sensitivity(s: np.ndarray, bias: np.ndarray, **extra) -> TriadModel:

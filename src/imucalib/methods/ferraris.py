@@ -15,10 +15,20 @@ does not use the accelerometer's own frame). ``G`` is linear g-sensitivity.
 
 Sections are found automatically: static intervals by the gyroscope detector
 of Zhang 2021, eq. (22) (a turn about the vertical leaves the accelerometer
-still, so its variance cannot separate the poses), the faces as the poses nearest ``±x, ±y, ±z`` (within ``max_tilt``),
-and the turns as the motions whose end pose equals the start pose (within 5°)
-while the integrated rate has turned through about ``θ`` about one axis. A list
-of ``(face_intervals, turn_intervals)`` may be given instead.
+still, so its variance cannot separate the poses), cut to where the gyroscope
+is still; the faces as the poses nearest ``±x, ±y, ±z`` (within ``max_tilt``);
+the turns as chains of motions between rests in one pose whose rate,
+integrated with the rough scale the poses give, turns about one axis by ``θ``
+± 20 % (:func:`imucalib.segment.find_turns`). A turn that does not match the
+known angle is still used, and the verdict rejects the calibration. Known
+sections may be given instead, as named sample ranges ``[start, stop)``:
+``x_p, x_a, y_p, y_a, z_p, z_a`` (axis up, axis down) and ``x_rot, y_rot, z_rot``.
+
+The accelerometer bias is each axis's own pair, ``b_i = (ū₊ᵢ,ᵢ + ū₋ᵢ,ᵢ)/2``,
+not the mean of all six faces: a face put down tilted by ``δ`` moves the
+axis's own reading by ``g(1 − cos δ)`` (second order) but the other axes'
+by ``g sin δ`` (first order), which the mean of six carries into every bias
+(``tests/test_ferraris.py`` shows it on faces tilted by a few degrees).
 """
 
 from __future__ import annotations
@@ -27,54 +37,109 @@ import numpy as np
 
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import faces_full
-from ..fit.gyroscope import fit_known_turns
+from ..fit.gyroscope import fit_known_turns, rough_scale
 from ..metrics import fit_summary, interval_means
-from ..segment import detect_static_gyro, find_faces, find_turns, initial_rest
+from ..recording import Interval, Recording
+from ..segment import (
+    FACE_NAMES,
+    Turn,
+    detect_static_gyro,
+    find_faces,
+    find_turns,
+    gyro_still,
+    initial_rest,
+    still_intervals,
+)
 
-__all__ = ["calibrate"]
+__all__ = ["SECTION_NAMES", "calibrate", "sections_from_ranges"]
+
+#: the named sections of a Ferraris session: each axis up (``_p``) and down (``_a``), and its turn
+SECTION_NAMES = ("x_p", "y_p", "z_p", "x_a", "y_a", "z_a", "x_rot", "y_rot", "z_rot")
+
+
+def sections_from_ranges(recording: Recording, ranges: dict, bias: np.ndarray | None = None
+                         ) -> tuple[list[Interval], dict[int, list[Turn]]]:
+    """Faces (+x, +y, +z, −x, −y, −z) and turns from named sample ranges ``{name: [start, stop)}``."""
+    missing = [n for n in SECTION_NAMES if n not in ranges]
+    unknown = sorted(set(ranges) - set(SECTION_NAMES))
+    if missing or unknown:
+        raise ValueError("the sections must name exactly " + ", ".join(SECTION_NAMES)
+                         + (f"; missing {', '.join(missing)}" if missing else "")
+                         + (f"; unknown {', '.join(unknown)}" if unknown else ""))
+    n = len(recording)
+    bounds = {}
+    for name in SECTION_NAMES:
+        try:
+            s0, s1 = (int(v) for v in ranges[name])
+        except (TypeError, ValueError):
+            raise ValueError(f"section {name!r} must be [start, stop) sample indices; got {ranges[name]!r}") from None
+        if not 0 <= s0 < s1 <= n:
+            raise ValueError(f"section {name!r} [{s0}, {s1}) is outside the recording's {n} samples")
+        bounds[name] = (s0, s1)
+    faces = [Interval(*bounds[name], "static") for name in SECTION_NAMES[:6]]
+    b = interval_means(recording.gyro, faces).mean(axis=0) if bias is None else bias
+    turns: dict[int, list[Turn]] = {}
+    for axis, name in enumerate(SECTION_NAMES[6:]):
+        s0, s1 = bounds[name]
+        phi = np.trapezoid(recording.gyro[s0:s1] - b, recording.t[s0:s1], axis=0)
+        turns[axis] = [Turn(axis, s0, s1 - 1, int(np.sign(phi[axis])), float("nan"), True)]
+    return faces, turns
 
 
 def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0,
               max_tilt: float = 15.0, init_static: float | None = None,
-              sections: tuple | None = None) -> Calibration:
+              sections: dict | None = None) -> Calibration:
     """Ferraris calibration in closed form.
 
     Parameters
     ----------
     angle : float
         The known turn angle [deg] (360 by default).
-    sections : (faces, turns), optional
-        ``faces``: six Intervals in the order +x, +y, +z, −x, −y, −z;
-        ``turns``: ``{axis: [(start, stop, sign), …]}`` — instead of finding them.
+    sections : dict, optional
+        Named sample ranges ``{"x_p": [start, stop), …}`` (:data:`SECTION_NAMES`)
+        instead of finding the faces and turns.
     """
+    if not np.isfinite(angle) or angle <= 0:
+        raise ValueError(f"the turn angle must be a positive number of degrees; got {angle!r}")
     theta = np.radians(angle)
     if sections is None:
+        rest = initial_rest(recording, init_static)
         if intervals is None:
             # turns about the vertical leave the accelerometer still: detect rest with the
-            # gyroscope (Zhang 2021, eq. 22)
-            intervals = detect_static_gyro(recording, initial_rest(recording, init_static), window=1.0)
+            # gyroscope (Zhang 2021, eq. 22), then keep only what the gyroscope calls still
+            intervals = detect_static_gyro(recording, rest, window=1.0)
         intervals = [iv for iv in intervals if iv.kind == "static"]
+        idx = find_faces(interval_means(recording.acc, intervals), gravity, max_tilt=max_tilt)
+        rough_acc = faces_full(interval_means(recording.acc, [intervals[j] for j in idx]), gravity)
+        bias0 = recording.gyro[rest.slice].mean(axis=0)
+        scale = rough_scale(recording, intervals, rough_acc, bias0)
+        intervals = still_intervals(intervals, gyro_still(recording, rest, scale), max(int(recording.rate), 2))
         idx = find_faces(interval_means(recording.acc, intervals), gravity, max_tilt=max_tilt)
         faces = [intervals[j] for j in idx]
     else:
-        faces, turns = sections
-        intervals = list(faces)
+        faces, turns = sections_from_ranges(recording, sections)
+        intervals = sorted(faces, key=lambda iv: iv.start)
     acc = faces_full(interval_means(recording.acc, faces), gravity)
     gyr_f = interval_means(recording.gyro, faces)
     g_sens = (gyr_f[:3] - gyr_f[3:]).T / (2 * gravity)  # G e_i, raw per m/s²
     b_g = gyr_f.mean(axis=0)
     if sections is None:
-        turns = find_turns(recording, intervals, b_g, angle=theta)
+        turns = find_turns(recording, intervals, b_g, rough_scale(recording, intervals, acc, b_g), angle=theta)
     missing = [("x", "y", "z")[i] for i in range(3) if not turns.get(i)]
     if missing:
         raise ValueError(f"no turn about the {', '.join(missing)} axis found: turn the sensor by "
                          f"{angle:g}° about each axis while that axis is vertical, resting before "
-                         "and after")
-    gyro = fit_known_turns(recording, turns, theta, b_g, g_sens, acc.forward(recording.acc))
+                         "and after (or give the sections with --sections)")
+    gyro = fit_known_turns(recording, {i: [(tr.start, tr.stop, tr.sign) for tr in turns[i]] for i in range(3)},
+                           theta, b_g, g_sens, acc.forward(recording.acc))
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="ferraris",
                       model="linear", units=units_of(recording))
-    fit = fit_summary(cal, recording, intervals, gravity) if sections is None else {}
+    fit = fit_summary(cal, recording, intervals, gravity)
+    fit["faces"] = {name: [faces[k].start, faces[k].stop] for k, name in enumerate(FACE_NAMES)}
     fit["turns"] = {("x", "y", "z")[i]: len(turns[i]) for i in range(3)}
+    fit["turn_angle_deg"] = float(angle)
+    fit["turn_sections"] = [tr.to_dict() for i in range(3) for tr in turns[i]]
+    fit["sections"] = "given" if sections is not None else "found"
     fit["uncertainty_unavailable"] = ("the closed form determines every parameter exactly from the six faces "
                                       "and the turns, which leaves no residual to estimate the noise from")
     return cal.with_(fit=fit)
