@@ -42,6 +42,9 @@ __all__ = [
     "find_faces",
     "find_turns",
     "Turn",
+    "saturated",
+    "spikes",
+    "unreliable_transitions",
     "initial_rest",
     "motion_between",
     "static_poses",
@@ -461,4 +464,80 @@ def find_turns(recording: Recording, intervals: list[Interval], bias: np.ndarray
             out[axis].append(Turn(axis, int(starts[a]), int(stops[b]), sign, float(np.degrees(ang)), ok))
             if not ok:
                 break
+    return out
+
+
+def saturated(x: np.ndarray, *, run: int = 3) -> np.ndarray:
+    """Samples (N,) where a channel sits at its recorded extreme for ``run`` or more samples in a row.
+
+    A saturated sensor reports its full scale, so its clipped stretches are flat
+    at the largest (or smallest) value the channel ever reads; a natural peak
+    repeats its extreme value at most once or twice.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    out = np.zeros(x.shape[0], dtype=bool)
+    for col in x.T:
+        span = float(col.max() - col.min())
+        if span <= 0:
+            continue
+        for extreme in (col.max(), col.min()):
+            at = np.abs(col - extreme) <= 1e-9 * span
+            for r in runs(at, run):
+                out[r.slice] = True
+    return out
+
+
+def spikes(x: np.ndarray, *, factor: float = 20.0) -> np.ndarray:
+    """Single-sample outliers (N,): a jump out and straight back, far beyond the channel's sample-to-sample noise.
+
+    Sample ``i`` is a spike on a channel when both steps ``x_i − x_{i−1}`` and
+    ``x_{i+1} − x_i`` exceed ``factor`` times the median absolute step, have
+    opposite signs, and its neighbours agree with each other to a quarter of the jump.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    out = np.zeros(x.shape[0], dtype=bool)
+    if x.shape[0] < 3:
+        return out
+    d = np.diff(x, axis=0)
+    scale = np.median(np.abs(d), axis=0)
+    scale = np.where(scale > 0, scale, np.finfo(float).tiny)
+    d1, d2 = d[:-1], d[1:]
+    big = (np.abs(d1) > factor * scale) & (np.abs(d2) > factor * scale) & (np.sign(d1) != np.sign(d2))
+    back = np.abs(x[2:] - x[:-2]) < 0.25 * np.abs(d1)
+    out[1:-1] = np.any(big & back, axis=1)
+    return out
+
+
+def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
+                           gap_factor: float = 2.5) -> dict[int, str]:
+    """Rotations between consecutive poses whose integration cannot be trusted: ``{k: why}``.
+
+    Rotation ``k`` runs from pose ``k`` to pose ``k+1``. It is unreliable when
+    it holds saturated gyroscope samples (:func:`saturated`: the rate beyond
+    full scale is lost), spikes (:func:`spikes`) or a sampling gap longer than
+    ``gap_factor`` × the median step (the attitude is integrated sample to
+    sample, Zhang 2021 eq. 23; across a gap the rate is only interpolated).
+    Such rotations are left out of the gyroscope fit, not fitted.
+    """
+    if len(intervals) < 2:
+        return {}
+    starts, stops = transition_bounds(intervals)
+    sat = np.nonzero(saturated(recording.gyro))[0]
+    spk = np.nonzero(spikes(recording.gyro))[0]
+    dt = np.diff(recording.t)
+    gaps = np.nonzero(dt > gap_factor * np.median(dt))[0] if dt.size else np.zeros(0, int)
+    out = {}
+    for k, (a, b) in enumerate(zip(starts, stops, strict=True)):
+        why = []
+        n_sat = int(np.count_nonzero((sat >= a) & (sat <= b)))
+        if n_sat:
+            why.append(f"{n_sat} saturated gyroscope sample(s)")
+        n_spk = int(np.count_nonzero((spk >= a) & (spk <= b)))
+        if n_spk:
+            why.append(f"{n_spk} spike(s) in the gyroscope")
+        inside = gaps[(gaps >= a) & (gaps < b)]
+        if inside.size:
+            why.append(f"{inside.size} sampling gap(s), the longest {dt[inside].max():.3g} s")
+        if why:
+            out[k] = " and ".join(why)
     return out

@@ -138,14 +138,21 @@ def accelerometer_errors(acc: TriadModel, means: np.ndarray, gravity: float) -> 
     return {k: float(v) for k, v in zip(lay.names("accelerometer"), standard_errors(j, r), strict=True)}
 
 
-def six_position(up: np.ndarray, down: np.ndarray, gravity: float) -> TriadModel:
+def six_position(up: np.ndarray, down: np.ndarray, gravity: float, *, cos_up: np.ndarray | float = 1.0,
+                 cos_down: np.ndarray | float = 1.0) -> TriadModel:
     """Bias and scale from each axis's raw reading up and down (Ru 2022, eqs. 8–9).
 
     ``b = (u_up + u_down)/2`` (eq. 8), ``s = (u_up − u_down)/(2g)`` raw per m/s²
-    (eq. 9), so ``k1 = 1/s``; ``T_a = I``.
+    (eq. 9), so ``k1 = 1/s``; ``T_a = I``. A face held ``δ`` off its axis reads
+    ``g cos δ``, not ``g``: with the cosines of the two faces' tilts given,
+    ``s = (u_up − u_down)/(g (cos δ_up + cos δ_down))`` and
+    ``b = (u_up cos δ_down + u_down cos δ_up)/(cos δ_up + cos δ_down)``, exact for
+    any tilt (eq. 9 as printed assumes ``δ = 0``, and a 15° tilt makes ``s``
+    1/cos 15° − 1 = 3.5 % wrong).
     """
-    b = (up + down) / 2  # eq. (8)
-    s = (up - down) / (2 * gravity)  # eq. (9), raw per m/s²
+    cu, cd = np.asarray(cos_up, dtype=float), np.asarray(cos_down, dtype=float)
+    b = (up * cd + down * cu) / (cu + cd)  # eq. (8), generalised to tilted faces
+    s = (up - down) / (gravity * (cu + cd))  # eq. (9), raw per m/s²
     return TriadModel(scale=1.0 / s, bias=b, shape="upper")
 
 

@@ -196,6 +196,13 @@ class GyroFit:
     bias_source: str  # "rest" or "fit"
     left_out: dict[int, str] = field(default_factory=dict)  # transition k (pose k → k+1) → why
 
+    def summary(self) -> dict:
+        """The ``fit`` entries that say how the gyroscope was fitted."""
+        out: dict = {"gyroscope_bias_source": self.bias_source}
+        if self.left_out:
+            out["rotations_left_out"] = {str(k): why for k, why in sorted(self.left_out.items())}
+        return out
+
 
 #: a transition whose error exceeds this many robust standard deviations of the others is left out
 OUTLIER_SIGMA = 5.0

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import accelerometer_errors, fit_ellipsoid, fit_gravity_norm
-from ..fit.gyroscope import fit_gravity_direction
+from ..fit.gyroscope import fit_gyroscope
 from ..metrics import fit_summary, interval_means
-from ..segment import static_poses
+from ..segment import static_poses, unreliable_transitions
 
 __all__ = ["calibrate"]
 
@@ -31,11 +31,13 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     acc = fit_ellipsoid(means, gravity)
     if refine:
         acc, _ = fit_gravity_norm(means, gravity, initial=acc)
-    bias = recording.gyro[intervals[0].slice].mean(axis=0)
-    gyro, gyro_errors = fit_gravity_direction(recording, intervals, acc, bias, False)
+    gyro_fit = fit_gyroscope(recording, intervals, acc, intervals[0],
+                             exclude=unreliable_transitions(recording, intervals))
+    gyro, gyro_errors = gyro_fit.model, gyro_fit.errors
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="ellipsoid",
                       model="linear", units=units_of(recording))
     fit = fit_summary(cal, recording, intervals, gravity)
+    fit |= gyro_fit.summary()
     # first-order errors of the gravity-norm fit at this solution (the algebraic fit is close to it)
     fit["uncertainty"] = accelerometer_errors(acc, means, gravity) | gyro_errors
     return cal.with_(fit=fit)

@@ -11,7 +11,11 @@ misalignment (``T_a = I``) and nonlinearity. The six faces are found
 automatically among the static poses: after a sphere fit centres the data, the
 pose whose direction is closest to ``+x`` (``−x``, …) is that face, and it must
 lie within ``max_tilt`` degrees of the axis — otherwise the recording does not
-hold that face and the method says which faces are missing. The gyroscope bias
+hold that face and the method says which faces are missing. A face a few
+degrees off its axis is corrected for its tilt (measured by the
+directions the calibration gives, to a fixed point;
+:func:`imucalib.fit.accelerometer.six_position`), which eq. 9 as
+printed is not; ``fit["faces_tilt_deg"]`` says by how much. The gyroscope bias
 is the mean of the initial rest; its scale and misalignment come from the
 rotations between poses as in Tedaldi 2014 (the review calibrates gyroscopes on
 a rate table, which free-hand data does not have).
@@ -23,9 +27,9 @@ import numpy as np
 
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import six_position
-from ..fit.gyroscope import fit_gravity_direction
+from ..fit.gyroscope import fit_gyroscope
 from ..metrics import fit_summary, interval_means
-from ..segment import FACE_NAMES, find_faces, static_poses
+from ..segment import FACE_NAMES, find_faces, static_poses, unreliable_transitions
 
 __all__ = ["calibrate"]
 
@@ -36,13 +40,23 @@ def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15
     intervals = static_poses(recording, gravity, intervals, init_static=init_static)
     means = interval_means(recording.acc, intervals)
     faces = find_faces(means, gravity, max_tilt=max_tilt)
-    acc = six_position(means[faces[:3], np.arange(3)], means[faces[3:], np.arange(3)], gravity)  # eqs. (8)-(9)
-    gyro, gyro_errors = fit_gravity_direction(recording, intervals, acc,
-                                              recording.gyro[intervals[0].slice].mean(axis=0), False)
+    up, down = means[faces[:3], np.arange(3)], means[faces[3:], np.arange(3)]
+    acc = six_position(up, down, gravity)  # eqs. (8)-(9)
+    for _ in range(5):  # each face's tilt from its axis by the calibrated direction, then eqs. (8)-(9) for it
+        d = acc.forward(means)
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        cos_up, cos_down = d[faces[:3], np.arange(3)], -d[faces[3:], np.arange(3)]
+        acc = six_position(up, down, gravity, cos_up=cos_up, cos_down=cos_down)
+    gyro_fit = fit_gyroscope(recording, intervals, acc, intervals[0],
+                             exclude=unreliable_transitions(recording, intervals))
+    gyro, gyro_errors = gyro_fit.model, gyro_fit.errors
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="six_position",
                       model="linear", units=units_of(recording))
     fit = fit_summary(cal, recording, intervals, gravity)
+    fit |= gyro_fit.summary()
     fit["faces"] = {name: int(i) for name, i in zip(FACE_NAMES, faces, strict=True)}
+    fit["faces_tilt_deg"] = {name: float(np.degrees(np.arccos(np.clip(c, -1, 1))))
+                             for name, c in zip(FACE_NAMES, np.concatenate([cos_up, cos_down]), strict=True)}
     fit["uncertainty"] = gyro_errors
     fit["uncertainty_unavailable"] = ("accelerometer: the six faces determine its six parameters exactly "
                                       "(eqs. 8-9), which leaves no residual to estimate the noise from")

@@ -33,7 +33,7 @@ from ..fit.accelerometer import accelerometer_errors, fit_gravity_norm
 from ..fit.gyroscope import errors_at, fit_gyroscope, rest_bias
 from ..metrics import fit_summary, interval_means
 from ..recording import STANDARD_GRAVITY, Interval, Recording
-from ..segment import detect_intervals
+from ..segment import detect_intervals, unreliable_transitions
 
 __all__ = ["calibrate", "uncertainty"]
 
@@ -120,7 +120,8 @@ def calibrate(
         mult, rest = float("nan"), intervals[0]
         acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
     say("calibrating the gyroscope")
-    gyro = fit_gyroscope(recording, intervals, acc_model, rest, estimate_bias=estimate_gyro_bias)
+    gyro = fit_gyroscope(recording, intervals, acc_model, rest, estimate_bias=estimate_gyro_bias,
+                         exclude=unreliable_transitions(recording, intervals))
     gyro_model, gyro_errors = gyro.model, gyro.errors
     cal = Calibration(
         accelerometer=acc_model,
@@ -132,9 +133,7 @@ def calibrate(
     )
     fit = fit_summary(cal, recording, intervals, gravity)
     fit["threshold_multiplier"] = mult
-    fit["gyroscope_bias_source"] = gyro.bias_source
-    if gyro.left_out:
-        fit["rotations_left_out"] = {str(k): why for k, why in sorted(gyro.left_out.items())}
+    fit |= gyro.summary()
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
     means = interval_means(recording.acc, intervals)
     fit["uncertainty"] = accelerometer_errors(acc_model, means, gravity) | gyro_errors
