@@ -34,7 +34,8 @@ import numpy as np
 from .metrics import interval_means, transition_bounds
 from .recording import Interval, Recording
 
-__all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "predicted_direction_error", "with_verdict"]
+__all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "plausibility", "plausible", "predicted_direction_error",
+           "with_verdict"]
 
 LEVELS = ("accepted", "suspect", "rejected")
 
@@ -172,7 +173,13 @@ def _gravity(calibration, recording: Recording | None, intervals: list[Interval]
     return out
 
 
-def _plausibility(calibration) -> list[Check]:
+def plausible(calibration) -> bool:
+    """Whether nothing in :func:`plausibility` rejects ``calibration`` (converged, sane scales and axes)."""
+    return all(c.level < 2 for c in plausibility(calibration))
+
+
+def plausibility(calibration) -> list[Check]:
+    """Convergence, scales against the declared units' nominal factors, cross-axis terms."""
     out = []
     fit = calibration.fit or {}
     if fit.get("converged") is False:
@@ -321,7 +328,7 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     intervals = intervals or []
     checks: list[Check] = []
     figures: dict = {}
-    checks += _plausibility(calibration)
+    checks += plausibility(calibration)
     checks += _gravity(calibration, recording, intervals)
     checks += _redundancy(calibration)
     checks += _usefulness(calibration)

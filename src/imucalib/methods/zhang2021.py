@@ -52,6 +52,7 @@ from ..models import AXES, TriadModel, misalignment_entries
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 from ..segment import detect_intervals, detect_static_gyro, find_initial_rest, gyro_norm_variance, runs
 from ..solve import levenberg_marquardt, standard_errors
+from ..verdict import plausible
 
 __all__ = [
     "MODELS",
@@ -459,6 +460,11 @@ def _concat(segments: Sequence[Recording]):
     return acc, gyro, stops - lengths, stops
 
 
+def _as_calibration(layout: ZhangLayout, theta: np.ndarray, gravity: float, recording: Recording) -> Calibration:
+    acc, gyro, r = layout.models(theta)
+    return Calibration(accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity, units=units_of(recording))
+
+
 def _aic(residuals: np.ndarray, n_params: int) -> float:
     n = residuals.size
     return float(n * np.log(float(residuals @ residuals) / n) + 2 * n_params)
@@ -666,8 +672,13 @@ def calibrate(
             lay = replace(ZhangLayout.of(name), with_r=False)
             candidates[name] = (*solve(lay), lay)
         aic = {name: _aic(sol_.fun, lay.size) for name, (_, sol_, lay) in candidates.items()}
-        best = min(aic, key=aic.get)
-        selection = {"criterion": "aic", "aic": aic, "requested": model, "selected": best}
+        # a fit that did not converge, or whose parameters are implausible (a cross-axis term of tens of
+        # degrees, a scale far from the unit's nominal), is never chosen, however low its criterion
+        usable = {name: aic[name] for name, (_, sol_, lay) in candidates.items()
+                  if sol_.success and plausible(_as_calibration(lay, sol_.x, gravity, recording))}
+        best = min(usable or aic, key=(usable or aic).get)
+        selection = {"criterion": "aic", "aic": aic, "requested": model, "selected": best,
+                     "excluded": sorted(set(aic) - set(usable))}
         if best != model:
             warnings.warn(
                 f"zhang2021 model {model!r}: without weightless data the poses do not support "
