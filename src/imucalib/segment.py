@@ -487,24 +487,29 @@ def saturated(x: np.ndarray, *, run: int = 3) -> np.ndarray:
     return out
 
 
-def spikes(x: np.ndarray, *, factor: float = 20.0) -> np.ndarray:
-    """Single-sample outliers (N,): a jump out and straight back, far beyond the channel's sample-to-sample noise.
+def spikes(x: np.ndarray, *, factor: float = 20.0, isolation: float = 4.0) -> np.ndarray:
+    """Single-sample outliers (N,): a jump out and straight back that nothing around it explains.
 
     Sample ``i`` is a spike on a channel when both steps ``x_i − x_{i−1}`` and
-    ``x_{i+1} − x_i`` exceed ``factor`` times the median absolute step, have
-    opposite signs, and its neighbours agree with each other to a quarter of the jump.
+    ``x_{i+1} − x_i`` have opposite signs, exceed ``factor`` times the channel's
+    median absolute step and ``isolation`` times the steps just before and after
+    (``x_{i−1} − x_{i−2}``, ``x_{i+2} − x_{i+1}``: a fast but smooth turnaround of
+    the hand has steps of the same size around it), and its neighbours agree with
+    each other to a quarter of the jump.
     """
     x = np.asarray(x, dtype=np.float64)
     out = np.zeros(x.shape[0], dtype=bool)
-    if x.shape[0] < 3:
+    if x.shape[0] < 5:
         return out
     d = np.diff(x, axis=0)
     scale = np.median(np.abs(d), axis=0)
     scale = np.where(scale > 0, scale, np.finfo(float).tiny)
-    d1, d2 = d[:-1], d[1:]
-    big = (np.abs(d1) > factor * scale) & (np.abs(d2) > factor * scale) & (np.sign(d1) != np.sign(d2))
-    back = np.abs(x[2:] - x[:-2]) < 0.25 * np.abs(d1)
-    out[1:-1] = np.any(big & back, axis=1)
+    d0, d1, d2, d3 = d[:-3], d[1:-2], d[2:-1], d[3:]  # steps around sample i = 2 … N−3
+    jump = np.minimum(np.abs(d1), np.abs(d2))
+    big = (jump > factor * scale) & (np.sign(d1) != np.sign(d2))
+    alone = jump > isolation * np.maximum(np.abs(d0), np.abs(d3))
+    back = np.abs(x[3:-1] - x[1:-3]) < 0.25 * np.abs(d1)
+    out[2:-2] = np.any(big & alone & back, axis=1)
     return out
 
 

@@ -34,8 +34,8 @@ import numpy as np
 from .metrics import interval_means, transition_bounds
 from .recording import Interval, Recording
 
-__all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "plausibility", "plausible", "predicted_direction_error",
-           "with_verdict"]
+__all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibility", "plausible",
+           "predicted_direction_error", "with_verdict"]
 
 LEVELS = ("accepted", "suspect", "rejected")
 
@@ -99,7 +99,7 @@ def predicted_direction_error(calibration, recording: Recording, intervals: list
     (the two poses' mean directions),
 
     with ``σ_g``, ``σ_a`` the calibrated per-sample noise of the rest, ``Δt`` the
-    sampling interval and ``σ_b`` the bias's 1σ (the rest's mean, or the fit's);
+    sampling interval and ``σ_b² = σ_g²/n_rest`` the noise of the rest's mean;
     a 2-D Gaussian error of that variance has the mean norm ``√(π v / 2)``.
     """
     rest = rest or intervals[0]
@@ -107,11 +107,7 @@ def predicted_direction_error(calibration, recording: Recording, intervals: list
     gyro = calibration.gyroscope_si(recording.gyro[rest.slice], recording.acc[rest.slice])
     s_a2 = float(np.mean(np.var(acc, axis=0)))
     s_g2 = float(np.mean(np.var(gyro, axis=0)))
-    unc = (calibration.fit or {}).get("uncertainty", {})
-    k1 = calibration.gyroscope.scale
-    sb = [unc.get(f"gyroscope.bias.{a}") for a in "xyz"]
-    s_b2 = (float(np.mean((np.asarray(sb, float) * k1) ** 2)) if all(v is not None and np.isfinite(v) for v in sb)
-            else s_g2 / max(len(gyro), 1))
+    s_b2 = s_g2 / max(len(gyro), 1)  # the rest's mean: noise only, whatever the fit made of the bias
     starts, stops = transition_bounds(intervals)
     t = recording.t
     dur = t[stops] - t[starts]
@@ -126,13 +122,17 @@ def _level(value: float, limits: tuple[float, float]) -> int:
     return 2 if value > limits[1] else 1 if value > limits[0] else 0
 
 
-def _time_base(calibration, recording: Recording, intervals: list[Interval]) -> list[Check]:
-    out = []
+def check_rate(recording: Recording) -> None:
+    """Raise ValueError at a sampling rate no IMU records at: the time base is wrong and nothing can be fitted."""
     rate = recording.rate
     lo, hi = THRESHOLDS["rate_hz"]
     if not lo <= rate <= hi:
-        out.append(Check(2, f"the sampling rate is {rate:.4g} Hz, outside {lo:g}-{hi:g} Hz where IMUs record: the "
-                            "time column's unit is probably wrong (ms read as s, or s as ms)"))
+        raise ValueError(f"the sampling rate is {rate:.4g} Hz, outside {lo:g}-{hi:g} Hz where IMUs record: the time "
+                         "column's unit is probably wrong (ms read as s, or s as ms; see --time-unit)")
+
+
+def _time_base(calibration, recording: Recording, intervals: list[Interval]) -> list[Check]:
+    out = []
     if len(intervals) >= 2:
         acc = calibration.accelerometer_si(interval_means(recording.acc, intervals))
         u = acc / np.linalg.norm(acc, axis=1, keepdims=True)
@@ -328,12 +328,13 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     intervals = intervals or []
     checks: list[Check] = []
     figures: dict = {}
-    checks += plausibility(calibration)
+    if recording is not None:  # the inputs first: a wrong time base or unit explains everything after it
+        checks += _time_base(calibration, recording, intervals)
     checks += _gravity(calibration, recording, intervals)
+    checks += plausibility(calibration)
     checks += _redundancy(calibration)
     checks += _usefulness(calibration)
     if recording is not None:
-        checks += _time_base(calibration, recording, intervals)
         gyro_checks, figures = _gyroscope(calibration, recording, intervals)
         checks += gyro_checks
         checks += _known_turns(calibration, recording)

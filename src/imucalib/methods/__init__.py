@@ -15,7 +15,7 @@ from typing import Any
 
 from ..calibration import Calibration
 from ..recording import STANDARD_GRAVITY, Recording
-from ..verdict import with_verdict
+from ..verdict import check_rate, with_verdict
 
 __all__ = ["METHODS", "calibrate", "method_names"]
 
@@ -128,6 +128,8 @@ def calibrate(
     session_options = getattr(data, "method_options", None)
     if not isinstance(data, Recording) and callable(session_options):
         options = {**session_options(method), **options}
-    cal = fn(data, model=model, gravity=gravity, **options)
     recording = data if isinstance(data, Recording) else getattr(data, "recording", None)
+    if isinstance(recording, Recording):
+        check_rate(recording)
+    cal = fn(data, model=model, gravity=gravity, **options)
     return with_verdict(cal, recording if isinstance(recording, Recording) else None)
