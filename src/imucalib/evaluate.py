@@ -10,7 +10,9 @@
   with the method's lever arm, as the paper does) and
   ``mean(1 − arccos L35_method / arccos L35_baseline)``;
 * :func:`parameter_errors` — estimate − truth by parameter name;
-* :func:`montecarlo` — N seeded runs of simulate → calibrate → compare.
+* :func:`montecarlo` — N seeded runs of simulate → calibrate → compare;
+* :func:`demo` — one Zhang 2021 session calibrated with the linear and the full
+  model and with Tedaldi 2014, against the truth (``imucalib demo``).
 
 The static ``fit`` figures of ``DESIGN.md`` are in :mod:`imucalib.metrics`.
 """
@@ -18,6 +20,7 @@ The static ``fit`` figures of ``DESIGN.md`` are in :mod:`imucalib.metrics`.
 from __future__ import annotations
 
 import os
+import time
 import traceback
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -28,7 +31,7 @@ from .calibration import Calibration
 from .kinematics import IntervalIntegrator, five_point_derivative, quat_to_matrix
 from .methods.zhang2021 import lever_arm_matrix
 
-__all__ = ["eq34", "eq35", "reductions", "parameter_errors", "montecarlo", "sequence_metrics"]
+__all__ = ["demo", "eq34", "eq35", "reductions", "parameter_errors", "montecarlo", "sequence_metrics"]
 
 
 def eq34(calibration: Calibration, test, *, lever_arm: np.ndarray | None = None) -> float:
@@ -195,3 +198,61 @@ def montecarlo(
             metrics["eq35_reduction"] = float(np.mean([x["eq35_reduction"] for x in red]))
     return {"scenario": scenario, "method": method, "model": model, "runs": runs,
             "parameters": params, "metrics": metrics, "failures": failures}
+
+
+# ------------------------------------------------------------------- demo
+def demo(seed: int = 0, *, progress: Callable[[str], None] | None = None) -> dict:
+    """The main job on a built-in session: Zhang 2021's linear model against its full model.
+
+    Simulates the ``zhang2021`` scenario (Table I truth, default noise),
+    calibrates it with ``tedaldi2014``, ``zhang2021`` linear and ``zhang2021``
+    all, and evaluates each on the session's test tosses (eqs. 34–35, the
+    baselines with the full model's lever arm as the paper does).
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the simulated session.
+    progress : callable, optional
+        Called with a short message before each stage.
+
+    Returns
+    -------
+    dict
+        ``{"scenario", "seed", "seconds", "parameters": [{"name", "truth",
+        "linear", "all", "all_std"}, …], "metrics": {"eq34_mean": {…},
+        "eq35_mean": {…}, "all_vs_tedaldi2014_eq34_reduction",
+        "all_vs_tedaldi2014_eq35_reduction"}}``; ``linear`` is ``None`` for a
+        parameter the linear model lacks, ``all_std`` is the full model's 1σ
+        standard error (``None`` where it has none).
+    """
+    from .methods import calibrate
+    from .scenarios import session
+
+    say = progress or (lambda msg: None)
+    t0 = time.perf_counter()
+    say("simulating the zhang2021 session (Table I truth, default noise)")
+    sim = session("zhang2021", rng=seed)
+    g = sim.truth.gravity
+    say("calibrating: tedaldi2014 (linear)")
+    ted = calibrate(sim, method="tedaldi2014", gravity=g)
+    say("calibrating: zhang2021 linear")
+    lin = calibrate(sim, method="zhang2021", model="linear", gravity=g)
+    say("calibrating: zhang2021 all")
+    full = calibrate(sim, method="zhang2021", model="all", gravity=g)
+    metrics = {"all": sequence_metrics(full, sim.tests),
+               "linear": sequence_metrics(lin, sim.tests, lever_arm=full.lever_arm),
+               "tedaldi2014": sequence_metrics(ted, sim.tests, lever_arm=full.lever_arm)}
+    elapsed = time.perf_counter() - t0
+    est = {"linear": lin.parameters(), "all": full.parameters()}
+    unc = full.fit.get("uncertainty", {})
+    rows = [{"name": k, "truth": v, "linear": est["linear"].get(k), "all": est["all"].get(k),
+             "all_std": unc.get(k)} for k, v in sim.truth.parameters().items()]
+    means = {eq: {name: float(np.mean(metrics[name][eq])) for name in ("tedaldi2014", "linear", "all")}
+             for eq in ("eq34", "eq35")}
+    return {
+        "scenario": "zhang2021", "seed": seed, "seconds": round(elapsed, 3), "parameters": rows,
+        "metrics": {"eq34_mean": means["eq34"], "eq35_mean": means["eq35"],
+                    **{f"all_vs_tedaldi2014_{k}": v
+                       for k, v in reductions(metrics["all"], metrics["tedaldi2014"]).items()}},
+    }

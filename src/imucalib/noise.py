@@ -14,9 +14,14 @@ minimum, ``σ_min ≈ 0.664 B``, and rate random walk ``K`` has slope +½ with
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-__all__ = ["allan_deviation", "kalibr_yaml", "noise_parameters"]
+if TYPE_CHECKING:
+    from .recording import Recording
+
+__all__ = ["allan_deviation", "kalibr_yaml", "noise_parameters", "noise_summary", "random_walk_bound"]
 
 
 def allan_deviation(x: np.ndarray, rate: float, taus: np.ndarray | None = None,
@@ -98,6 +103,32 @@ def random_walk_bound(x: np.ndarray, rate: float) -> np.ndarray:
     taus, adev = allan_deviation(x, rate)
     adev = adev if adev.ndim == 2 else adev[:, None]
     return adev[-1] * np.sqrt(3.0 / taus[-1])
+
+
+def noise_summary(recording: Recording) -> dict:
+    """The noise parameters of both sensors of a recording at rest (``imucalib noise``).
+
+    Parameters
+    ----------
+    recording : Recording
+        Samples of the sensor at rest, e.g. the initial rest
+        (``recording[find_initial_rest(recording)]``); any units.
+
+    Returns
+    -------
+    dict
+        ``{"seconds", "samples", "rate_hz", "accelerometer": {...},
+        "gyroscope": {...}}``; each sensor's entry holds its ``unit``, the
+        :func:`noise_parameters` per axis and the :func:`random_walk_bound`,
+        as lists (JSON-ready; :func:`kalibr_yaml` takes them as they are).
+    """
+    out = {"seconds": recording.duration, "samples": len(recording), "rate_hz": recording.rate}
+    for name, x, unit in (("accelerometer", recording.acc, recording.acc_unit),
+                          ("gyroscope", recording.gyro, recording.gyro_unit)):
+        p = noise_parameters(x, recording.rate)
+        out[name] = {"unit": unit, **{k: v.tolist() for k, v in p.items()},
+                     "random_walk_bound": random_walk_bound(x, recording.rate).tolist()}
+    return out
 
 
 def kalibr_yaml(acc: dict, gyro: dict, rate: float, *, topic: str = "/imu0") -> tuple[str, list[str]]:

@@ -12,12 +12,16 @@ import json
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..calibration import Calibration
 from ..kinematics import integrate, quat_from_rotvec, quat_to_matrix
 from ..recording import ImucalibWarning, Interval, Recording
+
+if TYPE_CHECKING:
+    from .wang2019 import WangSession
 
 __all__ = ["DEFAULT_NOISE", "Session", "TossSequence", "attitude_with_up", "distort", "noise_levels",
            "pose_session", "read_session", "turns_between", "write_session"]
@@ -116,10 +120,34 @@ def _read_rec(path: Path, units: dict) -> Recording:
                      gyro_unit=units["gyroscope"], metadata={"source": [str(path)]})
 
 
-def write_session(sim: Session, directory: str | Path) -> Path:
-    """Write ``recording.csv``, ``weightless_NNN.csv``, ``test_NN.csv``, ``truth.json``, ``session.json``."""
+def write_session(sim: Session | WangSession, directory: str | Path) -> Path:
+    """Write a simulated session into a directory that :func:`read_session` reads back.
+
+    Parameters
+    ----------
+    sim : Session or WangSession
+        A session of samples (:func:`imucalib.scenarios.session`), written as
+        ``recording.csv``, ``weightless_NNN.csv``, ``test_NN.csv``,
+        ``truth.json`` and ``session.json``; or a turntable session
+        (:func:`imucalib.scenarios.wang2019.session`), written as its
+        aggregates: ``positions.csv`` (static position means),
+        ``turns.csv`` (clockwise − counter-clockwise turn integrals and
+        angles), ``truth.json`` and ``session.json``.
+    directory : str or Path
+        Created if missing; files already there are overwritten.
+
+    Returns
+    -------
+    Path
+        The directory.
+    """
+    from .wang2019 import WangSession
+
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
+    if isinstance(sim, WangSession):
+        _write_turntable_session(sim, d)
+        return d
     _write_rec(d / "recording.csv", sim.recording)
     for i, w in enumerate(sim.weightless):
         _write_rec(d / f"weightless_{i:03d}.csv", w)
@@ -142,8 +170,23 @@ def write_session(sim: Session, directory: str | Path) -> Path:
     return d
 
 
-def read_session(directory: str | Path):
-    """Read a directory written by :func:`write_session` (or a wang2019 one by ``imucalib simulate``)."""
+def _write_turntable_session(sim: WangSession, d: Path) -> None:
+    """The files of a wang2019 session (:func:`write_session`)."""
+    np.savetxt(d / "positions.csv", np.column_stack([sim.positions_acc, sim.positions_gyro]),
+               delimiter=",", fmt="%.17g", header="ax,ay,az,gx,gy,gz", comments="")
+    np.savetxt(d / "turns.csv", np.column_stack([sim.turn_sum, sim.turn_sum2, sim.turn_angle]),
+               delimiter=",", fmt="%.17g", header="sum_x,sum_y,sum_z,sum2_x,sum2_y,sum2_z,angle", comments="")
+    sim.truth.save(d / "truth.json")
+    meta = {"format": "imucalib.session", "format_version": 1, "scenario": sim.scenario,
+            "seed": sim.seed, "turntable_error": sim.turntable_error,
+            "latitude_deg": sim.latitude_deg, "options": sim.options,
+            "files": {"positions.csv": "static position means [pulses/s]",
+                      "turns.csv": "clockwise − counter-clockwise turn integrals"}}
+    (d / "session.json").write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
+
+
+def read_session(directory: str | Path) -> Session | WangSession:
+    """Read a directory written by :func:`write_session`: a :class:`Session`, or a ``WangSession``."""
     d = Path(directory)
     meta_path = d / "session.json"
     if not meta_path.is_file():
@@ -160,7 +203,8 @@ def read_session(directory: str | Path):
         return WangSession(positions_acc=pos[:, :3], positions_gyro=pos[:, 3:6], turn_sum=turns[:, :3],
                            turn_sum2=turns[:, 3:6], turn_angle=turns[:, 6], truth=truth,
                            latitude_deg=meta.get("latitude_deg", 0.0),
-                           turntable_error=meta.get("turntable_error", ""), options=meta.get("options", {}))
+                           turntable_error=meta.get("turntable_error", ""), options=meta.get("options", {}),
+                           seed=meta.get("seed"))
     units = meta["units"]
     files = meta["files"]
 

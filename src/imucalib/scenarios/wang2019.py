@@ -85,6 +85,7 @@ class WangSession:
     gravity: float = G0
     scenario: str = "wang2019"
     options: dict = field(default_factory=dict)
+    seed: int | None = None  # the seed it was simulated with, when given as an int
 
     @property
     def recording(self):  # the methods registry asks for one; this scenario has none
@@ -149,6 +150,7 @@ def session(rng=None, *, turntable_error: str = "3arcsec", latitude_deg: float =
     noise-free outputs. The latitude (default 32°, Nanjing, where the paper's
     authors work) sets the Earth rate's direction, not its magnitude.
     """
+    seed = int(rng) if isinstance(rng, int | np.integer) else None
     rng = np.random.default_rng(rng)
     if turntable_error not in TURNTABLE_ERRORS:
         raise ValueError(f"turntable_error must be one of {', '.join(TURNTABLE_ERRORS)}; "
@@ -206,6 +208,7 @@ def session(rng=None, *, turntable_error: str = "3arcsec", latitude_deg: float =
         turn_sum=np.array(sums), turn_sum2=np.array(sums2), turn_angle=np.full(len(axes), 2 * np.pi),
         truth=truth, latitude_deg=latitude_deg, turntable_error=turntable_error,
         options={"noise": noise, "rate_deg_s": rate_deg_s, "sample_rate": sample_rate, "dwell_s": dwell_s},
+        seed=seed,
     )
 
 

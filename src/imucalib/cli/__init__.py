@@ -1,0 +1,57 @@
+"""Command line: ``imucalib <command>``; thin commands over the library.
+
+Every command has ``--help``. With ``--json`` the machine-readable result is
+the only thing printed on stdout; errors go to stderr with a non-zero exit.
+
+One module per group of commands, each adding its own sub-parsers
+(``register``): :mod:`.calibration` (calibrate, apply, compare, validate,
+export, detect-fall), :mod:`.simulation` (simulate, montecarlo, demo) and
+:mod:`.analysis` (noise, plan); :mod:`._common` holds what they share.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from collections.abc import Sequence
+
+from .. import __version__
+from ..recording import ImucalibWarning
+from . import analysis, calibration, simulation
+from ._common import EXIT_ERROR, EXIT_INTERRUPTED, CliError, show_warning
+
+__all__ = ["EXIT_ERROR", "CliError", "build_parser", "main"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``imucalib`` argument parser with every command's sub-parser."""
+    parser = argparse.ArgumentParser(
+        prog="imucalib",
+        description="Calibrate the accelerometer and gyroscope of low-cost MEMS IMUs.",
+    )
+    parser.add_argument("--version", action="version", version=f"imucalib {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for group in (calibration, simulation, analysis):
+        group.register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``imucalib`` with ``argv`` (default: the process's arguments); the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", ImucalibWarning)
+            warnings.showwarning = show_warning
+            return int(args.func(args) or 0)
+    except BrokenPipeError:  # output piped into e.g. head: not an error
+        sys.stderr.close()
+        return 0
+    except (ValueError, TypeError, OSError, CliError) as exc:
+        print(f"imucalib {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_ERROR
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED

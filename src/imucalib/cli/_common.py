@@ -1,0 +1,134 @@
+"""What every command shares: the error type, exit codes, reading options, progress output, number parsing."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..recording import STANDARD_GRAVITY, Recording
+
+__all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "STANDARD_GRAVITY", "Bar", "CliError", "add_gravity_option",
+           "add_reader_options", "positive_float", "print_json", "progress", "read",
+           "read_recording", "show_warning"]
+
+#: exit code of a command that failed with a reported error
+EXIT_ERROR = 2
+#: exit code after Ctrl-C (128 + SIGINT)
+EXIT_INTERRUPTED = 130
+
+
+class CliError(Exception):
+    """An error reported to the user as one line on stderr."""
+
+
+# ---------------------------------------------------------------- arguments
+def positive_float(text: str) -> float:
+    """An argparse type: a finite number above zero."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number; got {text!r}") from None
+    if not (np.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"expected a positive number; got {text!r}")
+    return v
+
+
+def add_gravity_option(p: argparse.ArgumentParser) -> None:
+    """``--gravity`` with the standard gravity as its default."""
+    p.add_argument("--gravity", type=positive_float, default=STANDARD_GRAVITY,
+                   help=f"local gravity [m/s^2] (default: {STANDARD_GRAVITY})")
+
+
+def add_reader_options(p: argparse.ArgumentParser) -> None:
+    """The options of :func:`imucalib.io.read`, for commands that read a recording."""
+    g = p.add_argument_group("reading the data")
+    g.add_argument("--reader", choices=("csv", "imutk", "mat", "rosbag", "session"),
+                   help="input format (default: guessed from the file)")
+    g.add_argument("--topic", help="ROS bags: the sensor_msgs/Imu topic (needed when there are several)")
+    g.add_argument("--columns", help="comma-separated column names or 0-based indices in the "
+                   "order t,ax,ay,az,gx,gy,gz ('-' for no time column)")
+    g.add_argument("--acc-unit", choices=("counts", "g", "m/s^2"),
+                   help="accelerometer unit of the input (default: from the header, else counts)")
+    g.add_argument("--gyro-unit", choices=("counts", "deg/s", "rad/s"),
+                   help="gyroscope unit of the input (default: from the header, else counts)")
+    g.add_argument("--time-unit", choices=("s", "ms", "us", "ns"),
+                   help="unit of the time column (default: from the header or its values)")
+    g.add_argument("--rate", type=positive_float, help="sampling rate [Hz] when there is no time column")
+    g.add_argument("--variable", help="name of the matrix in a MATLAB .mat file")
+
+
+# ------------------------------------------------------------------ reading
+def read(args: argparse.Namespace, paths: Sequence[str]):
+    """The data in ``paths`` as the reader options say: a recording or a simulated session."""
+    from ..io.rosbag import is_rosbag
+
+    if args.reader == "session" or (args.reader is None and len(paths) == 1 and Path(paths[0]).is_dir()
+                                    and not is_rosbag(Path(paths[0]))):
+        from ..scenarios import read_session
+
+        return read_session(paths[0])
+    from ..io import read as read_files
+
+    columns = args.columns.split(",") if args.columns else None
+    return read_files(
+        list(paths), reader=args.reader, columns=columns, acc_unit=args.acc_unit,
+        gyro_unit=args.gyro_unit, rate=args.rate, variable=args.variable,
+        time_unit=args.time_unit, topic=args.topic,
+    )
+
+
+def read_recording(args: argparse.Namespace, paths: Sequence[str]) -> Recording:
+    """The recording in ``paths`` (a simulated session's main recording); a clear error for turntable aggregates."""
+    data = read(args, paths)
+    rec = getattr(data, "recording", data)
+    if not isinstance(rec, Recording):
+        raise CliError(f"imucalib {args.command} needs a recording of samples; {paths[0]} holds turntable "
+                       "aggregates (a wang2019 session), which only 'calibrate --method wang2019' reads")
+    return rec
+
+
+# ------------------------------------------------------------------- output
+def print_json(obj) -> int:
+    """Print ``obj`` as one line of JSON on stdout; 0, the exit code of a command that did so."""
+    print(json.dumps(obj))
+    return 0
+
+
+def progress(enabled: bool) -> Callable[[str], None] | None:
+    """A callback printing time-stamped stage messages on stderr, or None when not ``enabled``."""
+    if not enabled:
+        return None
+    start = time.perf_counter()
+
+    def say(msg: str) -> None:
+        print(f"[{time.perf_counter() - start:6.2f} s] {msg}", file=sys.stderr, flush=True)
+
+    return say
+
+
+class Bar:
+    """A progress bar on stderr when it is a terminal; silent otherwise."""
+
+    def __init__(self, label: str, enabled: bool) -> None:
+        self.label, self.enabled, self.start = label, enabled, time.perf_counter()
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.enabled:
+            return
+        width = 30
+        fill = int(width * done / total)
+        print(f"\r{self.label} [{'#' * fill}{'.' * (width - fill)}] {done}/{total} "
+              f"{time.perf_counter() - self.start:5.1f} s", end="", file=sys.stderr, flush=True)
+        if done == total:
+            print(file=sys.stderr)
+
+
+def show_warning(message, category=None, filename=None, lineno=None, file=None, line=None) -> None:
+    """``warnings.showwarning`` for the command line: one line on stderr."""
+    print(f"imucalib: warning: {message}", file=sys.stderr)

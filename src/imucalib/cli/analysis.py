@@ -1,0 +1,139 @@
+"""Commands about the sensor and the plan rather than one calibration: noise, plan."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from ..calibration import Calibration
+from ..recording import ImucalibWarning
+from ._common import CliError, add_reader_options, positive_float, print_json, read_recording, show_warning
+
+__all__ = ["register"]
+
+
+# ------------------------------------------------------------------ commands
+def cmd_noise(args: argparse.Namespace) -> int:
+    """``imucalib noise``: :func:`imucalib.noise.noise_summary` of the initial rest, optionally a Kalibr file."""
+    from ..noise import kalibr_yaml, noise_summary
+    from ..segment import find_initial_rest
+
+    rec = read_recording(args, args.data)
+    if args.calibration:  # noise in SI units, through the calibration
+        rec = Calibration.load(args.calibration).apply(rec)
+    part = rec if args.whole else rec[find_initial_rest(rec)]
+    result = noise_summary(part)
+    if args.kalibr:
+        if (part.acc_unit, part.gyro_unit) != ("m/s^2", "rad/s"):
+            raise CliError(f"the Kalibr file needs SI units; this recording is in {part.acc_unit} and "
+                           f"{part.gyro_unit}: pass --calibration CALIBRATION.json (or read data in m/s^2, rad/s)")
+        text, notes = kalibr_yaml(result["accelerometer"], result["gyroscope"], part.rate,
+                                  topic=rec.metadata.get("topic") or "/imu0")
+        Path(args.kalibr).write_text(text, encoding="utf-8")
+        for n in notes:
+            show_warning(n, ImucalibWarning, "", 0)
+        result["kalibr"] = str(args.kalibr)
+    if args.plot:
+        from ..report import plot_allan
+
+        plot_allan(part, args.plot)
+    if args.json:
+        return print_json(result)
+    if args.plot:
+        print(f"plot written to {args.plot}")
+    if args.kalibr:
+        print(f"Kalibr noise file written to {args.kalibr}")
+    print(f"noise over {result['seconds']:.1f} s of rest ({result['samples']} samples, "
+          f"{result['rate_hz']:.4g} Hz), Allan deviation (IEEE 952 slopes):")
+    for name in ("accelerometer", "gyroscope"):
+        r = result[name]
+        u = r["unit"]
+        print(f"  {name}: white noise {_triple(r['white_noise_density'])} {u}·√s "
+              f"({_triple(r['white_noise_per_sample'])} {u} per sample), bias instability "
+              f"{_triple(r['bias_instability'])} {u}, random walk {_triple(r['random_walk'])} {u}/√s")
+    return 0
+
+
+def _triple(v) -> str:
+    return "[" + ", ".join("-" if not np.isfinite(x) else f"{x:.3g}" for x in v) + "]"
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    """``imucalib plan``: the turntable plan of wang2019, else the method's accelerometer pose plan.
+
+    Over :func:`imucalib.scenarios.wang2019.plan_report` and :func:`imucalib.plans.accelerometer_plan`.
+    """
+    if args.method != "wang2019":
+        return _plan_accelerometer(args)
+    from ..scenarios.wang2019 import plan_report
+
+    rep = plan_report(args.seed)
+    if args.json:
+        return print_json(rep)
+    print("positions (gravity direction in the body frame):")
+    for k, p in enumerate(rep["positions_gravity_body"], 1):
+        print(f"  {k:2d}: [{p[0]: .3f} {p[1]: .3f} {p[2]: .3f}]")
+    print(f"rotation pairs ({rep['turn_angle_deg']:g}° clockwise then counter-clockwise) about:")
+    for k, a in enumerate(rep["rotation_axes_body"], 1):
+        print(f"  {k:2d}: [{a[0]: .3f} {a[1]: .3f} {a[2]: .3f}]")
+    print(f"{'parameter':<10}{'value':>14}{'sensitivity':>14}{'Fisher info':>14}{'CRLB std':>12}  observable")
+    for p in rep["parameters"]:
+        print(f"{p['parameter']:<10}{p['value']:>14.4g}{p['sensitivity_rms']:>14.4g}"
+              f"{p['fisher_information']:>14.4g}{p['crlb_std']:>12.3g}  {'yes' if p['observable'] else 'NO'}")
+    return 0
+
+
+def _plan_accelerometer(args: argparse.Namespace) -> int:
+    from ..methods import METHODS
+    from ..plans import accelerometer_plan
+
+    if args.method not in METHODS:
+        raise CliError(f"unknown method {args.method!r}; use one of {', '.join(METHODS)}")
+    poses = args.poses or ("six" if args.method in ("six_position", "ferraris") else "nine")
+    rep = accelerometer_plan(poses, noise=args.noise_acc)
+    if args.json:
+        return print_json(rep)
+    print(f"{rep['poses']} static poses (up direction in the body frame), for the linear accelerometer "
+          f"model of {args.method}:")
+    for k, d in enumerate(rep["directions"], 1):
+        print(f"  {k:2d}: [{d[0]: .3f} {d[1]: .3f} {d[2]: .3f}]")
+    print(f"Cramér–Rao bound with {rep['noise']:g} m/s^2 of noise on each pose's mean "
+          "(scales relative, misalignments in rad, biases in m/s^2):")
+    for p in rep["parameters"]:
+        bound = f"{p['crlb_std']:.3g}" if p["observable"] else "-"
+        verdict = "observable" if p["observable"] else "NOT determined by these poses"
+        print(f"  {p['parameter']:<34}{bound:>12}  {verdict}")
+    return 0
+
+
+# -------------------------------------------------------------------- parsers
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add noise and plan to the ``imucalib`` sub-commands."""
+    p = sub.add_parser("noise", help="Allan-deviation noise parameters of the initial rest",
+                       description="Estimate white noise, bias instability and random walk of both "
+                       "sensors from the Allan deviation of the recording's initial rest.")
+    p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
+    p.add_argument("--whole", action="store_true", help="use the whole recording (it must be at rest)")
+    p.add_argument("--plot", metavar="FILE", help="also draw the Allan deviation (PNG/SVG/PDF; plot extra)")
+    p.add_argument("--calibration", metavar="CALIBRATION.json",
+                   help="apply this calibration first: the noise in m/s^2 and rad/s")
+    p.add_argument("--kalibr", metavar="imu.yaml",
+                   help="write the IMU noise file of Kalibr/OpenVINS/VINS (needs SI units)")
+    p.add_argument("--json", action="store_true")
+    add_reader_options(p)
+    p.set_defaults(func=cmd_noise)
+
+    p = sub.add_parser("plan", help="print a method's calibration plan and parameter observability",
+                       description="Print the positions and rotations of a method's optimal plan "
+                       "and, per parameter, its sensitivity and Fisher information.")
+    p.add_argument("--method", required=True,
+                   help="wang2019 (turntable plan), or any other method (its accelerometer pose plan)")
+    p.add_argument("--seed", type=int, default=0, help="wang2019: seed of the typical truth used")
+    p.add_argument("--poses", help="six, nine (Ru 2022 Table 3) or a number of evenly spread poses "
+                   "(default: six for six_position/ferraris, else nine)")
+    p.add_argument("--noise-acc", type=positive_float, default=0.002,
+                   help="noise of one pose's mean [m/s^2] (default 0.002)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_plan)

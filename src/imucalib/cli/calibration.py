@@ -1,0 +1,328 @@
+"""Commands around one calibration.
+
+Make it (calibrate, compare the methods), use it (apply, export,
+detect-fall) and check it on another recording (validate).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..calibration import Calibration
+from ..recording import ImucalibWarning, Interval
+from ._common import (
+    CliError,
+    add_gravity_option,
+    add_reader_options,
+    positive_float,
+    print_json,
+    progress,
+    read,
+    read_recording,
+)
+
+__all__ = ["print_calibration", "register"]
+
+
+# ------------------------------------------------------------------ printing
+def print_calibration(cal: Calibration) -> None:
+    """The calibration for a person: every parameter, with ± its 1σ error where the method gives one."""
+    unc = (cal.fit or {}).get("uncertainty") or {}
+
+    def pm(name: str, value: float, fmt: str = ".7g") -> str:
+        s = unc.get(name)
+        return f"{value:{fmt}}" + (f" ± {s:.2g}" if s is not None and np.isfinite(s) else "")
+
+    def vec(prefix: str, key: str, values) -> str:
+        return "  ".join(pm(f"{prefix}.{key}.{ax}", v) for ax, v in zip("xyz", values, strict=True))
+
+    def matrix(prefix: str, key: str, m) -> str:
+        cells = [[pm(f"{prefix}.{key}.{'xyz'[i]}{'xyz'[j]}", v, " .7g") for j, v in enumerate(row)]
+                 for i, row in enumerate(m)]
+        width = max(len(c) for row in cells for c in row)
+        return "\n".join("    [" + "  ".join(c.ljust(width) for c in row) + "]" for row in cells)
+
+    a, g = cal.accelerometer, cal.gyroscope
+    ua, ug = cal.units["accelerometer"]["raw"], cal.units["gyroscope"]["raw"]
+    print(f"method: {cal.method}   model: {cal.model}   gravity: {cal.gravity} m/s^2")
+    if unc:
+        print("(± : 1σ standard error of the fit)")
+    for prefix, t, unit, cal_unit, formula in (
+            ("accelerometer", a, ua, "m/s^2", "a = T_a · f(u − b)"),
+            ("gyroscope", g, ug, "rad/s", "ω = T_g · f(u − b − G·a)")):
+        print(f"{prefix}  {formula}")
+        print(f"  misalignment T:\n{matrix(prefix, 'misalignment', t.misalignment)}")
+        print(f"  scale k1 [{cal_unit} per {unit}]: {vec(prefix, 'scale', t.scale)}")
+        if not t.is_linear:
+            print(f"  scale k2: {vec(prefix, 'scale_quadratic', t.scale_quadratic)}")
+            print(f"  scale k3: {vec(prefix, 'scale_cubic', t.scale_cubic)}")
+        print(f"  bias b [{unit}]: {vec(prefix, 'bias', t.bias)}")
+        if np.any(t.output_bias):
+            print(f"  output bias d [{cal_unit}]: {vec(prefix, 'output_bias', t.output_bias)}")
+        if np.any(t.g_sensitivity):
+            print(f"  g-sensitivity G:\n{matrix(prefix, 'g_sensitivity', t.g_sensitivity)}")
+    if cal.lever_arm is not None:
+        print("lever arm r [m]: " + "  ".join(pm(f"lever_arm.{ax}", v, ".6g")
+                                               for ax, v in zip("xyz", cal.lever_arm, strict=True)))
+    if cal.fit:
+        print("fit:")
+        for k, v in cal.fit.items():
+            if k == "intervals":
+                print(f"  intervals: {len(v)} (sample ranges in the JSON)")
+            elif k == "uncertainty":
+                continue
+            elif k == "pose_coverage":
+                print("  pose_coverage (gravity component, min..max): "
+                      + "  ".join(f"{a} {lo:+.2f}..{hi:+.2f}" for a, (lo, hi) in v.items()))
+            elif k == "quality_flags":
+                for flag in v:
+                    print(f"  quality flag: {flag}")
+            else:
+                print(f"  {k}: {v:.6g}" if isinstance(v, float) else f"  {k}: {v}")
+
+
+# ------------------------------------------------------------------ commands
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    """``imucalib calibrate``: :func:`imucalib.methods.calibrate`, then the file, figure and report asked for."""
+    from ..methods import calibrate
+
+    say = progress(not args.json and sys.stderr.isatty())
+    data = read(args, args.data)
+    options = {k: v for k, v in (("init_static", args.init_static), ("detector", args.detector),
+                                 ("progress", say)) if v is not None}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ImucalibWarning)
+        cal = calibrate(data, method=args.method, model=args.model, gravity=args.gravity, **options)
+    for w in caught:  # shown as usual, and kept for the report
+        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    if args.output:
+        cal.save(args.output)
+    rec = data if not hasattr(data, "positions_acc") else None  # turntable aggregates have no samples
+    rec = getattr(rec, "recording", rec)
+    ivs = [Interval(a, b) for a, b in cal.fit.get("intervals", [])]
+    if args.plot:
+        from ..report import plot_fit
+
+        if rec is None or not ivs:
+            raise CliError("this method's data has no static poses to plot")
+        plot_fit(cal, rec, ivs, args.plot)
+    if args.report:
+        from ..report import html_report
+
+        html_report(cal, args.report, recording=rec, intervals=ivs,
+                    notes=[str(w.message) for w in caught if issubclass(w.category, ImucalibWarning)])
+    if args.json:
+        print(cal.to_json())
+        return 0
+    print_calibration(cal)
+    for done, what in ((args.output, "saved to"), (args.plot, "plot written to"),
+                       (args.report, "report written to")):
+        if done:
+            print(f"{what} {done}")
+    return 0
+
+
+def cmd_apply(args: argparse.Namespace) -> int:
+    """``imucalib apply``: :meth:`Calibration.apply` into a CSV, or a ROS bag calibrated topic by topic."""
+    from ..io import write_csv
+    from ..io.rosbag import is_rosbag
+
+    cal = Calibration.load(args.calibration)
+    if (args.reader == "rosbag" or is_rosbag(Path(args.data))) and Path(args.output).suffix.lower() != ".csv":
+        from ..io.rosbag import write_calibrated_bag
+
+        summary = write_calibrated_bag(args.data, args.output, cal, topic=args.topic)
+        summary["calibration"] = str(args.calibration)
+        if args.json:
+            return print_json(summary)
+        print(f"wrote {args.output}: {summary['corrected']} {summary['topic']} messages calibrated, "
+              f"{summary['copied']} other messages copied unchanged")
+        return 0
+    rec = read_recording(args, [args.data])
+    out = cal.apply(rec)
+    write_csv(args.output, rec, calibrated_acc=out.acc, calibrated_gyro=out.gyro)
+    if args.json:
+        return print_json({"input": str(args.data), "output": str(args.output), "samples": len(rec),
+                           "calibration": str(args.calibration), "method": cal.method})
+    print(f"wrote {len(rec)} calibrated samples to {args.output}")
+    return 0
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    """``imucalib compare``: :func:`imucalib.compare.compare`, as a table."""
+    from ..compare import compare
+
+    say = progress(not args.json and sys.stderr.isatty())
+    rec = read_recording(args, args.data)
+    result = compare(rec, gravity=args.gravity, methods=args.methods.split(",") if args.methods else None,
+                     folds=None if args.folds == 0 else args.folds, progress=say)
+    if args.json:
+        return print_json(result)
+    print(f"{result['static_intervals']} static intervals; leave-one-pose-out over "
+          f"{result['folds']} held-out poses")
+    print(f"{'method':<14}{'model':<18}{'CV |a|-g RMS [m/s^2]':>22}{'CV angle mean [deg]':>22}")
+    for row in result["methods"]:
+        model = row["model"] or "-"
+        if row.get("model_selected") and row["model_selected"] != row["model"]:
+            model = f"{model}->{row['model_selected']}"
+        if row["ok"]:
+            print(f"{row['method']:<14}{model:<18}"
+                  f"{row['cv_accelerometer_residual_rms']:>22.5f}"
+                  f"{row['cv_gyroscope_angle_error_mean_deg']:>22.4f}"
+                  + (f"   ({row['cv_folds_skipped']} folds could not run)" if row["cv_folds_skipped"] else ""))
+        else:
+            print(f"{row['method']:<14}{model:<18}  cannot run: {row['reason']}")
+    return 0
+
+
+def cmd_validate(args: argparse.Namespace) -> int:
+    """``imucalib validate``: :func:`imucalib.validate.validate`, beside the figures at calibration."""
+    from ..validate import VALIDATION_KEYS, validate
+
+    cal = Calibration.load(args.calibration)
+    rec = read_recording(args, args.data)
+    result = {"calibration": str(args.calibration), **validate(cal, rec, args.gravity)}
+    intervals = [Interval(a, b) for a, b in result.pop("intervals")]
+    if args.plot:
+        from ..report import plot_fit
+
+        plot_fit(cal, rec, intervals, args.plot)
+    if args.json:
+        return print_json(result)
+    then = result["at_calibration"]
+    print(f"{cal.method} calibration on {len(intervals)} static poses of this recording (not refitted):")
+    if result["temperature_c"] and then["temperature_c"]:
+        t_now, t_then = result["temperature_c"][1], then["temperature_c"][1]
+        print(f"  temperature {t_now:.1f} °C (at calibration {t_then:.1f} °C)"
+              + ("  — more than 5 °C apart: biases may have drifted" if abs(t_now - t_then) > 5 else ""))
+    acc_rms, angle_mean, angle_max = VALIDATION_KEYS[:3]
+    for k, label, unit in ((acc_rms, "‖a‖ − g RMS", "m/s^2"), (angle_mean, "gyro angle error mean", "deg"),
+                           (angle_max, "gyro angle error max", "deg")):
+        now = result[k]
+        if now is None:
+            continue
+        ref = f"   (at calibration {then[k]:.4g}: ×{now / then[k]:.2f})" if then.get(k) else ""
+        print(f"  {label:<24}{now:10.4g} {unit}{ref}")
+    if args.plot:
+        print(f"plot written to {args.plot}")
+    return 0
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    """``imucalib export``: :func:`imucalib.export.to_c` on stdout or into a header file."""
+    from ..export import to_c
+
+    text = to_c(Calibration.load(args.calibration), prefix=args.prefix, ctype="float" if args.float else "double")
+    if args.output:
+        Path(args.output).write_text(text, encoding="utf-8")
+        print(f"wrote {args.output}: {args.prefix}_apply(acc_raw, gyro_raw, acc, gyro)")
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+def cmd_detect_fall(args: argparse.Namespace) -> int:
+    """``imucalib detect-fall``: :func:`imucalib.methods.zhang2021.detect_fall`, with the intervals' times."""
+    from ..methods.zhang2021 import detect_fall
+
+    cal = Calibration.load(args.calibration)
+    rec = read_recording(args, [args.data])
+    falls = detect_fall(cal, rec, threshold=args.threshold)
+    out = {"threshold": args.threshold, "falls": [
+        {"start": iv.start, "stop": iv.stop, "t_start": float(rec.t[iv.start]),
+         "t_stop": float(rec.t[iv.stop - 1]), "duration": float(rec.t[iv.stop - 1] - rec.t[iv.start])}
+        for iv in falls]}
+    if args.json:
+        return print_json(out)
+    print(f"{len(falls)} falling intervals (eq. 19 loss < {args.threshold} m/s^2)")
+    for f in out["falls"]:
+        print(f"  {f['t_start']:10.3f} s .. {f['t_stop']:10.3f} s  ({f['duration']:.3f} s)")
+    return 0
+
+
+# -------------------------------------------------------------------- parsers
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add calibrate, apply, compare, validate, export and detect-fall to the ``imucalib`` sub-commands."""
+    p = sub.add_parser("calibrate", help="estimate a calibration from a recording",
+                       description="Estimate biases, scale factors and misalignments from a "
+                       "recording of static poses and rotations between them.")
+    p.add_argument("data", nargs="+", help="data file(s): one CSV/MAT file, two imu_tk files "
+                   "(accelerometer then gyroscope), a ROS bag, or a simulated session directory")
+    p.add_argument("--method", default="tedaldi2014", help="calibration method (default: tedaldi2014)")
+    p.add_argument("--model", help="model variant, e.g. linear, quadratic, cubic, all")
+    add_gravity_option(p)
+    p.add_argument("--init-static", type=positive_float, metavar="SECONDS",
+                   help="length of the initial rest (default: found automatically)")
+    p.add_argument("--detector", choices=("accelerometer", "gyroscope"),
+                   help="zhang2021: static detector, Tedaldi's accelerometer variance (default) or "
+                   "the gyroscope norm of Zhang 2021 eq. (22)")
+    p.add_argument("-o", "--output", help="write the calibration file (JSON) here")
+    p.add_argument("--plot", metavar="FILE.png", help="write a figure of the fit (needs matplotlib)")
+    p.add_argument("--report", metavar="FILE.html",
+                   help="write a self-contained HTML report: fit, parameters with errors, warnings, figure")
+    p.add_argument("--json", action="store_true", help="print the calibration as JSON on stdout")
+    add_reader_options(p)
+    p.set_defaults(func=cmd_calibrate)
+
+    p = sub.add_parser("apply", help="apply a calibration to a recording",
+                       description="Write the recording with calibrated columns added "
+                       "(every input row and column is kept). A ROS bag is written as a bag "
+                       "with the IMU topic calibrated and everything else copied, unless "
+                       "OUTPUT ends in .csv.")
+    p.add_argument("calibration", help="calibration file (JSON)")
+    p.add_argument("data", help="data file to correct")
+    p.add_argument("-o", "--output", required=True, help="output CSV file (or, for a ROS bag, the calibrated bag)")
+    p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    add_reader_options(p)
+    p.set_defaults(func=cmd_apply)
+
+    p = sub.add_parser("compare", help="run every method the data supports and cross-validate",
+                       description="Calibrate with every method the recording supports and "
+                       "report leave-one-pose-out cross-validated gravity residuals and "
+                       "gyroscope angle errors; methods that cannot run say why.")
+    p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
+    add_gravity_option(p)
+    p.add_argument("--methods", help="comma-separated methods (default: all)")
+    p.add_argument("--folds", type=int, default=12,
+                   help="held-out poses, spread evenly (0: every pose; default 12)")
+    p.add_argument("--json", action="store_true", help="print the comparison as JSON")
+    add_reader_options(p)
+    p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("validate", help="check a calibration on another recording (no refit)",
+                       description="Detect the static poses of a recording made after (or apart from) "
+                       "the calibration and report the calibration's gravity-norm residual and "
+                       "gyroscope angle errors on them, beside the figures it had when it was made.")
+    p.add_argument("calibration", help="calibration file (JSON)")
+    p.add_argument("data", nargs="+", help="data file(s) with static poses, as for calibrate")
+    p.add_argument("--gravity", type=positive_float, help="local gravity [m/s^2] (default: the calibration's)")
+    p.add_argument("--plot", metavar="FILE", help="also draw the fit figure (PNG/SVG/PDF; plot extra)")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    add_reader_options(p)
+    p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser("export", help="write a calibration as C source for the device",
+                       description="Print (or write) a C99 header with the calibration's constants and "
+                       "a function PREFIX_apply(acc_raw, gyro_raw, acc, gyro) that corrects one sample "
+                       "exactly as 'imucalib apply' does.")
+    p.add_argument("calibration", help="calibration file (JSON)")
+    p.add_argument("-o", "--output", help="header file to write (default: standard output)")
+    p.add_argument("--prefix", default="imucalib", help="prefix of the C names (default: imucalib)")
+    p.add_argument("--float", action="store_true", help="single precision (default: double)")
+    p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser("detect-fall", help="find free-fall intervals (Zhang 2021, §IV-C)",
+                       description="Mark samples whose weightless loss (Zhang 2021, eq. 19) is "
+                       "below a threshold as falling; needs a calibration with a lever arm.")
+    p.add_argument("calibration", help="calibration file (JSON) with a lever arm")
+    p.add_argument("data", help="data file")
+    p.add_argument("--threshold", type=positive_float, default=2.5,
+                   help="loss threshold [m/s^2] (default 2.5)")
+    p.add_argument("--json", action="store_true", help="print the intervals as JSON")
+    add_reader_options(p)
+    p.set_defaults(func=cmd_detect_fall)
