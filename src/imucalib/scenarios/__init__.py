@@ -14,7 +14,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..calibration import Calibration
-from . import zhang2021
+from . import handheld, zhang2021
 from .base import (
     DEFAULT_NOISE,
     Session,
@@ -34,7 +34,7 @@ __all__ = ["DEFAULT_NOISE", "SCENARIOS", "Session", "TossSequence", "attitude_wi
            "random_truth", "read_session", "session", "table1_truth", "turns_between", "write_session"]
 
 #: scenario name → generator(rng, *, truth, noise, **options) → dict of Session fields
-SCENARIOS: dict[str, Callable[..., dict]] = {"zhang2021": zhang2021.generate}
+SCENARIOS: dict[str, Callable[..., dict]] = {"zhang2021": zhang2021.generate, "handheld": handheld.generate}
 
 
 def session(scenario: str = "zhang2021", *, rng=None, truth: Calibration | None = None,
