@@ -262,24 +262,34 @@ def moving_mean(x: np.ndarray, window: int) -> np.ndarray:
     return (c[hi] - c[lo]) / (hi - lo)[:, None] + ref
 
 
-def gyro_still(recording: Recording, rest: Interval, scale: float, *, rate_limit: float = STILL_RATE,
-               window: float = STILL_WINDOW, n_sigma: float = 6.0) -> np.ndarray:
+def gyro_still(recording: Recording, rest: Interval, scale: float, intervals: list[Interval] | None = None, *,
+               rate_limit: float = STILL_RATE, window: float = STILL_WINDOW, n_sigma: float = 6.0,
+               offset_factor: float = 4.0) -> np.ndarray:
     """Samples where the gyroscope says the sensor is still: a mask (N,).
 
     The accelerometer alone cannot tell a still pose from a turn about the
     vertical, or from a slow creep after the hand lets go (Tedaldi 2014 and
-    imu_tk look at it alone). A sample is still here when the norm of the
-    gyroscope's mean over a centred ``window`` (bias = mean of ``rest``) is
-    below ``max(rate_limit, n_sigma × its noise)``; ``scale`` [rad/s per raw
-    unit] is a rough gyroscope scale (:func:`imucalib.fit.gyroscope.rough_scale`)
-    that puts ``rate_limit`` in raw units, the noise is the rest's.
+    imu_tk look at it alone). With ``m`` the gyroscope's mean over a centred
+    ``window`` (bias = mean of ``rest``), a sample inside one of ``intervals``
+    (candidate poses) is still when ``m`` stays within ``limit`` of the
+    interval's median — a pose's own constant offset is bias drift or
+    g-sensitivity, not motion — and within ``offset_factor × limit`` of zero;
+    elsewhere when ``|m| < limit``. ``limit = max(rate_limit, n_sigma × the
+    noise of m)``; ``scale`` [rad/s per raw unit] is a rough gyroscope scale
+    (:func:`imucalib.fit.gyroscope.rough_scale`) that puts ``rate_limit`` in
+    raw units, the noise is the rest's.
     """
     n = max(int(round(window * recording.rate)), 1)
     raw = recording.gyro[rest.slice]
-    bias = raw.mean(axis=0)
     noise = float(np.linalg.norm(raw.std(axis=0))) / np.sqrt(n)
     limit = max(rate_limit / abs(scale), n_sigma * noise)
-    return np.linalg.norm(moving_mean(recording.gyro - bias, n), axis=1) < limit
+    m = moving_mean(recording.gyro - raw.mean(axis=0), n)
+    dev = np.linalg.norm(m, axis=1)
+    still = dev < limit
+    for iv in intervals or []:
+        local = np.linalg.norm(m[iv.slice] - np.median(m[iv.slice], axis=0), axis=1)
+        still[iv.slice] = (local < limit) & (dev[iv.slice] < offset_factor * limit)
+    return still
 
 
 def still_intervals(intervals: list[Interval], still: np.ndarray, min_length: int) -> list[Interval]:
@@ -314,19 +324,25 @@ def detect_intervals(
     accelerometer model calibrated on those intervals.
     """
     rest = initial_rest(recording, init_static)
+    multipliers = list(multipliers)
     intervals, mult, model = _scan(recording, gravity, rest, multipliers, window, min_interval, None)
     if gyro_gate:
         from .fit.gyroscope import rough_scale
 
         scale = rough_scale(recording, intervals, model, recording.gyro[rest.slice].mean(axis=0))
-        still = gyro_still(recording, rest, scale)
+        widest = _scan(recording, gravity, rest, [max(multipliers)], window, min_interval, None, fit=False)[0]
+        still = gyro_still(recording, rest, scale, widest)
         intervals, mult, model = _scan(recording, gravity, rest, multipliers, window, min_interval, still)
     return intervals, mult, rest, model
 
 
 def _scan(recording: Recording, gravity: float, rest: Interval, multipliers: Iterable[float], window: float,
-          min_interval: float, still: np.ndarray | None) -> tuple[list[Interval], float, TriadModel]:
-    """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded)."""
+          min_interval: float, still: np.ndarray | None, *,
+          fit: bool = True) -> tuple[list[Interval], float, TriadModel | None]:
+    """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded).
+
+    ``fit=False``: the intervals of the first multiplier, without calibrating (the model is None).
+    """
     rate = recording.rate
     base = float(np.linalg.norm(np.var(recording.acc[rest.slice], axis=0)))
     if base <= 0:
@@ -343,6 +359,8 @@ def _scan(recording: Recording, gravity: float, rest: Interval, multipliers: Ite
     tried = []
     for mult in multipliers:
         intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
+        if not fit:
+            return intervals, float(mult), None
         tried.append((mult, len(intervals)))
         if len(intervals) < MIN_INTERVALS:
             continue

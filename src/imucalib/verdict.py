@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .fit.accelerometer import fit_sphere
 from .metrics import interval_means, transition_bounds
 from .recording import Interval, Recording
 
@@ -66,8 +67,10 @@ THRESHOLDS = {
     "residual_to_noise_low": 0.4,
     # gyroscope gravity-direction error / noise prediction (means over the rotations)
     "gyro_error_to_noise": (10.0, 40.0),
-    # below this mean gravity-direction error [deg] the gyroscope check never complains
-    "gyro_error_floor_deg": 0.25,
+    # the mean gravity-direction error [deg] below which the gyroscope check does not make a calibration
+    # suspect, and below which it does not reject one: a model that leaves a fraction of a degree between
+    # poses is worse than it could be, not wrong
+    "gyro_error_floor_deg": (0.25, 2.0),
     # known-angle turns re-integrated: relative error of the angle
     "turn_angle_rel": (0.03, 0.2),
     # 1 sigma of a scale factor, relative; of a misalignment term [deg]
@@ -162,13 +165,20 @@ def _gravity(calibration, recording: Recording | None, intervals: list[Interval]
                             "surface (a typo, or a value in g?); every accelerometer scale factor is off by the "
                             "same ratio"))
     unit = calibration.units["accelerometer"]["raw"]
-    if recording is not None and intervals and unit in ("g", "m/s^2"):
+    if recording is not None and len(intervals) >= 4 and unit in ("g", "m/s^2"):
         factor = g if unit == "g" else 1.0
-        norm = float(np.median(np.linalg.norm(interval_means(recording.acc, intervals), axis=1))) * factor
+        # the radius of the sphere through the static means: |a| at rest with the biases taken out
+        means = interval_means(recording.acc, intervals)
+        try:
+            radius = g / float(fit_sphere(means, g).scale[0])
+        except ValueError:
+            radius = float(np.median(np.linalg.norm(means, axis=1)))
+        norm = radius * factor
         rel = abs(norm / g - 1)
         level = _level(rel, THRESHOLDS["rest_norm_rel"])
         if level:
-            out.append(Check(level, f"the raw |a| at rest is {norm:.4g} m/s² (read as {unit}), {100 * rel:.1f} % "
+            out.append(Check(level, f"the raw |a| at rest is {norm:.4g} m/s² (read as {unit}, biases taken out), "
+                                    f"{100 * rel:.1f} % "
                                     f"from the declared gravity {g:.5g} m/s²: check --gravity and --acc-unit"))
     return out
 
@@ -258,7 +268,8 @@ def _gyroscope(calibration, recording: Recording, intervals: list[Interval]) -> 
     pred_deg = float(np.degrees(np.mean(pred[keep]))) if np.any(keep) else float("nan")
     ratio = mean_deg / pred_deg if pred_deg > 0 else float("inf")
     figures = {"gyroscope_angle_error_predicted_deg": pred_deg, "gyroscope_error_to_noise": ratio}
-    level = _level(ratio, THRESHOLDS["gyro_error_to_noise"]) if mean_deg > THRESHOLDS["gyro_error_floor_deg"] else 0
+    floor = THRESHOLDS["gyro_error_floor_deg"]
+    level = min(_level(ratio, THRESHOLDS["gyro_error_to_noise"]), _level(mean_deg, floor))
     out = []
     if level:
         out.append(Check(level, f"the gyroscope's gravity-direction error between poses is {mean_deg:.3g}° (mean), "

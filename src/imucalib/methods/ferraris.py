@@ -113,7 +113,8 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
         rough_acc = faces_full(interval_means(recording.acc, [intervals[j] for j in idx]), gravity)
         bias0 = recording.gyro[rest.slice].mean(axis=0)
         scale = rough_scale(recording, intervals, rough_acc, bias0)
-        intervals = still_intervals(intervals, gyro_still(recording, rest, scale), max(int(recording.rate), 2))
+        still = gyro_still(recording, rest, scale, intervals)
+        intervals = still_intervals(intervals, still, max(int(recording.rate), 2))
         idx = find_faces(interval_means(recording.acc, intervals), gravity, max_tilt=max_tilt)
         faces = [intervals[j] for j in idx]
     else:
