@@ -24,9 +24,9 @@ from ..residuals import GyroLayout, gravity_direction_residuals, gravity_directi
 from ..solve import levenberg_marquardt, standard_errors
 from .accelerometer import full_from_sensitivity
 
-__all__ = ["MIN_POSES", "GyroFit", "errors_at", "fit_gravity_direction", "fit_gyroscope", "fit_known_turns",
-           "fit_measured_rotations", "rest_bias", "rough_scale", "transition_errors",
-           "gravity_direction_problem", "gyroscope_errors", "rotation_angles"]
+__all__ = ["MIN_POSES", "GyroFit", "StaticGyro", "errors_at", "fit_gravity_direction", "fit_gyroscope",
+           "fit_known_turns", "fit_measured_rotations", "gravity_direction_problem", "gyroscope_errors",
+           "rotation_angles", "rough_scale", "static_gyro", "transition_errors"]
 
 #: the fewest static poses a gravity-direction fit takes
 MIN_POSES = 4
@@ -75,17 +75,22 @@ def rough_scale(recording: Recording, intervals: list[Interval], accelerometer: 
     return _gyro_scale_guess(recording.gyro - bias, recording.t, *transition_bounds(intervals), dirs)
 
 
-def gravity_direction_problem(recording, intervals, accelerometer, bias, estimate_bias, weights=None):
+def gravity_direction_problem(recording, intervals, accelerometer, bias, estimate_bias, weights=None,
+                              g_sensitivity=None):
     """Residuals of Zhang 2021, eq. (14) in the :class:`GyroLayout` parameters, their Jacobian, the pose directions.
 
     ``weights`` (one per transition between consecutive poses) scale each
-    transition's three residuals; 0 leaves a transition out.
+    transition's three residuals; 0 leaves a transition out. A known
+    ``g_sensitivity`` ``G`` (raw per m/s²) is taken out of the readings first:
+    ``u − G a`` with ``a`` the calibrated specific force (eq. 6).
     """
     acc = accelerometer.forward(interval_means(recording.acc, intervals))
     dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
     starts, stops = transition_bounds(intervals)
     integrator = IntervalIntegrator(recording.t, starts, stops)
     raw = recording.gyro[integrator.samples]  # only the samples the integration reads
+    if g_sensitivity is not None and np.any(g_sensitivity):
+        raw = raw - accelerometer.forward(recording.acc[integrator.samples]) @ np.asarray(g_sensitivity).T
     layout = GyroLayout(estimate_bias)
     d = np.zeros((raw.shape[0], 3, layout.size))
     w = None if weights is None else np.repeat(np.asarray(weights, dtype=float), 3)
@@ -113,7 +118,8 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
 
 def fit_gravity_direction(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, bias: np.ndarray,
                           estimate_bias: bool = False, *, weights: np.ndarray | None = None,
-                          bias_cov: np.ndarray | None = None) -> tuple[TriadModel, dict[str, float]]:
+                          bias_cov: np.ndarray | None = None,
+                          g_sensitivity: np.ndarray | None = None) -> tuple[TriadModel, dict[str, float]]:
     """Gyroscope ``T_g``, ``K_g`` (and ``b_g``) from gravity directions between poses, and its 1σ errors.
 
     Minimises the residuals of Zhang 2021, eq. (14) (unit gravity directions)
@@ -121,18 +127,21 @@ def fit_gravity_direction(recording: Recording, intervals: list[Interval], accel
     :func:`~imucalib.residuals.gravity_direction_residuals_jac`. ``weights``
     (one per transition, 0 to leave it out) weight the residuals; with the
     bias held at ``bias``, ``bias_cov`` (3, 3) is its covariance, carried into
-    the other parameters' errors and reported as the bias's own error.
+    the other parameters' errors and reported as the bias's own error. A known
+    ``g_sensitivity`` is taken out of the readings and kept in the model.
     """
     if len(intervals) < MIN_POSES:
         raise ValueError(f"gyroscope calibration needs at least {MIN_POSES} static poses; got {len(intervals)}")
     fun, jac, layout, dirs, (starts, stops) = gravity_direction_problem(recording, intervals, accelerometer, bias,
-                                                                        estimate_bias, weights)
+                                                                        estimate_bias, weights, g_sensitivity)
     keep = np.ones(len(starts), bool) if weights is None else np.asarray(weights) > 0
     k = _gyro_scale_guess(recording.gyro - bias, recording.t, starts[keep], stops[keep],
                           dirs, pairs=np.nonzero(keep)[0])
     theta0 = layout.pack(TriadModel(scale=np.full(3, k), bias=bias))
     sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-12, ftol=1e-12)
     model = layout.unpack(sol.x, bias)
+    if g_sensitivity is not None:
+        model = model.with_(g_sensitivity=g_sensitivity)
     return model, errors_at(recording, intervals, accelerometer, model, estimate_bias, weights=weights,
                             bias_cov=bias_cov)
 
@@ -148,7 +157,7 @@ def errors_at(recording: Recording, intervals: list[Interval], accelerometer: Tr
     order (``∂θ̂/∂b = −J⁺ J_b``) and reported as the bias's own error.
     """
     fun, jac, layout, _, _ = gravity_direction_problem(recording, intervals, accelerometer, gyroscope.bias, True,
-                                                       weights)
+                                                       weights, gyroscope.g_sensitivity)
     j12 = jac(layout.pack(gyroscope))
     n = len(intervals) - 1 if weights is None else int(np.count_nonzero(weights))
     res = fun(layout.pack(gyroscope))
@@ -168,23 +177,65 @@ def errors_at(recording: Recording, intervals: list[Interval], accelerometer: Tr
 def transition_errors(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
                       gyroscope: TriadModel) -> np.ndarray:
     """‖r_k‖ of eq. (14) for each transition: the gravity-direction error [rad, small-angle]."""
-    fun, _, layout, _, _ = gravity_direction_problem(recording, intervals, accelerometer, gyroscope.bias, False)
+    fun, _, layout, _, _ = gravity_direction_problem(recording, intervals, accelerometer, gyroscope.bias, False,
+                                                     g_sensitivity=gyroscope.g_sensitivity)
     return np.linalg.norm(fun(layout.pack(gyroscope)).reshape(-1, 3), axis=1)
 
 
-def rest_bias(recording: Recording, intervals: list[Interval], rest: Interval) -> tuple[np.ndarray, np.ndarray]:
-    """The gyroscope bias from the rest and its covariance as the poses see it.
+@dataclass(frozen=True)
+class StaticGyro:
+    """The gyroscope's reading at rest over the static poses: ``ū_k = b + G a_k`` (Zhang 2021, eq. 11)."""
 
-    The covariance is that of the rest's mean (white noise) plus the mean
-    square of the static poses' gyroscope means about it: what bias drift,
-    turn-on changes and g-sensitivity make the bias differ from the rest's
-    during the session.
+    bias: np.ndarray
+    bias_cov: np.ndarray
+    g_sensitivity: np.ndarray | None  # None when the poses do not support it
+    errors: dict[str, float]
+
+
+def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, *,
+                g_sensitivity: bool | str = "auto") -> StaticGyro:
+    """Bias (and g-sensitivity) of the gyroscope from its means at the static poses.
+
+    At rest the gyroscope reads ``ū_k = b + G a_k`` (Zhang 2021, eq. 11, with
+    the canonical sign): a linear regression over the poses with the calibrated
+    specific force ``a_k``. ``g_sensitivity="auto"`` keeps ``G`` when it
+    lowers the Bayesian information criterion ``n ln(RSS/n) + p ln n`` of the
+    pose means (``n = 3M``; ``p`` = 3 without ``G``, 12 with it); a turn-on
+    change or slow drift of the bias scatters the means without a pattern in
+    ``a`` and does not make ``G`` appear. The bias's covariance is the
+    regression's (its standard error over the poses, the scatter included).
     """
-    raw = recording.gyro[rest.slice]
-    bias = raw.mean(axis=0)
-    cov = np.cov(raw.T) / max(len(raw), 1)
-    d = interval_means(recording.gyro, intervals) - bias
-    return bias, cov + d.T @ d / max(len(d), 1)
+    u = interval_means(recording.gyro, intervals)
+    a = accelerometer.forward(interval_means(recording.acc, intervals))
+    m = len(u)
+    x0 = np.ones((m, 1))
+    x1 = np.column_stack([np.ones(m), a])
+    fits = {}
+    for with_g, x in ((False, x0), (True, x1)):
+        if with_g and (g_sensitivity is False or m <= 8):
+            continue
+        if not with_g and g_sensitivity is True and m > 8:
+            continue
+        coef, *_ = np.linalg.lstsq(x, u, rcond=None)
+        res = u - x @ coef
+        rss = float(np.sum(res**2))
+        n, p = 3 * m, 3 * x.shape[1]
+        bic = n * np.log(max(rss, 1e-300) / n) + p * np.log(n)
+        fits[with_g] = (bic, coef, res, x)
+    with_g = min(fits, key=lambda k: fits[k][0])
+    _, coef, res, x = fits[with_g]
+    dof = max(m - x.shape[1], 1)
+    s2 = np.sum(res**2, axis=0) / dof  # per gyroscope axis
+    xtx = np.linalg.pinv(x.T @ x)
+    bias = coef[0]
+    bias_cov = np.diag(s2 * xtx[0, 0])
+    errors: dict[str, float] = {}
+    g = None
+    if with_g:
+        g = coef[1:].T  # row: gyroscope axis, column: accelerometer axis
+        se = np.sqrt(np.outer(s2, np.diag(xtx)[1:]))
+        errors = {f"gyroscope.g_sensitivity.{AXES[i]}{AXES[j]}": float(se[i, j]) for i in range(3) for j in range(3)}
+    return StaticGyro(bias, bias_cov, g, errors)
 
 
 @dataclass
@@ -193,12 +244,13 @@ class GyroFit:
 
     model: TriadModel
     errors: dict[str, float]
-    bias_source: str  # "rest" or "fit"
+    bias_source: str  # "poses" (the static poses' means) or "fit" (estimated from the rotations)
     left_out: dict[int, str] = field(default_factory=dict)  # transition k (pose k → k+1) → why
 
     def summary(self) -> dict:
         """The ``fit`` entries that say how the gyroscope was fitted."""
-        out: dict = {"gyroscope_bias_source": self.bias_source}
+        out: dict = {"gyroscope_bias_source": self.bias_source,
+                     "gyroscope_g_sensitivity": "estimated" if np.any(self.model.g_sensitivity) else "none"}
         if self.left_out:
             out["rotations_left_out"] = {str(k): why for k, why in sorted(self.left_out.items())}
         return out
@@ -208,11 +260,13 @@ class GyroFit:
 OUTLIER_SIGMA = 5.0
 
 
-def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, rest: Interval, *,
-                  estimate_bias: bool | str = "auto", exclude: dict[int, str] | None = None,
-                  robust: bool = True) -> GyroFit:
+def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, *,
+                  estimate_bias: bool | str = "auto", g_sensitivity: bool | str = "auto",
+                  exclude: dict[int, str] | None = None, robust: bool = True) -> GyroFit:
     """The gyroscope by gravity-direction propagation (Zhang 2021, eq. 14), robust and with the bias chosen by the data.
 
+    * The static poses give the bias and, where they support it, the
+      g-sensitivity (:func:`static_gyro`, Zhang 2021 eq. 11).
     * Transitions in ``exclude`` (index ``k``: from pose ``k`` to ``k+1`` → the
       reason: saturated or spiking samples, a gap) are left out.
     * ``robust``: a transition whose error is more than :data:`OUTLIER_SIGMA`
@@ -222,19 +276,20 @@ def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer
     * ``estimate_bias="auto"``: the bias is estimated with the other
       parameters when that lowers the Bayesian information criterion of the
       residuals (``n ln(RSS/n) + p ln n``, ``n`` = 2 per transition), else taken
-      from the rest with the covariance of :func:`rest_bias`.
+      from the static poses with its covariance.
     """
     left_out = dict(exclude or {})
     n_tr = len(intervals) - 1
-    b_rest, b_cov = rest_bias(recording, intervals, rest)
+    static = static_gyro(recording, intervals, accelerometer, g_sensitivity=g_sensitivity)
     options = [False, True] if estimate_bias == "auto" else [bool(estimate_bias)]
     for _ in range(3):
         weights = np.ones(n_tr)
         weights[list(left_out)] = 0.0
         fits = []
         for est in options:
-            model, errors = fit_gravity_direction(recording, intervals, accelerometer, b_rest, est, weights=weights,
-                                                  bias_cov=None if est else b_cov)
+            model, errors = fit_gravity_direction(recording, intervals, accelerometer, static.bias, est,
+                                                  weights=weights, bias_cov=None if est else static.bias_cov,
+                                                  g_sensitivity=static.g_sensitivity)
             e = transition_errors(recording, intervals, accelerometer, model)
             n = 2 * int(np.count_nonzero(weights))
             rss = float(np.sum((e * weights) ** 2))
@@ -254,7 +309,7 @@ def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer
         for k in worst[:room]:
             left_out[k] = (f"its gravity-direction error {np.degrees(e[k]):.2f}° is {e[k] / sigma:.0f}× the "
                            f"others' robust σ ({np.degrees(sigma):.3f}°)")
-    return GyroFit(model, errors, "fit" if est else "rest", left_out)
+    return GyroFit(model, errors | static.errors, "fit" if est else "poses", left_out)
 
 
 def gyroscope_errors(theta: np.ndarray, jac: np.ndarray, res: np.ndarray, layout: GyroLayout, *,

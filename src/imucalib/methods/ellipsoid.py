@@ -31,7 +31,7 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     acc = fit_ellipsoid(means, gravity)
     if refine:
         acc, _ = fit_gravity_norm(means, gravity, initial=acc)
-    gyro_fit = fit_gyroscope(recording, intervals, acc, intervals[0],
+    gyro_fit = fit_gyroscope(recording, intervals, acc,
                              exclude=unreliable_transitions(recording, intervals))
     gyro, gyro_errors = gyro_fit.model, gyro_fit.errors
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="ellipsoid",

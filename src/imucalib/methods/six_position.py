@@ -47,7 +47,7 @@ def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         cos_up, cos_down = d[faces[:3], np.arange(3)], -d[faces[3:], np.arange(3)]
         acc = six_position(up, down, gravity, cos_up=cos_up, cos_down=cos_down)
-    gyro_fit = fit_gyroscope(recording, intervals, acc, intervals[0],
+    gyro_fit = fit_gyroscope(recording, intervals, acc,
                              exclude=unreliable_transitions(recording, intervals))
     gyro, gyro_errors = gyro_fit.model, gyro_fit.errors
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="six_position",

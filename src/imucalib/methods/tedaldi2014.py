@@ -30,7 +30,7 @@ import numpy as np
 
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import accelerometer_errors, fit_gravity_norm
-from ..fit.gyroscope import errors_at, fit_gyroscope, rest_bias
+from ..fit.gyroscope import errors_at, fit_gyroscope, static_gyro
 from ..metrics import fit_summary, interval_means
 from ..recording import STANDARD_GRAVITY, Interval, Recording
 from ..segment import detect_intervals, unreliable_transitions
@@ -48,7 +48,8 @@ def uncertainty(recording: Recording, intervals: list[Interval], calibration: Ca
     the static means for the accelerometer, the eq. (14) gravity-direction
     residuals for the gyroscope (:func:`imucalib.fit.gyroscope.errors_at`, with
     the rotations :func:`calibrate` left out, and the bias's covariance when it
-    came from the rest, the first interval). The gyroscope's errors treat the
+    came from the static poses, :func:`imucalib.fit.gyroscope.static_gyro`, which
+    also gives the g-sensitivity's). The gyroscope's errors treat the
     accelerometer's as fixed. NaN where the data cannot determine a parameter.
     :func:`calibrate` stores the same figures in ``fit["uncertainty"]``.
     """
@@ -58,8 +59,9 @@ def uncertainty(recording: Recording, intervals: list[Interval], calibration: Ca
     weights = np.ones(len(intervals) - 1)
     weights[[int(k) for k in fit.get("rotations_left_out", {})]] = 0.0
     estimated = fit.get("gyroscope_bias_source") == "fit"
-    bias_cov = None if estimated else rest_bias(recording, intervals, intervals[0])[1]
-    return out | errors_at(recording, intervals, acc, gyro, estimated, weights=weights, bias_cov=bias_cov)
+    static = static_gyro(recording, intervals, acc, g_sensitivity=bool(np.any(gyro.g_sensitivity)))
+    return (out | errors_at(recording, intervals, acc, gyro, estimated, weights=weights,
+                            bias_cov=None if estimated else static.bias_cov) | static.errors)
 
 
 def calibrate(
@@ -120,7 +122,7 @@ def calibrate(
         mult, rest = float("nan"), intervals[0]
         acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
     say("calibrating the gyroscope")
-    gyro = fit_gyroscope(recording, intervals, acc_model, rest, estimate_bias=estimate_gyro_bias,
+    gyro = fit_gyroscope(recording, intervals, acc_model, estimate_bias=estimate_gyro_bias,
                          exclude=unreliable_transitions(recording, intervals))
     gyro_model, gyro_errors = gyro.model, gyro.errors
     cal = Calibration(
