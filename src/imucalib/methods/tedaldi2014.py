@@ -73,6 +73,7 @@ def calibrate(
     window: float = 1.0,
     min_interval: float = 1.0,
     estimate_gyro_bias: bool | str = "auto",
+    gyro_g_sensitivity: bool | str = "auto",
     intervals: list[Interval] | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Calibration:
@@ -96,6 +97,10 @@ def calibrate(
         mean of the initial rest (False), or let the data decide ("auto",
         :func:`imucalib.fit.gyroscope.fit_gyroscope`: estimated when that lowers
         the information criterion of the rotations' residuals).
+    gyro_g_sensitivity : bool or "auto"
+        Estimate the gyroscope's g-sensitivity from the static poses (True),
+        leave it out as Tedaldi 2014 does (False), or keep it where the poses
+        support it ("auto", :func:`imucalib.fit.gyroscope.static_gyro`).
     intervals : list of Interval, optional
         Static intervals to use instead of detecting them (the first one is
         then taken as the initial rest).
@@ -123,6 +128,7 @@ def calibrate(
         acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
     say("calibrating the gyroscope")
     gyro = fit_gyroscope(recording, intervals, acc_model, estimate_bias=estimate_gyro_bias,
+                         g_sensitivity=gyro_g_sensitivity,
                          exclude=unreliable_transitions(recording, intervals))
     gyro_model, gyro_errors = gyro.model, gyro.errors
     cal = Calibration(
