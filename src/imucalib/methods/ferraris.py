@@ -13,10 +13,9 @@ Canonically ``a = T_a k (u − b)`` with ``T_a diag(k) = S_a⁻¹``; the cube's 
 define the frame, so both misalignments are full (``shape="full"``; Ferraris
 does not use the accelerometer's own frame). ``G`` is linear g-sensitivity.
 
-Sections are found automatically: static intervals by the gyroscope detector
-of Zhang 2021, eq. (22) (a turn about the vertical leaves the accelerometer
-still, so its variance cannot separate the poses), cut to where the gyroscope
-is still; the faces as the poses nearest ``±x, ±y, ±z`` (within ``max_tilt``);
+Sections are found automatically: static intervals by the accelerometer's
+variance (10× the rest's), cut to where the gyroscope is still (a turn about
+the vertical leaves the accelerometer still); the faces as the poses nearest ``±x, ±y, ±z`` (within ``max_tilt``);
 the turns as chains of motions between rests in one pose whose rate,
 integrated with the rough scale the poses give, turns about one axis by ``θ``
 ± 20 % (:func:`imucalib.segment.find_turns`). A turn that does not match the
@@ -43,7 +42,7 @@ from ..recording import Interval, Recording
 from ..segment import (
     FACE_NAMES,
     Turn,
-    detect_static_gyro,
+    detect_static,
     find_faces,
     find_turns,
     gyro_still,
@@ -105,9 +104,13 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
     if sections is None:
         rest = initial_rest(recording, init_static)
         if intervals is None:
-            # turns about the vertical leave the accelerometer still: detect rest with the
-            # gyroscope (Zhang 2021, eq. 22), then keep only what the gyroscope calls still
-            intervals = detect_static_gyro(recording, rest, window=1.0)
+            # the accelerometer's variance at a fixed multiple of the rest's (Tedaldi 2014's detector; the
+            # gyroscope-norm detector of Zhang 2021 eq. 22 sets its threshold on a tremor-free table rest and
+            # then finds no hand-held face still); turns about the vertical, which leave the accelerometer
+            # still, are cut out below by the gyroscope gate
+            base = float(np.linalg.norm(np.var(recording.acc[rest.slice], axis=0)))
+            win = max(int(round(recording.rate)) | 1, 3)
+            intervals = detect_static(recording.acc, 10 * base, window=win, min_length=win)
         intervals = [iv for iv in intervals if iv.kind == "static"]
         idx = find_faces(interval_means(recording.acc, intervals), gravity, max_tilt=max_tilt)
         rough_acc = faces_full(interval_means(recording.acc, [intervals[j] for j in idx]), gravity)
