@@ -130,20 +130,28 @@ def fit_gravity_direction(recording: Recording, intervals: list[Interval], accel
     the other parameters' errors and reported as the bias's own error. A known
     ``g_sensitivity`` is taken out of the readings and kept in the model.
     """
+    model, _ = _solve_direction(recording, intervals, accelerometer, bias, estimate_bias, weights, g_sensitivity)
+    return model, errors_at(recording, intervals, accelerometer, model, estimate_bias, weights=weights,
+                            bias_cov=bias_cov)
+
+
+def _solve_direction(recording, intervals, accelerometer, bias, estimate_bias, weights, g_sensitivity,
+                     start: TriadModel | None = None) -> tuple[TriadModel, np.ndarray]:
+    """The eq. (14) fit: the model and each transition's weighted error norm [rad] (``start``: no scale search)."""
     if len(intervals) < MIN_POSES:
         raise ValueError(f"gyroscope calibration needs at least {MIN_POSES} static poses; got {len(intervals)}")
     fun, jac, layout, dirs, (starts, stops) = gravity_direction_problem(recording, intervals, accelerometer, bias,
                                                                         estimate_bias, weights, g_sensitivity)
-    keep = np.ones(len(starts), bool) if weights is None else np.asarray(weights) > 0
-    k = _gyro_scale_guess(recording.gyro - bias, recording.t, starts[keep], stops[keep],
-                          dirs, pairs=np.nonzero(keep)[0])
-    theta0 = layout.pack(TriadModel(scale=np.full(3, k), bias=bias))
-    sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-12, ftol=1e-12)
+    if start is None:
+        keep = np.ones(len(starts), bool) if weights is None else np.asarray(weights) > 0
+        k = _gyro_scale_guess(recording.gyro - bias, recording.t, starts[keep], stops[keep],
+                              dirs, pairs=np.nonzero(keep)[0])
+        start = TriadModel(scale=np.full(3, k), bias=bias)
+    sol = levenberg_marquardt(fun, jac, layout.pack(start), xtol=1e-12, ftol=1e-12)
     model = layout.unpack(sol.x, bias)
     if g_sensitivity is not None:
         model = model.with_(g_sensitivity=g_sensitivity)
-    return model, errors_at(recording, intervals, accelerometer, model, estimate_bias, weights=weights,
-                            bias_cov=bias_cov)
+    return model, np.linalg.norm(sol.fun.reshape(-1, 3), axis=1)  # weighted: 0 for a transition left out
 
 
 def errors_at(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, gyroscope: TriadModel,
@@ -282,22 +290,26 @@ def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer
     n_tr = len(intervals) - 1
     static = static_gyro(recording, intervals, accelerometer, g_sensitivity=g_sensitivity)
     options = [False, True] if estimate_bias == "auto" else [bool(estimate_bias)]
+    start = None
     for _ in range(3):
         weights = np.ones(n_tr)
         weights[list(left_out)] = 0.0
+        n = 2 * int(np.count_nonzero(weights))
         fits = []
         for est in options:
-            model, errors = fit_gravity_direction(recording, intervals, accelerometer, static.bias, est,
-                                                  weights=weights, bias_cov=None if est else static.bias_cov,
-                                                  g_sensitivity=static.g_sensitivity)
-            e = transition_errors(recording, intervals, accelerometer, model)
-            n = 2 * int(np.count_nonzero(weights))
+            model, e = _solve_direction(recording, intervals, accelerometer, static.bias, est, weights,
+                                        static.g_sensitivity, start)
+            start = model  # the next candidate starts where this one ended
             rss = float(np.sum((e * weights) ** 2))
             bic = n * np.log(max(rss, 1e-300) / n) + (12 if est else 9) * np.log(n)
-            fits.append((bic, est, model, errors, e))
-        bic, est, model, errors, e = min(fits, key=lambda f: f[0])
+            fits.append((bic, est, model, e))
+        bic, est, model, e = min(fits, key=lambda f: f[0])
+        errors = errors_at(recording, intervals, accelerometer, model, est, weights=weights,
+                           bias_cov=None if est else static.bias_cov)
         if est and not all(np.isfinite(errors.get(f"gyroscope.bias.{a}", np.nan)) for a in AXES):
-            bic, est, model, errors, e = fits[0]  # the bias is not observable from these rotations
+            bic, est, model, e = fits[0]  # the bias is not observable from these rotations
+            errors = errors_at(recording, intervals, accelerometer, model, False, weights=weights,
+                               bias_cov=static.bias_cov)
         if not robust:
             break
         kept = weights > 0
