@@ -98,7 +98,6 @@ import math
 import warnings
 
 import numpy as np
-from scipy.signal import butter, sosfiltfilt
 
 from ..calibration import Calibration
 from ..kinematics import (
@@ -495,6 +494,8 @@ def _tremor(rng, n: int, rate: float) -> np.ndarray:
     bands = [(0.5, 2.0), (8.0, min(12.0, 0.45 * rate))]
     bands = [(lo, hi) for lo, hi in bands if hi > lo * 1.2]
     for lo, hi in bands:
+        from scipy.signal import butter, sosfiltfilt  # here: scipy.signal takes ~1.5 s to import
+
         sos = butter(2, [lo, hi], btype="band", fs=rate, output="sos")
         x = sosfiltfilt(sos, rng.normal(size=(n, 3)), axis=0)
         out += x / np.sqrt(np.mean(x**2, axis=0))
