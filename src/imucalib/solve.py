@@ -173,15 +173,7 @@ def standard_errors(jac: np.ndarray, residuals: np.ndarray, *, dof: float | None
     dof = m - p if dof is None else dof
     if dof <= 0:
         return np.full(p if transform is None else transform.shape[0], np.nan)
-    s2 = float(residuals @ residuals) / dof
-    col = np.linalg.norm(jac, axis=0)
-    col = np.where(col > 0, col, 1.0)
-    js = jac / col
-    w, v = np.linalg.eigh(js.T @ js)
-    good = w > rcond * max(w[-1], np.finfo(float).tiny)
-    cov_s = (v[:, good] / w[good]) @ v[:, good].T
-    cov = s2 * cov_s / np.outer(col, col)
-    bad = np.any(np.abs(v[:, ~good]) > 1e-3, axis=1)  # loaded on an unobservable direction
+    cov, bad = covariance(jac, residuals, dof=dof, rcond=rcond)
     if extra_cov is not None:
         cov = cov + extra_cov
     if transform is not None:
@@ -190,3 +182,23 @@ def standard_errors(jac: np.ndarray, residuals: np.ndarray, *, dof: float | None
     out = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     out[bad] = np.nan
     return out
+
+
+def covariance(jac: np.ndarray, residuals: np.ndarray, *, dof: float | None = None,
+               rcond: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
+    """``σ² (JᵀJ)⁻¹`` of a least-squares fit at its minimum, and which parameters it does not determine.
+
+    As in :func:`standard_errors` (scaled columns, unobservable directions
+    dropped); the second result flags the parameters loaded on one of them.
+    """
+    m, p = jac.shape
+    dof = m - p if dof is None else dof
+    s2 = float(residuals @ residuals) / max(dof, 1)
+    col = np.linalg.norm(jac, axis=0)
+    col = np.where(col > 0, col, 1.0)
+    js = jac / col
+    w, v = np.linalg.eigh(js.T @ js)
+    good = w > rcond * max(w[-1], np.finfo(float).tiny)
+    cov_s = (v[:, good] / w[good]) @ v[:, good].T
+    bad = np.any(np.abs(v[:, ~good]) > 1e-3, axis=1)  # loaded on an unobservable direction
+    return s2 * cov_s / np.outer(col, col), bad

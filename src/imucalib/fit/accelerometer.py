@@ -18,10 +18,10 @@ import numpy as np
 
 from ..models import TriadModel
 from ..residuals import AccelLayout, gravity_norm_residuals
-from ..solve import levenberg_marquardt, standard_errors
+from ..solve import covariance, levenberg_marquardt, standard_errors
 
-__all__ = ["accelerometer_errors", "faces_full", "fit_ellipsoid", "fit_gravity_norm", "fit_sphere",
-           "full_from_sensitivity", "newton_backtracking", "qureshi_cost", "six_position"]
+__all__ = ["accelerometer_covariance", "accelerometer_errors", "faces_full", "fit_ellipsoid", "fit_gravity_norm",
+           "fit_sphere", "full_from_sensitivity", "newton_backtracking", "qureshi_cost", "six_position"]
 
 
 def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:
@@ -129,6 +129,18 @@ def fit_gravity_norm(
 
     sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-14, ftol=1e-14)
     return layout.unpack(sol.x, initial), sol.fun
+
+
+def accelerometer_covariance(acc: TriadModel, means: np.ndarray, gravity: float) -> np.ndarray:
+    """Covariance of a linear upper-triangular accelerometer model's parameters (``AccelLayout("upper", 1)`` order).
+
+    Infinite on the diagonal of a parameter the poses do not determine.
+    """
+    lay = AccelLayout("upper", 1)
+    r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
+    cov, bad = covariance(j, r)
+    cov[bad, bad] = np.inf
+    return cov
 
 
 def accelerometer_errors(acc: TriadModel, means: np.ndarray, gravity: float) -> dict[str, float]:

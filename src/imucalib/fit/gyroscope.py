@@ -20,7 +20,7 @@ from ..kinematics import IntervalIntegrator, angle_between, quat_from_rotvec, qu
 from ..metrics import interval_means, transition_bounds
 from ..models import AXES, TriadModel
 from ..recording import Interval, Recording
-from ..residuals import GyroLayout, gravity_direction_residuals, gravity_direction_residuals_jac
+from ..residuals import AccelLayout, GyroLayout, gravity_direction_residuals, gravity_direction_residuals_jac
 from ..solve import levenberg_marquardt, standard_errors
 from .accelerometer import full_from_sensitivity
 
@@ -98,9 +98,10 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
     def split(th):
         return th[:9].reshape(3, 3), (th[9:12] if estimate_bias else bias)
 
-    def fun(th):
+    def fun(th, directions=None):
         m, b = split(th)
-        r = gravity_direction_residuals((raw - b) @ m.T, integrator.from_samples, dirs)
+        r = gravity_direction_residuals((raw - b) @ m.T, integrator.from_samples,
+                                        dirs if directions is None else directions)
         return r if w is None else r * w
 
     def jac(th):
@@ -155,29 +156,51 @@ def _solve_direction(recording, intervals, accelerometer, bias, estimate_bias, w
 
 
 def errors_at(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, gyroscope: TriadModel,
-              estimate_bias: bool, *, weights: np.ndarray | None = None,
-              bias_cov: np.ndarray | None = None) -> dict[str, float]:
+              estimate_bias: bool, *, weights: np.ndarray | None = None, bias_cov: np.ndarray | None = None,
+              acc_cov: np.ndarray | None = None) -> dict[str, float]:
     """1σ errors of a gravity-direction gyroscope fit at its solution ``gyroscope``, by name.
 
     From the Jacobian and residuals of eq. (14) (:func:`~imucalib.solve.standard_errors`;
-    a direction residual has two degrees of freedom, not three). With the bias
-    held fixed, ``bias_cov`` is carried into the other parameters to first
-    order (``∂θ̂/∂b = −J⁺ J_b``) and reported as the bias's own error.
+    a direction residual has two degrees of freedom, not three). Inputs the
+    fit held fixed are carried into the parameters to first order
+    (``∂θ̂/∂x = −J⁺ ∂r/∂x``, so ``C += S C_x Sᵀ``): the bias when it is not
+    estimated (``bias_cov``, also reported as the bias's own error) and the
+    accelerometer's parameters, which set the measured gravity directions
+    (``acc_cov``, in :class:`~imucalib.residuals.AccelLayout` ``("upper", 1)``
+    order; where the poses leave the accelerometer poorly determined, the
+    gyroscope's errors say so instead of being falsely small).
     """
-    fun, jac, layout, _, _ = gravity_direction_problem(recording, intervals, accelerometer, gyroscope.bias, True,
-                                                       weights, gyroscope.g_sensitivity)
-    j12 = jac(layout.pack(gyroscope))
+    fun, jac, layout, dirs, _ = gravity_direction_problem(recording, intervals, accelerometer, gyroscope.bias, True,
+                                                          weights, gyroscope.g_sensitivity)
+    theta = layout.pack(gyroscope)
+    j12 = jac(theta)
     n = len(intervals) - 1 if weights is None else int(np.count_nonzero(weights))
-    res = fun(layout.pack(gyroscope))
-    if estimate_bias:
-        return gyroscope_errors(layout.pack(gyroscope), j12, res, layout, n_transitions=n)
-    fixed = GyroLayout(False)
-    extra = None
-    if bias_cov is not None:
-        sens = -np.linalg.lstsq(j12[:, :9], j12[:, 9:], rcond=None)[0]
-        extra = sens @ bias_cov @ sens.T
-    errors = gyroscope_errors(fixed.pack(gyroscope), j12[:, :9], res, fixed, n_transitions=n, extra_cov=extra)
-    if bias_cov is not None:
+    res = fun(theta)
+    jg = j12 if estimate_bias else j12[:, :9]
+    pinv = np.linalg.pinv(jg)
+    extra = np.zeros((jg.shape[1], jg.shape[1]))
+    if bias_cov is not None and not estimate_bias:
+        sens = -pinv @ j12[:, 9:]
+        extra += sens @ bias_cov @ sens.T
+    undetermined = acc_cov is not None and not np.all(np.isfinite(np.diag(acc_cov)))
+    if acc_cov is not None and not undetermined:
+        lay = AccelLayout("upper", 1)
+        base = lay.pack(accelerometer)
+        means = interval_means(recording.acc, intervals)
+        j_acc = np.empty((len(res), lay.size))
+        for i in range(lay.size):
+            h = 1e-6 * max(abs(base[i]), 1e-12) if base[i] else 1e-9
+            step = base.copy()
+            step[i] += h
+            d = lay.unpack(step, accelerometer).forward(means)
+            j_acc[:, i] = (fun(theta, d / np.linalg.norm(d, axis=1, keepdims=True)) - res) / h
+        sens = -pinv @ j_acc
+        extra += sens @ acc_cov @ sens.T
+    use = layout if estimate_bias else GyroLayout(False)
+    errors = gyroscope_errors(use.pack(gyroscope), jg, res, use, n_transitions=n, extra_cov=extra)
+    if undetermined:  # the poses leave the gravity directions themselves undetermined
+        errors = {k: float("nan") for k in errors}
+    if bias_cov is not None and not estimate_bias:
         errors |= {f"gyroscope.bias.{a}": float(s) for a, s in zip(AXES, np.sqrt(np.diag(bias_cov)), strict=True)}
     return errors
 
@@ -270,7 +293,8 @@ OUTLIER_SIGMA = 5.0
 
 def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, *,
                   estimate_bias: bool | str = "auto", g_sensitivity: bool | str = "auto",
-                  exclude: dict[int, str] | None = None, robust: bool = True) -> GyroFit:
+                  exclude: dict[int, str] | None = None, robust: bool = True,
+                  acc_cov: np.ndarray | None = None) -> GyroFit:
     """The gyroscope by gravity-direction propagation (Zhang 2021, eq. 14), robust and with the bias chosen by the data.
 
     * The static poses give the bias and, where they support it, the
@@ -285,6 +309,8 @@ def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer
       parameters when that lowers the Bayesian information criterion of the
       residuals (``n ln(RSS/n) + p ln n``, ``n`` = 2 per transition), else taken
       from the static poses with its covariance.
+    * ``acc_cov``: the accelerometer's parameter covariance, carried into the
+      gyroscope's errors (:func:`errors_at`).
     """
     left_out = dict(exclude or {})
     n_tr = len(intervals) - 1
@@ -305,11 +331,11 @@ def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer
             fits.append((bic, est, model, e))
         bic, est, model, e = min(fits, key=lambda f: f[0])
         errors = errors_at(recording, intervals, accelerometer, model, est, weights=weights,
-                           bias_cov=None if est else static.bias_cov)
+                           bias_cov=None if est else static.bias_cov, acc_cov=acc_cov)
         if est and not all(np.isfinite(errors.get(f"gyroscope.bias.{a}", np.nan)) for a in AXES):
             bic, est, model, e = fits[0]  # the bias is not observable from these rotations
             errors = errors_at(recording, intervals, accelerometer, model, False, weights=weights,
-                               bias_cov=static.bias_cov)
+                               bias_cov=static.bias_cov, acc_cov=acc_cov)
         if not robust:
             break
         kept = weights > 0

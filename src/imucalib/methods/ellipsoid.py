@@ -10,7 +10,7 @@ in closed form. The gyroscope comes from the rotations between the poses
 from __future__ import annotations
 
 from ..calibration import Calibration, units_of
-from ..fit.accelerometer import accelerometer_errors, fit_ellipsoid, fit_gravity_norm
+from ..fit.accelerometer import accelerometer_covariance, accelerometer_errors, fit_ellipsoid, fit_gravity_norm
 from ..fit.gyroscope import fit_gyroscope
 from ..metrics import fit_summary, interval_means
 from ..segment import static_poses, unreliable_transitions
@@ -31,8 +31,8 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     acc = fit_ellipsoid(means, gravity)
     if refine:
         acc, _ = fit_gravity_norm(means, gravity, initial=acc)
-    gyro_fit = fit_gyroscope(recording, intervals, acc,
-                             exclude=unreliable_transitions(recording, intervals))
+    gyro_fit = fit_gyroscope(recording, intervals, acc, exclude=unreliable_transitions(recording, intervals),
+                             acc_cov=accelerometer_covariance(acc, means, gravity))
     gyro, gyro_errors = gyro_fit.model, gyro_fit.errors
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="ellipsoid",
                       model="linear", units=units_of(recording))

@@ -29,7 +29,7 @@ from collections.abc import Callable, Iterable
 import numpy as np
 
 from ..calibration import Calibration, units_of
-from ..fit.accelerometer import accelerometer_errors, fit_gravity_norm
+from ..fit.accelerometer import accelerometer_covariance, accelerometer_errors, fit_gravity_norm
 from ..fit.gyroscope import errors_at, fit_gyroscope, static_gyro
 from ..metrics import fit_summary, interval_means
 from ..recording import STANDARD_GRAVITY, Interval, Recording
@@ -60,8 +60,9 @@ def uncertainty(recording: Recording, intervals: list[Interval], calibration: Ca
     weights[[int(k) for k in fit.get("rotations_left_out", {})]] = 0.0
     estimated = fit.get("gyroscope_bias_source") == "fit"
     static = static_gyro(recording, intervals, acc, g_sensitivity=bool(np.any(gyro.g_sensitivity)))
+    acc_cov = accelerometer_covariance(acc, interval_means(recording.acc, intervals), calibration.gravity)
     return (out | errors_at(recording, intervals, acc, gyro, estimated, weights=weights,
-                            bias_cov=None if estimated else static.bias_cov) | static.errors)
+                            bias_cov=None if estimated else static.bias_cov, acc_cov=acc_cov) | static.errors)
 
 
 def calibrate(
@@ -127,8 +128,9 @@ def calibrate(
         mult, rest = float("nan"), intervals[0]
         acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
     say("calibrating the gyroscope")
+    acc_cov = accelerometer_covariance(acc_model, interval_means(recording.acc, intervals), gravity)
     gyro = fit_gyroscope(recording, intervals, acc_model, estimate_bias=estimate_gyro_bias,
-                         g_sensitivity=gyro_g_sensitivity,
+                         g_sensitivity=gyro_g_sensitivity, acc_cov=acc_cov,
                          exclude=unreliable_transitions(recording, intervals))
     gyro_model, gyro_errors = gyro.model, gyro.errors
     cal = Calibration(
