@@ -182,6 +182,7 @@ def test_validate_on_a_second_recording(capsys, tmp_path, session_csv):
     good = json.loads(out)
     then = good["at_calibration"]
     assert good["static_intervals"] >= 20
+    assert good["verdict"] == "accepted", good["verdict_reasons"]
     assert good["accelerometer_residual_rms"] < 2 * then["accelerometer_residual_rms"]
     assert good["gyroscope_angle_error_mean_deg"] < 2 * then["gyroscope_angle_error_mean_deg"]
     # a calibration 1 % off in one accelerometer scale shows on the new recording
@@ -189,9 +190,11 @@ def test_validate_on_a_second_recording(capsys, tmp_path, session_csv):
     bad = cal.with_(accelerometer=cal.accelerometer.with_(scale=cal.accelerometer.scale * [1.01, 1, 1]))
     bad.save(tmp_path / "bad.json")
     code, out, err = run(capsys, "validate", tmp_path / "bad.json", tmp_path / "second.csv")
-    assert code == 0, err
-    assert "not refitted" in out and "at calibration" in out
+    assert code == 3, err  # it no longer holds
+    assert out.startswith("the calibration holds: REJECTED")
+    assert "not refitted" in out and "at calibration" in out and "noise floor" in out
     code, out, err = run(capsys, "validate", tmp_path / "bad.json", tmp_path / "second.csv", "--json")
+    assert code == 3 and json.loads(out)["verdict"] == "rejected"
     assert json.loads(out)["accelerometer_residual_rms"] > 10 * good["accelerometer_residual_rms"]
     # units must match
     rec2.acc_unit = "g"

@@ -72,11 +72,13 @@ def test_montecarlo_summary_and_failures():
     one = montecarlo("zhang2021", "tedaldi2014", runs=2, workers=1, seed=3, sim_options=opts)
     two = montecarlo("zhang2021", "tedaldi2014", runs=2, workers=2, seed=3, sim_options=opts)
     assert one["parameters"] == two["parameters"]  # independent of the worker count
-    assert set(one) == {"scenario", "method", "model", "runs", "parameters", "metrics", "failures"}
+    assert set(one) == {"scenario", "method", "model", "runs", "parameters", "metrics", "verdicts", "failures"}
+    assert one["verdicts"] == two["verdicts"] and sum(one["verdicts"].values()) == 2
     names = [p["name"] for p in one["parameters"]]
     assert "accelerometer.scale_quadratic.y" in names and "lever_arm.x" in names
     k1 = next(p for p in one["parameters"] if p["name"] == "accelerometer.scale.z")
     assert abs(k1["mean"] - k1["truth"]) > 1e-2  # the linear model's bias (Table I)
     bad = montecarlo("zhang2021", "nope", runs=2, sim_options=opts)
     assert [f["seed"] for f in bad["failures"]] == [0, 1]
+    assert bad["verdicts"] == {"accepted": 0, "suspect": 0, "rejected": 0}  # no run produced a calibration
     assert "unknown method 'nope'" in bad["failures"][0]["message"]

@@ -30,6 +30,7 @@ import numpy as np
 from .calibration import Calibration
 from .kinematics import IntervalIntegrator, five_point_derivative, quat_to_matrix
 from .methods.zhang2021 import lever_arm_matrix
+from .verdict import LEVELS
 
 __all__ = ["demo", "eq34", "eq35", "reductions", "parameter_errors", "montecarlo", "sequence_metrics"]
 
@@ -145,7 +146,9 @@ def montecarlo(
     Run ``i`` uses seed ``seed + i``, so the summary does not depend on
     ``workers``. Returns ``{"scenario", "method", "model", "runs",
     "parameters": [{"name", "truth", "mean", "std", "rms_error"}, …],
-    "metrics": {…}, "failures": [{"seed", "message"}, …]}``.
+    "metrics": {…}, "verdicts": {"accepted": n, "suspect": n, "rejected": n},
+    "failures": [{"seed", "message"}, …]}``; ``verdicts`` counts the runs that
+    produced a calibration by its verdict (:mod:`imucalib.verdict`).
     """
     from .scenarios import session
 
@@ -196,8 +199,9 @@ def montecarlo(
             metrics["baseline"] = baseline
             metrics["eq34_reduction"] = float(np.mean([x["eq34_reduction"] for x in red]))
             metrics["eq35_reduction"] = float(np.mean([x["eq35_reduction"] for x in red]))
+    verdicts = {level: sum(r["fit"].get("verdict") == level for r in ok) for level in LEVELS}
     return {"scenario": scenario, "method": method, "model": model, "runs": runs,
-            "parameters": params, "metrics": metrics, "failures": failures}
+            "parameters": params, "metrics": metrics, "verdicts": verdicts, "failures": failures}
 
 
 # ------------------------------------------------------------------- demo

@@ -124,12 +124,34 @@ def plot_allan(recording: Recording, path: str | Path) -> Path:
     return _save(fig, path, plt)
 
 
+#: background and text/border colour of the verdict banner: green, amber, red
+_VERDICT_COLOURS = {"accepted": ("#e6f4ea", "#1e7e34"), "suspect": ("#fff4e0", "#b26a00"),
+                    "rejected": ("#fdecea", "#c62828")}
+
+
+def _verdict_banner(fit: dict) -> str:
+    """The verdict and its reasons (then notes) as a coloured block; empty for a file without a verdict."""
+    import html
+
+    verdict = fit.get("verdict")
+    if verdict not in _VERDICT_COLOURS:
+        return ""
+    reasons = "".join(f"<li>{html.escape(r)}</li>" for r in fit.get("verdict_reasons") or [])
+    notes = "".join(f"<li>{html.escape(n)}</li>" for n in fit.get("verdict_notes") or [])
+    what = {"accepted": "no check found a problem", "suspect": "usable, but look at the reasons",
+            "rejected": "do not use it: imucalib apply and export refuse it without --force"}[verdict]
+    return (f"<div class='verdict verdict-{verdict}'><h2>Verdict: {verdict.upper()}</h2><p>{what}</p>"
+            + (f"<ul>{reasons}</ul>" if reasons else "")
+            + (f"<p>Notes:</p><ul>{notes}</ul>" if notes else "") + "</div>")
+
+
 def html_report(calibration: Calibration, path: str | Path, *, recording: Recording | None = None,
                 intervals: Sequence[Interval] | None = None, notes: Sequence[str] = (),
                 title: str | None = None) -> Path:
     """Write a self-contained HTML page about one calibration and return its path.
 
-    The page holds what a person checks before trusting a calibration: the
+    The page holds what a person checks before trusting a calibration: its
+    verdict at the top (a green, amber or red banner with the reasons), the
     method and units, the fit figures (``DESIGN.md``), every parameter with
     its 1σ error and relative error where the method gives one, the reasons
     when it cannot, the warnings of the run (``notes``), and the fit figure
@@ -150,7 +172,11 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
              "table{border-collapse:collapse;margin:1em 0}td,th{padding:.25em .8em;border-bottom:1px solid #ddd;"
              "text-align:right;font-variant-numeric:tabular-nums}th{background:#f4f4f4}td:first-child,"
              "th:first-child{text-align:left}.warn{background:#fff4e0;padding:.5em 1em;border-left:4px solid #e90}"
-             "img{max-width:100%}</style></head><body>", f"<h1>{esc(title)}</h1>"]
+             "img{max-width:100%}.verdict{padding:.6em 1.2em;border-left:8px solid;margin:1em 0}"
+             ".verdict h2{margin:.2em 0}" + "".join(f".verdict-{k}{{background:{bg};border-color:{fg}}}"
+                                                   f".verdict-{k} h2{{color:{fg}}}"
+                                                   for k, (bg, fg) in _VERDICT_COLOURS.items())
+             + "</style></head><body>", f"<h1>{esc(title)}</h1>", _verdict_banner(fit)]
     units = cal.units
     parts.append("<table><tr><th>item</th><th>value</th></tr>"
                  f"<tr><td>method / model</td><td>{esc(cal.method)} / {esc(cal.model)}</td></tr>"

@@ -2,63 +2,140 @@
 
 A calibration made today says little about tomorrow's data by its own fit
 figures: the sensor may have warmed, aged or been knocked. :func:`validate`
-detects the static poses of a new recording (the Tedaldi 2014 detector, as
-``tedaldi2014`` uses), computes the same fit figures the calibration file
-holds (:func:`imucalib.metrics.fit_summary`) on them with the calibration as
-it is, and sets them beside the figures it had when it was made.
+finds the static poses of a new recording without fitting anything, computes
+the fit figures the calibration file holds (:func:`imucalib.metrics.fit_summary`)
+on them with the calibration as it is, sets them beside the figures it had
+when it was made, and gives the calibration a verdict on this recording
+(:func:`imucalib.verdict.assess` with ``purpose="validate"``).
+
+The poses: the initial rest (:func:`imucalib.segment.initial_rest`), then the
+accelerometer variance detector of Tedaldi 2014 at a fixed threshold of
+:data:`THRESHOLD_MULTIPLIER` × the rest's variance norm (1 s window, poses of
+at least 1 s), cut to where the gyroscope is still (:func:`imucalib.segment.gyro_still`)
+by the calibration's own gyroscope scale. No multiplier scan and no rough
+scale: both need a fit, and a short check recording (a rest, one turn, one
+pose) holds too few poses for one.
 """
 
 from __future__ import annotations
 
-from .calibration import Calibration
-from .metrics import fit_summary
-from .recording import Recording
-from .segment import detect_intervals
+import numpy as np
 
-__all__ = ["VALIDATION_KEYS", "validate"]
+from .calibration import Calibration
+from .metrics import fit_summary, gap_flags
+from .recording import Interval, Recording
+from .segment import _scan, gyro_still, initial_rest, still_intervals
+from .verdict import assess
+
+__all__ = ["MIN_POSES", "THRESHOLD_MULTIPLIER", "VALIDATION_KEYS", "find_poses", "validate"]
 
 #: the fit figures compared between the new recording and the calibration's own
 VALIDATION_KEYS = ("accelerometer_residual_rms", "gyroscope_angle_error_mean_deg",
                    "gyroscope_angle_error_max_deg", "temperature_c")
+#: the fit figures on the new recording the verdict rests on, besides :data:`VALIDATION_KEYS`
+_FIGURES = ("accelerometer_noise_floor", "accelerometer_residual_to_noise")
+#: the accelerometer detector's threshold, in multiples of the initial rest's variance norm
+THRESHOLD_MULTIPLIER = 6.0
+#: the fewest static poses (the initial rest included) a validation needs
+MIN_POSES = 2
+#: the detector's window and the shortest pose [s]
+_WINDOW = 1.0
+_MIN_POSE = 1.0
 
 
-def validate(calibration: Calibration, recording: Recording, gravity: float | None = None) -> dict:
-    """A calibration's fit figures on a new recording, beside the ones it had at calibration.
+def find_poses(calibration: Calibration, recording: Recording, *, init_static: float | None = None
+               ) -> list[Interval]:
+    """The static poses of ``recording``, found without fitting anything; the first is the initial rest.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        Gives the gyroscope scale [rad/s per raw unit] that puts the stillness
+        limit of :func:`imucalib.segment.gyro_still` in raw units.
+    recording : Recording
+        Starts with a rest.
+    init_static : float, optional
+        Length of the initial rest [s] (default: found automatically).
+
+    Raises
+    ------
+    ValueError
+        Without an initial rest, or when the accelerometer is noise-free at rest.
+    """
+    rest = initial_rest(recording, init_static)
+    # the detector at one threshold, without the scan's fits (gravity is not used then)
+    candidates = _scan(recording, calibration.gravity, rest, [THRESHOLD_MULTIPLIER], _WINDOW, _MIN_POSE, None,
+                       fit=False)[0]
+    scale = float(np.mean(np.abs(calibration.gyroscope.scale)))
+    still = gyro_still(recording, rest, scale, candidates)
+    return still_intervals(candidates, still, max(int(round(_MIN_POSE * recording.rate)), 2))
+
+
+def _ratio(now, then) -> float | None:
+    if isinstance(now, int | float) and isinstance(then, int | float) and then:
+        return float(now) / float(then)
+    return None
+
+
+def validate(calibration: Calibration, recording: Recording, gravity: float | None = None, *,
+             init_static: float | None = None) -> dict:
+    """A calibration's fit figures and verdict on a new recording, beside the figures it had at calibration.
 
     Parameters
     ----------
     calibration : Calibration
         The calibration to check; it is applied as it is (no refit).
     recording : Recording
-        A recording of static poses joined by rotations, in the raw units the
-        calibration maps.
+        A recording that starts with a rest and has at least one more static
+        pose (one turn is enough), in the raw units the calibration maps.
     gravity : float, optional
         Local gravity [m/s²] (default: the calibration's).
+    init_static : float, optional
+        Length of the initial rest [s] (default: found automatically).
 
     Returns
     -------
     dict
-        ``{"method", "gravity", "static_intervals", "accelerometer_residual_rms",
+        ``{"method", "gravity", "verdict", "verdict_reasons", "verdict_notes",
+        "static_intervals", "accelerometer_residual_rms",
         "gyroscope_angle_error_mean_deg", "gyroscope_angle_error_max_deg",
-        "temperature_c", "at_calibration": {...}, "intervals"}``: the figures on
-        this recording (``None`` where one cannot be computed, e.g. the angle
-        errors with fewer than two poses, or the temperature of a recording
+        "temperature_c", "accelerometer_noise_floor", "accelerometer_residual_to_noise",
+        "gyroscope_angle_error_predicted_deg", "gyroscope_error_to_noise",
+        "at_calibration": {...}, "ratios": {...}, "intervals"}``: the verdict of the
+        calibration on this recording (``accepted``, ``suspect`` or ``rejected``,
+        with the reasons, worst first), the figures on this recording (``None``
+        where one cannot be computed, e.g. the temperature of a recording
         without one), the same figures and ``static_intervals`` from the
-        calibration's own ``fit``, and the detected poses as ``[start, stop)``
-        sample ranges.
+        calibration's own ``fit``, the ratios now / at calibration of the
+        residual, the angle errors and the residual-to-noise figure (``None``
+        where either is missing), and the poses as ``[start, stop)`` sample
+        ranges. Rotations with sampling gaps are named in ``verdict_notes``.
 
     Raises
     ------
     ValueError
-        When the recording is not in the calibration's raw units, or too few
-        static poses are found in it.
+        When the recording is not in the calibration's raw units, does not
+        start with a rest, or has fewer than :data:`MIN_POSES` static poses.
     """
     gravity = gravity or calibration.gravity
     calibration.check_units(recording)
-    intervals = detect_intervals(recording, gravity)[0]
-    fit = fit_summary(calibration, recording, intervals, gravity)
+    poses = find_poses(calibration, recording, init_static=init_static)
+    if len(poses) < MIN_POSES:
+        raise ValueError(
+            f"{len(poses)} static pose(s) found in the {recording.duration:.3g} s recording; validate needs "
+            f"the initial rest and at least {MIN_POSES - 1} more pose: after the rest, turn the sensor and hold "
+            f"it still for at least {_MIN_POSE:g} s (the initial rest sets the detector's threshold: if it is "
+            "found too short, give its length with --init-static SECONDS)")
+    fit = fit_summary(calibration, recording, poses, gravity)
+    # the checks apply to this recording: the calibration's own fit (its poses, turns, errors) is left behind
+    verdict = assess(calibration.with_(gravity=gravity, fit=fit), recording, poses, purpose="validate")
+    verdict["verdict_notes"] += gap_flags(recording, poses)  # their rotations' angle errors are unreliable
     then = calibration.fit or {}
-    return {"method": calibration.method, "gravity": gravity, "static_intervals": fit["static_intervals"],
-            **{k: fit.get(k) for k in VALIDATION_KEYS},
-            "at_calibration": {k: then.get(k) for k in ("static_intervals", *VALIDATION_KEYS)},
+    figures = {k: fit.get(k) for k in (*VALIDATION_KEYS, *_FIGURES)}
+    gyro = {k: verdict.pop(k, None) for k in ("gyroscope_angle_error_predicted_deg", "gyroscope_error_to_noise")}
+    return {"method": calibration.method, "gravity": gravity, **verdict,
+            "static_intervals": fit["static_intervals"], **figures, **gyro,
+            "at_calibration": {k: then.get(k) for k in ("static_intervals", *VALIDATION_KEYS, *_FIGURES, *gyro)},
+            "ratios": {k: _ratio(figures[k], then.get(k))
+                       for k in (*VALIDATION_KEYS[:3], "accelerometer_residual_to_noise")},
             "intervals": fit["intervals"]}

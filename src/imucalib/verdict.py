@@ -227,18 +227,24 @@ def _accelerometer_parameters(calibration) -> int:
     return n
 
 
-def _redundancy(calibration) -> list[Check]:
+def _redundancy(calibration, fitted: bool = True) -> list[Check]:
+    """Poses per parameter and the residual against the noise floor; ``fitted=False``: the residual-too-high only.
+
+    On a recording the calibration was not fitted to (``fitted=False``) the poses are not the fit's, so neither
+    their number nor an over-fit means anything; a residual far above the noise floor still does, whatever the
+    method (an exact method's residual on new poses is a real one).
+    """
     fit = calibration.fit or {}
     out = []
     m = fit.get("static_intervals")
     exact = "accelerometer" in str(fit.get("uncertainty_unavailable", "")) or calibration.method in (
         "six_position", "ferraris")
-    if not m or exact:
+    if not m or (exact and fitted):
         return out
     p = _accelerometer_parameters(calibration)
     per = m / p
     lim = THRESHOLDS["poses_per_parameter"]
-    if per <= lim[1] or per < lim[0]:
+    if fitted and (per <= lim[1] or per < lim[0]):
         out.append(Check(2 if per <= lim[1] else 1,
                          f"{m} static poses for {p} accelerometer parameters ({per:.2g} per parameter, at least "
                          f"{lim[0]:g} wanted): the fit can follow the noise; record more poses"))
@@ -249,7 +255,7 @@ def _redundancy(calibration) -> list[Check]:
             out.append(Check(level, f"the gravity-norm residual is {ratio:.3g}× the white-noise floor (limit "
                                     f"{THRESHOLDS['residual_to_noise_high'][0]:g}×): the model leaves structure or "
                                     "some poses were not still"))
-        if m > p:
+        if fitted and m > p:
             expected = np.sqrt((m - p) / m)
             if ratio / expected < THRESHOLDS["residual_to_noise_low"]:
                 out.append(Check(1, f"the gravity-norm residual is {ratio:.3g}× the white-noise floor, "
@@ -329,13 +335,24 @@ def _usefulness(calibration) -> list[Check]:
     return out
 
 
-def assess(calibration, recording: Recording | None = None, intervals: list[Interval] | None = None) -> dict:
+def assess(calibration, recording: Recording | None = None, intervals: list[Interval] | None = None, *,
+           purpose: str = "calibrate") -> dict:
     """Every check on ``calibration`` (with the recording it was made from, when there is one).
 
     Returns ``{"verdict": …, "verdict_reasons": [...], "verdict_notes": [...], **figures}``:
     the verdict is the worst level among the checks; reasons are the
     sentences of the suspect and rejecting ones, notes the rest.
+
+    ``purpose="validate"`` judges a calibration on a recording it was not
+    fitted to (:func:`imucalib.validate.validate`, with ``fit`` holding the
+    figures on that recording): the checks of the fit itself — poses per
+    parameter, over-fit, the 1σ errors' usefulness — are left out; the
+    residual against the noise floor, the gyroscope against its noise, the
+    time base, gravity and plausibility remain.
     """
+    if purpose not in ("calibrate", "validate"):
+        raise ValueError(f"purpose must be 'calibrate' or 'validate'; got {purpose!r}")
+    fitted = purpose == "calibrate"
     fit = calibration.fit or {}
     if intervals is None and fit.get("intervals"):
         intervals = [Interval(int(a), int(b), "static") for a, b in fit["intervals"]]
@@ -346,8 +363,9 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
         checks += _time_base(calibration, recording, intervals)
     checks += _gravity(calibration, recording, intervals)
     checks += plausibility(calibration)
-    checks += _redundancy(calibration)
-    checks += _usefulness(calibration)
+    checks += _redundancy(calibration, fitted)
+    if fitted:
+        checks += _usefulness(calibration)
     if recording is not None:
         gyro_checks, figures = _gyroscope(calibration, recording, intervals)
         checks += gyro_checks

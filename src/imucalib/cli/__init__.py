@@ -4,9 +4,14 @@ Every command has ``--help``. With ``--json`` the machine-readable result is
 the only thing printed on stdout; errors go to stderr with a non-zero exit.
 
 One module per group of commands, each adding its own sub-parsers
-(``register``): :mod:`.calibration` (calibrate, apply, compare, validate,
-export, detect-fall), :mod:`.simulation` (simulate, montecarlo, demo) and
-:mod:`.analysis` (noise, plan); :mod:`._common` holds what they share.
+(``register``): :mod:`.calibration` (calibrate, apply, compare, export,
+detect-fall), :mod:`.validation` (validate), :mod:`.simulation` (simulate,
+montecarlo, demo) and :mod:`.analysis` (noise, plan); :mod:`._common` holds
+what they share.
+
+Exit codes: 0 success, 2 an error (:data:`EXIT_ERROR`), 3 a calibration that
+is rejected (:data:`EXIT_REJECTED`: calibrate made one, validate finds it no
+longer holds), 130 interrupted.
 """
 
 from __future__ import annotations
@@ -18,10 +23,10 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..recording import ImucalibWarning
-from . import analysis, calibration, simulation
-from ._common import EXIT_ERROR, EXIT_INTERRUPTED, CliError, show_warning
+from . import analysis, calibration, simulation, validation
+from ._common import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_REJECTED, CliError, show_warning
 
-__all__ = ["EXIT_ERROR", "CliError", "build_parser", "main"]
+__all__ = ["EXIT_ERROR", "EXIT_REJECTED", "CliError", "build_parser", "main"]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -32,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"imucalib {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for group in (calibration, simulation, analysis):
+    for group in (calibration, validation, simulation, analysis):
         group.register(sub)
     return parser
 

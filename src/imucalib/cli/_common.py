@@ -1,4 +1,4 @@
-"""What every command shares: the error type, exit codes, reading options, progress output, number parsing."""
+"""What every command shares: the error type, exit codes, reading options, progress output, number parsing, verdicts."""
 
 from __future__ import annotations
 
@@ -13,12 +13,15 @@ import numpy as np
 
 from ..recording import STANDARD_GRAVITY, Recording
 
-__all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "STANDARD_GRAVITY", "Bar", "CliError", "add_gravity_option",
-           "add_reader_options", "positive_float", "print_json", "progress", "read",
+__all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_REJECTED", "STANDARD_GRAVITY", "Bar", "CliError",
+           "add_force_option", "add_gravity_option", "add_init_static_option", "add_reader_options",
+           "check_verdict", "positive_float", "print_json", "print_verdict", "progress", "read",
            "read_recording", "show_warning"]
 
 #: exit code of a command that failed with a reported error
 EXIT_ERROR = 2
+#: exit code of a calibration that is rejected: made but rejected (calibrate), or no longer holding (validate)
+EXIT_REJECTED = 3
 #: exit code after Ctrl-C (128 + SIGINT)
 EXIT_INTERRUPTED = 130
 
@@ -61,6 +64,18 @@ def add_reader_options(p: argparse.ArgumentParser) -> None:
                    help="unit of the time column (default: from the header or its values)")
     g.add_argument("--rate", type=positive_float, help="sampling rate [Hz] when there is no time column")
     g.add_argument("--variable", help="name of the matrix in a MATLAB .mat file")
+
+
+def add_init_static_option(p: argparse.ArgumentParser) -> None:
+    """``--init-static``: the length of the initial rest, found automatically by default."""
+    p.add_argument("--init-static", type=positive_float, metavar="SECONDS",
+                   help="length of the initial rest (default: found automatically)")
+
+
+def add_force_option(p: argparse.ArgumentParser) -> None:
+    """``--force``: use a calibration whose verdict is ``rejected``."""
+    p.add_argument("--force", action="store_true",
+                   help="use the calibration even though its verdict is 'rejected'")
 
 
 # ------------------------------------------------------------------ reading
@@ -127,6 +142,31 @@ class Bar:
               f"{time.perf_counter() - self.start:5.1f} s", end="", file=sys.stderr, flush=True)
         if done == total:
             print(file=sys.stderr)
+
+
+def print_verdict(result: dict, headline: str) -> None:
+    """``headline``, then one line per reason of ``result["verdict_reasons"]``, then its notes indented further."""
+    print(headline)
+    for reason in result.get("verdict_reasons") or []:
+        print(f"  - {reason}")
+    for note in result.get("verdict_notes") or []:
+        print(f"      note: {note}")
+
+
+def check_verdict(calibration, path, force: bool) -> None:
+    """Refuse a rejected calibration unless ``force``; warn on stderr about a suspect one (or a forced one).
+
+    A calibration without a verdict (a file from before verdicts) is used as it is.
+    """
+    fit = calibration.fit or {}
+    verdict = fit.get("verdict")
+    reasons = "; ".join(fit.get("verdict_reasons") or []) or "no reason recorded"
+    if verdict == "rejected" and not force:
+        raise CliError(f"the calibration in {path} was rejected when it was made: {reasons}. Calibrate again, "
+                       "or pass --force to use it all the same")
+    if verdict in ("rejected", "suspect"):
+        show_warning(f"the calibration in {path} is {verdict}"
+                     + (" (used because of --force)" if verdict == "rejected" else "") + f": {reasons}")
 
 
 def show_warning(message, category=None, filename=None, lineno=None, file=None, line=None) -> None:

@@ -1,12 +1,13 @@
 """Commands around one calibration.
 
-Make it (calibrate, compare the methods), use it (apply, export,
-detect-fall) and check it on another recording (validate).
+Make it (calibrate, compare the methods) and use it (apply, export,
+detect-fall); checking it on another recording (validate) is in :mod:`.validation`.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import warnings
 from pathlib import Path
@@ -16,17 +17,25 @@ import numpy as np
 from ..calibration import Calibration
 from ..recording import ImucalibWarning, Interval
 from ._common import (
+    EXIT_REJECTED,
     CliError,
+    add_force_option,
     add_gravity_option,
+    add_init_static_option,
     add_reader_options,
+    check_verdict,
     positive_float,
     print_json,
+    print_verdict,
     progress,
     read,
     read_recording,
 )
 
-__all__ = ["print_calibration", "register"]
+__all__ = ["VERDICT_KEYS", "print_calibration", "register"]
+
+#: the entries of ``fit`` that make the verdict, printed before the parameters
+VERDICT_KEYS = ("verdict", "verdict_reasons", "verdict_notes")
 
 
 # ------------------------------------------------------------------ printing
@@ -72,6 +81,8 @@ def print_calibration(cal: Calibration) -> None:
     if cal.fit:
         print("fit:")
         for k, v in cal.fit.items():
+            if k in VERDICT_KEYS:
+                continue  # printed first, by cmd_calibrate
             if k == "intervals":
                 print(f"  intervals: {len(v)} (sample ranges in the JSON)")
             elif k == "uncertainty":
@@ -87,14 +98,62 @@ def print_calibration(cal: Calibration) -> None:
 
 
 # ------------------------------------------------------------------ commands
+def _sections(path: str) -> dict:
+    """The named Ferraris sections in the JSON file ``path``: ``{"x_p": [start, stop], …}``, checked."""
+    from ..methods.ferraris import SECTION_NAMES
+
+    try:
+        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise CliError(f"--sections {path}: file not found") from None
+    except json.JSONDecodeError as exc:
+        raise CliError(f"--sections {path}: not valid JSON ({exc.msg} at line {exc.lineno}, "
+                       f"column {exc.colno})") from None
+    example = '{"x_p": [start, stop], …}'
+    if not isinstance(doc, dict):
+        raise CliError(f"--sections {path}: expected a JSON object {example}; got a {type(doc).__name__}")
+    missing = [n for n in SECTION_NAMES if n not in doc]
+    unknown = sorted(set(doc) - set(SECTION_NAMES))
+    if missing or unknown:
+        raise CliError(f"--sections {path}: the object must name exactly {', '.join(SECTION_NAMES)}"
+                       + (f"; missing {', '.join(missing)}" if missing else "")
+                       + (f"; unknown {', '.join(unknown)}" if unknown else ""))
+    for name, value in doc.items():
+        if not (isinstance(value, list) and len(value) == 2 and all(type(v) is int for v in value)
+                and 0 <= value[0] < value[1]):
+            raise CliError(f"--sections {path}: {name!r} must be [start, stop], sample indices with "
+                           f"0 <= start < stop; got {json.dumps(value)}")
+    return doc
+
+
+def _method_options(args: argparse.Namespace) -> dict:
+    """The method options given on the command line; the Ferraris ones only with ``--method ferraris``."""
+    given = {flag: (key, value) for flag, key, value in (("--turn-angle", "angle", args.turn_angle),
+                                                        ("--sections", "sections", args.sections))
+             if value is not None}
+    if given and args.method != "ferraris":
+        raise CliError(f"{' and '.join(given)} {'apply' if len(given) > 1 else 'applies'} to --method ferraris "
+                       f"only, not {args.method}")
+    ferraris = dict(given.values())
+    if "sections" in ferraris:
+        ferraris["sections"] = _sections(args.sections)
+    return {**{k: v for k, v in (("init_static", args.init_static), ("detector", args.detector)) if v is not None},
+            **ferraris}
+
+
 def cmd_calibrate(args: argparse.Namespace) -> int:
-    """``imucalib calibrate``: :func:`imucalib.methods.calibrate`, then the file, figure and report asked for."""
+    """``imucalib calibrate``: :func:`imucalib.methods.calibrate`, then the file, figure and report asked for.
+
+    The verdict comes first; a rejected calibration is still written (``fit.verdict`` marks it) and exits
+    with :data:`EXIT_REJECTED`.
+    """
     from ..methods import calibrate
 
+    options = _method_options(args)
     say = progress(not args.json and sys.stderr.isatty())
     data = read(args, args.data)
-    options = {k: v for k, v in (("init_static", args.init_static), ("detector", args.detector),
-                                 ("progress", say)) if v is not None}
+    if say is not None:
+        options["progress"] = say
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ImucalibWarning)
         cal = calibrate(data, method=args.method, model=args.model, gravity=args.gravity, **options)
@@ -116,15 +175,26 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
         html_report(cal, args.report, recording=rec, intervals=ivs,
                     notes=[str(w.message) for w in caught if issubclass(w.category, ImucalibWarning)])
+    verdict = cal.fit.get("verdict")
+    code = EXIT_REJECTED if verdict == "rejected" else 0
+    if code:
+        print("imucalib calibrate: the calibration is rejected"
+              + (f"; {args.output} is written all the same, marked \"rejected\" in fit.verdict (apply and "
+                 "export refuse it without --force)" if args.output else ""), file=sys.stderr)
+        if args.json:
+            for reason in cal.fit.get("verdict_reasons", []):
+                print(f"  - {reason}", file=sys.stderr)
     if args.json:
         print(cal.to_json())
-        return 0
+        return code
+    if verdict:
+        print_verdict(cal.fit, f"verdict: {verdict.upper()}")
     print_calibration(cal)
     for done, what in ((args.output, "saved to"), (args.plot, "plot written to"),
                        (args.report, "report written to")):
         if done:
             print(f"{what} {done}")
-    return 0
+    return code
 
 
 def cmd_apply(args: argparse.Namespace) -> int:
@@ -133,11 +203,14 @@ def cmd_apply(args: argparse.Namespace) -> int:
     from ..io.rosbag import is_rosbag
 
     cal = Calibration.load(args.calibration)
+    check_verdict(cal, args.calibration, args.force)
+    verdict = (cal.fit or {}).get("verdict")
     if (args.reader == "rosbag" or is_rosbag(Path(args.data))) and Path(args.output).suffix.lower() != ".csv":
         from ..io.rosbag import write_calibrated_bag
 
         summary = write_calibrated_bag(args.data, args.output, cal, topic=args.topic)
         summary["calibration"] = str(args.calibration)
+        summary["verdict"] = verdict
         if args.json:
             return print_json(summary)
         print(f"wrote {args.output}: {summary['corrected']} {summary['topic']} messages calibrated, "
@@ -148,7 +221,7 @@ def cmd_apply(args: argparse.Namespace) -> int:
     write_csv(args.output, rec, calibrated_acc=out.acc, calibrated_gyro=out.gyro)
     if args.json:
         return print_json({"input": str(args.data), "output": str(args.output), "samples": len(rec),
-                           "calibration": str(args.calibration), "method": cal.method})
+                           "calibration": str(args.calibration), "method": cal.method, "verdict": verdict})
     print(f"wrote {len(rec)} calibrated samples to {args.output}")
     return 0
 
@@ -180,44 +253,13 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_validate(args: argparse.Namespace) -> int:
-    """``imucalib validate``: :func:`imucalib.validate.validate`, beside the figures at calibration."""
-    from ..validate import VALIDATION_KEYS, validate
-
-    cal = Calibration.load(args.calibration)
-    rec = read_recording(args, args.data)
-    result = {"calibration": str(args.calibration), **validate(cal, rec, args.gravity)}
-    intervals = [Interval(a, b) for a, b in result.pop("intervals")]
-    if args.plot:
-        from ..report import plot_fit
-
-        plot_fit(cal, rec, intervals, args.plot)
-    if args.json:
-        return print_json(result)
-    then = result["at_calibration"]
-    print(f"{cal.method} calibration on {len(intervals)} static poses of this recording (not refitted):")
-    if result["temperature_c"] and then["temperature_c"]:
-        t_now, t_then = result["temperature_c"][1], then["temperature_c"][1]
-        print(f"  temperature {t_now:.1f} °C (at calibration {t_then:.1f} °C)"
-              + ("  — more than 5 °C apart: biases may have drifted" if abs(t_now - t_then) > 5 else ""))
-    acc_rms, angle_mean, angle_max = VALIDATION_KEYS[:3]
-    for k, label, unit in ((acc_rms, "‖a‖ − g RMS", "m/s^2"), (angle_mean, "gyro angle error mean", "deg"),
-                           (angle_max, "gyro angle error max", "deg")):
-        now = result[k]
-        if now is None:
-            continue
-        ref = f"   (at calibration {then[k]:.4g}: ×{now / then[k]:.2f})" if then.get(k) else ""
-        print(f"  {label:<24}{now:10.4g} {unit}{ref}")
-    if args.plot:
-        print(f"plot written to {args.plot}")
-    return 0
-
-
 def cmd_export(args: argparse.Namespace) -> int:
     """``imucalib export``: :func:`imucalib.export.to_c` on stdout or into a header file."""
     from ..export import to_c
 
-    text = to_c(Calibration.load(args.calibration), prefix=args.prefix, ctype="float" if args.float else "double")
+    cal = Calibration.load(args.calibration)
+    check_verdict(cal, args.calibration, args.force)
+    text = to_c(cal, prefix=args.prefix, ctype="float" if args.float else "double")
     if args.output:
         Path(args.output).write_text(text, encoding="utf-8")
         print(f"wrote {args.output}: {args.prefix}_apply(acc_raw, gyro_raw, acc, gyro)")
@@ -247,17 +289,18 @@ def cmd_detect_fall(args: argparse.Namespace) -> int:
 
 # -------------------------------------------------------------------- parsers
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add calibrate, apply, compare, validate, export and detect-fall to the ``imucalib`` sub-commands."""
+    """Add calibrate, apply, compare, export and detect-fall to the ``imucalib`` sub-commands."""
     p = sub.add_parser("calibrate", help="estimate a calibration from a recording",
                        description="Estimate biases, scale factors and misalignments from a "
-                       "recording of static poses and rotations between them.")
+                       "recording of static poses and rotations between them. The verdict (accepted, suspect "
+                       "or rejected, with its reasons) is printed first; a rejected calibration is still "
+                       "written, marked as such, and the command exits with code 3.")
     p.add_argument("data", nargs="+", help="data file(s): one CSV/MAT file, two imu_tk files "
                    "(accelerometer then gyroscope), a ROS bag, or a simulated session directory")
     p.add_argument("--method", default="tedaldi2014", help="calibration method (default: tedaldi2014)")
     p.add_argument("--model", help="model variant, e.g. linear, quadratic, cubic, all")
     add_gravity_option(p)
-    p.add_argument("--init-static", type=positive_float, metavar="SECONDS",
-                   help="length of the initial rest (default: found automatically)")
+    add_init_static_option(p)
     p.add_argument("--detector", choices=("accelerometer", "gyroscope"),
                    help="zhang2021: static detector, Tedaldi's accelerometer variance (default) or "
                    "the gyroscope norm of Zhang 2021 eq. (22)")
@@ -265,6 +308,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", metavar="FILE.png", help="write a figure of the fit (needs matplotlib)")
     p.add_argument("--report", metavar="FILE.html",
                    help="write a self-contained HTML report: fit, parameters with errors, warnings, figure")
+    p.add_argument("--turn-angle", type=positive_float, metavar="DEG",
+                   help="ferraris: the known angle of each turn [deg] (default 360)")
+    p.add_argument("--sections", metavar="FILE", help="ferraris: a JSON object of named sample ranges "
+                   "[start, stop): x_p, x_a, y_p, y_a, z_p, z_a (each axis up, down) and x_rot, y_rot, z_rot "
+                   "(the turns), instead of finding them")
     p.add_argument("--json", action="store_true", help="print the calibration as JSON on stdout")
     add_reader_options(p)
     p.set_defaults(func=cmd_calibrate)
@@ -273,11 +321,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Write the recording with calibrated columns added "
                        "(every input row and column is kept). A ROS bag is written as a bag "
                        "with the IMU topic calibrated and everything else copied, unless "
-                       "OUTPUT ends in .csv.")
+                       "OUTPUT ends in .csv. A rejected calibration is refused unless --force is given.")
     p.add_argument("calibration", help="calibration file (JSON)")
     p.add_argument("data", help="data file to correct")
     p.add_argument("-o", "--output", required=True, help="output CSV file (or, for a ROS bag, the calibrated bag)")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    add_force_option(p)
     add_reader_options(p)
     p.set_defaults(func=cmd_apply)
 
@@ -294,26 +343,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_reader_options(p)
     p.set_defaults(func=cmd_compare)
 
-    p = sub.add_parser("validate", help="check a calibration on another recording (no refit)",
-                       description="Detect the static poses of a recording made after (or apart from) "
-                       "the calibration and report the calibration's gravity-norm residual and "
-                       "gyroscope angle errors on them, beside the figures it had when it was made.")
-    p.add_argument("calibration", help="calibration file (JSON)")
-    p.add_argument("data", nargs="+", help="data file(s) with static poses, as for calibrate")
-    p.add_argument("--gravity", type=positive_float, help="local gravity [m/s^2] (default: the calibration's)")
-    p.add_argument("--plot", metavar="FILE", help="also draw the fit figure (PNG/SVG/PDF; plot extra)")
-    p.add_argument("--json", action="store_true", help="print the figures as JSON")
-    add_reader_options(p)
-    p.set_defaults(func=cmd_validate)
-
     p = sub.add_parser("export", help="write a calibration as C source for the device",
                        description="Print (or write) a C99 header with the calibration's constants and "
                        "a function PREFIX_apply(acc_raw, gyro_raw, acc, gyro) that corrects one sample "
-                       "exactly as 'imucalib apply' does.")
+                       "exactly as 'imucalib apply' does. A rejected calibration is refused unless --force "
+                       "is given.")
     p.add_argument("calibration", help="calibration file (JSON)")
     p.add_argument("-o", "--output", help="header file to write (default: standard output)")
     p.add_argument("--prefix", default="imucalib", help="prefix of the C names (default: imucalib)")
     p.add_argument("--float", action="store_true", help="single precision (default: double)")
+    add_force_option(p)
     p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("detect-fall", help="find free-fall intervals (Zhang 2021, §IV-C)",

@@ -98,6 +98,8 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
               f"{p['rms_error']:>12.3g}")
     for k, v in result["metrics"].items():
         print(f"{k}: {v}")
+    print("verdicts: " + ", ".join(f"{n} {level}" for level, n in result["verdicts"].items())
+          + f" (of the {result['runs'] - len(result['failures'])} runs that produced a calibration)")
     for f in result["failures"]:
         print(f"seed {f['seed']}: {f['message']}")
     return 0

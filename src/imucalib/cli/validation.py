@@ -1,0 +1,89 @@
+"""Check a calibration on another recording: validate.
+
+:func:`imucalib.validate.validate` finds the poses without fitting anything and
+judges the calibration on them; the command prints the verdict first, then
+the figures beside those at calibration, and exits with
+:data:`._common.EXIT_REJECTED` when the calibration no longer holds.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from ..calibration import Calibration
+from ..recording import Interval
+from ._common import (
+    EXIT_REJECTED,
+    add_init_static_option,
+    add_reader_options,
+    positive_float,
+    print_json,
+    print_verdict,
+    read_recording,
+)
+
+__all__ = ["HEADLINES", "register"]
+
+#: the first line of the text output, by verdict
+HEADLINES = {"accepted": "the calibration holds: ACCEPTED", "suspect": "the calibration holds: SUSPECT",
+             "rejected": "the calibration holds: REJECTED — it no longer holds"}
+
+
+def cmd_validate(args: argparse.Namespace) -> int:
+    """``imucalib validate``: :func:`imucalib.validate.validate`, the verdict first, then the figures."""
+    from ..validate import validate
+
+    cal = Calibration.load(args.calibration)
+    rec = read_recording(args, args.data)
+    result = {"calibration": str(args.calibration),
+              **validate(cal, rec, args.gravity, init_static=args.init_static)}
+    intervals = [Interval(a, b) for a, b in result.pop("intervals")]
+    if args.plot:
+        from ..report import plot_fit
+
+        plot_fit(cal, rec, intervals, args.plot)
+    code = EXIT_REJECTED if result["verdict"] == "rejected" else 0
+    if args.json:
+        print_json(result)
+        return code
+    print_verdict(result, HEADLINES[result["verdict"]])
+    then = result["at_calibration"]
+    print(f"{cal.method} calibration on {len(intervals)} static poses of this recording (not refitted):")
+    if result["temperature_c"] and then["temperature_c"]:
+        t_now, t_then = result["temperature_c"][1], then["temperature_c"][1]
+        print(f"  temperature {t_now:.1f} °C (at calibration {t_then:.1f} °C)"
+              + ("  — more than 5 °C apart: biases may have drifted" if abs(t_now - t_then) > 5 else ""))
+    for k, label, unit in (("accelerometer_residual_rms", "‖a‖ − g RMS", "m/s^2"),
+                           ("accelerometer_residual_to_noise", "… / its noise floor", "×"),
+                           ("gyroscope_angle_error_mean_deg", "gyro angle error mean", "deg"),
+                           ("gyroscope_angle_error_max_deg", "gyro angle error max", "deg"),
+                           ("gyroscope_angle_error_predicted_deg", "… noise alone predicts", "deg")):
+        now = result[k]
+        if now is None:
+            continue
+        ref = f"   (at calibration {then[k]:.4g}: ×{now / then[k]:.2f})" if then.get(k) else ""
+        if k == "gyroscope_angle_error_predicted_deg" and result["gyroscope_error_to_noise"] is not None:
+            ref = f"   (the error is {result['gyroscope_error_to_noise']:.3g}× it)"
+        print(f"  {label:<24}{now:10.4g} {unit}{ref}")
+    if args.plot:
+        print(f"plot written to {args.plot}")
+    return code
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add validate to the ``imucalib`` sub-commands."""
+    p = sub.add_parser("validate", help="check a calibration on another recording (no refit)",
+                       description="Find the static poses of a recording made after (or apart from) the "
+                       "calibration - the initial rest and every pose held still for a second, found "
+                       "without fitting anything, so a rest and one turn are enough - and judge the "
+                       "calibration on them: the gravity-norm residual against the noise floor and the "
+                       "gyroscope's angle errors against what its noise predicts, beside the figures it had "
+                       "when it was made. The verdict comes first; exit code 3 when it no longer holds.")
+    p.add_argument("calibration", help="calibration file (JSON)")
+    p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
+    p.add_argument("--gravity", type=positive_float, help="local gravity [m/s^2] (default: the calibration's)")
+    add_init_static_option(p)
+    p.add_argument("--plot", metavar="FILE", help="also draw the fit figure (PNG/SVG/PDF; plot extra)")
+    p.add_argument("--json", action="store_true", help="print the verdict and the figures as JSON")
+    add_reader_options(p)
+    p.set_defaults(func=cmd_validate)
