@@ -25,7 +25,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .fit.accelerometer import fit_gravity_norm, fit_sphere
-from .kinematics import angle_between
 from .metrics import interval_means, transition_bounds
 from .models import TriadModel
 from .recording import Interval, Recording
@@ -48,6 +47,7 @@ __all__ = [
     "initial_rest",
     "motion_between",
     "static_poses",
+    "static_at",
     "gyro_still",
     "moving_mean",
     "still_intervals",
@@ -330,37 +330,46 @@ def detect_intervals(
         from .fit.gyroscope import rough_scale
 
         scale = rough_scale(recording, intervals, model, recording.gyro[rest.slice].mean(axis=0))
-        widest = _scan(recording, gravity, rest, [max(multipliers)], window, min_interval, None, fit=False)[0]
+        widest = static_at(recording, rest, max(multipliers), window=window, min_interval=min_interval)
         still = gyro_still(recording, rest, scale, widest)
         intervals, mult, model = _scan(recording, gravity, rest, multipliers, window, min_interval, still)
     return intervals, mult, rest, model
 
 
-def _scan(recording: Recording, gravity: float, rest: Interval, multipliers: Iterable[float], window: float,
-          min_interval: float, still: np.ndarray | None, *,
-          fit: bool = True) -> tuple[list[Interval], float, TriadModel | None]:
-    """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded).
+def static_at(recording: Recording, rest: Interval, multiplier: float, *, window: float = 1.0,
+              min_interval: float = 1.0) -> list[Interval]:
+    """Static intervals of the accelerometer variance detector at one threshold, ``multiplier`` × the rest's.
 
-    ``fit=False``: the intervals of the first multiplier, without calibrating (the model is None).
+    Tedaldi 2014's detector without the scan (nothing is fitted): where the norm
+    of the per-axis variance over ``window`` seconds stays below the threshold
+    for at least ``min_interval`` seconds.
     """
-    rate = recording.rate
+    base, win, min_len, stat = _detector(recording, rest, window, min_interval)
+    return detect_static(None, multiplier * base, window=win, min_length=min_len, statistic=stat)
+
+
+def _detector(recording: Recording, rest: Interval, window: float, min_interval: float):
     base = float(np.linalg.norm(np.var(recording.acc[rest.slice], axis=0)))
     if base <= 0:
         raise ValueError(
             "the initial rest has zero accelerometer variance (quantised or synthetic "
             "noise-free data?): the detector threshold cannot be set from it"
         )
-    win = int(round(window * rate)) | 1
-    min_len = max(int(round(min_interval * rate)), 2)
-    stat = variance_norm(recording.acc, win)
+    win = max(int(round(window * recording.rate)) | 1, 3)
+    min_len = max(int(round(min_interval * recording.rate)), 2)
+    return base, win, min_len, variance_norm(recording.acc, win)
+
+
+def _scan(recording: Recording, gravity: float, rest: Interval, multipliers: Iterable[float], window: float,
+          min_interval: float, still: np.ndarray | None) -> tuple[list[Interval], float, TriadModel]:
+    """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded)."""
+    base, win, min_len, stat = _detector(recording, rest, window, min_interval)
     if still is not None:
         stat = np.where(still, stat, np.inf)
     best = None
     tried = []
     for mult in multipliers:
         intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
-        if not fit:
-            return intervals, float(mult), None
         tried.append((mult, len(intervals)))
         if len(intervals) < MIN_INTERVALS:
             continue
@@ -442,10 +451,11 @@ def find_turns(recording: Recording, intervals: list[Interval], bias: np.ndarray
     A hand turns a board by 360° as several quarter turns; where it pauses
     long enough the detector sees rests in between, all in the same pose (a
     turn about the vertical leaves gravity where it is). Every run of
-    consecutive motions whose rests all share one gravity direction (within
-    ``same_pose`` degrees) is a candidate, and so is each contiguous part of
-    it; a candidate whose integrated raw rate ``Φ = ∫(u − b) dt`` lies along
-    one axis (≥ 0.8 of its norm) turns by ``scale·|Φ|``. Per axis, the
+    consecutive motions whose rests all hold one axis at the same tilt from
+    gravity (within ``same_pose`` degrees, the axis within 30° of vertical) is
+    a candidate, and so is each contiguous part of it; a candidate whose
+    integrated raw rate ``Φ = ∫(u − b) dt`` lies along that axis (≥ 0.8 of its
+    norm) turns by ``scale·|Φ|``. Per axis, the
     candidates within ``tolerance`` of ``angle`` are taken, closest first and
     without overlap; where none is, the closest one above ``min_angle`` is
     taken with ``matches=False`` so the verdict can reject the calibration
@@ -458,16 +468,21 @@ def find_turns(recording: Recording, intervals: list[Interval], bias: np.ndarray
     raw = recording.gyro - bias
     c = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (raw[1:] + raw[:-1]) * np.diff(recording.t)[:, None],
                                                    axis=0)])
-    same = np.degrees(angle_between(dirs[:-1], dirs[1:])) <= same_pose
-    candidates = []  # (axis, first transition, last transition, angle, sign)
-    for run in runs(same):
-        for a in range(run.start, run.stop):
-            for b in range(a, run.stop):
-                phi = c[stops[b]] - c[starts[a]]
-                i = int(np.argmax(np.abs(phi)))
-                if abs(phi[i]) < 0.8 * np.linalg.norm(phi):  # not about one axis
-                    continue
-                candidates.append((i, a, b, abs(scale) * abs(phi[i]), int(np.sign(phi[i]))))
+    u = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
+    candidates = set()  # (axis, first transition, last transition, angle, sign)
+    for axis in range(3):
+        # a turn about an axis a few degrees off vertical moves gravity round a cone about it: the rests of
+        # one turn share the axis's tilt from gravity, not the gravity direction itself
+        tilt = np.degrees(np.arccos(np.clip(u[:, axis], -1, 1)))  # from +axis: a flip changes it by 180°
+        same = (np.abs(np.diff(tilt)) <= same_pose) & (np.minimum(tilt, 180 - tilt)[:-1] <= 30)
+        for run in runs(same):
+            for a in range(run.start, run.stop):
+                for b in range(a, run.stop):
+                    phi = c[stops[b]] - c[starts[a]]
+                    i = int(np.argmax(np.abs(phi)))
+                    if i != axis or abs(phi[i]) < 0.8 * np.linalg.norm(phi):  # not about this axis alone
+                        continue
+                    candidates.add((i, a, b, abs(scale) * abs(phi[i]), int(np.sign(phi[i]))))
     out: dict[int, list[Turn]] = {0: [], 1: [], 2: []}
     for axis in range(3):
         mine = sorted((cd for cd in candidates if cd[0] == axis), key=lambda cd: abs(cd[3] / angle - 1))

@@ -24,7 +24,7 @@ import numpy as np
 from .calibration import Calibration
 from .metrics import fit_summary, gap_flags
 from .recording import Interval, Recording
-from .segment import _scan, gyro_still, initial_rest, still_intervals
+from .segment import gyro_still, initial_rest, static_at, still_intervals
 from .verdict import assess
 
 __all__ = ["MIN_POSES", "THRESHOLD_MULTIPLIER", "VALIDATION_KEYS", "find_poses", "validate"]
@@ -63,9 +63,8 @@ def find_poses(calibration: Calibration, recording: Recording, *, init_static: f
         Without an initial rest, or when the accelerometer is noise-free at rest.
     """
     rest = initial_rest(recording, init_static)
-    # the detector at one threshold, without the scan's fits (gravity is not used then)
-    candidates = _scan(recording, calibration.gravity, rest, [THRESHOLD_MULTIPLIER], _WINDOW, _MIN_POSE, None,
-                       fit=False)[0]
+    # the detector at one threshold, without the scan's fits
+    candidates = static_at(recording, rest, THRESHOLD_MULTIPLIER, window=_WINDOW, min_interval=_MIN_POSE)
     scale = float(np.mean(np.abs(calibration.gyroscope.scale)))
     still = gyro_still(recording, rest, scale, candidates)
     return still_intervals(candidates, still, max(int(round(_MIN_POSE * recording.rate)), 2))

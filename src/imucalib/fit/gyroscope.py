@@ -157,7 +157,7 @@ def _solve_direction(recording, intervals, accelerometer, bias, estimate_bias, w
 
 def errors_at(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, gyroscope: TriadModel,
               estimate_bias: bool, *, weights: np.ndarray | None = None, bias_cov: np.ndarray | None = None,
-              acc_cov: np.ndarray | None = None) -> dict[str, float]:
+              acc_cov: np.ndarray | None = None, bias_spread: np.ndarray | None = None) -> dict[str, float]:
     """1σ errors of a gravity-direction gyroscope fit at its solution ``gyroscope``, by name.
 
     From the Jacobian and residuals of eq. (14) (:func:`~imucalib.solve.standard_errors`;
@@ -168,7 +168,8 @@ def errors_at(recording: Recording, intervals: list[Interval], accelerometer: Tr
     accelerometer's parameters, which set the measured gravity directions
     (``acc_cov``, in :class:`~imucalib.residuals.AccelLayout` ``("upper", 1)``
     order; where the poses leave the accelerometer poorly determined, the
-    gyroscope's errors say so instead of being falsely small).
+    gyroscope's errors say so instead of being falsely small). The bias's own
+    error adds ``bias_spread`` (per axis) to ``bias_cov``.
     """
     fun, jac, layout, dirs, _ = gravity_direction_problem(recording, intervals, accelerometer, gyroscope.bias, True,
                                                           weights, gyroscope.g_sensitivity)
@@ -201,7 +202,8 @@ def errors_at(recording: Recording, intervals: list[Interval], accelerometer: Tr
     if undetermined:  # the poses leave the gravity directions themselves undetermined
         errors = {k: float("nan") for k in errors}
     if bias_cov is not None and not estimate_bias:
-        errors |= {f"gyroscope.bias.{a}": float(s) for a, s in zip(AXES, np.sqrt(np.diag(bias_cov)), strict=True)}
+        var = np.diag(bias_cov) + (0.0 if bias_spread is None else np.asarray(bias_spread) ** 2)
+        errors |= {f"gyroscope.bias.{a}": float(s) for a, s in zip(AXES, np.sqrt(var), strict=True)}
     return errors
 
 
@@ -218,9 +220,10 @@ class StaticGyro:
     """The gyroscope's reading at rest over the static poses: ``ū_k = b + G a_k`` (Zhang 2021, eq. 11)."""
 
     bias: np.ndarray
-    bias_cov: np.ndarray
+    bias_cov: np.ndarray  # of the estimate: what it carries into the other parameters
     g_sensitivity: np.ndarray | None  # None when the poses do not support it
     errors: dict[str, float]
+    spread: np.ndarray  # per axis, the scatter of one pose's mean about the fit: drift and turn-on changes
 
 
 def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, *,
@@ -234,7 +237,9 @@ def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: 
     pose means (``n = 3M``; ``p`` = 3 without ``G``, 12 with it); a turn-on
     change or slow drift of the bias scatters the means without a pattern in
     ``a`` and does not make ``G`` appear. The bias's covariance is the
-    regression's (its standard error over the poses, the scatter included).
+    regression's (its standard error over the poses, the scatter included);
+    the bias's own reported 1σ adds the scatter of one pose about the fit,
+    since a drifting bias is that far from the session's mean at any moment.
     """
     u = interval_means(recording.gyro, intervals)
     a = accelerometer.forward(interval_means(recording.acc, intervals))
@@ -266,7 +271,7 @@ def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: 
         g = coef[1:].T  # row: gyroscope axis, column: accelerometer axis
         se = np.sqrt(np.outer(s2, np.diag(xtx)[1:]))
         errors = {f"gyroscope.g_sensitivity.{AXES[i]}{AXES[j]}": float(se[i, j]) for i in range(3) for j in range(3)}
-    return StaticGyro(bias, bias_cov, g, errors)
+    return StaticGyro(bias, bias_cov, g, errors, np.sqrt(s2))
 
 
 @dataclass
@@ -331,11 +336,11 @@ def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer
             fits.append((bic, est, model, e))
         bic, est, model, e = min(fits, key=lambda f: f[0])
         errors = errors_at(recording, intervals, accelerometer, model, est, weights=weights,
-                           bias_cov=None if est else static.bias_cov, acc_cov=acc_cov)
+                           bias_cov=None if est else static.bias_cov, acc_cov=acc_cov, bias_spread=static.spread)
         if est and not all(np.isfinite(errors.get(f"gyroscope.bias.{a}", np.nan)) for a in AXES):
             bic, est, model, e = fits[0]  # the bias is not observable from these rotations
             errors = errors_at(recording, intervals, accelerometer, model, False, weights=weights,
-                               bias_cov=static.bias_cov, acc_cov=acc_cov)
+                               bias_cov=static.bias_cov, acc_cov=acc_cov, bias_spread=static.spread)
         if not robust:
             break
         kept = weights > 0

@@ -32,6 +32,8 @@ by ``g sin δ`` (first order), which the mean of six carries into every bias
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..calibration import Calibration, units_of
@@ -42,11 +44,11 @@ from ..recording import Interval, Recording
 from ..segment import (
     FACE_NAMES,
     Turn,
-    detect_static,
     find_faces,
     find_turns,
     gyro_still,
     initial_rest,
+    static_at,
     still_intervals,
 )
 
@@ -108,9 +110,7 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
             # gyroscope-norm detector of Zhang 2021 eq. 22 sets its threshold on a tremor-free table rest and
             # then finds no hand-held face still); turns about the vertical, which leave the accelerometer
             # still, are cut out below by the gyroscope gate
-            base = float(np.linalg.norm(np.var(recording.acc[rest.slice], axis=0)))
-            win = max(int(round(recording.rate)) | 1, 3)
-            intervals = detect_static(recording.acc, 10 * base, window=win, min_length=win)
+            intervals = static_at(recording, rest, 10.0)
         intervals = [iv for iv in intervals if iv.kind == "static"]
         idx = find_faces(interval_means(recording.acc, intervals), gravity, max_tilt=max_tilt)
         rough_acc = faces_full(interval_means(recording.acc, [intervals[j] for j in idx]), gravity)
@@ -127,8 +127,13 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
     gyr_f = interval_means(recording.gyro, faces)
     g_sens = (gyr_f[:3] - gyr_f[3:]).T / (2 * gravity)  # G e_i, raw per m/s²
     b_g = gyr_f.mean(axis=0)
+    scale = rough_scale(recording, intervals, acc, b_g)
     if sections is None:
-        turns = find_turns(recording, intervals, b_g, rough_scale(recording, intervals, acc, b_g), angle=theta)
+        turns = find_turns(recording, intervals, b_g, scale, angle=theta)
+    else:  # the given turns measured as find_turns measures its own, with the poses' rough scale
+        turns = {i: [replace(tr, angle_deg=float(np.degrees(abs(scale) * abs(
+            np.trapezoid(recording.gyro[tr.start:tr.stop + 1, i] - b_g[i], recording.t[tr.start:tr.stop + 1])))),
+            matches=True) for tr in turns[i]] for i in range(3)}
     missing = [("x", "y", "z")[i] for i in range(3) if not turns.get(i)]
     if missing:
         raise ValueError(f"no turn about the {', '.join(missing)} axis found: turn the sensor by "

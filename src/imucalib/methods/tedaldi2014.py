@@ -62,7 +62,8 @@ def uncertainty(recording: Recording, intervals: list[Interval], calibration: Ca
     static = static_gyro(recording, intervals, acc, g_sensitivity=bool(np.any(gyro.g_sensitivity)))
     acc_cov = accelerometer_covariance(acc, interval_means(recording.acc, intervals), calibration.gravity)
     return (out | errors_at(recording, intervals, acc, gyro, estimated, weights=weights,
-                            bias_cov=None if estimated else static.bias_cov, acc_cov=acc_cov) | static.errors)
+                            bias_cov=None if estimated else static.bias_cov, acc_cov=acc_cov,
+                            bias_spread=static.spread) | static.errors)
 
 
 def calibrate(
