@@ -325,14 +325,17 @@ def detect_intervals(
     """
     rest = initial_rest(recording, init_static)
     multipliers = list(multipliers)
-    intervals, mult, model = _scan(recording, gravity, rest, multipliers, window, min_interval, None)
+    detector = _detector(recording, rest, window, min_interval)
+    intervals, mult, model = _scan(detector, gravity, recording, multipliers, min_interval, None)
     if gyro_gate:
         from .fit.gyroscope import rough_scale
 
         scale = rough_scale(recording, intervals, model, recording.gyro[rest.slice].mean(axis=0))
-        widest = static_at(recording, rest, max(multipliers), window=window, min_interval=min_interval)
+        base, win, min_len, stat = detector
+        widest = detect_static(None, max(multipliers) * base, window=win, min_length=min_len, statistic=stat)
         still = gyro_still(recording, rest, scale, widest)
-        intervals, mult, model = _scan(recording, gravity, rest, multipliers, window, min_interval, still)
+        if not all(np.all(still[iv.slice]) for iv in widest):  # else the scan would find the same again
+            intervals, mult, model = _scan(detector, gravity, recording, multipliers, min_interval, still)
     return intervals, mult, rest, model
 
 
@@ -360,10 +363,10 @@ def _detector(recording: Recording, rest: Interval, window: float, min_interval:
     return base, win, min_len, variance_norm(recording.acc, win)
 
 
-def _scan(recording: Recording, gravity: float, rest: Interval, multipliers: Iterable[float], window: float,
-          min_interval: float, still: np.ndarray | None) -> tuple[list[Interval], float, TriadModel]:
+def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: Iterable[float], min_interval: float,
+          still: np.ndarray | None) -> tuple[list[Interval], float, TriadModel]:
     """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded)."""
-    base, win, min_len, stat = _detector(recording, rest, window, min_interval)
+    base, win, min_len, stat = detector
     if still is not None:
         stat = np.where(still, stat, np.inf)
     best = None

@@ -188,13 +188,22 @@ def errors_at(recording: Recording, intervals: list[Interval], accelerometer: Tr
         lay = AccelLayout("upper", 1)
         base = lay.pack(accelerometer)
         means = interval_means(recording.acc, intervals)
+        # r_k = d_{k+1} − R_kᵀ d_k is linear in the directions d: R_kᵀ from three evaluations, then the
+        # directions' derivatives by finite differences of the means alone
+        w_eff = np.ones(len(res) // 3) if weights is None else np.asarray(weights, dtype=float)
+        rt = np.empty((len(res) // 3, 3, 3))
+        for j in range(3):
+            e = np.zeros_like(dirs)
+            e[:, j] = 1.0
+            rt[:, :, j] = e[1:] - fun(theta, e).reshape(-1, 3) / np.where(w_eff > 0, w_eff, 1.0)[:, None]
         j_acc = np.empty((len(res), lay.size))
         for i in range(lay.size):
             h = 1e-6 * max(abs(base[i]), 1e-12) if base[i] else 1e-9
             step = base.copy()
             step[i] += h
             d = lay.unpack(step, accelerometer).forward(means)
-            j_acc[:, i] = (fun(theta, d / np.linalg.norm(d, axis=1, keepdims=True)) - res) / h
+            delta = (d / np.linalg.norm(d, axis=1, keepdims=True) - dirs) / h
+            j_acc[:, i] = ((delta[1:] - np.einsum("kij,kj->ki", rt, delta[:-1])) * w_eff[:, None]).ravel()
         sens = -pinv @ j_acc
         extra += sens @ acc_cov @ sens.T
     use = layout if estimate_bias else GyroLayout(False)
