@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .fit.accelerometer import fit_sphere
-from .metrics import interval_means, transition_bounds
+from .metrics import gravity_direction_errors, interval_means, transition_bounds
 from .recording import Interval, Recording
 
 __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibility", "plausible",
@@ -279,12 +279,19 @@ def _gyroscope(calibration, recording: Recording, intervals: list[Interval]) -> 
     pred = predicted_direction_error(calibration, recording, intervals)
     left = {int(k) for k in fit.get("rotations_left_out", {})}
     keep = np.array([k not in left for k in range(len(pred))])
+    figures: dict = {}
+    out = []
+    if left:  # judged on the rotations the fit kept: the ones left out are known to be unreliable
+        mean_deg = float(np.degrees(np.mean(gravity_direction_errors(calibration, recording, intervals)[keep])))
+        figures["gyroscope_angle_error_kept_mean_deg"] = mean_deg
+        if len(left) > len(pred) / 3:
+            out.append(Check(1, f"{len(left)} of the {len(pred)} rotations between poses were left out of the "
+                                "gyroscope fit (notes below say why): the rest may not cover every axis well"))
     pred_deg = float(np.degrees(np.mean(pred[keep]))) if np.any(keep) else float("nan")
     ratio = mean_deg / pred_deg if pred_deg > 0 else float("inf")
-    figures = {"gyroscope_angle_error_predicted_deg": pred_deg, "gyroscope_error_to_noise": ratio}
+    figures |= {"gyroscope_angle_error_predicted_deg": pred_deg, "gyroscope_error_to_noise": ratio}
     floor = THRESHOLDS["gyro_error_floor_deg"]
     level = min(_level(ratio, THRESHOLDS["gyro_error_to_noise"]), _level(mean_deg, floor))
-    out = []
     if level:
         out.append(Check(level, f"the gyroscope's gravity-direction error between poses is {mean_deg:.3g}° (mean), "
                                 f"{ratio:.3g}× the {pred_deg:.2g}° the sensor noise alone predicts for these "
