@@ -40,10 +40,10 @@ from functools import partial
 import numpy as np
 
 from imucalib.methods import calibrate
-from imucalib.metrics import gravity_direction_errors, interval_means, transition_bounds
+from imucalib.metrics import gravity_direction_errors, interval_means
 from imucalib.recording import Interval
 from imucalib.scenarios import session
-from imucalib.verdict import THRESHOLDS
+from imucalib.verdict import THRESHOLDS, turn_speed
 
 DEFAULT_METHODS = "tedaldi2014,zhang2021,ellipsoid"
 #: a run is good when the fitted gyroscope error is at most this many times the true parameters' …
@@ -76,17 +76,6 @@ def _parameter_count(cal) -> int:
 def _cross_axis_deg(misalignment: np.ndarray) -> float:
     off = np.abs(misalignment - np.diag(np.diag(misalignment)))
     return float(np.degrees(np.arctan(off.max())))
-
-
-def _turn_speed(cal, rec, intervals: list[Interval]) -> float:
-    """Median angular speed [deg/s] the accelerometer sees between poses (turns above 10°), as the verdict has it."""
-    acc = cal.accelerometer_si(interval_means(rec.acc, intervals))
-    u = acc / np.linalg.norm(acc, axis=1, keepdims=True)
-    ang = np.degrees(np.arccos(np.clip(np.sum(u[:-1] * u[1:], axis=1), -1, 1)))
-    starts, stops = transition_bounds(intervals)
-    dur = rec.t[stops] - rec.t[starts]
-    ok = (ang > 10) & (dur > 0)
-    return float(np.median(ang[ok] / dur[ok])) if np.any(ok) else float("nan")
 
 
 def _sigma_figures(cal) -> dict:
@@ -162,7 +151,7 @@ def run_one(seed: int, methods: list[str], knobs: dict) -> dict:
             "poses_per_parameter": m / p,
             "acc_cross_axis_deg": _cross_axis_deg(cal.accelerometer.misalignment),
             "gyro_cross_axis_deg": _cross_axis_deg(cal.gyroscope.misalignment),
-            "turn_speed_deg_s": _turn_speed(cal, rec, intervals) if m >= 2 else float("nan"),
+            "turn_speed_deg_s": turn_speed(cal, rec, intervals) if m >= 2 else float("nan"),
             **_sigma_figures(cal),
             "true_gyroscope_angle_error_mean_deg": true_err,
             "gyro_error_ratio": fitted_err / true_err if true_err > 0 else float("nan"),

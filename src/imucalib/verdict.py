@@ -42,7 +42,7 @@ from .metrics import gravity_direction_errors, interval_means, transition_bounds
 from .recording import Interval, Recording
 
 __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibility", "plausible",
-           "predicted_direction_error", "with_verdict"]
+           "predicted_direction_error", "turn_speed", "with_verdict"]
 
 LEVELS = ("accepted", "suspect", "rejected")
 
@@ -142,26 +142,34 @@ def check_rate(recording: Recording) -> None:
                          "column's unit is probably wrong (ms read as s, or s as ms; see --time-unit)")
 
 
+def turn_speed(calibration, recording: Recording, intervals: list[Interval]) -> float:
+    """Median angular speed [deg/s] the accelerometer sees between poses (turns above 10°); NaN without any.
+
+    The angle between the calibrated gravity directions of consecutive poses
+    over the time between them: independent of the gyroscope and its unit.
+    """
+    if len(intervals) < 2:
+        return float("nan")
+    acc = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    u = acc / np.linalg.norm(acc, axis=1, keepdims=True)
+    ang = np.degrees(np.arccos(np.clip(np.sum(u[:-1] * u[1:], axis=1), -1, 1)))
+    starts, stops = transition_bounds(intervals)
+    dur = recording.t[stops] - recording.t[starts]
+    ok = (ang > 10) & (dur > 0)
+    return float(np.median(ang[ok] / dur[ok])) if np.any(ok) else float("nan")
+
+
 def _time_base(calibration, recording: Recording, intervals: list[Interval]) -> list[Check]:
-    out = []
-    if len(intervals) >= 2:
-        acc = calibration.accelerometer_si(interval_means(recording.acc, intervals))
-        u = acc / np.linalg.norm(acc, axis=1, keepdims=True)
-        ang = np.degrees(np.arccos(np.clip(np.sum(u[:-1] * u[1:], axis=1), -1, 1)))
-        starts, stops = transition_bounds(intervals)
-        dur = recording.t[stops] - recording.t[starts]
-        ok = (ang > 10) & (dur > 0)
-        if np.any(ok):
-            speed = float(np.median(ang[ok] / dur[ok]))
-            lo, hi = THRESHOLDS["turn_speed_deg_s"]
-            if not lo / 10 <= speed <= hi * 10:
-                out.append(Check(2, f"between poses the accelerometer sees the sensor turn at {speed:.3g} deg/s "
-                                    f"(median), where a hand turns at {lo:g}-{hi:g} deg/s: the time base is wrong "
-                                    "(check the time column's unit)"))
-            elif not lo <= speed <= hi:
-                out.append(Check(1, f"between poses the accelerometer sees the sensor turn at {speed:.3g} deg/s "
-                                    f"(median), outside the {lo:g}-{hi:g} deg/s of a hand: check the time base"))
-    return out
+    speed = turn_speed(calibration, recording, intervals)
+    lo, hi = THRESHOLDS["turn_speed_deg_s"]
+    if not np.isfinite(speed) or lo <= speed <= hi:
+        return []
+    if not lo / 10 <= speed <= hi * 10:
+        return [Check(2, f"between poses the accelerometer sees the sensor turn at {speed:.3g} deg/s (median), "
+                         f"where a hand turns at {lo:g}-{hi:g} deg/s: the time base is wrong (check the time "
+                         "column's unit)")]
+    return [Check(1, f"between poses the accelerometer sees the sensor turn at {speed:.3g} deg/s (median), "
+                     f"outside the {lo:g}-{hi:g} deg/s of a hand: check the time base")]
 
 
 def _gravity(calibration, recording: Recording | None, intervals: list[Interval]) -> list[Check]:
