@@ -465,6 +465,28 @@ def _as_calibration(layout: ZhangLayout, theta: np.ndarray, gravity: float, reco
     return Calibration(accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity, units=units_of(recording))
 
 
+def _block_errors(jac: np.ndarray, res: np.ndarray, sizes: list[int]) -> np.ndarray:
+    """1σ errors with one variance per cost term (eqs. 10, 11, 14, 19), each from its own residuals.
+
+    The weights of eqs. (25)–(30) come from the rest's white noise; hand tremor,
+    bias drift and unmodelled motion raise some terms' residuals and not
+    others', so one common ``σ²`` would make the accelerometer's errors too
+    large (the gyroscope terms' excess) and the gyroscope's too small. Each
+    block's rows are scaled by ``1/s_b`` with ``s_b² = ‖r_b‖² / (n_b (N − P)/N)``
+    (its share of the degrees of freedom), after which ``σ² = 1``.
+    """
+    n, p = jac.shape
+    scale = np.ones(n)
+    start = 0
+    for size in sizes:
+        if size > 0:
+            rb = res[start : start + size]
+            s2 = float(rb @ rb) / max(size * (n - p) / n, 1e-300)
+            scale[start : start + size] = 1.0 / np.sqrt(s2) if s2 > 0 else 1.0
+        start += size
+    return standard_errors(jac * scale[:, None], res * scale)
+
+
 def _aic(residuals: np.ndarray, n_params: int) -> float:
     n = residuals.size
     return float(n * np.log(float(residuals @ residuals) / n) + 2 * n_params)
@@ -696,9 +718,18 @@ def calibrate(
     fit = fit_summary(cal, recording, static, gravity)
     fit["weights"] = {k: float(np.mean(v)) for k, v in c.items()}  # means over intervals
     fit["cost"] = float(sol.cost)
-    # 1σ errors from the weighted Jacobian at the solution, σ² from the weighted residuals
+    # 1σ errors from the weighted Jacobian at the solution, σ² from the weighted residuals of each cost term
+    m = len(static)
+    blocks = [m, 3 * m, 3 * (m - 1), len(sol.fun) - m - 3 * m - 3 * (m - 1)]
     fit["uncertainty"] = {k: float(v) for k, v in
-                          zip(layout.names(), standard_errors(sol.jac, sol.fun), strict=True)}
+                          zip(layout.names(), _block_errors(sol.jac, sol.fun, blocks), strict=True)}
+    # the bias's own 1σ adds the scatter of one pose's static gyroscope residual (eq. 11): a drifting bias is
+    # that far from the session's estimate at any moment
+    e2 = (sol.fun[m : 4 * m] / problem.w2).reshape(m, 3)
+    for a, spread in zip(AXES, np.sqrt(np.mean(e2**2, axis=0)), strict=True):
+        key = f"gyroscope.bias.{a}"
+        if key in fit["uncertainty"]:
+            fit["uncertainty"][key] = float(np.hypot(fit["uncertainty"][key], spread))
     fit["iterations"] = int(sol.njev)
     fit["converged"] = bool(sol.success)
     if selection is not None:
