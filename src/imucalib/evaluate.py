@@ -254,8 +254,11 @@ def demo(seed: int = 0, *, progress: Callable[[str], None] | None = None) -> dic
              "all_std": unc.get(k)} for k, v in sim.truth.parameters().items()]
     means = {eq: {name: float(np.mean(metrics[name][eq])) for name in ("tedaldi2014", "linear", "all")}
              for eq in ("eq34", "eq35")}
+    verdicts = {name: {"verdict": c.fit.get("verdict"), "reasons": c.fit.get("verdict_reasons", [])}
+                for name, c in (("tedaldi2014", ted), ("linear", lin), ("all", full))}
     return {
         "scenario": "zhang2021", "seed": seed, "seconds": round(elapsed, 3), "parameters": rows,
+        "verdicts": verdicts,
         "metrics": {"eq34_mean": means["eq34"], "eq35_mean": means["eq35"],
                     **{f"all_vs_tedaldi2014_{k}": v
                        for k, v in reductions(metrics["all"], metrics["tedaldi2014"]).items()}},

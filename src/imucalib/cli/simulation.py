@@ -157,6 +157,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if within:
         print(f"the full model's reported 1σ errors: {sum(within)} of {len(within)} estimates within 2σ "
               "of the truth (about 95 % expected)")
+    print("\nverdicts (imucalib.verdict): the session's sensor has nonlinear scale factors, so the linear models "
+          "leave structure")
+    for name, v in result["verdicts"].items():
+        first = f": {v['reasons'][0]}" if v["reasons"] else ""
+        print(f"  {name:<12} {str(v['verdict']).upper()}{first}")
     mt = result["metrics"]
     print("\ntest tosses (Zhang 2021 §IV-B):          tedaldi2014      linear         all")
     print(f"  eq. (34) weightless error [(m/s^2)^2] {mt['eq34_mean']['tedaldi2014']:>12.4g}"
