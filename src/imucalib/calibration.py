@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from .io.atomic import atomic_write
+from .io.jsontext import dumps, jsonable
 from .models import AXES, TriadModel
 from .recording import STANDARD_GRAVITY, Recording
 
@@ -176,7 +178,7 @@ class Calibration:
             "accelerometer": self.accelerometer.to_dict(gyroscope=False),
             "gyroscope": self.gyroscope.to_dict(gyroscope=True),
             "lever_arm": None if self.lever_arm is None else self.lever_arm.tolist(),
-            "fit": _jsonable(self.fit),
+            "fit": jsonable(self.fit),
         }
 
     @classmethod
@@ -207,11 +209,13 @@ class Calibration:
         )
 
     def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2)
+        """The calibration file's text: strict JSON (a number that is not available is ``null``)."""
+        return dumps(self.to_dict(), indent=2)
 
     def save(self, path: str | Path) -> None:
-        """Write the calibration file (JSON)."""
-        Path(path).write_text(self.to_json() + "\n", encoding="utf-8")
+        """Write the calibration file (JSON), through a temporary file moved into place."""
+        with atomic_write(path, "w", encoding="utf-8") as fh:
+            fh.write(self.to_json() + "\n")
 
     @classmethod
     def load(cls, path: str | Path) -> Calibration:
@@ -227,20 +231,6 @@ class Calibration:
             return cls.from_dict(data)
         except ValueError as exc:
             raise ValueError(f"{path}: {exc}") from None
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {k: _jsonable(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, np.generic):
-        x = x.item()
-    if isinstance(x, float) and not np.isfinite(x):
-        return None  # strict JSON has no NaN/Infinity: "not available"
-    return x
 
 
 def units_of(recording: Recording) -> dict:

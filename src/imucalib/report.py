@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .calibration import Calibration
+from .io.atomic import atomic_path, atomic_write
 from .metrics import gravity_direction_errors, gravity_residuals
 from .recording import Interval, Recording
 
@@ -77,14 +78,17 @@ def plot_fit(calibration: Calibration, recording: Recording, intervals: Sequence
 
 
 def _save(fig, target, plt):
-    """Save to a path (format by its suffix) or to a binary file object (PNG)."""
-    if hasattr(target, "write"):
-        fig.savefig(target, format="png", dpi=110)
-    else:
+    """Save to a path (format by its suffix; through a temporary file) or to a binary file object (PNG)."""
+    try:
+        if hasattr(target, "write"):
+            fig.savefig(target, format="png", dpi=110)
+            return target
         target = Path(target)
-        fig.savefig(target, dpi=110)
-    plt.close(fig)
-    return target
+        with atomic_path(target) as tmp:  # the temporary name keeps the suffix, so the format is the target's
+            fig.savefig(tmp, dpi=110)
+        return target
+    finally:
+        plt.close(fig)
 
 
 def plot_allan(recording: Recording, path: str | Path) -> Path:
@@ -239,5 +243,6 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
     parts.append("<p><small>written by imucalib; the calibration file (JSON) holds the same numbers.</small></p>"
                  "</body></html>")
     path = Path(path)
-    path.write_text("\n".join(parts), encoding="utf-8")
+    with atomic_write(path, "w", encoding="utf-8") as fh:
+        fh.write("\n".join(parts))
     return path

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -110,8 +109,10 @@ def read_recording(args: argparse.Namespace, paths: Sequence[str]) -> Recording:
 
 # ------------------------------------------------------------------- output
 def print_json(obj) -> int:
-    """Print ``obj`` as one line of JSON on stdout; 0, the exit code of a command that did so."""
-    print(json.dumps(obj))
+    """Print ``obj`` as one line of strict JSON on stdout (non-finite numbers as ``null``); 0, the exit code."""
+    from ..io.jsontext import dumps
+
+    print(dumps(obj))
     return 0
 
 

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
 from ..calibration import Calibration
+from ..io.atomic import atomic_write, refuse_overwriting_inputs
 from ..recording import ImucalibWarning
 from ._common import CliError, add_reader_options, positive_float, print_json, read_recording, show_warning
 
@@ -20,6 +20,7 @@ def cmd_noise(args: argparse.Namespace) -> int:
     from ..noise import kalibr_yaml, noise_summary
     from ..segment import find_initial_rest
 
+    refuse_overwriting_inputs([args.kalibr, args.plot], [*args.data, args.calibration])
     rec = read_recording(args, args.data)
     if args.calibration:  # noise in SI units, through the calibration
         rec = Calibration.load(args.calibration).apply(rec)
@@ -31,7 +32,8 @@ def cmd_noise(args: argparse.Namespace) -> int:
                            f"{part.gyro_unit}: pass --calibration CALIBRATION.json (or read data in m/s^2, rad/s)")
         text, notes = kalibr_yaml(result["accelerometer"], result["gyroscope"], part.rate,
                                   topic=rec.metadata.get("topic") or "/imu0")
-        Path(args.kalibr).write_text(text, encoding="utf-8")
+        with atomic_write(args.kalibr, "w", encoding="utf-8") as fh:
+            fh.write(text)
         for n in notes:
             show_warning(n, ImucalibWarning, "", 0)
         result["kalibr"] = str(args.kalibr)

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..calibration import Calibration
+from ..io.atomic import atomic_write, refuse_overwriting_inputs
 from ..recording import ImucalibWarning, Interval
 from ._common import (
     EXIT_REJECTED,
@@ -149,6 +150,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     """
     from ..methods import calibrate
 
+    refuse_overwriting_inputs([args.output, args.plot, args.report], [*args.data, args.sections])
     options = _method_options(args)
     say = progress(not args.json and sys.stderr.isatty())
     data = read(args, args.data)
@@ -185,7 +187,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             for reason in cal.fit.get("verdict_reasons", []):
                 print(f"  - {reason}", file=sys.stderr)
     if args.json:
-        print(cal.to_json())
+        print(cal.to_json())  # strict JSON, as in the file
         return code
     if verdict:
         print_verdict(cal.fit, f"verdict: {verdict.upper()}")
@@ -202,6 +204,7 @@ def cmd_apply(args: argparse.Namespace) -> int:
     from ..io import write_csv
     from ..io.rosbag import is_rosbag
 
+    refuse_overwriting_inputs([args.output], [args.calibration, args.data])
     cal = Calibration.load(args.calibration)
     check_verdict(cal, args.calibration, args.force)
     verdict = (cal.fit or {}).get("verdict")
@@ -257,11 +260,13 @@ def cmd_export(args: argparse.Namespace) -> int:
     """``imucalib export``: :func:`imucalib.export.to_c` on stdout or into a header file."""
     from ..export import to_c
 
+    refuse_overwriting_inputs([args.output], [args.calibration])
     cal = Calibration.load(args.calibration)
     check_verdict(cal, args.calibration, args.force)
     text = to_c(cal, prefix=args.prefix, ctype="float" if args.float else "double")
     if args.output:
-        Path(args.output).write_text(text, encoding="utf-8")
+        with atomic_write(args.output, "w", encoding="utf-8") as fh:
+            fh.write(text)
         print(f"wrote {args.output}: {args.prefix}_apply(acc_raw, gyro_raw, acc, gyro)")
     else:
         sys.stdout.write(text)

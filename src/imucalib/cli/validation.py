@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 
 from ..calibration import Calibration
+from ..io.atomic import refuse_overwriting_inputs
 from ..recording import Interval
 from ._common import (
     EXIT_REJECTED,
@@ -33,6 +34,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     """``imucalib validate``: :func:`imucalib.validate.validate`, the verdict first, then the figures."""
     from ..validate import validate
 
+    refuse_overwriting_inputs([args.plot], [args.calibration, *args.data])
     cal = Calibration.load(args.calibration)
     rec = read_recording(args, args.data)
     result = {"calibration": str(args.calibration),

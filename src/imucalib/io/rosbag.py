@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..recording import ImucalibWarning, Recording
+from .atomic import atomic_create
 from .errors import ReaderError
 
 __all__ = ["read_rosbag", "is_rosbag", "write_calibrated_bag"]
@@ -166,6 +167,11 @@ def write_calibrated_bag(source: str | Path, destination: str | Path, calibratio
     ROS 1 bag is written as a ROS 1 bag, a ROS 2 bag as a ROS 2 bag directory
     (MCAP storage when the source is MCAP, else SQLite).
 
+    The bag is written under a hidden temporary name next to ``destination``
+    and renamed to it only when complete (:func:`imucalib.io.atomic.atomic_create`),
+    so a failed or interrupted write leaves nothing at ``destination`` and
+    nothing that blocks the next run; an existing ``destination`` is refused.
+
     Returns a summary: the topic, the messages corrected and copied.
     """
     source, destination = Path(source), Path(destination)
@@ -183,23 +189,24 @@ def write_calibrated_bag(source: str | Path, destination: str | Path, calibratio
         raw = np.asarray([_readings(m) for _, m in _imu_messages(reader, imu_conns)], dtype=float).reshape(-1, 6)
         acc = calibration.accelerometer_si(raw[:, :3])
         gyro = calibration.gyroscope.forward(raw[:, 3:], acc)
-        writer, serialize = _writer_like(reader, source, destination)
-        copied = corrected = 0
-        with writer:
-            out = {}
-            for c in reader.connections:
-                out[c.id] = _add_connection_like(writer, c, reader.is2)
-            for conn, log_ns, data in reader.messages():
-                if conn.topic == topic:
-                    m = reader.deserialize(data, conn.msgtype)
-                    a, w = acc[corrected], gyro[corrected]
-                    m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z = map(float, a)
-                    m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z = map(float, w)
-                    data = serialize(m, conn.msgtype)
-                    corrected += 1
-                else:
-                    copied += 1
-                writer.write(out[conn.id], log_ns, data)
+        with atomic_create(destination) as building:
+            writer, serialize = _writer_like(reader, source, building)
+            copied = corrected = 0
+            with writer:
+                out = {}
+                for c in reader.connections:
+                    out[c.id] = _add_connection_like(writer, c, reader.is2)
+                for conn, log_ns, data in reader.messages():
+                    if conn.topic == topic:
+                        m = reader.deserialize(data, conn.msgtype)
+                        a, w = acc[corrected], gyro[corrected]
+                        m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z = map(float, a)
+                        m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z = map(float, w)
+                        data = serialize(m, conn.msgtype)
+                        corrected += 1
+                    else:
+                        copied += 1
+                    writer.write(out[conn.id], log_ns, data)
     finally:
         reader.close()
     return {"topic": topic, "corrected": corrected, "copied": copied, "output": str(destination)}

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..recording import Recording
+from .atomic import atomic_write
 from .readers import TIME_UNITS
 
 __all__ = ["write_csv"]
@@ -37,6 +38,10 @@ def write_csv(
     columns are ``t [s], ax [unit] … gz [unit]``, the temperature if there is one,
     then any extra columns. The added
     columns are ``acc_x_cal [m/s^2]`` … and ``gyro_x_cal [rad/s]`` ….
+
+    The rows go to a temporary file next to ``path``, moved onto ``path`` only
+    when all are written (:func:`imucalib.io.atomic.atomic_write`): a failed
+    or interrupted write leaves an existing ``path`` as it was.
     """
     rec = recording
     n = len(rec)
@@ -80,7 +85,7 @@ def write_csv(
         values.append(v.astype(np.float64) if numeric else v.astype(str))
         formats.append(float_format if numeric else "%s")
     row_format = ",".join(formats)
-    with Path(path).open("w", encoding="utf-8", newline="\n") as fh:
+    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(",".join(cols) + "\n")
         chunk = 100_000  # rows formatted at a time: one format per row is ~3x faster than per column
         for start in range(0, n, chunk):

@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..calibration import Calibration
+from ..io.atomic import atomic_write
+from ..io.jsontext import dumps
 from ..kinematics import integrate, quat_from_rotvec, quat_to_matrix
 from ..recording import ImucalibWarning, Interval, Recording
 
@@ -109,9 +111,20 @@ def distort(truth: Calibration, a: np.ndarray, w: np.ndarray, rng, noise: dict,
 
 
 # ------------------------------------------------------------------ files
+def _write_table(path: Path, data: np.ndarray, header: str) -> None:
+    """A CSV of numbers at full precision, through a temporary file moved into place."""
+    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
+        np.savetxt(fh, data, delimiter=",", fmt="%.17g", header=header, comments="")
+
+
+def _write_meta(path: Path, meta: dict) -> None:
+    """``session.json``, written last: a session is complete when it is there."""
+    with atomic_write(path, "w", encoding="utf-8") as fh:
+        fh.write(dumps(meta, indent=1) + "\n")
+
+
 def _write_rec(path: Path, rec: Recording) -> None:
-    data = np.column_stack([rec.t, rec.acc, rec.gyro])
-    np.savetxt(path, data, delimiter=",", fmt="%.17g", header="t,ax,ay,az,gx,gy,gz", comments="")
+    _write_table(path, np.column_stack([rec.t, rec.acc, rec.gyro]), "t,ax,ay,az,gx,gy,gz")
 
 
 def _read_rec(path: Path, units: dict) -> Recording:
@@ -134,7 +147,11 @@ def write_session(sim: Session | WangSession, directory: str | Path) -> Path:
         ``turns.csv`` (clockwise − counter-clockwise turn integrals and
         angles), ``truth.json`` and ``session.json``.
     directory : str or Path
-        Created if missing; files already there are overwritten.
+        Created if missing; files already there are overwritten. Each file is
+        written through a temporary file moved into place, and ``session.json``
+        (the index :func:`read_session` starts from) is removed first and
+        written last, so an interrupted write leaves a directory that does not
+        read as a session rather than one mixing two.
 
     Returns
     -------
@@ -145,6 +162,7 @@ def write_session(sim: Session | WangSession, directory: str | Path) -> Path:
 
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
+    (d / "session.json").unlink(missing_ok=True)
     if isinstance(sim, WangSession):
         _write_turntable_session(sim, d)
         return d
@@ -166,23 +184,23 @@ def write_session(sim: Session | WangSession, directory: str | Path) -> Path:
                for i, ts in enumerate(sim.tests)},
         },
     }
-    (d / "session.json").write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
+    _write_meta(d / "session.json", meta)
     return d
 
 
 def _write_turntable_session(sim: WangSession, d: Path) -> None:
     """The files of a wang2019 session (:func:`write_session`)."""
-    np.savetxt(d / "positions.csv", np.column_stack([sim.positions_acc, sim.positions_gyro]),
-               delimiter=",", fmt="%.17g", header="ax,ay,az,gx,gy,gz", comments="")
-    np.savetxt(d / "turns.csv", np.column_stack([sim.turn_sum, sim.turn_sum2, sim.turn_angle]),
-               delimiter=",", fmt="%.17g", header="sum_x,sum_y,sum_z,sum2_x,sum2_y,sum2_z,angle", comments="")
+    _write_table(d / "positions.csv", np.column_stack([sim.positions_acc, sim.positions_gyro]),
+                 "ax,ay,az,gx,gy,gz")
+    _write_table(d / "turns.csv", np.column_stack([sim.turn_sum, sim.turn_sum2, sim.turn_angle]),
+                 "sum_x,sum_y,sum_z,sum2_x,sum2_y,sum2_z,angle")
     sim.truth.save(d / "truth.json")
     meta = {"format": "imucalib.session", "format_version": 1, "scenario": sim.scenario,
             "seed": sim.seed, "turntable_error": sim.turntable_error,
             "latitude_deg": sim.latitude_deg, "options": sim.options,
             "files": {"positions.csv": "static position means [pulses/s]",
                       "turns.csv": "clockwise − counter-clockwise turn integrals"}}
-    (d / "session.json").write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
+    _write_meta(d / "session.json", meta)
 
 
 def read_session(directory: str | Path) -> Session | WangSession:

@@ -1,0 +1,229 @@
+"""Writing files safely: through a temporary file moved into place, never onto an input.
+
+Every file the package writes is first written to a temporary file in the
+target's own directory (a hidden name, ``.NAME.XXXXXXXX.tmp``), flushed to
+the disk, then moved onto the target with :func:`os.replace`. Readers of the
+target therefore see either the previous file or the complete new one, never
+a part; a write that fails or is interrupted (an exception, Ctrl-C) removes
+its temporary file and leaves the target as it was. A process killed outright
+(SIGKILL, power loss) can leave a hidden ``.NAME.….tmp`` behind, but never a
+half-written target, and such a leftover never blocks a later run.
+
+Three forms, by what the writer needs:
+
+* :func:`atomic_write` yields an open file object (text or binary);
+* :func:`atomic_path` yields the path of the temporary file, for writers that
+  take a path and overwrite it (``numpy.savetxt``, ``Figure.savefig``); the
+  temporary name ends with the target's suffix, so writers that choose the
+  format by it (a ``.png``, a ``.gz``) do the same;
+* :func:`atomic_create` yields a path that does not exist yet, inside a hidden
+  temporary directory next to the target, for writers that insist on creating
+  the file or directory themselves (ROS bag writers). The result is renamed
+  into place only when complete, and only if the target still does not exist:
+  this form never replaces anything, so an existing directory is never
+  deleted or merged into.
+
+:func:`refuse_overwriting_inputs` refuses, before anything is read or written,
+an output path that names one of the inputs (or another output).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import stat
+import tempfile
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import IO
+
+__all__ = ["OutputIsInputError", "atomic_create", "atomic_path", "atomic_write", "refuse_overwriting_inputs",
+           "temporary_prefix"]
+
+
+class OutputIsInputError(ValueError):
+    """An output path that names an input file (or another output)."""
+
+
+def temporary_prefix(path: str | Path) -> str:
+    """The start of the name of every temporary file written for ``path``: ``"." + name + "."``."""
+    return f".{Path(path).name}."
+
+
+def _target(path: str | Path) -> Path:
+    path = Path(path)
+    if not path.name:
+        raise ValueError(f"{str(path)!r}: not a file name")
+    if path.is_dir():
+        raise IsADirectoryError(f"{path}: is a directory; give a file name")
+    return path
+
+
+def _file_mode(target: Path) -> int:
+    """Permissions for the new file: the target's if it exists, else what the umask gives a new file."""
+    try:
+        return stat.S_IMODE(target.stat().st_mode)
+    except OSError:
+        mask = os.umask(0)
+        os.umask(mask)
+        return 0o666 & ~mask
+
+
+def _fsync_directory(directory: Path) -> None:
+    """Make a rename in ``directory`` durable (best effort: not every system can open a directory)."""
+    with contextlib.suppress(OSError):
+        fd = os.open(directory, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def _remove(path: Path) -> None:
+    with contextlib.suppress(FileNotFoundError):
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        else:
+            path.unlink()
+
+
+def _move_into_place(tmp: Path, target: Path) -> None:
+    os.chmod(tmp, _file_mode(target))
+    os.replace(tmp, target)
+    _fsync_directory(target.parent)
+
+
+@contextlib.contextmanager
+def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "utf-8",
+                 newline: str | None = None) -> Iterator[IO]:
+    """Open a temporary file next to ``path`` for writing; on success it replaces ``path``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The target file. Its directory must exist.
+    mode : {"w", "wb"}
+        Text or binary.
+    encoding : str, optional
+        Text mode only (default UTF-8).
+    newline : str, optional
+        Text mode only, as for :func:`open`.
+
+    Yields
+    ------
+    file object
+        Write to it inside the ``with`` block. When the block ends normally the
+        file is flushed, synced to the disk and moved onto ``path``; when it
+        raises (any exception, KeyboardInterrupt included) the temporary file
+        is removed and ``path`` is left as it was.
+    """
+    if mode not in ("w", "wb"):
+        raise ValueError(f"mode must be 'w' or 'wb'; got {mode!r}")
+    target = _target(path)
+    text = {"encoding": encoding, "newline": newline} if mode == "w" else {}
+    fh = tempfile.NamedTemporaryFile(mode, dir=target.parent, prefix=temporary_prefix(target), suffix=".tmp",
+                                     delete=False, **text)
+    tmp = Path(fh.name)
+    try:
+        with fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        _move_into_place(tmp, target)
+    except BaseException:
+        _remove(tmp)
+        raise
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """The path of a temporary file next to ``path`` to write by name; on success it replaces ``path``.
+
+    The temporary file exists (empty) when the block starts, and its name ends
+    with ``path``'s suffix (``.fig.png.k3j2_x.tmp.png``), so a writer choosing
+    the format by the suffix chooses the target's. Failure and success as in
+    :func:`atomic_write`.
+    """
+    target = _target(path)
+    fd, name = tempfile.mkstemp(dir=target.parent, prefix=temporary_prefix(target), suffix=".tmp" + target.suffix)
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        yield tmp
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        _move_into_place(tmp, target)
+    except BaseException:
+        _remove(tmp)
+        raise
+
+
+@contextlib.contextmanager
+def atomic_create(path: str | Path) -> Iterator[Path]:
+    """A path for a new file or directory that appears at ``path`` only when complete; never replaces.
+
+    The block gets ``.NAME.XXXXXXXX.tmp/NAME``, a path that does not exist yet
+    inside a hidden temporary directory next to ``path`` (same name, so a
+    writer naming inner files after it names them as it would at ``path``).
+    When the block ends normally what was written there is renamed to
+    ``path``; the temporary directory is removed in every case.
+
+    Raises
+    ------
+    FileExistsError
+        ``path`` exists, when the block starts or when the result is moved
+        into place (nothing existing is ever replaced or merged into).
+    """
+    target = Path(path)
+    if not target.name:
+        raise ValueError(f"{str(path)!r}: not a file name")
+    if target.exists() or target.is_symlink():
+        raise FileExistsError(f"{target}: exists; choose a new name (it is never overwritten)")
+    holder = Path(tempfile.mkdtemp(dir=target.parent, prefix=temporary_prefix(target), suffix=".tmp"))
+    inner = holder / target.name
+    try:
+        yield inner
+        if not (inner.exists() or inner.is_symlink()):
+            raise FileNotFoundError(f"{target}: nothing was written")
+        if target.exists() or target.is_symlink():
+            raise FileExistsError(f"{target}: appeared while it was being written; the new one is discarded")
+        if not inner.is_dir():
+            os.chmod(inner, _file_mode(target))
+        os.rename(inner, target)  # a directory onto a non-empty one fails; a file is checked above
+        _fsync_directory(target.parent)
+    finally:
+        _remove(holder)
+
+
+def _same(a: Path, b: Path) -> bool:
+    if a.exists() and b.exists():
+        try:
+            return os.path.samefile(a, b)
+        except OSError:
+            pass
+    return a.resolve() == b.resolve()
+
+
+def refuse_overwriting_inputs(outputs: Iterable[str | Path | None], inputs: Iterable[str | Path | None]) -> None:
+    """Raise :class:`OutputIsInputError` when an output names an input, or two outputs name one file.
+
+    Call it before anything is read or written. Two paths are the same when
+    :func:`os.path.samefile` says so (both exist: hard links and symbolic
+    links count), else when they resolve to the same absolute path. ``None``
+    entries (options not given) are skipped.
+    """
+    outs = [Path(p) for p in outputs if p is not None]
+    ins = [Path(p) for p in inputs if p is not None]
+    for k, out in enumerate(outs):
+        for src in ins:
+            if _same(out, src):
+                raise OutputIsInputError(f"the output {out} is the input {src}; writing it would destroy the "
+                                         "input: choose another output name")
+        for other in outs[:k]:
+            if _same(out, other):
+                raise OutputIsInputError(f"two outputs name the same file ({other} and {out}): choose "
+                                         "different names")
