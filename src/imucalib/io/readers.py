@@ -11,17 +11,19 @@ from __future__ import annotations
 import re
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..recording import ACC_UNITS, GYRO_UNITS, ImucalibWarning, Recording
 from .errors import ReaderError
+from .phone import PhoneFile, check_specific_force, identify, sensor_logger_header
 from .rosbag import is_rosbag, read_rosbag
 
 __all__ = ["READERS", "ReaderError", "read", "guess_reader"]
 
-READERS = ("csv", "imutk", "mat", "rosbag")
+READERS = ("csv", "imutk", "mat", "phone", "rosbag")
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 FIELDS = ("t", "ax", "ay", "az", "gx", "gy", "gz")
 
@@ -88,7 +90,7 @@ def read(
         reader = guess_reader(paths)
     if reader not in READERS:
         raise ReaderError(f"unknown reader {reader!r}; use one of {', '.join(READERS)}")
-    expected = 2 if reader == "imutk" else 1
+    expected = 2 if reader in ("imutk", "phone") else 1
     if len(paths) != expected:
         what = ("two files: the accelerometer file, then the gyroscope file" if expected == 2
                 else "one file")
@@ -103,6 +105,13 @@ def read(
         rec = read_rosbag(paths[0], topic=topic)
     elif topic is not None:
         raise ReaderError(f"topic applies to ROS bags; the {reader} reader has none")
+    elif reader == "phone":
+        ignored = [name for name, v in (("columns", columns), ("rate", rate), ("variable", variable))
+                   if v is not None]
+        if ignored:
+            raise ReaderError(f"a phone app's files name their columns and carry their own time; "
+                              f"{', '.join(ignored)} cannot be set")
+        rec = _read_phone(paths, acc_unit, gyro_unit, time_unit)
     elif reader == "imutk":
         rec = _read_imutk(paths[0], paths[1], acc_unit, gyro_unit, time_unit)
     elif reader == "mat":
@@ -115,14 +124,20 @@ def read(
 
 
 def guess_reader(paths: Sequence[Path]) -> str:
-    """``"rosbag"`` for ROS bags, ``"mat"`` for MATLAB files, ``"imutk"`` for two files, else ``"csv"``."""
+    """The reader for ``paths``, from their content.
+
+    ``"rosbag"`` for ROS bags, ``"mat"`` for MATLAB files; for two files,
+    ``"phone"`` when both headers are a phone app's (phyphox, Sensor Logger:
+    :mod:`.phone`), else ``"imutk"``; for one file ``"csv"``.
+    """
     if is_rosbag(paths[0]):
         return "rosbag"
-    head = paths[0].open("rb").read(128)
+    with paths[0].open("rb") as f:
+        head = f.read(128)
     if head.startswith(b"MATLAB") or (head[:4] in (b"\x00\x00\x00\x00",) and paths[0].suffix == ".mat"):
         return "mat"
     if len(paths) == 2:
-        return "imutk"
+        return "phone" if _phone_specs(paths) is not None else "imutk"
     return "csv"
 
 
@@ -297,45 +312,126 @@ def _unit_in(name: str) -> str | None:
 
 
 def _sniff_separator(line: str) -> str | None:
+    if ";" in line and "," in line and not any(_not_number(c.strip().replace(",", ".")) for c in line.split(";")):
+        return ";"  # numbers with decimal commas, separated by semicolons
     for sep in (",", ";", "\t"):
         if sep in line:
             return sep
     return None  # whitespace
 
 
-def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit) -> Recording:
+def _cells(line: str, sep: str | None) -> list[str]:
+    return [c.strip() for c in (line.split(sep) if sep else line.split())]
+
+
+_RATE = re.compile(
+    r"(?:^|[,;:#%\t])\s*(?:fs|f_s|odr|rate|data[\s_]?rate|output[\s_]?data[\s_]?rate|"
+    r"sampl(?:e|ing)[\s_]?(?:rate|frequency|freq)|samplerate|frequency)\s*(?:[\[\(]\s*(k?hz)\s*[\]\)])?"
+    r"\s*[,;:=\t]\s*\"?\s*([0-9]+(?:\.[0-9]*)?(?:[eE][+-]?[0-9]+)?)\s*(k?hz)?",
+    re.I,
+)
+
+
+def _preamble_rate(lines: Sequence[str]) -> float | None:
+    """A sampling rate [Hz] written in preamble lines (``Fs,100``, ``sample rate [Hz],100``, ``ODR: 1 kHz`` …)."""
+    for line in lines:
+        m = _RATE.search(line.strip())
+        if m:
+            value = float(m.group(2))
+            unit = (m.group(1) or m.group(3) or "hz").lower()
+            value *= 1000.0 if unit == "khz" else 1.0
+            if np.isfinite(value) and value > 0:
+                return value
+    return None
+
+
+def _names_sensor_columns(cells: Sequence[str]) -> bool:
+    hits = sum(bool(_TIME.match(c) or any(p.match(c) for p in _PATTERNS.values())) for c in cells)
+    return hits >= 3
+
+
+def _table_start(lines: list[str]) -> int:
+    """Index of the first line of the table (the header or the first row) after a preamble, 0 when none.
+
+    The table's width is that of its last line. Leading lines of another width
+    (``key,value`` pairs, free text, comments) are a preamble, provided they do
+    not themselves look like a header naming sensor columns (a header of the
+    wrong width stays an error) and the table starts in the first half of the file.
+    """
+    if len(lines) < 3:
+        return 0
+    sep = _sniff_separator(lines[-1])
+    width = len(_cells(lines[-1], sep))
+    if width < 2 or len(_cells(lines[0], sep)) == width:
+        return 0
+    for k in range(1, len(lines) // 2 + 1):
+        if len(_cells(lines[k], sep)) == width and len(_cells(lines[k + 1], sep)) == width:
+            if any(_names_sensor_columns([c.strip('"\'') for c in _cells(ln, sep)]) for ln in lines[:k]):
+                return 0
+            return k
+    return 0
+
+
+@dataclass
+class _Table:
+    """The text of a delimited file, split into its parts (line numbers are 1-based)."""
+
+    header: list[str] | None
+    body: list[str]
+    first_line: int
+    sep: str | None
+    ncols: int
+    skipped: int = 0
+    rate: float | None = None
+
+    @property
+    def names(self) -> list[str]:
+        return self.header or [f"column {j + 1}" for j in range(self.ncols)]
+
+    def split(self, line: str) -> list[str]:
+        return _cells(line, self.sep)
+
+
+def _split_table(path: Path) -> _Table:
+    """Read ``path`` and find its preamble (skipped with a note), header and rows."""
     text = path.read_text(encoding="utf-8-sig", errors="replace")
     lines = text.splitlines()
     while lines and not lines[-1].strip():
         lines.pop()
     if not lines:
         raise ReaderError(f"{path}: empty file")
+    start = _table_start(lines)
+    preamble, lines = lines[:start], lines[start:]
     sep = _sniff_separator(lines[0])
-
-    def split(line):
-        return [c.strip() for c in (line.split(sep) if sep else line.split())]
-
-    first = split(lines[0])
+    first = _cells(lines[0], sep)
     has_header = any(_not_number(c) for c in first)
-    header = first if has_header else None
+    header = [c.strip('"\'').strip() for c in first] if has_header else None
     body = lines[1:] if has_header else lines
-    first_line = 2 if has_header else 1
+    first_line = start + (2 if has_header else 1)
     if not body:
         raise ReaderError(f"{path}: no data rows after the header")
     blank = [i for i, ln in enumerate(body) if not ln.strip()]
     if blank:
         raise ReaderError(f"{path}: line {first_line + blank[0]} is empty; remove blank lines")
-    ncols = len(header) if header else len(split(body[0]))
-    names = header or [f"column {j + 1}" for j in range(ncols)]
-    mapping = _map_columns(path, names, columns, has_header)
-    numeric_cols = sorted({j for j in mapping.values() if j is not None})
-    # parse all columns that are numbers; others are kept as text
-    cells = None
+    if sep == ";" and "," in body[0]:  # semicolons between cells, commas as decimal marks
+        body = [ln.replace(",", ".") for ln in body]
+    ncols = len(header) if header else len(_cells(body[0], sep))
+    table = _Table(header, body, first_line, sep, ncols, skipped=start, rate=_preamble_rate(preamble))
+    if start:
+        what = "" if table.rate is None else f" (they give a sampling rate of {table.rate:g} Hz)"
+        warnings.warn(f"{path}: skipped {start} line{'s' if start > 1 else ''} before the "
+                      f"{'header' if has_header else 'data'}{what}", ImucalibWarning, stacklevel=4)
+    return table
+
+
+def _parse_columns(path: Path, table: _Table, numeric_cols: Sequence[int]) -> tuple[np.ndarray, np.ndarray | None]:
+    """All columns as floats (NaN where a text column is) and, when there are text columns, the cells."""
+    body, first_line, ncols, names = table.body, table.first_line, table.ncols, table.names
     try:
-        data = _parse_block(path, body, first_line, ncols, sep, names)
+        return _parse_block(path, body, first_line, ncols, table.sep, names), None
     except ReaderError as exc:
         # a text column elsewhere is fine; the mapped ones must be numeric
-        rows = [split(ln) for ln in body]
+        rows = [table.split(ln) for ln in body]
         for i, r in enumerate(rows):
             if len(r) != ncols:
                 raise ReaderError(
@@ -353,10 +449,38 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit) -> Reco
                 continue
             if j in numeric_cols and not np.all(np.isfinite(data[:, j])):
                 raise exc from None
+        return data, cells
+
+
+def _exact_time(table: _Table, data: np.ndarray, tcol: int) -> tuple[np.ndarray, int]:
+    """The time column, relative to an integer offset when its stamps exceed float precision (else 0)."""
+    raw_t = data[:, tcol]
+    if np.max(np.abs(raw_t)) >= 2.0**53:
+        # integer stamps (e.g. ns since the epoch) exceed float precision: parse exactly
+        try:
+            ints = np.array([table.split(ln)[tcol] for ln in table.body], dtype=np.int64)
+            return (ints - ints[0]).astype(np.float64), int(ints[0])
+        except (ValueError, OverflowError):
+            pass
+    return raw_t, 0
+
+
+def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit) -> Recording:
+    table = _split_table(path)
+    has_header = table.header is not None
+    body, first_line, names = table.body, table.first_line, table.names
+    mapping = _map_columns(path, names, columns, has_header)
+    numeric_cols = sorted({j for j in mapping.values() if j is not None})
+    data, cells = _parse_columns(path, table, numeric_cols)
     meta: dict = {"columns": {f: (names[j] if j is not None else None) for f, j in mapping.items()},
-                  "column_names": list(names), "header": has_header, "separator": sep or " "}
+                  "column_names": list(names), "header": has_header, "separator": table.sep or " "}
+    if table.skipped:
+        meta["preamble_lines"] = table.skipped
     tcol = mapping["t"]
     if tcol is None:
+        if rate is None and table.rate is not None:
+            rate = table.rate
+            meta["rate_from"] = "preamble"
         if rate is None:
             raise ReaderError(f"{path}: no time column found; pass --rate HZ (the sampling rate)")
         t = np.arange(len(body)) / rate
@@ -367,24 +491,14 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit) -> Reco
                 f"{path}: the file has a time column ({names[tcol]!r}) and --rate was given; "
                 "pass only one (use --columns with '-' for t to ignore the time column)"
             )
-        raw_t = data[:, tcol]
-        if np.max(np.abs(raw_t)) >= 2.0**53:
-            # integer stamps (e.g. ns since the epoch) exceed float precision: parse exactly
-            try:
-                ints = np.array([split(ln)[tcol] for ln in body], dtype=np.int64)
-                raw_t = (ints - ints[0]).astype(np.float64)
-                offset = float(ints[0])
-            except (ValueError, OverflowError):
-                offset = 0.0
-        else:
-            offset = 0.0
+        raw_t, offset = _exact_time(table, data, tcol)
         _check_time(path, raw_t, first_line, names[tcol])
         unit = time_unit or _unit_in(names[tcol]) if has_header else time_unit
         if unit not in TIME_UNITS:
             unit = time_unit or _infer_time_unit(raw_t)
         t = _to_seconds(raw_t, unit, meta)
         if offset:
-            meta["t0"] = offset
+            meta["t0"] = float(offset)
             meta["time_relative"] = True
     acc = data[:, [mapping["ax"], mapping["ay"], mapping["az"]]]
     gyro = data[:, [mapping["gx"], mapping["gy"], mapping["gz"]]]
@@ -448,8 +562,14 @@ def _map_columns(path: Path, names: list[str], columns, has_header: bool) -> dic
                           f"{','.join(FIELDS)} (pass --columns to say otherwise)",
                           ImucalibWarning, stacklevel=4)
             return dict(zip(FIELDS, range(7), strict=True))
+        if len(names) == 6:
+            warnings.warn(f"{path}: no header and 6 columns: they were taken as {','.join(FIELDS[1:])}, "
+                          "with no time column (pass --columns to say otherwise)",
+                          ImucalibWarning, stacklevel=4)
+            return {"t": None, **dict(zip(FIELDS[1:], range(6), strict=True))}
         raise ReaderError(f"{path}: no header and {len(names)} columns: pass --columns with 7 "
-                          f"0-based indices in the order {','.join(FIELDS)}")
+                          f"0-based indices in the order {','.join(FIELDS)} ('-' for t when there is "
+                          "no time column)")
     out: dict = {"t": None}
     for j, name in enumerate(names):
         if out["t"] is None and _TIME.match(name):
@@ -467,6 +587,95 @@ def _map_columns(path: Path, names: list[str], columns, has_header: bool) -> dic
             f"--columns with the names in the order {','.join(FIELDS)}"
         )
     return out
+
+
+# ------------------------------------------------------------ phone apps
+def _head_names(path: Path) -> list[str] | None:
+    """The cells of the first line when they name columns (not all numbers), else None."""
+    if path.is_dir():
+        return None
+    with path.open("r", encoding="utf-8-sig", errors="replace") as f:
+        line = f.readline()
+    cells = [c.strip('"\'').strip() for c in _cells(line, _sniff_separator(line))]
+    return cells if any(_not_number(c) for c in cells) else None
+
+
+def _phone_specs(paths: Sequence[Path]) -> list[PhoneFile] | None:
+    """The phone-app layout of each of two files, or None when either is not a phone app's file.
+
+    Sensor Logger's files share one header; when a file's name does not say which
+    sensor it holds, the order decides (accelerometer first, as for imu_tk).
+    """
+    specs = []
+    for i, path in enumerate(paths):
+        names = _head_names(path)
+        if names is None:
+            return None
+        spec = identify(path, names)
+        if spec is None and sensor_logger_header(names):
+            lower = [n.lower() for n in names]
+            sensor = "acc" if i == 0 else "gyro"
+            spec = PhoneFile("Sensor Logger", sensor, 0, "ns",
+                             (lower.index("x"), lower.index("y"), lower.index("z")),
+                             "m/s^2" if sensor == "acc" else "rad/s")
+        if spec is None:
+            return None
+        specs.append(spec)
+    return specs
+
+
+def _read_phone(paths: Sequence[Path], acc_unit, gyro_unit, time_unit) -> Recording:
+    """A phone app's accelerometer and gyroscope files, merged onto the accelerometer's time base."""
+    specs = _phone_specs(paths)
+    if specs is None:
+        raise ReaderError(f"{paths[0]}, {paths[1]}: not a pair of phone-app files (phyphox's or Sensor "
+                          "Logger's accelerometer and gyroscope CSV files); see the formats in the docs")
+    if specs[0].app != specs[1].app:
+        raise ReaderError(f"{paths[0]} is a {specs[0].app} file but {paths[1]} is a {specs[1].app} file; "
+                          "their times cannot be matched: pass two files from the same app")
+    sensors = sorted(s.sensor for s in specs)
+    if sensors != ["acc", "gyro"]:
+        what = "accelerometer" if sensors[0] == "acc" else "gyroscope"
+        raise ReaderError(f"{paths[0]} and {paths[1]} are both {what} files; pass one accelerometer "
+                          "file and one gyroscope file")
+    streams = {}
+    for path, spec in zip(paths, specs, strict=True):
+        table = _split_table(path)
+        data, _ = _parse_columns(path, table, [spec.time, *spec.axes])
+        raw_t, offset = _exact_time(table, data, spec.time)
+        _check_time(path, raw_t, table.first_line, table.names[spec.time])
+        streams[spec.sensor] = (path, spec, table, raw_t, offset, data[:, list(spec.axes)])
+    app = specs[0].app
+    unit = time_unit or specs[0].time_unit
+    # epoch stamps are kept as exact integers relative to the earliest start
+    base = min(offset if offset else float(raw_t[0]) for *_, raw_t, offset, _ in streams.values())
+    times = {sensor: (raw_t + (offset - base)) * TIME_UNITS[unit]
+             for sensor, (*_, raw_t, offset, _) in streams.items()}
+    acc_path, acc_spec, *_, acc = streams["acc"]
+    gyro_path, gyro_spec, *_, gyro = streams["gyro"]
+    au = check_specific_force(acc_path, acc_spec, acc)
+    if acc_unit is not None:
+        au = acc_unit
+    gu = gyro_unit or gyro_spec.unit
+    if gu not in GYRO_UNITS:
+        raise ReaderError(f"{gyro_path}: unknown gyroscope unit {gu!r} in the header; pass --gyro-unit")
+    orders = {kind: ",".join(streams[sensor][2].names[j] for j in sorted(spec.axes))
+              for sensor, kind, spec in (("acc", "accelerometer", acc_spec), ("gyro", "gyroscope", gyro_spec))
+              if list(spec.axes) != sorted(spec.axes)}
+    if len(orders) == 2 and len(set(orders.values())) == 1:
+        reordered = f"; the axes, written in the order {orders['accelerometer']} in both files, were put in x,y,z order"
+    elif orders:
+        reordered = "; the axes, written in the order " + " and ".join(
+            f"{order} ({kind})" for kind, order in orders.items()) + ", were put in x,y,z order"
+    else:
+        reordered = ""
+    warnings.warn(
+        f"read {acc_path.name} and {gyro_path.name} as {app}'s accelerometer ({au}) and gyroscope ({gu}) "
+        f"files, each with its own time stamps{reordered}", ImucalibWarning, stacklevel=3)
+    meta: dict = {"source": [str(acc_path), str(gyro_path)], "app": app, "time_unit": unit,
+                  "t0": float(base), "time_relative": bool(base)}
+    return Recording.from_streams(times["acc"], acc, times["gyro"], gyro,
+                                  acc_unit=au, gyro_unit=gu, metadata=meta)
 
 
 # ----------------------------------------------------------------- MATLAB
