@@ -314,3 +314,17 @@ def test_euroc_imu0_data_csv(si, plain, plain_calibration, tmp_path):
     cal = methods.calibrate(rec, method="tedaldi2014")
     np.testing.assert_allclose(cal.gyroscope.scale, plain_calibration.gyroscope.scale, rtol=1e-9)
     np.testing.assert_allclose(cal.accelerometer.bias, plain_calibration.accelerometer.bias, atol=1e-9)
+
+
+def test_phone_reader_named_explicitly(sensor_logger, si, tmp_path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        assert read(list(sensor_logger), reader="phone").metadata["app"] == "Sensor Logger"
+        _cli_calibrates(sensor_logger, tmp_path, "--reader", "phone")
+    a, g = tmp_path / "a.txt", tmp_path / "g.txt"
+    for p in (a, g):
+        np.savetxt(p, np.column_stack([si.t, si.acc])[:50], fmt="%.10g")
+    with pytest.raises(ReaderError, match="not a pair of phone-app files"):
+        read([a, g], reader="phone")
+    with pytest.raises(ReaderError, match="rate cannot be set"):
+        read(list(sensor_logger), rate=100.0)

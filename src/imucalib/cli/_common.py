@@ -50,7 +50,7 @@ def add_gravity_option(p: argparse.ArgumentParser) -> None:
 def add_reader_options(p: argparse.ArgumentParser) -> None:
     """The options of :func:`imucalib.io.read`, for commands that read a recording."""
     g = p.add_argument_group("reading the data")
-    g.add_argument("--reader", choices=("csv", "imutk", "mat", "rosbag", "session"),
+    g.add_argument("--reader", choices=("csv", "imutk", "mat", "phone", "rosbag", "session"),
                    help="input format (default: guessed from the file)")
     g.add_argument("--topic", help="ROS bags: the sensor_msgs/Imu topic (needed when there are several)")
     g.add_argument("--columns", help="comma-separated column names or 0-based indices in the "

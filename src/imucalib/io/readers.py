@@ -1,4 +1,5 @@
-"""Readers: generic CSV, imu_tk's two-file text format, MATLAB ``.mat``, ROS bags (:mod:`.rosbag`).
+"""Readers: generic CSV, imu_tk's two-file text format, phone apps' two-file CSV (:mod:`.phone`), MATLAB
+``.mat``, ROS bags (:mod:`.rosbag`).
 
 Every reader returns a :class:`~imucalib.recording.Recording` and reports bad
 input with a :class:`ReaderError` naming the file, the line (1-based, as an
@@ -47,8 +48,10 @@ def read(
     ----------
     paths : path or sequence of paths
         One CSV or MAT file, two imu_tk files (accelerometer, then gyroscope),
-        or one ROS bag (a ROS 1 ``.bag``, a ROS 2 bag directory, an ``.mcap``).
-    reader : {"csv", "imutk", "mat", "rosbag"}, optional
+        a phone app's accelerometer and gyroscope files (phyphox, Sensor Logger:
+        see :mod:`.phone`), or one ROS bag (a ROS 1 ``.bag``, a ROS 2 bag
+        directory, an ``.mcap``).
+    reader : {"csv", "imutk", "mat", "phone", "rosbag"}, optional
         The format; guessed from the file(s) when omitted (:func:`guess_reader`).
     columns : sequence of str, optional
         Column names (or 0-based indices as strings) in the order
