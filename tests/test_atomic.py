@@ -167,7 +167,47 @@ def test_json_output_is_strict(capsys, tmp_path, session):
                  ["compare", session, "--methods", "six_position,tedaldi2014", "--folds", "3", "--json"]):
         code, out, err = run(capsys, *args)
         assert code in (0, 3), err
-        strict_loads(out)
+        doc = strict_loads(out)
+        if args[0] == "noise":  # a random walk not reached in a short rest: not available, not NaN
+            assert None in doc["accelerometer"]["random_walk"]
+
+
+def test_figures_go_through_a_temporary_file(capsys, tmp_path, session):
+    pytest.importorskip("matplotlib", reason="plots need matplotlib (the plot extra)")
+    from imucalib.io import read
+    from imucalib.report import plot_allan
+
+    rec = read(session)[:3000]
+    for name in ("allan.png", "allan.svg", "allan"):  # no suffix: matplotlib's default format, as before
+        plot_allan(rec, tmp_path / name)
+    assert (tmp_path / "allan.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (tmp_path / "allan").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert b"<svg" in (tmp_path / "allan.svg").read_bytes()[:500]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["allan", "allan.png", "allan.svg"]
+
+
+def test_an_interrupted_session_write_does_not_read_as_a_session(tmp_path, monkeypatch):
+    import imucalib.scenarios.base as base
+    from imucalib.scenarios import read_session, session, write_session
+
+    sim = session("zhang2021", rng=0)
+    write_session(sim, tmp_path / "s")
+    assert read_session(tmp_path / "s").seed == 0
+    original = base._write_rec
+
+    def fail_at_the_tests(path, rec):
+        if path.name.startswith("test_"):
+            raise KeyboardInterrupt
+        original(path, rec)
+
+    monkeypatch.setattr(base, "_write_rec", fail_at_the_tests)
+    with pytest.raises(KeyboardInterrupt):
+        write_session(session("zhang2021", rng=1), tmp_path / "s")
+    assert not (tmp_path / "s" / "session.json").exists()  # new recordings, old index: no longer a session
+    assert not [p for p in (tmp_path / "s").iterdir() if p.name.startswith(".")]
+    monkeypatch.setattr(base, "_write_rec", original)
+    write_session(session("zhang2021", rng=1), tmp_path / "s")
+    assert read_session(tmp_path / "s").seed == 1
 
 
 # ---------------------------------------------------------------- SIGKILL

@@ -84,8 +84,9 @@ def _save(fig, target, plt):
             fig.savefig(target, format="png", dpi=110)
             return target
         target = Path(target)
-        with atomic_path(target) as tmp:  # the temporary name keeps the suffix, so the format is the target's
-            fig.savefig(tmp, dpi=110)
+        fmt = target.suffix[1:] or plt.rcParams["savefig.format"]  # the target's, not the temporary name's
+        with atomic_path(target) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=110)
         return target
     finally:
         plt.close(fig)
