@@ -35,7 +35,8 @@ def is_rosbag(path: Path) -> bool:
     if path.is_dir():
         return (path / "metadata.yaml").is_file()
     try:
-        head = path.open("rb").read(13)
+        with path.open("rb") as f:
+            head = f.read(13)
     except OSError:
         return False
     return head.startswith(b"#ROSBAG V2.0") or head.startswith(b"\x89MCAP0\r\n")
