@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
+from ..progress import Progress, stage_printer
 from ..recording import STANDARD_GRAVITY, Recording
 
-__all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_REJECTED", "STANDARD_GRAVITY", "Bar", "CliError",
+__all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_REJECTED", "STANDARD_GRAVITY", "CliError", "Progress",
            "add_force_option", "add_gravity_option", "add_init_static_option", "add_reader_options",
            "check_verdict", "positive_float", "print_json", "print_verdict", "progress", "read",
            "read_recording", "show_warning"]
@@ -117,32 +117,8 @@ def print_json(obj) -> int:
 
 
 def progress(enabled: bool) -> Callable[[str], None] | None:
-    """A callback printing time-stamped stage messages on stderr, or None when not ``enabled``."""
-    if not enabled:
-        return None
-    start = time.perf_counter()
-
-    def say(msg: str) -> None:
-        print(f"[{time.perf_counter() - start:6.2f} s] {msg}", file=sys.stderr, flush=True)
-
-    return say
-
-
-class Bar:
-    """A progress bar on stderr when it is a terminal; silent otherwise."""
-
-    def __init__(self, label: str, enabled: bool) -> None:
-        self.label, self.enabled, self.start = label, enabled, time.perf_counter()
-
-    def __call__(self, done: int, total: int) -> None:
-        if not self.enabled:
-            return
-        width = 30
-        fill = int(width * done / total)
-        print(f"\r{self.label} [{'#' * fill}{'.' * (width - fill)}] {done}/{total} "
-              f"{time.perf_counter() - self.start:5.1f} s", end="", file=sys.stderr, flush=True)
-        if done == total:
-            print(file=sys.stderr)
+    """Time-stamped stage messages on stderr, or None when not ``enabled``."""
+    return stage_printer(enabled)
 
 
 def print_verdict(result: dict, headline: str) -> None:

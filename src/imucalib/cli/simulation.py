@@ -8,7 +8,7 @@ import sys
 import numpy as np
 
 from ..scenarios import SCENARIOS
-from ._common import Bar, CliError, positive_float, print_json, progress
+from ._common import CliError, Progress, positive_float, print_json, progress
 
 __all__ = ["register", "scenario_choices"]
 
@@ -85,7 +85,7 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
                        "write a session with `imucalib simulate --noise-…` and calibrate it")
     result = montecarlo(args.scenario, args.method, model=args.model, runs=args.runs,
                         workers=args.workers, seed=args.seed, baseline=args.baseline,
-                        progress=Bar(f"{args.method} on {args.scenario}", sys.stderr.isatty()))
+                        progress=Progress(f"montecarlo {args.method} on {args.scenario}", unit="run"))
     if args.json:
         return print_json(result)
     print(f"{result['runs']} runs of {args.method} ({args.model or 'default model'}) on "
