@@ -67,3 +67,22 @@ def test_kalibr_file_from_a_long_rest(tmp_path, capsys):
     write_csv(tmp_path / "raw.csv", raw)
     assert main(["noise", str(tmp_path / "raw.csv"), "--whole", "--kalibr", str(tmp_path / "x.yaml")]) == 2
     assert "needs SI units" in capsys.readouterr().err
+
+
+def test_overlapping_allan_deviation_matches_allantools():
+    """Our overlapping Allan deviation against allantools.oadev (NIST SP 1065 eq. 11) on white noise plus a
+    rate random walk: the same estimator, so equal to rounding."""
+    allantools = pytest.importorskip("allantools")
+    rng = np.random.default_rng(7)
+    rate, n = 200.0, 60_000
+    x = rng.normal(0, 0.05, (n, 3)) + np.cumsum(rng.normal(0, 2e-4, (n, 3)), axis=0) + [1.0, -2.0, 9.81]
+    taus, adev = allan_deviation(x, rate)
+    assert taus.size > 30
+    for j in range(3):
+        t2, ref, _, _ = allantools.oadev(x[:, j], rate=rate, data_type="freq", taus=taus)
+        np.testing.assert_allclose(t2, taus, rtol=1e-12)
+        np.testing.assert_allclose(adev[:, j], ref, rtol=1e-10)
+    # explicit cluster times, one column
+    t1, a1 = allan_deviation(x[:, 1], rate, taus=[0.05, 1.0, 10.0])
+    _, ref1, _, _ = allantools.oadev(x[:, 1], rate=rate, data_type="freq", taus=t1)
+    np.testing.assert_allclose(a1, ref1, rtol=1e-10)

@@ -59,12 +59,20 @@ def allan_deviation(x: np.ndarray, rate: float, taus: np.ndarray | None = None,
         m = m[(m >= 1) & (m <= (n - 1) // 2)]
         if m.size == 0:
             raise ValueError("no cluster time fits the record: use shorter taus or a longer record")
-    theta = np.concatenate([np.zeros((1, x.shape[1])), np.cumsum(x - x.mean(axis=0), axis=0)]) / rate
+    # θ per column as one contiguous row: the second differences then run over 1-D arrays that stay in
+    # the cache, in place, and are squared and summed by einsum rather than a BLAS dot product, whose
+    # threads only contend on a shared machine (benchmarks/bench_allan.py)
+    theta = np.zeros((x.shape[1], n + 1))
+    np.cumsum((x - x.mean(axis=0)).T, axis=1, out=theta[:, 1:])
+    theta /= rate
     out = np.empty((m.size, x.shape[1]))
-    for i, mm in enumerate(m):
-        d = theta[2 * mm :] - 2 * theta[mm:-mm] + theta[: -2 * mm]
-        tau = mm / rate
-        out[i] = np.sqrt(np.sum(d * d, axis=0) / (2 * tau**2 * d.shape[0]))
+    for j, th in enumerate(theta):
+        for i, mm in enumerate(m):
+            d = th[2 * mm :] - th[mm:-mm]  # θ_{k+2m} − 2θ_{k+m} + θ_k
+            d -= th[mm:-mm]
+            d += th[: -2 * mm]
+            tau = mm / rate
+            out[i, j] = np.sqrt(np.einsum("i,i->", d, d) / (2 * tau**2 * d.size))
     taus_used = m / rate
     return taus_used, (out[:, 0] if squeeze else out)
 
