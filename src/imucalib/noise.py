@@ -21,7 +21,7 @@ import numpy as np
 if TYPE_CHECKING:
     from .recording import Recording
 
-__all__ = ["allan_deviation", "kalibr_yaml", "noise_parameters", "noise_summary", "random_walk_bound"]
+__all__ = ["allan_deviation", "kalibr_noise", "kalibr_yaml", "noise_parameters", "noise_summary", "random_walk_bound"]
 
 
 def allan_deviation(x: np.ndarray, rate: float, taus: np.ndarray | None = None,
@@ -139,14 +139,15 @@ def noise_summary(recording: Recording) -> dict:
     return out
 
 
-def kalibr_yaml(acc: dict, gyro: dict, rate: float, *, topic: str = "/imu0") -> tuple[str, list[str]]:
-    """The IMU noise file of Kalibr / OpenVINS / VINS (``imu.yaml``) from SI noise parameters.
+def kalibr_noise(acc: dict, gyro: dict) -> tuple[dict[str, float], list[str]]:
+    """The four noise entries of Kalibr's IMU model from SI noise parameters, and notes.
 
     ``acc`` and ``gyro`` hold ``white_noise_density`` and ``random_walk``
     per axis (:func:`noise_parameters`, in m/s² and rad/s, optionally
-    ``random_walk_bound`` where the record was too short); the file takes the
-    largest axis of each. Returns the text and notes on what was bounded
-    rather than measured.
+    ``random_walk_bound`` where the record was too short); each entry takes the
+    largest axis. Returns ``{"accelerometer_noise_density", "accelerometer_random_walk",
+    "gyroscope_noise_density", "gyroscope_random_walk"}`` and notes on what was
+    bounded rather than measured.
     """
     notes = []
 
@@ -162,12 +163,27 @@ def kalibr_yaml(acc: dict, gyro: dict, rate: float, *, topic: str = "/imu0") -> 
 
     na, ka = pick(acc, "accelerometer")
     ng, kg = pick(gyro, "gyroscope")
+    return {"accelerometer_noise_density": na, "accelerometer_random_walk": ka,
+            "gyroscope_noise_density": ng, "gyroscope_random_walk": kg}, notes
+
+
+def kalibr_yaml(acc: dict, gyro: dict, rate: float, *, topic: str = "/imu0") -> tuple[str, list[str]]:
+    """The IMU noise file of Kalibr / OpenVINS / VINS (``imu.yaml``) from SI noise parameters.
+
+    The entries of :func:`kalibr_noise` (largest axis of each), the topic and
+    the rate. Returns the text and notes on what was bounded rather than measured.
+    """
+    v, notes = kalibr_noise(acc, gyro)
     text = "\n".join([
         "# IMU noise from the Allan deviation of a rest (imucalib noise), largest axis; Kalibr's format",
-        f"accelerometer_noise_density: {na:.6e}   # [ m / s^2 / sqrt(Hz) ]   ( accel \"white noise\" )",
-        f"accelerometer_random_walk: {ka:.6e}     # [ m / s^3 / sqrt(Hz) ]   ( accel bias diffusion )",
-        f"gyroscope_noise_density: {ng:.6e}       # [ rad / s / sqrt(Hz) ]   ( gyro \"white noise\" )",
-        f"gyroscope_random_walk: {kg:.6e}         # [ rad / s^2 / sqrt(Hz) ] ( gyro bias diffusion )",
+        f"accelerometer_noise_density: {v['accelerometer_noise_density']:.6e}   "
+        "# [ m / s^2 / sqrt(Hz) ]   ( accel \"white noise\" )",
+        f"accelerometer_random_walk: {v['accelerometer_random_walk']:.6e}     "
+        "# [ m / s^3 / sqrt(Hz) ]   ( accel bias diffusion )",
+        f"gyroscope_noise_density: {v['gyroscope_noise_density']:.6e}       "
+        "# [ rad / s / sqrt(Hz) ]   ( gyro \"white noise\" )",
+        f"gyroscope_random_walk: {v['gyroscope_random_walk']:.6e}         "
+        "# [ rad / s^2 / sqrt(Hz) ] ( gyro bias diffusion )",
         f"rostopic: {topic}",
         f"update_rate: {rate:.6g}   # [ Hz ]",
         "",

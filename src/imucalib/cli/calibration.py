@@ -1,7 +1,7 @@
 """Commands around one calibration.
 
-Make it (calibrate, compare the methods) and use it (apply, export,
-detect-fall); checking it on another recording (validate) is in :mod:`.validation`.
+Make it (calibrate, compare the methods) and use it (apply, detect-fall;
+export is in :mod:`.export`); checking it on another recording (validate) is in :mod:`.validation`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..calibration import Calibration
-from ..io.atomic import atomic_write, refuse_overwriting_inputs
+from ..io.atomic import refuse_overwriting_inputs
 from ..recording import ImucalibWarning, Interval
 from ._common import (
     EXIT_REJECTED,
@@ -256,23 +256,6 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_export(args: argparse.Namespace) -> int:
-    """``imucalib export``: :func:`imucalib.export.to_c` on stdout or into a header file."""
-    from ..export import to_c
-
-    refuse_overwriting_inputs([args.output], [args.calibration])
-    cal = Calibration.load(args.calibration)
-    check_verdict(cal, args.calibration, args.force)
-    text = to_c(cal, prefix=args.prefix, ctype="float" if args.float else "double")
-    if args.output:
-        with atomic_write(args.output, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        print(f"wrote {args.output}: {args.prefix}_apply(acc_raw, gyro_raw, acc, gyro)")
-    else:
-        sys.stdout.write(text)
-    return 0
-
-
 def cmd_detect_fall(args: argparse.Namespace) -> int:
     """``imucalib detect-fall``: :func:`imucalib.methods.zhang2021.detect_fall`, with the intervals' times."""
     from ..methods.zhang2021 import detect_fall
@@ -294,7 +277,7 @@ def cmd_detect_fall(args: argparse.Namespace) -> int:
 
 # -------------------------------------------------------------------- parsers
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add calibrate, apply, compare, export and detect-fall to the ``imucalib`` sub-commands."""
+    """Add calibrate, apply, compare and detect-fall to the ``imucalib`` sub-commands."""
     p = sub.add_parser("calibrate", help="estimate a calibration from a recording",
                        description="Estimate biases, scale factors and misalignments from a "
                        "recording of static poses and rotations between them. The verdict (accepted, suspect "
@@ -347,18 +330,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the comparison as JSON")
     add_reader_options(p)
     p.set_defaults(func=cmd_compare)
-
-    p = sub.add_parser("export", help="write a calibration as C source for the device",
-                       description="Print (or write) a C99 header with the calibration's constants and "
-                       "a function PREFIX_apply(acc_raw, gyro_raw, acc, gyro) that corrects one sample "
-                       "exactly as 'imucalib apply' does. A rejected calibration is refused unless --force "
-                       "is given.")
-    p.add_argument("calibration", help="calibration file (JSON)")
-    p.add_argument("-o", "--output", help="header file to write (default: standard output)")
-    p.add_argument("--prefix", default="imucalib", help="prefix of the C names (default: imucalib)")
-    p.add_argument("--float", action="store_true", help="single precision (default: double)")
-    add_force_option(p)
-    p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("detect-fall", help="find free-fall intervals (Zhang 2021, §IV-C)",
                        description="Mark samples whose weightless loss (Zhang 2021, eq. 19) is "

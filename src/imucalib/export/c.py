@@ -18,7 +18,7 @@ import re
 
 import numpy as np
 
-from .calibration import Calibration
+from ..calibration import Calibration
 
 __all__ = ["to_c"]
 

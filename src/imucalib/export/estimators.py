@@ -1,0 +1,227 @@
+"""A calibration for visual-inertial estimators: OpenVINS's ``kalibr_imu_chain.yaml`` and Kalibr's IMU yaml.
+
+**OpenVINS** (``ov_msckf``; docs "Analytical Propagation: IMU Intrinsic Models",
+``VioManagerOptions.h`` and ``Propagator.cpp`` of v2.7) reads, under ``imu0``,
+``Tw``, ``Ta`` (3×3), ``R_IMUtoGYRO``, ``R_IMUtoACC`` (rotations), ``Tg`` and
+``model``, forms ``D = T⁻¹`` and keeps its lower triangle (``model: kalibr``,
+the default) or its upper triangle (``model: rpng``), then corrects each
+reading ``a_m``, ``ω_m`` [m/s², rad/s] with the biases it estimates online::
+
+    a_I = R_IMUtoACCᵀ · Da · (a_m − b_a)
+    ω_I = R_IMUtoGYROᵀ · Dw · (ω_m − b_g − Tg · a_I)
+
+With the linear form of :mod:`.linear` in physical units (``a = A (a_m − b_a)``,
+``ω = W (ω_m − b_g − G a)``) the frame ``I`` is imucalib's and
+
+* ``A = R_IMUtoACCᵀ Da`` and ``W = R_IMUtoGYROᵀ Dw`` are QR (``rpng``: ``Da``,
+  ``Dw`` upper triangular) or QL (``kalibr``: lower) decompositions with proper
+  rotations; for ``rpng`` and the canonical upper-triangular ``T_a``, ``A`` is
+  upper triangular already and ``R_IMUtoACC = I``; ``Ta = Da⁻¹``, ``Tw = Dw⁻¹``
+  (triangular as ``D``);
+* ``Tg = s_g G`` (OpenVINS's ``Tg`` multiplies ``a_I``, ours ``a``: the same vector);
+* the biases ``s_a b_a``, ``s_g b_g`` have no entry: OpenVINS estimates them
+  online; the file names them in a comment as the values at calibration time.
+
+**Kalibr** (``IccSensors.py``, ``IccScaledMisalignedImu``: Rehder et al. 2017)
+models the raw readings from the true specific force ``a_i`` and rate ``ω_i``
+in its IMU frame ``i`` (the accelerometer's, made orthogonal)::
+
+    α_m = M_a a_i + b_a,    ω_m = M_g C_gyro_i ω_i + A C_gyro_i a_i + b_g
+
+with ``M_a``, ``M_g`` lower triangular. Its input ``imu.yaml`` (``--imu``)
+holds only the four noise entries, ``rostopic`` and ``update_rate``: Kalibr
+estimates the intrinsics itself from identity and reads none. They have a place
+only in its imu-camera result (the ``imu0`` entry of ``…-imu.yaml`` with
+``model: scale-misalignment``), the form written here. imucalib makes the
+accelerometer frame orthogonal with an upper-triangular ``T_a``, Kalibr with a
+lower-triangular ``M_a``: the two frames differ by a small rotation ``R``,
+``a_i = R a``, ``ω_i = R ω``, found by ``s_a A⁻¹ = M_a R`` (an LQ
+decomposition); then ``s_g W⁻¹ = M_g C_gyro_i R`` and ``A = s_g G Rᵀ C_gyro_iᵀ``.
+The file gives ``R`` in a comment.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..calibration import Calibration
+from ..noise import kalibr_noise
+from .linear import ExportError, LinearForm, linear_form, rotation_times_triangular, triangular_times_rotation
+
+__all__ = ["NOISE_KEYS", "OPENVINS_MODELS", "read_noise", "to_kalibr", "to_openvins"]
+
+#: the noise entries of Kalibr's and OpenVINS's IMU files [SI units, per √Hz]
+NOISE_KEYS = ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
+              "gyroscope_random_walk")
+
+#: OpenVINS's IMU models and whether their D matrices are lower triangular
+OPENVINS_MODELS = {"kalibr": True, "rpng": False}
+
+
+def _num(x: float) -> str:
+    """Shortest text that reads back as the same double (full precision), a float to YAML 1.1 too.
+
+    PyYAML (Kalibr's reader) takes ``4e-05`` for a string: the mantissa gets a point (``4.0e-05``).
+    """
+    text = repr(float(x) + 0.0)  # + 0.0: no "-0.0"
+    mantissa, e, exponent = text.partition("e")
+    return f"{mantissa}.0e{exponent}" if e and "." not in mantissa else text
+
+
+def _matrix(name: str, m: np.ndarray, indent: str = "  ") -> list[str]:
+    return [f"{indent}{name}:"] + [f"{indent}  - [{', '.join(_num(v) for v in row)}]" for row in np.asarray(m)]
+
+
+def _vector(v) -> str:
+    return "[" + ", ".join(f"{x:.10g}" for x in v) + "]"
+
+
+# ----------------------------------------------------------------------- noise
+def read_noise(path: str | Path) -> tuple[dict, list[str]]:
+    """The noise entries (and ``rostopic``, ``update_rate`` where given) of an IMU noise file.
+
+    Reads Kalibr's/OpenVINS's ``imu.yaml`` (flat, or one ``imu0`` entry) or
+    the JSON of ``imucalib noise --json`` made in SI units (``--calibration``).
+    Returns the entries and notes.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ExportError(f"--noise {path}: file not found") from None
+    except UnicodeDecodeError:
+        raise ExportError(f"--noise {path}: not a text file") from None
+    if text.lstrip().startswith("{"):
+        return _noise_from_json(path, text)
+    found: dict[str, list[str]] = {}
+    for line in text.splitlines():
+        m = re.match(r"\s*([A-Za-z_]+)\s*:\s*([^#]*?)\s*(#.*)?$", line)
+        if m and m.group(1) in (*NOISE_KEYS, "rostopic", "update_rate") and m.group(2):
+            found.setdefault(m.group(1), []).append(m.group(2).strip("'\""))
+    twice = [k for k, v in found.items() if len(v) > 1]
+    if twice:
+        raise ExportError(f"--noise {path}: {', '.join(twice)} given more than once (a file of several IMUs?); "
+                          "give a file with one IMU")
+    missing = [k for k in NOISE_KEYS if k not in found]
+    if missing:
+        raise ExportError(f"--noise {path}: no {', '.join(missing)}; expected Kalibr's imu.yaml (imucalib noise "
+                          "--kalibr writes one) or the JSON of imucalib noise --json")
+    out: dict = {}
+    for key in (*NOISE_KEYS, "update_rate"):
+        if key in found:
+            try:
+                out[key] = float(found[key][0])
+            except ValueError:
+                raise ExportError(f"--noise {path}: {key} is {found[key][0]!r}, not a number") from None
+            if not (np.isfinite(out[key]) and out[key] > 0):
+                raise ExportError(f"--noise {path}: {key} must be a positive number; got {found[key][0]}")
+    if "rostopic" in found:
+        out["rostopic"] = found["rostopic"][0]
+    return out, []
+
+
+def _noise_from_json(path: Path, text: str) -> tuple[dict, list[str]]:
+    try:
+        doc = json.loads(text)
+        acc, gyro, rate = doc["accelerometer"], doc["gyroscope"], doc["rate_hz"]
+    except (json.JSONDecodeError, KeyError, TypeError):
+        raise ExportError(f"--noise {path}: not the JSON of imucalib noise --json (it needs accelerometer, "
+                          "gyroscope and rate_hz)") from None
+    units = (acc.get("unit"), gyro.get("unit"))
+    if units != ("m/s^2", "rad/s"):
+        raise ExportError(f"--noise {path}: the noise is in {units[0]} and {units[1]}; the file needs m/s^2 and "
+                          "rad/s: run imucalib noise with --calibration CALIBRATION.json")
+    values, notes = kalibr_noise(acc, gyro)
+    return {**values, "update_rate": float(rate)}, notes
+
+
+def _noise_lines(noise: dict | None, rostopic: str | None, indent: str, notes: list[str],
+                 what: str) -> list[str]:
+    lines = []
+    if noise:
+        units = {"accelerometer_noise_density": "m/s^2/sqrt(Hz)", "accelerometer_random_walk": "m/s^3/sqrt(Hz)",
+                 "gyroscope_noise_density": "rad/s/sqrt(Hz)", "gyroscope_random_walk": "rad/s^2/sqrt(Hz)"}
+        lines += [f"{indent}{k}: {_num(noise[k])}  # [{units[k]}]" for k in NOISE_KEYS]
+    else:
+        notes.append(f"no --noise file: the noise entries ({', '.join(NOISE_KEYS)}) are left out; {what} needs "
+                     "them (imucalib noise DATA --calibration CAL.json --kalibr imu.yaml measures them)")
+    topic = rostopic or (noise or {}).get("rostopic")
+    if topic:
+        lines.append(f"{indent}rostopic: {topic}")
+    else:
+        notes.append("no topic given (--rostopic, or a --noise file with one): rostopic is left out")
+    if (noise or {}).get("update_rate"):
+        lines.append(f"{indent}update_rate: {_num(noise['update_rate'])}  # [Hz]")
+    else:
+        notes.append("no update_rate (a --noise file gives it): left out")
+    return lines
+
+
+def _header(cal: Calibration, form: LinearForm, target: str) -> list[str]:
+    u = cal.units
+    lines = [f"# imucalib calibration as {target}: method {cal.method}, model {cal.model}, "
+             f"created {cal.created or '-'}"]
+    if u["accelerometer"]["raw"] == "counts" or u["gyroscope"]["raw"] == "counts":
+        lines.append(f"# raw counts read as published: {form.acc_scale!r} m/s^2 and {form.gyro_scale!r} rad/s "
+                     "per count (--raw-scale); the matrices below take the published values")
+    else:
+        lines.append(f"# raw units {u['accelerometer']['raw']}, {u['gyroscope']['raw']} read as m/s^2, rad/s")
+    lines.append(f"# calibrated with gravity {cal.gravity:.6g} m/s^2")
+    lines.append(f"# biases at calibration time (estimated online, no entry): accelerometer "
+                 f"{_vector(form.acc_bias)} m/s^2, gyroscope {_vector(form.gyro_bias)} rad/s")
+    return lines
+
+
+# --------------------------------------------------------------------- OpenVINS
+def to_openvins(calibration: Calibration, *, model: str = "kalibr", raw_scale: tuple[float, float] | None = None,
+                noise: dict | None = None, rostopic: str | None = None) -> tuple[str, list[str]]:
+    """The ``imu0`` entry of OpenVINS's ``kalibr_imu_chain.yaml`` (module docstring); the text and notes."""
+    if model not in OPENVINS_MODELS:
+        raise ExportError(f"OpenVINS's IMU model must be one of {', '.join(OPENVINS_MODELS)}; got {model!r}")
+    lower = OPENVINS_MODELS[model]
+    form = linear_form(calibration, "OpenVINS", physical=True, raw_scale=raw_scale)
+    # T_a upper triangular (the canonical shape) gives R_IMUtoACC = I exactly for rpng
+    r_acc, da = rotation_times_triangular(form.acc_matrix, lower=lower)
+    r_gyro, dw = rotation_times_triangular(form.gyro_matrix, lower=lower)
+    tri = np.tril if lower else np.triu
+    ta, tw = tri(np.linalg.inv(da)), tri(np.linalg.inv(dw))  # the inverse of a triangular matrix is triangular
+    notes: list[str] = []
+    lines = ["%YAML:1.0", *_header(calibration, form, f"the imu0 intrinsics of OpenVINS (model {model})"),
+             f"# OpenVINS: D = T^-1 ({'lower' if lower else 'upper'} triangle); "
+             "a_I = R_IMUtoACC^T Da (a_m - b_a); w_I = R_IMUtoGYRO^T Dw (w_m - b_g - Tg a_I)",
+             "imu0:", *_noise_lines(noise, rostopic, "  ", notes, "OpenVINS"),
+             f"  model: {model}",
+             *_matrix("Tw", tw), *_matrix("R_IMUtoGYRO", r_gyro.T), *_matrix("Ta", ta),
+             *_matrix("R_IMUtoACC", r_acc.T), *_matrix("Tg", form.g_sensitivity), ""]
+    return "\n".join(lines), notes
+
+
+# ----------------------------------------------------------------------- Kalibr
+def to_kalibr(calibration: Calibration, *, raw_scale: tuple[float, float] | None = None,
+              noise: dict | None = None, rostopic: str | None = None) -> tuple[str, list[str]]:
+    """Kalibr's ``imu0`` result entry for the scale-misalignment model (module docstring); the text and notes."""
+    form = linear_form(calibration, "Kalibr", physical=True, raw_scale=raw_scale)
+    m_acc, r = triangular_times_rotation(np.linalg.inv(form.acc_matrix), lower=True)  # s_a A⁻¹ = M_a R
+    m_gyro, c_gyro_b = triangular_times_rotation(np.linalg.inv(form.gyro_matrix), lower=True)
+    c_gyro_i = c_gyro_b @ r.T  # M_g C_gyro_i R = s_g W⁻¹
+    a_sens = form.g_sensitivity @ c_gyro_b.T  # A C_gyro_i R = s_g G
+    angle = np.degrees(np.arccos(np.clip((np.trace(r) - 1) / 2, -1, 1)))
+    notes = [f"Kalibr's IMU frame i is the accelerometer frame made orthogonal with a lower-triangular M_a, "
+             f"imucalib's with an upper-triangular T_a: they differ by a rotation of {angle:.4g} deg (in the "
+             "file's comments); Kalibr's --imu input reads only the noise, rostopic and update_rate"]
+    lines = [*_header(calibration, form, "Kalibr's imu0 result (model scale-misalignment)"),
+             "# Kalibr: alpha_m = M_a a_i + b_a;  w_m = M_g C_gyro_i w_i + A C_gyro_i a_i + b_g (IccSensors.py)",
+             "# Kalibr's --imu input file reads only the noise entries, rostopic and update_rate; the",
+             "# intrinsics have a place only in its imu-camera result, this form",
+             "# frame: a_i = R a, w_i = R w with a, w imucalib's calibrated output and R =",
+             *[f"#   [{', '.join(_num(v) for v in row)}]" for row in r],
+             "imu0:", *_matrix("T_i_b", np.eye(4)), *_noise_lines(noise, rostopic, "  ", notes, "Kalibr"),
+             "  model: scale-misalignment", "  time_offset: 0.0",
+             "  accelerometers:", *_matrix("M", m_acc, "    "),
+             "  gyroscopes:", *_matrix("A", a_sens, "    "), *_matrix("C_gyro_i", c_gyro_i, "    "),
+             *_matrix("M", m_gyro, "    "), ""]
+    return "\n".join(lines), notes
