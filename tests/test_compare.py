@@ -57,3 +57,56 @@ def test_cubic_without_tosses_does_not_overfit(xsens):
     linear, cubic = cv("linear"), cv("cubic")
     assert cubic <= 1.05 * linear
     assert np.isfinite(linear) and linear < 0.003
+
+
+def test_rank_orders_ran_then_verdict_then_score():
+    from imucalib.compare import rank
+
+    def row(method, ok=True, verdict="accepted", acc=None, ang=None):
+        return {"method": method, "ok": ok, "verdict": verdict, "cv_accelerometer_residual_rms": acc,
+                "cv_gyroscope_angle_error_mean_deg": ang}
+
+    rows = [row("cannot", ok=False, verdict=None),
+            row("rejected_but_best_numbers", verdict="rejected", acc=0.001, ang=0.05),
+            row("suspect", verdict="suspect", acc=0.002, ang=0.1),
+            row("accepted_worse", acc=0.004, ang=0.1),   # score 0.004/0.001 + 0.1/0.05 = 6
+            row("accepted_better", acc=0.002, ang=0.3)]  # score 2 + 6 = 8: worse overall
+    ranked, best = rank(rows)
+    assert [r["method"] for r in ranked] == ["accepted_worse", "accepted_better", "suspect",
+                                             "rejected_but_best_numbers", "cannot"]
+    assert [r["rank"] for r in ranked] == [1, 2, 3, 4, 5]
+    assert ranked[0]["score"] == pytest.approx(0.004 / 0.001 + 0.1 / 0.05)
+    assert ranked[1]["score"] == pytest.approx(0.002 / 0.001 + 0.3 / 0.05)
+    assert ranked[-1]["score"] is None
+    assert best == "accepted_worse"
+    _, best = rank([row("r", verdict="rejected", acc=1, ang=1), row("x", ok=False)])
+    assert best is None
+
+
+def test_compare_ranks_a_cubic_sensor_known_to_need_the_cubic_model(tmp_path, capsys):
+    """A simulated sensor with ten times Zhang 2021 Table I's nonlinearity: the cubic zhang2021 must rank
+    before the linear tedaldi2014 (its held-out |a|-g is ~10x smaller), and wang2019, which needs turntable
+    data, last."""
+    from imucalib.cli import main
+    from imucalib.scenarios import session, table1_truth, write_session
+
+    truth = table1_truth()
+    a = truth.accelerometer
+    truth = truth.with_(accelerometer=a.with_(scale_quadratic=10 * a.scale_quadratic, scale_cubic=10 * a.scale_cubic))
+    sim = session("zhang2021", rng=1, truth=truth)
+    out = compare(sim.recording, gravity=truth.gravity, methods=["wang2019", "tedaldi2014", "zhang2021"], folds=4)
+    order = [r["method"] for r in out["methods"]]
+    assert order == ["zhang2021", "tedaldi2014", "wang2019"], [(r["method"], r.get("verdict"), r.get("score"))
+                                                                for r in out["methods"]]
+    rows = {r["method"]: r for r in out["methods"]}
+    cv = {m: r["cv_accelerometer_residual_rms"] for m, r in rows.items()}
+    assert cv["zhang2021"] < 0.3 * cv["tedaldi2014"]
+    assert out["best"] == "zhang2021" and out["ranked_by"]
+    write_session(sim, tmp_path / "s")
+    capsys.readouterr()
+    assert main(["compare", str(tmp_path / "s"), "--methods", "wang2019,tedaldi2014,zhang2021", "--folds", "4",
+                 "--gravity", str(truth.gravity)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[-1] == "best: zhang2021"
+    table = [line.split()[:2] for line in lines[2:-1]]
+    assert table == [["1", "zhang2021"], ["2", "tedaldi2014"], ["3", "wang2019"]]

@@ -3,7 +3,19 @@
 Each method is calibrated on the same static intervals (detected once by the
 Tedaldi 2014 detector) and judged by leave-one-pose-out cross-validation
 (:mod:`imucalib.crossval`): the held-out gravity residual and gyroscope angle
-error. Methods that cannot run on the data report why. Where a method selects
+error. Methods that cannot run on the data report why.
+
+The methods are ranked (:func:`rank`) by, in turn:
+
+1. whether the method ran on the data (those that cannot run come last);
+2. the verdict of its calibration on all poses (:mod:`imucalib.verdict`):
+   accepted, then suspect (or none), then rejected;
+3. the cross-validated score ``r/r_best + θ/θ_best``: the held-out gravity
+   residual RMS ``r`` and mean gyroscope angle error ``θ``, each relative to the
+   best value any method reached on this recording (a method best on both scores 2).
+
+The best method is the first one that ran and was not rejected (none when
+every method was rejected or could not run). Where a method selects
 its model variant (zhang2021 without tosses), the variant is selected once on
 all poses and the folds refit it: ten times faster, slightly optimistic for
 that one choice.
@@ -21,10 +33,45 @@ from .crossval import leave_one_pose_out
 from .methods import calibrate, method_names
 from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 
-__all__ = ["DEFAULT_MODELS", "compare", "even_folds"]
+__all__ = ["DEFAULT_MODELS", "RANKED_BY", "compare", "even_folds", "rank"]
 
 #: the model each method is compared with (None: the method's only model)
 DEFAULT_MODELS: dict[str, str | None] = {"zhang2021": "cubic"}
+
+
+#: the ranking in words (the module docstring has it in full), for the JSON and the table
+RANKED_BY = ("methods that ran, then verdict (accepted, suspect, rejected), then the cross-validated score "
+             "r/r_best + angle/angle_best (held-out |a|-g RMS and gyroscope angle error, each relative to the best "
+             "method's)")
+
+_VERDICT_ORDER = {"accepted": 0, "suspect": 1, None: 1, "rejected": 2}
+
+
+def rank(rows: Sequence[dict]) -> tuple[list[dict], str | None]:
+    """The rows ranked as the module docstring says, each with its ``rank`` and ``score``; and the best method.
+
+    ``rows`` are :func:`compare`'s, with ``ok``, ``verdict`` and the two cross-validated figures.
+    """
+    def figure(row, key):
+        v = row.get(key)
+        return v if row.get("ok") and v is not None and np.isfinite(v) else None
+
+    best = {}
+    for key in ("cv_accelerometer_residual_rms", "cv_gyroscope_angle_error_mean_deg"):
+        values = [v for v in (figure(r, key) for r in rows) if v is not None]
+        best[key] = max(min(values), 1e-300) if values else None
+    out = []
+    for row in rows:
+        parts = [figure(row, key) for key in best]
+        score = (sum(v / best[key] for v, key in zip(parts, best, strict=True))
+                 if row.get("ok") and all(v is not None for v in parts) else None)
+        out.append({**row, "score": score})
+    out.sort(key=lambda r: (not r.get("ok"), _VERDICT_ORDER.get(r.get("verdict"), 1),
+                            np.inf if r["score"] is None else r["score"]))
+    for i, row in enumerate(out, 1):
+        row["rank"] = i
+    winner = next((r["method"] for r in out if r.get("ok") and r.get("verdict") != "rejected"), None)
+    return out, winner
 
 
 def even_folds(n_intervals: int, count: int | None) -> list[int]:
@@ -65,9 +112,10 @@ def compare(
     Returns
     -------
     dict
-        ``{"static_intervals": M, "folds": K, "methods": [{"method", "model", "ok",
-        "reason", "cv_accelerometer_residual_rms", "cv_gyroscope_angle_error_mean_deg",
-        "fit"}, …]}``
+        ``{"static_intervals": M, "folds": K, "best": method or None, "ranked_by": text,
+        "methods": [{"rank", "method", "model", "ok", "reason", "verdict", "score",
+        "cv_accelerometer_residual_rms", "cv_gyroscope_angle_error_mean_deg", "fit"}, …]}``,
+        the methods in the order of :func:`rank`.
     """
     from .segment import detect_intervals
 
@@ -80,7 +128,7 @@ def compare(
     rows = []
     for name in chosen:
         model = DEFAULT_MODELS.get(name)
-        row = {"method": name, "model": model, "ok": False, "reason": None,
+        row = {"method": name, "model": model, "ok": False, "reason": None, "verdict": None,
                "cv_accelerometer_residual_rms": None, "cv_gyroscope_angle_error_mean_deg": None}
         say(f"{name}: calibrating")
 
@@ -99,6 +147,7 @@ def compare(
                 row["model_selected"] = sel["selected"]
                 fit = partial(fit, model=sel["selected"], extra={"select": False})
             row["fit"] = {k: v for k, v in full.fit.items() if isinstance(v, int | float)}
+            row["verdict"] = full.fit.get("verdict")
             say(f"{name}: cross-validating on {len(fold_list)} held-out poses")
             cv = leave_one_pose_out(recording, intervals, fit, gravity=gravity, folds=fold_list)
         except (ValueError, np.linalg.LinAlgError) as exc:
@@ -109,4 +158,6 @@ def compare(
                    cv_gyroscope_angle_error_mean_deg=cv["cv_gyroscope_angle_error_mean_deg"],
                    cv_folds=cv["folds"], cv_folds_skipped=len(cv["folds_skipped"]))
         rows.append(row)
-    return {"static_intervals": len(intervals), "folds": len(fold_list), "methods": rows}
+    ranked, best = rank(rows)
+    return {"static_intervals": len(intervals), "folds": len(fold_list), "best": best, "ranked_by": RANKED_BY,
+            "methods": ranked}

@@ -240,19 +240,23 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if args.json:
         return print_json(result)
     print(f"{result['static_intervals']} static intervals; leave-one-pose-out over "
-          f"{result['folds']} held-out poses")
-    print(f"{'method':<14}{'model':<18}{'CV |a|-g RMS [m/s^2]':>22}{'CV angle mean [deg]':>22}")
+          f"{result['folds']} held-out poses; ranked by {result['ranked_by']}")
+    print(f"{'#':>2} {'method':<14}{'model':<18}{'verdict':<10}{'CV |a|-g RMS [m/s^2]':>22}"
+          f"{'CV angle mean [deg]':>22}{'score':>8}")
     for row in result["methods"]:
         model = row["model"] or "-"
         if row.get("model_selected") and row["model_selected"] != row["model"]:
             model = f"{model}->{row['model_selected']}"
+        head = f"{row['rank']:>2} {row['method']:<14}{model:<18}{row.get('verdict') or '-':<10}"
         if row["ok"]:
-            print(f"{row['method']:<14}{model:<18}"
-                  f"{row['cv_accelerometer_residual_rms']:>22.5f}"
+            print(head + f"{row['cv_accelerometer_residual_rms']:>22.5f}"
                   f"{row['cv_gyroscope_angle_error_mean_deg']:>22.4f}"
+                  + (f"{row['score']:>8.2f}" if row["score"] is not None else f"{'-':>8}")
                   + (f"   ({row['cv_folds_skipped']} folds could not run)" if row["cv_folds_skipped"] else ""))
         else:
-            print(f"{row['method']:<14}{model:<18}  cannot run: {row['reason']}")
+            print(head + f"  cannot run: {row['reason']}")
+    print(f"best: {result['best']}" if result["best"] else
+          "best: none (every method was rejected or could not run)")
     return 0
 
 
