@@ -3,9 +3,11 @@
 :func:`plot_fit` draws one figure, three panels over the recording used for the calibration:
 
 1. the norm of the calibrated accelerometer against ``g``, the static intervals shaded;
-2. ``‖a_k‖ − g`` per static pose [mm/s²] (the ``fit.accelerometer_residual_rms`` terms);
+2. ``‖a_k‖ − g`` per static pose [mm/s²] (the ``fit.accelerometer_residual_rms`` terms),
+   with ± the white-noise floor (``fit.accelerometer_noise_floor``);
 3. the angle between measured and gyro-predicted gravity per transition [deg]
-   (the ``fit.gyroscope_angle_error_*`` terms).
+   (the ``fit.gyroscope_angle_error_*`` terms), with the verdict's acceptable and
+   rejecting angles (:data:`imucalib.verdict.THRESHOLDS`) and what the noise alone predicts.
 
 :func:`plot_allan` draws the Allan deviation of both sensors at rest (log–log, one
 curve per axis) with the noise terms read from it (Ru 2022, §2.2; IEEE Std 952).
@@ -25,7 +27,7 @@ from .io.atomic import atomic_path, atomic_write
 from .metrics import gravity_direction_errors, gravity_residuals
 from .recording import Interval, Recording
 
-__all__ = ["html_report", "plot_allan", "plot_fit"]
+__all__ = ["fit_figure", "html_report", "parameter_unit", "plot_allan", "plot_fit", "reference_levels"]
 
 
 def _pyplot():
@@ -43,7 +45,37 @@ def plot_fit(calibration: Calibration, recording: Recording, intervals: Sequence
              path) -> Path:
     """Write the fit figure (PNG, SVG or PDF by the file's suffix, or PNG into a binary file object)."""
     plt = _pyplot()
+    return _save(fit_figure(calibration, recording, intervals), path, plt)
+
+
+def reference_levels(calibration: Calibration) -> dict:
+    """The reference lines of the fit figure, from the fit and :data:`imucalib.verdict.THRESHOLDS`.
+
+    ``{"noise_floor": ±m/s² or None, "angle_acceptable_deg", "angle_rejected_deg",
+    "angle_predicted_deg": or None}``: the gravity-norm residual white noise alone
+    leaves (``fit.accelerometer_noise_floor``); the mean gravity-direction error
+    below which the verdict never calls the gyroscope suspect, and above which
+    (with an error beyond the noise) it rejects it; what the noise alone predicts.
+    """
+    from .verdict import THRESHOLDS
+
+    fit = calibration.fit or {}
+    acceptable, rejected = THRESHOLDS["gyro_error_floor_deg"]
+    return {"noise_floor": fit.get("accelerometer_noise_floor"), "angle_acceptable_deg": acceptable,
+            "angle_rejected_deg": rejected, "angle_predicted_deg": fit.get("gyroscope_angle_error_predicted_deg")}
+
+
+def fit_figure(calibration: Calibration, recording: Recording, intervals: Sequence[Interval]):
+    """The fit figure as a matplotlib Figure (three panels, module docstring), with reference lines.
+
+    The residual panel shows ± the white-noise floor, the angle panel the
+    verdict's acceptable and rejecting angles (:func:`reference_levels`) and
+    colours each bar by where it falls, on an axis that always reaches the
+    rejecting angle: a 140° failure cannot look like a 1° success.
+    """
+    plt = _pyplot()
     intervals = [iv for iv in intervals if iv.kind == "static"]
+    ref = reference_levels(calibration)
     out = calibration.apply(recording)
     g = calibration.gravity
     t = recording.t - recording.t[0]
@@ -63,18 +95,32 @@ def plot_fit(calibration: Calibration, recording: Recording, intervals: Sequence
     ax.legend(loc="upper right", fontsize=8)
     ax = axes[1]
     ax.bar(np.arange(len(res)), res, color="tab:blue")
+    if ref["noise_floor"]:
+        floor = ref["noise_floor"] * 1e3
+        ax.axhline(floor, color="tab:green", lw=1.0, ls="--", label=f"± noise floor {floor:.3g} mm/s²")
+        ax.axhline(-floor, color="tab:green", lw=1.0, ls="--")
+        ax.legend(loc="upper right", fontsize=8)
     rms = float(np.sqrt(np.mean((res / 1e3) ** 2)))
     ax.set_ylabel("‖a‖ − g [mm/s²]")
     ax.set_xlabel("static pose")
     ax.set_title(f"gravity-norm residual per pose (RMS {rms:.3g} m/s²)")
     ax = axes[2]
+    ok, bad = ref["angle_acceptable_deg"], ref["angle_rejected_deg"]
     if ang.size:
-        ax.bar(np.arange(1, len(ang) + 1), ang, color="tab:orange")
+        colours = np.where(ang <= ok, "tab:green", np.where(ang <= bad, "tab:orange", "tab:red"))
+        ax.bar(np.arange(1, len(ang) + 1), ang, color=colours)
         ax.set_title(f"gravity direction predicted by the gyroscope (mean {ang.mean():.3g}°, "
                      f"max {ang.max():.3g}°)")
+    ax.axhline(ok, color="tab:green", lw=1.0, ls="--", label=f"{ok:g}°: acceptable")
+    ax.axhline(bad, color="tab:red", lw=1.0, ls="--", label=f"{bad:g}°: rejected (beyond the noise)")
+    if ref["angle_predicted_deg"]:
+        ax.axhline(ref["angle_predicted_deg"], color="k", lw=0.8, ls=":",
+                   label=f"noise alone: {ref['angle_predicted_deg']:.3g}°")
+    ax.set_ylim(0, max(1.25 * bad, 1.05 * float(ang.max()) if ang.size else 0.0))
+    ax.legend(loc="upper right", fontsize=8)
     ax.set_ylabel("angle error [deg]")
     ax.set_xlabel("transition to pose")
-    return _save(fig, path, plt)
+    return fig
 
 
 def _save(fig, target, plt):
@@ -129,6 +175,27 @@ def plot_allan(recording: Recording, path: str | Path) -> Path:
     return _save(fig, path, plt)
 
 
+def _unit_text(unit: str) -> str:
+    return {"m/s^2": "m/s²"}.get(unit, unit)
+
+
+def parameter_unit(name: str, calibration: Calibration) -> str:
+    """The unit of a named parameter (``gyroscope.scale.x`` …) of this calibration, for a person.
+
+    Misalignments are pure numbers (``1``); ``k1`` is calibrated per raw unit,
+    ``k2``, ``k3`` per raw unit² and ³; biases are raw units, the output bias
+    calibrated units; ``G`` raw gyroscope units per m/s²; the lever arm metres.
+    """
+    if name.startswith("lever_arm."):
+        return "m"
+    sensor, key = name.split(".")[:2]
+    raw = _unit_text(calibration.units[sensor]["raw"])
+    out = _unit_text(calibration.units[sensor]["calibrated"])
+    return {"misalignment": "1", "scale": f"{out} per {raw}", "scale_quadratic": f"{out} per {raw}²",
+            "scale_cubic": f"{out} per {raw}³", "bias": raw, "output_bias": out,
+            "g_sensitivity": f"{raw} per m/s²"}.get(key, "")
+
+
 #: background and text/border colour of the verdict banner: green, amber, red
 _VERDICT_COLOURS = {"accepted": ("#e6f4ea", "#1e7e34"), "suspect": ("#fff4e0", "#b26a00"),
                     "rejected": ("#fdecea", "#c62828")}
@@ -177,7 +244,8 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
              "table{border-collapse:collapse;margin:1em 0}td,th{padding:.25em .8em;border-bottom:1px solid #ddd;"
              "text-align:right;font-variant-numeric:tabular-nums}th{background:#f4f4f4}td:first-child,"
              "th:first-child{text-align:left}.warn{background:#fff4e0;padding:.5em 1em;border-left:4px solid #e90}"
-             "img{max-width:100%}.verdict{padding:.6em 1.2em;border-left:8px solid;margin:1em 0}"
+             "img{max-width:100%}tr.sigma-large td{background:#fdecea}.sigma-large-mark{color:#c62828;"
+             "font-weight:bold}.verdict{padding:.6em 1.2em;border-left:8px solid;margin:1em 0}"
              ".verdict h2{margin:.2em 0}" + "".join(f".verdict-{k}{{background:{bg};border-color:{fg}}}"
                                                    f".verdict-{k} h2{{color:{fg}}}"
                                                    for k, (bg, fg) in _VERDICT_COLOURS.items())
@@ -208,6 +276,15 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
     rows = "".join(f"<tr><td>{esc(k)}</td><td>{f.format(v)}</td></tr>" for k, v, f in quality if v is not None)
     if rows:
         parts.append(f"<h2>Fit</h2><table><tr><th>figure</th><th>value</th></tr>{rows}</table>")
+    coverage = fit.get("pose_coverage")
+    if isinstance(coverage, dict) and coverage:
+        cells = "".join(f"<tr><td>{esc(axis)}</td><td>{lo:+.2f}</td><td>{hi:+.2f}</td>"
+                        f"<td>{'yes' if hi >= 0.5 and lo <= -0.5 else 'NO'}</td></tr>"
+                        for axis, (lo, hi) in coverage.items())
+        parts.append("<h3>Pose coverage</h3><p>Per axis, the gravity direction's component over the static poses "
+                     "(+1: the axis straight up, −1: straight down); each axis should be held both up and down "
+                     "(within 60°).</p><table class='coverage'><tr><th>axis</th><th>min</th><th>max</th>"
+                     f"<th>up and down</th></tr>{cells}</table>")
     all_notes = list(notes) + [f"quality flag: {f}" for f in fit.get("quality_flags", [])]
     if fit.get("uncertainty_unavailable"):
         all_notes.append(f"errors not available: {fit['uncertainty_unavailable']}")
@@ -217,28 +294,45 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
                          f"returned {sel.get('selected')}")
     for n in all_notes:
         parts.append(f"<p class='warn'>{esc(n)}</p>")
-    parts.append("<h2>Parameters</h2><p>The model's terms that were estimated or are not zero.</p>"
-                 "<table><tr><th>parameter</th><th>value</th><th>± 1σ</th><th>σ / |value|</th></tr>")
+    parts.append("<h2>Parameters</h2><p>The model's terms that were estimated or are not zero. A 1σ error "
+                 "larger than the value itself (marked <span class='sigma-large-mark'>σ &gt; |value|</span>) means "
+                 "the data did not determine the term.</p><table><tr><th>parameter</th><th>value</th>"
+                 "<th>unit</th><th>± 1σ</th><th>σ / |value|</th><th></th></tr>")
+
+    def row(name, value, s, fmt):
+        known = s is not None and np.isfinite(s)
+        rel = f"{abs(s / value):.2g}" if known and value != 0 else "-"
+        large = known and s > abs(value)
+        mark = "<span class='sigma-large-mark'>σ &gt; |value|</span>" if large else ""
+        tr = "<tr class='sigma-large'>" if large else "<tr>"
+        return (f"{tr}<td>{esc(name)}</td><td>{value:{fmt}}</td>"
+                f"<td>{esc(parameter_unit(name, cal))}</td><td>{f'{s:.2g}' if known else '-'}</td>"
+                f"<td>{rel}</td><td>{mark}</td></tr>")
+
     for name, value in cal.parameters().items():
         s = unc.get(name)
         if s is None and value == 0:
             continue  # a term of the model family this calibration does not use
-        known = s is not None and np.isfinite(s)
-        rel = f"{abs(s / value):.2g}" if known and value != 0 else "-"
-        parts.append(f"<tr><td>{esc(name)}</td><td>{value:.8g}</td><td>{f'{s:.2g}' if known else '-'}</td>"
-                     f"<td>{rel}</td></tr>")
+        parts.append(row(name, value, s, ".8g"))
     if cal.lever_arm is not None:
         for axis, v in zip("xyz", cal.lever_arm, strict=True):
-            s = unc.get(f"lever_arm.{axis}")
-            parts.append(f"<tr><td>lever_arm.{axis} [m]</td><td>{v:.6g}</td>"
-                         f"<td>{f'{s:.2g}' if s is not None and np.isfinite(s) else '-'}</td><td>-</td></tr>")
+            parts.append(row(f"lever_arm.{axis}", float(v), unc.get(f"lever_arm.{axis}"), ".6g"))
     parts.append("</table>")
     if recording is not None and intervals:
         try:
             buf = io.BytesIO()
             plot_fit(cal, recording, intervals, buf)
             data = base64.b64encode(buf.getvalue()).decode("ascii")
-            parts.append(f"<h2>Figure</h2><img alt='fit' src='data:image/png;base64,{data}'>")
+            ref = reference_levels(cal)
+            floor = f"± the white-noise floor {ref['noise_floor']:.3g} m/s² (dashed)" if ref["noise_floor"] \
+                else "no noise floor (the fit has none)"
+            predicted = (f"; dotted: {ref['angle_predicted_deg']:.3g}°, what the noise alone predicts"
+                         if ref["angle_predicted_deg"] else "")
+            parts.append(f"<h2>Figure</h2><img alt='fit' src='data:image/png;base64,{data}'>"
+                         f"<p class='caption'>Reference lines. Residual per pose: {floor}. Gravity direction per "
+                         f"transition: {ref['angle_acceptable_deg']:g}° acceptable (green, dashed) and "
+                         f"{ref['angle_rejected_deg']:g}° rejected when beyond the noise (red, dashed), the "
+                         f"verdict's limits{predicted}; bars green, amber, red by where they fall.</p>")
         except ValueError as exc:  # matplotlib missing
             parts.append(f"<p class='warn'>{esc(str(exc))}</p>")
     parts.append("<p><small>written by imucalib; the calibration file (JSON) holds the same numbers.</small></p>"

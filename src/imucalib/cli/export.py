@@ -60,6 +60,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     """``imucalib export``: :mod:`imucalib.export` on stdout or into the file(s) named by ``-o``."""
     from .. import export
 
+    refuse_overwriting_inputs([args.output], [args.calibration, args.noise])
     fmt = _format(args)
     _check_options(args, fmt)
     outputs = list(export.imutk_paths(args.output)) if fmt == "imutk" else [args.output] if args.output else []
