@@ -324,3 +324,16 @@ class _nothing:
 
     def __exit__(self, *exc):
         return False
+
+
+def test_notes_on_large_biases_and_noise_in_other_units_than_published():
+    rng = np.random.default_rng(12)
+    cal = random_calibration(rng, "counts", "counts")
+    cal = cal.with_(accelerometer=cal.accelerometer.with_(bias=np.full(3, 32768.0)))  # an offset-binary zero
+    noise = dict.fromkeys(("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
+                           "gyroscope_random_walk"), 1e-3)
+    _, notes = to_openvins(cal, raw_scale=(9.81 / 4096, 1 / 900), noise=noise)
+    assert any("biases are large" in n for n in notes)
+    assert not any("off SI" in n for n in notes)  # the published readings are within 10 % of SI
+    _, notes = to_kalibr(cal, raw_scale=(1.0, 1.0), noise=noise)
+    assert any("accelerometer's published readings" in n and "off SI" in n for n in notes)

@@ -161,6 +161,27 @@ def _noise_lines(noise: dict | None, rostopic: str | None, indent: str, notes: l
     return lines
 
 
+def _published_scale_note(cal: Calibration, form: LinearForm, noise: dict | None, notes: list[str]) -> None:
+    """Note when noise measured in SI meets readings published in other units (counts with a rough --raw-scale)."""
+    if not noise or "counts" not in (cal.units["accelerometer"]["raw"], cal.units["gyroscope"]["raw"]):
+        return
+    for name, matrix in (("accelerometer", form.acc_matrix), ("gyroscope", form.gyro_matrix)):
+        ratio = float(np.median(np.abs(np.diag(matrix))))  # calibrated SI per published unit
+        if abs(ratio - 1) > 0.1:
+            notes.append(f"the {name}'s published readings are {ratio:.4g}× off SI with this --raw-scale, but the "
+                         "noise entries are in SI: scale them by 1/that factor, or give --raw-scale near the "
+                         "sensor's true scale")
+
+
+def _bias_note(form: LinearForm, target: str, notes: list[str]) -> None:
+    """Note biases too large for an estimator that starts its online bias estimate from zero."""
+    a, g = float(np.max(np.abs(form.acc_bias))), float(np.max(np.abs(form.gyro_bias)))
+    if a > 0.5 or g > 0.05:  # m/s², rad/s: far beyond a MEMS sensor's residual bias after its own trimming
+        notes.append(f"the biases are large ({a:.3g} m/s^2, {g:.3g} rad/s at most, e.g. an offset-binary zero "
+                     f"of raw counts): {target} estimates them online starting from zero; subtract them before "
+                     "publishing (the file's comment gives them)")
+
+
 def _header(cal: Calibration, form: LinearForm, target: str) -> list[str]:
     u = cal.units
     lines = [f"# imucalib calibration as {target}: method {cal.method}, model {cal.model}, "
@@ -190,6 +211,8 @@ def to_openvins(calibration: Calibration, *, model: str = "kalibr", raw_scale: t
     tri = np.tril if lower else np.triu
     ta, tw = tri(np.linalg.inv(da)), tri(np.linalg.inv(dw))  # the inverse of a triangular matrix is triangular
     notes: list[str] = []
+    _published_scale_note(calibration, form, noise, notes)
+    _bias_note(form, "OpenVINS", notes)
     lines = ["%YAML:1.0", *_header(calibration, form, f"the imu0 intrinsics of OpenVINS (model {model})"),
              f"# OpenVINS: D = T^-1 ({'lower' if lower else 'upper'} triangle); "
              "a_I = R_IMUtoACC^T Da (a_m - b_a); w_I = R_IMUtoGYRO^T Dw (w_m - b_g - Tg a_I)",
@@ -213,6 +236,8 @@ def to_kalibr(calibration: Calibration, *, raw_scale: tuple[float, float] | None
     notes = [f"Kalibr's IMU frame i is the accelerometer frame made orthogonal with a lower-triangular M_a, "
              f"imucalib's with an upper-triangular T_a: they differ by a rotation of {angle:.4g} deg (in the "
              "file's comments); Kalibr's --imu input reads only the noise, rostopic and update_rate"]
+    _published_scale_note(calibration, form, noise, notes)
+    _bias_note(form, "Kalibr", notes)
     lines = [*_header(calibration, form, "Kalibr's imu0 result (model scale-misalignment)"),
              "# Kalibr: alpha_m = M_a a_i + b_a;  w_m = M_g C_gyro_i w_i + A C_gyro_i a_i + b_g (IccSensors.py)",
              "# Kalibr's --imu input file reads only the noise entries, rostopic and update_rate; the",
