@@ -18,6 +18,7 @@ from .io.atomic import atomic_write
 from .io.jsontext import dumps, jsonable
 from .models import AXES, MagnetometerModel, TriadModel
 from .recording import STANDARD_GRAVITY, Recording
+from .thermal import ThermalModel
 
 __all__ = ["Calibration", "FORMAT", "FORMAT_VERSION"]
 
@@ -76,6 +77,7 @@ class Calibration:
     created: str | None = None
     fit: dict = field(default_factory=dict)
     magnetometer: MagnetometerModel | None = None
+    thermal: ThermalModel | None = None
 
     def __post_init__(self) -> None:
         if self.lever_arm is not None:
@@ -110,6 +112,11 @@ class Calibration:
         The recording must be in the raw units this calibration was made for.
         """
         self.check_units(recording)
+        if self.thermal is not None:  # compensated to the reference temperature, then as below (thermal.py, T2)
+            from .thermal import compensate
+
+            base, compensated = compensate(self, recording)
+            return base.apply(compensated)
         acc = self.accelerometer_si(recording.acc)
         gyro = self.gyroscope.forward(recording.gyro, acc)
         mag, mag_unit = recording.mag, recording.mag_unit
@@ -197,6 +204,8 @@ class Calibration:
         }
         if self.magnetometer is not None:  # only when there is one: files without it are as before
             out["magnetometer"] = self.magnetometer.to_dict()
+        if self.thermal is not None:
+            out["thermal"] = self.thermal.to_dict()
         return out
 
     @classmethod
@@ -225,6 +234,7 @@ class Calibration:
             created=d.get("created"),
             fit=d.get("fit", {}),
             magnetometer=None if d.get("magnetometer") is None else MagnetometerModel.from_dict(d["magnetometer"]),
+            thermal=None if d.get("thermal") is None else ThermalModel.from_dict(d["thermal"]),
         )
 
     def to_json(self) -> str:

@@ -15,6 +15,7 @@ from typing import Any
 
 from ..calibration import Calibration
 from ..recording import STANDARD_GRAVITY, Recording
+from ..thermal import calibrate_ramp, compensate
 from ..verdict import check_rate, with_verdict
 
 __all__ = ["METHODS", "calibrate", "method_names", "with_magnetometer"]
@@ -114,7 +115,8 @@ def calibrate(
         Method-specific keyword options (see each method's ``calibrate``), and for a recording
         with a magnetometer: ``magnetometer`` (False: leave it uncalibrated), ``mag_field``
         (local field [µT]) and ``mag_hemisphere`` (``"north"``/``"south"``), see
-        :func:`with_magnetometer`.
+        :func:`with_magnetometer`; ``temperature_model="linear"`` for a session recorded while the
+        temperature changed (biases linear in temperature, :func:`imucalib.thermal.calibrate_ramp`).
 
     Returns
     -------
@@ -132,14 +134,26 @@ def calibrate(
     if not isinstance(data, Recording) and callable(session_options):
         options = {**session_options(method), **options}
     mag_options = {k: options.pop(k) for k in ("magnetometer", "mag_field", "mag_hemisphere") if k in options}
+    temperature_model = options.pop("temperature_model", None)
+    if temperature_model not in (None, "none", "linear"):
+        raise ValueError(f"temperature_model must be 'linear' (biases linear in temperature) or None; "
+                         f"got {temperature_model!r}")
     recording = data if isinstance(data, Recording) else getattr(data, "recording", None)
-    if isinstance(recording, Recording):
+    if not isinstance(recording, Recording):
+        recording = None
+    if recording is not None:
         check_rate(recording)
-    cal = fn(data, model=model, gravity=gravity, **options)
-    if isinstance(recording, Recording) and recording.mag is not None and mag_options.get("magnetometer", True):
+    if temperature_model == "linear":
+        if recording is None:
+            raise ValueError("a temperature model is fitted on a recording of samples with a temperature column")
+        cal = calibrate_ramp(lambda rec: fn(rec, model=model, gravity=gravity, **options), recording)
+        recording = compensate(cal, recording)[1]  # the checks below see the recording at the reference temperature
+    else:
+        cal = fn(data, model=model, gravity=gravity, **options)
+    if recording is not None and recording.mag is not None and mag_options.get("magnetometer", True):
         cal = with_magnetometer(cal, recording, field=mag_options.get("mag_field"),
                                 hemisphere=mag_options.get("mag_hemisphere", "north"))
-    return with_verdict(cal, recording if isinstance(recording, Recording) else None)
+    return with_verdict(cal, recording)
 
 
 def with_magnetometer(calibration: Calibration, recording: Recording, *, field: float | None = None,

@@ -111,9 +111,11 @@ from ..kinematics import (
 )
 from ..models import MagnetometerModel, TriadModel
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
+from ..thermal import REFERENCE_C, ThermalModel, decompensate, evaluate
 from .base import attitude_with_up, distort
 
-__all__ = ["CLEAN", "COUNTS_RANGE", "MAGNETOMETER", "consumer_truth", "datasheet_noise", "generate",
+__all__ = ["CLEAN", "COUNTS_RANGE", "MAGNETOMETER", "consumer_truth", "datasheet_noise", "datasheet_thermal",
+           "generate",
            "simulate_magnetometer"]
 
 #: MPU-6050 accelerometer sensitivity at AFS_SEL=0 (±2 g) [counts/g] (datasheet §6.2)
@@ -537,6 +539,27 @@ def _plain(x):
 
 
 # --------------------------------------------------------------- scenario
+def datasheet_thermal(rng, truth: Calibration, quadratic: bool = False) -> dict:
+    """Thermal coefficients of an MPU-6050/ICM-20948-class IMU around 25 °C, in raw units (datasheet-like).
+
+    Per axis, 1σ: accelerometer bias 0.5 mg/°C, gyroscope bias 0.03 °/s/°C, scale factors 0.02 %/°C;
+    with ``quadratic``, a second-order term of 1 % of the slope per °C.
+    """
+    out = {}
+    for sensor, tri, bias_sd in (("accelerometer", truth.accelerometer, 0.5e-3 * truth.gravity),
+                                 ("gyroscope", truth.gyroscope, math.radians(0.03))):
+        for i, axis in enumerate("xyz"):
+            slope = rng.normal() * bias_sd / abs(tri.scale[i])  # raw per °C
+            out[f"{sensor}.bias.{axis}"] = [slope, 0.01 * slope * rng.normal() if quadratic else 0.0]
+            out[f"{sensor}.scale.{axis}"] = [rng.normal() * 2e-4 * tri.scale[i], 0.0]
+    return out
+
+
+def _thermometer(rng, temperature: np.ndarray) -> np.ndarray:
+    """The temperature sensor's reading: 0.05 °C of noise, 1/340 °C steps (MPU-6050 datasheet §4.18)."""
+    return np.round((temperature + rng.normal(size=temperature.shape) * 0.05) * 340.0) / 340.0
+
+
 #: defaults of the simulated magnetometer (an AK8963-class die beside an MPU-6500-class IMU, as on the MPU-9250)
 MAGNETOMETER = {
     "field_uT": 48.0,           # local field magnitude [µT]
@@ -594,7 +617,8 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
              drop: float = 0.005, gap: float = 0.0, turn_on: float = 0.5, gyro_drift: float = 0.01,
              gyro_rw: float = 1e-4, acc_drift: float = 0.0, quantise: bool = True, full_scale: int | None = 32768,
              face_dwell=(5.0, 7.0), quarter=(0.3, 0.8), quarter_pause=(0.2, 0.4),
-             nudge_deg: float = 0.0, magnetometer: bool | dict | None = None) -> dict:
+             nudge_deg: float = 0.0, magnetometer: bool | dict | None = None, temperature: float | None = None,
+             ramp: tuple | None = None, thermal: dict | None = None) -> dict:
     """Simulate a hand-held calibration session of a consumer IMU (see the module docstring).
 
     Parameters
@@ -674,6 +698,16 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
         slightly rotated relative to the accelerometer's, noise and quantisation, in counts. Its truth
         (normalised: ``F = 1``) is the ``magnetometer`` of the returned truth. None/False: no magnetometer,
         and the session is the same as without this option.
+    temperature : float, optional
+        The sensor's temperature [°C] for the whole session: the truth's parameters are the thermal
+        model's at that temperature (:func:`datasheet_thermal` around 25 °C, or ``thermal``), and the
+        recording gets a temperature column. The returned truth holds the parameters at ``temperature``.
+    ramp : (start, end, tau), optional
+        A warm-up instead: the temperature goes from ``start`` to ``end`` [°C] as ``1 − exp(−t/tau)``
+        (``tau`` [s]); the returned truth is the model at 25 °C with its thermal model.
+    thermal : dict, optional
+        Thermal coefficients ``{"gyroscope.bias.x": [c1, c2], …}`` (raw units per °C, per °C²) around
+        25 °C (default: drawn by :func:`datasheet_thermal` when ``temperature`` or ``ramp`` is given).
 
     Returns
     -------
@@ -729,6 +763,24 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
     g = nominal.gravity
     noise = _noise(noise, rate)
     k_gyro, k_acc = nominal.gyroscope.scale, nominal.accelerometer.scale
+    temp_profile = None
+    if temperature is not None or ramp is not None:
+        if temperature is not None and ramp is not None:
+            raise ValueError("give the session one temperature or one ramp, not both")
+        model = ThermalModel(reference_c=REFERENCE_C, source="simulated",
+                             coefficients=thermal if thermal is not None else datasheet_thermal(rng, nominal))
+        if temperature is not None:
+            if not (np.isfinite(temperature) and -60 <= temperature <= 150):
+                raise ValueError(f"temperature must be a sensor temperature in °C (-60 to 150); got {temperature!r}")
+            nominal = evaluate(nominal.with_(thermal=model), float(temperature))
+            k["temperature"] = float(temperature)
+        else:
+            t_start, t_end, tau = (float(v) for v in ramp)
+            if not tau > 0:
+                raise ValueError(f"the ramp's time constant must be positive seconds; got {tau!r}")
+            nominal = nominal.with_(thermal=model)
+            k["ramp"] = [t_start, t_end, tau]
+        k["thermal"] = {name: c.tolist() for name, c in model.coefficients.items()}
 
     # ---- the session's gyroscope bias: a turn-on offset from the truth's, then drift
     offset = rng.normal(size=3) * math.radians(k["turn_on"]) / k_gyro  # counts
@@ -757,7 +809,13 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
     hand = np.linalg.norm(f - np.einsum("nji,j->ni", r, g * _UP), axis=1)
 
     # ---- readings: the canonical model inverted (Zhang 2021, eqs. 31–32), noise, drift, counts
-    acc, gyro = distort(truth_s, f, w, rng, noise, None, None)
+    acc, gyro = distort(truth_s.with_(thermal=None), f, w, rng, noise, None, None)
+    if "temperature" in k:
+        temp_profile = np.full(n, k["temperature"])
+    elif "ramp" in k:
+        t_start, t_end, tau = k["ramp"]
+        temp_profile = t_end + (t_start - t_end) * np.exp(-t / tau)
+        acc, gyro = decompensate(truth_s, (acc, gyro), temp_profile, f)  # the parameters follow it (thermal.py)
     minutes = t / 60.0
     g_slope = rng.normal(size=3) * math.radians(k["gyro_drift"]) / k_gyro  # counts per minute
     g_walk = np.cumsum(rng.normal(size=(n, 3)), axis=0) * (math.radians(k["gyro_rw"]) * math.sqrt(dt) / k_gyro)
@@ -823,7 +881,7 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
     units = truth_s.units
     rec = Recording(stamp, acc[kept], gyro[kept], acc_unit=units["accelerometer"]["raw"],
                     gyro_unit=units["gyroscope"]["raw"], metadata={"scenario": "handheld", "procedure": procedure},
-                    mag=mag)
+                    mag=mag, temperature=None if temp_profile is None else _thermometer(rng, temp_profile)[kept])
 
     # ---- facts, in recorded indices
     options = dict(k)
