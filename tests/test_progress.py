@@ -20,7 +20,7 @@ def test_piped_progress_prints_a_line_every_interval_and_a_last_line(monkeypatch
     monkeypatch.setattr("imucalib.progress.time.perf_counter", clock)
     out = io.StringIO()
     bar = Progress("montecarlo", total=10, stream=out, interval=5.0, unit="run")
-    for i in range(10):
+    for _ in range(10):
         clock.t += 2.0          # 2 s a step: a line at 6 s (first step past 5 s), 12 s, 18 s, and the end
         bar.update()
     lines = out.getvalue().splitlines()

@@ -16,8 +16,9 @@ import numpy as np
 
 from .io.atomic import atomic_write
 from .io.jsontext import dumps, jsonable
-from .models import AXES, TriadModel
+from .models import AXES, MagnetometerModel, TriadModel
 from .recording import STANDARD_GRAVITY, Recording
+from .thermal import ThermalModel
 
 __all__ = ["Calibration", "FORMAT", "FORMAT_VERSION"]
 
@@ -55,6 +56,9 @@ class Calibration:
         Raw and calibrated units of each sensor.
     fit : dict
         Fit-quality figures (see ``DESIGN.md``).
+    magnetometer : MagnetometerModel or None
+        Hard and soft iron and the map into the accelerometer's frame, when the IMU has a
+        magnetometer and it was calibrated (``units["magnetometer"]`` then gives its units).
     """
 
     accelerometer: TriadModel = field(default_factory=_default_acc)
@@ -72,6 +76,8 @@ class Calibration:
     device: str | None = None
     created: str | None = None
     fit: dict = field(default_factory=dict)
+    magnetometer: MagnetometerModel | None = None
+    thermal: ThermalModel | None = None
 
     def __post_init__(self) -> None:
         if self.lever_arm is not None:
@@ -106,8 +112,16 @@ class Calibration:
         The recording must be in the raw units this calibration was made for.
         """
         self.check_units(recording)
+        if self.thermal is not None:  # compensated to the reference temperature, then as below (thermal.py, T2)
+            from .thermal import compensate
+
+            base, compensated = compensate(self, recording)
+            return base.apply(compensated)
         acc = self.accelerometer_si(recording.acc)
         gyro = self.gyroscope.forward(recording.gyro, acc)
+        mag, mag_unit = recording.mag, recording.mag_unit
+        if mag is not None and self.magnetometer is not None:
+            mag, mag_unit = self.magnetometer.forward(mag), self.magnetometer.unit
         return Recording(
             t=recording.t,
             acc=acc,
@@ -117,12 +131,16 @@ class Calibration:
             temperature=recording.temperature,
             extra=dict(recording.extra),
             metadata={**recording.metadata, "calibration": self.method},
+            mag=mag,
+            mag_unit=mag_unit,
         )
 
     def check_units(self, recording: Recording) -> None:
         """Raise ValueError unless the recording is in the raw units this calibration maps."""
-        for sensor, unit in (("accelerometer", recording.acc_unit),
-                             ("gyroscope", recording.gyro_unit)):
+        pairs = [("accelerometer", recording.acc_unit), ("gyroscope", recording.gyro_unit)]
+        if self.magnetometer is not None and recording.mag is not None and "magnetometer" in self.units:
+            pairs.append(("magnetometer", recording.mag_unit))
+        for sensor, unit in pairs:
             expected = self.units[sensor]["raw"]
             if unit != expected:
                 raise ValueError(
@@ -140,11 +158,15 @@ class Calibration:
         if self.lever_arm is not None:
             for i, axis in enumerate(AXES):
                 out[f"lever_arm.{axis}"] = float(self.lever_arm[i])
+        if self.magnetometer is not None:
+            out.update(self.magnetometer.parameters("magnetometer"))
         return out
 
     def with_parameters(self, values: dict[str, float]) -> Calibration:
         """A copy with the named parameters set (names as in :meth:`parameters`)."""
         known = ("accelerometer.", "gyroscope.", "lever_arm.")
+        if any(name.startswith("magnetometer.") for name in values):
+            raise ValueError("the magnetometer's parameters are set through Calibration.with_(magnetometer=…)")
         for name in values:
             if not name.startswith(known):
                 raise ValueError(f"unknown parameter {name!r}")
@@ -165,7 +187,7 @@ class Calibration:
     # ------------------------------------------------------------------- JSON
     def to_dict(self) -> dict[str, Any]:
         """The JSON-ready dictionary of the calibration file format."""
-        return {
+        out = {
             "format": FORMAT,
             "format_version": FORMAT_VERSION,
             "method": self.method,
@@ -180,6 +202,11 @@ class Calibration:
             "lever_arm": None if self.lever_arm is None else self.lever_arm.tolist(),
             "fit": jsonable(self.fit),
         }
+        if self.magnetometer is not None:  # only when there is one: files without it are as before
+            out["magnetometer"] = self.magnetometer.to_dict()
+        if self.thermal is not None:
+            out["thermal"] = self.thermal.to_dict()
+        return out
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Calibration:
@@ -206,6 +233,8 @@ class Calibration:
             device=d.get("device"),
             created=d.get("created"),
             fit=d.get("fit", {}),
+            magnetometer=None if d.get("magnetometer") is None else MagnetometerModel.from_dict(d["magnetometer"]),
+            thermal=None if d.get("thermal") is None else ThermalModel.from_dict(d["thermal"]),
         )
 
     def to_json(self) -> str:

@@ -23,6 +23,20 @@ Parameters are named ``<sensor>.<key>.<component>``: keys ``misalignment``,
 ``scale``, ``scale_quadratic``, ``scale_cubic``, ``bias``, ``g_sensitivity``;
 components ``x``/``y``/``z`` for vectors and row-then-column (``xz``) for
 matrices; the lever arm is ``lever_arm.x`` etc.
+
+The magnetometer has its own model (:class:`MagnetometerModel`), expressed in
+the accelerometer's frame::
+
+    m = F · O · S · (u_m − b_m)
+
+with ``b_m`` the hard-iron bias (raw units), ``S`` the symmetric positive
+definite soft-iron matrix that maps the raw readings onto the unit sphere,
+``O`` an orthogonal matrix (determinant ±1: the magnetometer die's axes may be
+permuted and reflected relative to the accelerometer's, then slightly rotated)
+and ``F`` the field's magnitude in the calibrated unit (1 for ``"normalised"``).
+Its parameters are ``magnetometer.bias.x``, ``magnetometer.soft_iron.xy``
+(``xx yy zz xy xz yz``), ``magnetometer.alignment.xy`` (the 9 entries of ``O``)
+and ``magnetometer.field``.
 """
 
 from __future__ import annotations
@@ -34,6 +48,7 @@ import numpy as np
 __all__ = [
     "AXES",
     "MISALIGNMENT_SHAPES",
+    "MagnetometerModel",
     "NotInvertibleError",
     "TriadModel",
     "misalignment_entries",
@@ -331,3 +346,111 @@ class TriadModel:
             )
         except KeyError as exc:
             raise ValueError(f"calibration entry lacks the key {exc.args[0]!r}") from None
+
+
+_SYMMETRIC = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+
+@dataclass(frozen=True)
+class MagnetometerModel:
+    """Hard and soft iron and the map into the accelerometer's frame: ``m = F · O · S · (u − b)``.
+
+    Attributes
+    ----------
+    bias : (3,) ndarray
+        Hard-iron bias ``b`` [raw units].
+    soft_iron : (3, 3) ndarray
+        Symmetric positive definite ``S``: ``‖S (u − b)‖ = 1`` in a uniform field.
+    alignment : (3, 3) ndarray
+        Orthogonal ``O`` (determinant +1 or −1) from the sphere's frame to the accelerometer's.
+    field_norm : float
+        Field magnitude ``F`` in ``unit`` (1 when ``unit`` is ``"normalised"``).
+    unit : str
+        Calibrated unit, ``"uT"`` or ``"normalised"``.
+    """
+
+    bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    soft_iron: np.ndarray = field(default_factory=lambda: np.eye(3))
+    alignment: np.ndarray = field(default_factory=lambda: np.eye(3))
+    field_norm: float = 1.0
+    unit: str = "normalised"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "bias", _vec(self.bias, "magnetometer bias"))
+        s = _mat(self.soft_iron, "soft_iron")
+        o = _mat(self.alignment, "alignment")
+        if not np.allclose(s, s.T, rtol=0, atol=1e-12 * max(np.abs(s).max(), 1e-300)):
+            raise ValueError("the magnetometer's soft_iron matrix must be symmetric")
+        if np.any(np.linalg.eigvalsh(s) <= 0):
+            raise ValueError("the magnetometer's soft_iron matrix must be positive definite")
+        if not np.allclose(o @ o.T, np.eye(3), atol=1e-9):
+            raise ValueError("the magnetometer's alignment matrix must be orthogonal (OᵀO = I)")
+        object.__setattr__(self, "soft_iron", 0.5 * (s + s.T))
+        object.__setattr__(self, "alignment", o)
+        if not (np.isfinite(self.field_norm) and self.field_norm > 0):
+            raise ValueError(f"the magnetometer's field must be a positive number; got {self.field_norm!r}")
+        object.__setattr__(self, "field_norm", float(self.field_norm))
+        if self.unit not in ("uT", "normalised"):
+            raise ValueError(f"the magnetometer's calibrated unit must be 'uT' or 'normalised'; got {self.unit!r}")
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """``F · O · S``: calibrated field per raw unit, after the bias."""
+        return self.field_norm * self.alignment @ self.soft_iron
+
+    def forward(self, raw: np.ndarray) -> np.ndarray:
+        """Calibrated field (N, 3) in the accelerometer's frame from raw readings (N, 3)."""
+        return (np.asarray(raw, dtype=np.float64) - self.bias) @ self.matrix.T
+
+    def inverse(self, m: np.ndarray) -> np.ndarray:
+        """Raw readings that give the calibrated field ``m`` (N, 3)."""
+        return np.linalg.solve(self.matrix, np.asarray(m, dtype=np.float64).T).T + self.bias
+
+    def axes(self) -> tuple[list[str], float]:
+        """The signed axis permutation nearest ``O`` and the angle [deg] of the rotation left beside it.
+
+        ``(["+y", "+x", "-z"], 1.2)`` reads: the accelerometer's x is the magnetometer's +y, its y
+        the magnetometer's +x, its z the magnetometer's −z, then a 1.2° rotation.
+        """
+        o = self.alignment
+        perm = np.zeros((3, 3))
+        used: set[int] = set()
+        for i in np.argsort(-np.abs(o).max(axis=1)):  # the clearest rows first
+            j = max((c for c in range(3) if c not in used), key=lambda c: abs(o[i, c]))
+            used.add(j)
+            perm[i, j] = np.sign(o[i, j]) or 1.0
+        rest = perm.T @ o
+        if np.linalg.det(rest) < 0:  # not near a signed permutation with O's handedness
+            angle = float("nan")
+        else:
+            angle = float(np.degrees(np.arccos(np.clip((np.trace(rest) - 1) / 2, -1.0, 1.0))))
+        names = [("+" if perm[i, j] > 0 else "-") + AXES[j] for i in range(3) for j in range(3) if perm[i, j]]
+        return names, angle
+
+    def parameters(self, prefix: str = "magnetometer") -> dict[str, float]:
+        """Named parameters ``magnetometer.bias.x``, ``.soft_iron.xy``, ``.alignment.xy``, ``.field``."""
+        out = {f"{prefix}.bias.{a}": float(v) for a, v in zip(AXES, self.bias, strict=True)}
+        for i, j in _SYMMETRIC:
+            out[f"{prefix}.soft_iron.{AXES[i]}{AXES[j]}"] = float(self.soft_iron[i, j])
+        for i in range(3):
+            for j in range(3):
+                out[f"{prefix}.alignment.{AXES[i]}{AXES[j]}"] = float(self.alignment[i, j])
+        out[f"{prefix}.field"] = self.field_norm
+        return out
+
+    def to_dict(self) -> dict:
+        names, angle = self.axes()
+        return {"bias": self.bias.tolist(), "soft_iron": self.soft_iron.tolist(),
+                "alignment": self.alignment.tolist(), "field": self.field_norm, "unit": self.unit,
+                "axes": names, "alignment_rotation_deg": angle if np.isfinite(angle) else None,
+                "matrix": self.matrix.tolist()}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> MagnetometerModel:
+        if not isinstance(d, dict):
+            raise ValueError("the magnetometer section must be an object with bias, soft_iron and alignment")
+        try:
+            return cls(bias=d["bias"], soft_iron=d["soft_iron"], alignment=d["alignment"],
+                       field_norm=d.get("field", 1.0), unit=d.get("unit", "normalised"))
+        except KeyError as exc:
+            raise ValueError(f"the magnetometer section lacks the key {exc.args[0]!r}") from None

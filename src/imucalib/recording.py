@@ -16,6 +16,7 @@ import numpy as np
 __all__ = [
     "ACC_UNITS",
     "GYRO_UNITS",
+    "MAG_UNITS",
     "ImucalibWarning",
     "Interval",
     "Recording",
@@ -28,6 +29,8 @@ STANDARD_GRAVITY = 9.80665  # m/s², the conventional value (CGPM 1901)
 ACC_UNITS = ("counts", "g", "m/s^2")
 #: accepted gyroscope units and their factor to rad/s
 GYRO_UNITS = ("counts", "deg/s", "rad/s")
+#: accepted magnetometer units (µT and gauss are physical, 1 gauss = 100 µT; "normalised": calibrated, |m| = 1)
+MAG_UNITS = ("counts", "uT", "gauss", "normalised")
 
 
 class ImucalibWarning(UserWarning):
@@ -35,7 +38,8 @@ class ImucalibWarning(UserWarning):
 
 
 def _check_unit(unit: str, allowed: tuple[str, ...], what: str) -> str:
-    aliases = {"m/s2": "m/s^2", "m/s²": "m/s^2", "dps": "deg/s", "rad/s^1": "rad/s", "raw": "counts"}
+    aliases = {"m/s2": "m/s^2", "m/s²": "m/s^2", "dps": "deg/s", "rad/s^1": "rad/s", "raw": "counts",
+               "µT": "uT", "microtesla": "uT", "G": "gauss", "Gs": "gauss"}
     unit = aliases.get(unit, unit)
     if unit not in allowed:
         raise ValueError(f"{what} unit must be one of {', '.join(allowed)}; got {unit!r}")
@@ -87,6 +91,9 @@ class Recording:
         Other columns of the source, kept so that writers can pass them on.
     metadata : dict, optional
         Free-form information (source file, reader, device...).
+    mag : (N, 3) array_like, optional
+        Magnetometer samples in ``mag_unit`` (None: the IMU has none, or it was not read).
+    mag_unit : {"counts", "uT", "gauss", "normalised"}
     """
 
     t: np.ndarray
@@ -97,6 +104,8 @@ class Recording:
     temperature: np.ndarray | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     metadata: dict[str, Any] = field(default_factory=dict)
+    mag: np.ndarray | None = None
+    mag_unit: str = "counts"
 
     def __post_init__(self) -> None:
         self.t = np.asarray(self.t, dtype=np.float64)
@@ -131,6 +140,14 @@ class Recording:
             self.temperature = np.asarray(self.temperature, dtype=np.float64)
             if self.temperature.shape != (n,):
                 raise ValueError(f"temperature must have shape ({n},); got {self.temperature.shape}")
+        if self.mag is not None:
+            self.mag = np.asarray(self.mag, dtype=np.float64)
+            if self.mag.shape != (n, 3):
+                raise ValueError(f"mag must have shape ({n}, 3) to match t; got {self.mag.shape}")
+            if not np.all(np.isfinite(self.mag)):
+                row = int(np.nonzero(~np.all(np.isfinite(self.mag), axis=1))[0][0])
+                raise ValueError(f"mag has a non-finite value (NaN or inf) at sample {row}")
+        self.mag_unit = _check_unit(self.mag_unit, MAG_UNITS, "magnetometer")
         for key, col in list(self.extra.items()):
             col = np.asarray(col)
             if col.shape[:1] != (n,):
@@ -168,6 +185,8 @@ class Recording:
             temperature=None if self.temperature is None else self.temperature[index],
             extra={k: v[index] for k, v in self.extra.items()},
             metadata=dict(self.metadata),
+            mag=None if self.mag is None else self.mag[index],
+            mag_unit=self.mag_unit,
         )
 
     def time_slice(self, t0: float | None = None, t1: float | None = None) -> Recording:
@@ -190,6 +209,8 @@ class Recording:
             temperature=self.temperature,
             extra=dict(self.extra),
             metadata=dict(self.metadata),
+            mag=self.mag,
+            mag_unit=self.mag_unit,
         )
 
     # ------------------------------------------------------------- alignment
@@ -244,4 +265,6 @@ class Recording:
         temperature = kwargs.pop("temperature", None)
         if temperature is not None:
             temperature = np.asarray(temperature)[keep]
+        if kwargs.get("mag") is not None:  # the magnetometer shares the accelerometer's time stamps
+            kwargs["mag"] = np.asarray(kwargs["mag"])[keep]
         return cls(t=t, acc=acc[keep], gyro=gyro_i, extra=extra, temperature=temperature, **kwargs)

@@ -25,6 +25,7 @@ from .calibration import Calibration
 from .metrics import fit_summary, gap_flags
 from .recording import Interval, Recording
 from .segment import gyro_still, initial_rest, static_at, still_intervals
+from .thermal import compensate
 from .verdict import assess
 
 __all__ = ["MIN_POSES", "THRESHOLD_MULTIPLIER", "VALIDATION_KEYS", "find_poses", "validate"]
@@ -118,6 +119,10 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
     """
     gravity = gravity or calibration.gravity
     calibration.check_units(recording)
+    then = calibration.fit or {}
+    # a calibration that follows temperature: the recording compensated to its reference temperature, then
+    # judged with the calibration there (thermal.py, T2)
+    calibration, recording = compensate(calibration, recording)
     poses = find_poses(calibration, recording, init_static=init_static)
     if len(poses) < MIN_POSES:
         raise ValueError(
@@ -129,7 +134,6 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
     # the checks apply to this recording: the calibration's own fit (its poses, turns, errors) is left behind
     verdict = assess(calibration.with_(gravity=gravity, fit=fit), recording, poses, purpose="validate")
     verdict["verdict_notes"] += gap_flags(recording, poses)  # their rotations' angle errors are unreliable
-    then = calibration.fit or {}
     figures = {k: fit.get(k) for k in (*VALIDATION_KEYS, *_FIGURES)}
     gyro = {k: verdict.pop(k, None) for k in ("gyroscope_angle_error_predicted_deg", "gyroscope_error_to_noise")}
     return {"method": calibration.method, "gravity": gravity, **verdict,

@@ -18,7 +18,9 @@ the fit did not minimise, or that it cannot change:
   poses against what the sensor noise alone predicts for these rotations
   (:func:`predicted_direction_error`);
 * **known turns** — each turn by a known angle re-integrated with the calibration;
-* **usefulness** — parameters whose 1σ is too large to be of use, or undetermined.
+* **usefulness** — parameters whose 1σ is too large to be of use, or undetermined;
+* **the magnetometer** — the calibrated field's norm and its dip to gravity must be
+  the same in every pose, and its direction must turn as the gyroscope says.
 
 Thresholds (:data:`THRESHOLDS`) come from Monte Carlo on the hand-held
 scenario (``benchmarks/verdict_thresholds.py``, 30 sessions, tedaldi2014,
@@ -84,6 +86,14 @@ THRESHOLDS = {
     # 1 sigma of a scale factor, relative; of a misalignment term [deg]
     "scale_sigma_rel": 0.02,
     "misalignment_sigma_deg": 1.0,
+    # magnetometer: relative spread of the calibrated field's norm over the poses; spread of its dip [deg];
+    # mean error of the field direction carried by the gyroscope from pose to pose [deg]. A good calibration
+    # in a uniform field leaves ~0.1 % and ~0.05° (noise and the gyroscope's own error); a plain ellipsoid
+    # fit of a die whose axes are permuted leaves tens of degrees; iron nearby (a desk, a laptop) leaves a
+    # field that is not uniform, which no calibration can fix
+    "mag_norm_spread": (0.02, 0.05),
+    "mag_dip_spread_deg": (2.0, 5.0),
+    "mag_direction_error_deg": (3.0, 10.0),
 }
 
 #: raw-unit factors to SI of the physical units (``"g"`` uses the calibration's gravity)
@@ -357,6 +367,33 @@ def _usefulness(calibration) -> list[Check]:
     return out
 
 
+def _magnetometer(calibration) -> list[Check]:
+    fit = calibration.fit or {}
+    if fit.get("magnetometer_error"):
+        return [Check(1, f"the magnetometer was not calibrated: {fit['magnetometer_error']}")]
+    if calibration.magnetometer is None or "magnetometer_norm_spread" not in fit:
+        return []
+    out = []
+    figures = (("magnetometer_norm_spread", "mag_norm_spread", "the calibrated field's norm varies by {:.2g} % "
+                "over the poses (limit {:g} %): the field is not uniform (iron nearby) or the poses are wrong", 100),
+               ("magnetometer_dip_spread_deg", "mag_dip_spread_deg", "the field's angle to gravity varies by {:.2g}° "
+                "over the poses (limit {:g}°): the magnetometer's axes do not follow the accelerometer's", 1),
+               ("magnetometer_direction_error_mean_deg", "mag_direction_error_deg", "the field direction turns "
+                "{:.2g}° away from what the gyroscope says between poses (limit {:g}°)", 1))
+    for key, limit, text, factor in figures:
+        value = fit.get(key)
+        if value is None or not np.isfinite(value):
+            continue
+        level = _level(value, THRESHOLDS[limit])
+        if level:
+            out.append(Check(level, text.format(factor * value, factor * THRESHOLDS[limit][level - 1])))
+    dip = fit.get("magnetometer_dip_deg")
+    if dip is not None and abs(dip) < 5.0:
+        out.append(Check(1, f"the field's dip is {dip:.1f}°, near the magnetic equator: whether the magnetometer's "
+                            "axes are reflected cannot be told from these data (the sign follows --mag-hemisphere)"))
+    return out
+
+
 def assess(calibration, recording: Recording | None = None, intervals: list[Interval] | None = None, *,
            purpose: str = "calibrate") -> dict:
     """Every check on ``calibration`` (with the recording it was made from, when there is one).
@@ -392,6 +429,7 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
         gyro_checks, figures = _gyroscope(calibration, recording, intervals)
         checks += gyro_checks
         checks += _known_turns(calibration, recording)
+    checks += _magnetometer(calibration)
     level = max((c.level for c in checks), default=0)
     return {"verdict": LEVELS[level],
             "verdict_reasons": [c.text for c in sorted(checks, key=lambda c: -c.level) if c.level > 0],

@@ -15,9 +15,10 @@ from typing import Any
 
 from ..calibration import Calibration
 from ..recording import STANDARD_GRAVITY, Recording
+from ..thermal import calibrate_ramp, compensate
 from ..verdict import check_rate, with_verdict
 
-__all__ = ["METHODS", "calibrate", "method_names"]
+__all__ = ["METHODS", "calibrate", "method_names", "with_magnetometer"]
 
 
 def _zhang2021(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
@@ -111,7 +112,11 @@ def calibrate(
     gravity : float
         Local gravity [m/s²].
     **options
-        Method-specific keyword options (see each method's ``calibrate``).
+        Method-specific keyword options (see each method's ``calibrate``), and for a recording
+        with a magnetometer: ``magnetometer`` (False: leave it uncalibrated), ``mag_field``
+        (local field [µT]) and ``mag_hemisphere`` (``"north"``/``"south"``), see
+        :func:`with_magnetometer`; ``temperature_model="linear"`` for a session recorded while the
+        temperature changed (biases linear in temperature, :func:`imucalib.thermal.calibrate_ramp`).
 
     Returns
     -------
@@ -128,8 +133,54 @@ def calibrate(
     session_options = getattr(data, "method_options", None)
     if not isinstance(data, Recording) and callable(session_options):
         options = {**session_options(method), **options}
+    mag_options = {k: options.pop(k) for k in ("magnetometer", "mag_field", "mag_hemisphere") if k in options}
+    temperature_model = options.pop("temperature_model", None)
+    if temperature_model not in (None, "none", "linear"):
+        raise ValueError(f"temperature_model must be 'linear' (biases linear in temperature) or None; "
+                         f"got {temperature_model!r}")
     recording = data if isinstance(data, Recording) else getattr(data, "recording", None)
-    if isinstance(recording, Recording):
+    if not isinstance(recording, Recording):
+        recording = None
+    if recording is not None:
         check_rate(recording)
-    cal = fn(data, model=model, gravity=gravity, **options)
-    return with_verdict(cal, recording if isinstance(recording, Recording) else None)
+    if temperature_model == "linear":
+        if recording is None:
+            raise ValueError("a temperature model is fitted on a recording of samples with a temperature column")
+        cal = calibrate_ramp(lambda rec: fn(rec, model=model, gravity=gravity, **options), recording)
+        recording = compensate(cal, recording)[1]  # the checks below see the recording at the reference temperature
+    else:
+        cal = fn(data, model=model, gravity=gravity, **options)
+    if recording is not None and recording.mag is not None and mag_options.get("magnetometer", True):
+        cal = with_magnetometer(cal, recording, field=mag_options.get("mag_field"),
+                                hemisphere=mag_options.get("mag_hemisphere", "north"))
+    return with_verdict(cal, recording)
+
+
+def with_magnetometer(calibration: Calibration, recording: Recording, *, field: float | None = None,
+                      hemisphere: str = "north") -> Calibration:
+    """``calibration`` with the magnetometer of ``recording`` calibrated on its static poses.
+
+    Runs :func:`~imucalib.fit.magnetometer.fit_magnetometer` on the poses in
+    ``calibration.fit["intervals"]``. When the magnetometer cannot be
+    calibrated (too few poses, readings that do not determine an ellipsoid),
+    the calibration is returned without it and ``fit["magnetometer_error"]``
+    says why (the verdict then makes it suspect); a bad option is an error.
+    """
+    from ..fit.magnetometer import fit_magnetometer
+    from ..recording import Interval
+
+    if hemisphere not in ("north", "south"):
+        raise ValueError(f"the magnetic hemisphere must be 'north' or 'south'; got {hemisphere!r}")
+    if field is not None and not (field > 0 and field < 1000):
+        raise ValueError(f"the local field magnitude is a number of µT (25-65 on Earth's surface); got {field!r}")
+    fit = dict(calibration.fit or {})
+    intervals = [Interval(int(a), int(b)) for a, b in fit.get("intervals") or []]
+    try:
+        mag = fit_magnetometer(recording, intervals, calibration, hemisphere=hemisphere, field=field)
+    except ValueError as exc:
+        fit["magnetometer_error"] = str(exc)
+        return calibration.with_(fit=fit)
+    units = {**calibration.units, "magnetometer": {"raw": recording.mag_unit, "calibrated": mag.model.unit}}
+    fit.update(mag.figures)
+    fit["uncertainty"] = {**(fit.get("uncertainty") or {}), **mag.uncertainty}
+    return calibration.with_(magnetometer=mag.model, units=units, fit=fit)

@@ -124,13 +124,25 @@ def _write_meta(path: Path, meta: dict) -> None:
 
 
 def _write_rec(path: Path, rec: Recording) -> None:
-    _write_table(path, np.column_stack([rec.t, rec.acc, rec.gyro]), "t,ax,ay,az,gx,gy,gz")
+    cols, names = [rec.t, rec.acc, rec.gyro], "t,ax,ay,az,gx,gy,gz"
+    if rec.mag is not None:
+        cols.append(rec.mag)
+        names += ",mx,my,mz"
+    if rec.temperature is not None:
+        cols.append(rec.temperature)
+        names += ",temperature"
+    _write_table(path, np.column_stack(cols), names)
 
 
 def _read_rec(path: Path, units: dict) -> Recording:
+    with open(path, encoding="utf-8") as fh:
+        names = fh.readline().strip().split(",")
     data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    mag = data[:, names.index("mx"):names.index("mx") + 3] if "mx" in names else None
+    temp = data[:, names.index("temperature")] if "temperature" in names else None
     return Recording(data[:, 0], data[:, 1:4], data[:, 4:7], acc_unit=units["accelerometer"],
-                     gyro_unit=units["gyroscope"], metadata={"source": [str(path)]})
+                     gyro_unit=units["gyroscope"], metadata={"source": [str(path)]}, mag=mag,
+                     mag_unit=units.get("magnetometer", "counts"), temperature=temp)
 
 
 def write_session(sim: Session | WangSession, directory: str | Path) -> Path:
@@ -175,7 +187,8 @@ def write_session(sim: Session | WangSession, directory: str | Path) -> Path:
     meta = {
         "format": "imucalib.session", "format_version": 1,
         "scenario": sim.scenario, "seed": sim.seed, "noise": sim.noise, "options": sim.options,
-        "units": {"accelerometer": sim.recording.acc_unit, "gyroscope": sim.recording.gyro_unit},
+        "units": {"accelerometer": sim.recording.acc_unit, "gyroscope": sim.recording.gyro_unit,
+                  **({"magnetometer": sim.recording.mag_unit} if sim.recording.mag is not None else {})},
         "files": {
             "recording.csv": [s.to_dict() for s in sim.segments],
             **{f"weightless_{i:03d}.csv": [{"start": 0, "stop": len(w), "kind": "weightless"}]

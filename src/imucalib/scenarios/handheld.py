@@ -109,11 +109,14 @@ from ..kinematics import (
     quat_to_matrix,
     quat_to_rotvec,
 )
-from ..models import TriadModel
+from ..models import MagnetometerModel, TriadModel
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
+from ..thermal import REFERENCE_C, ThermalModel, decompensate, evaluate
 from .base import attitude_with_up, distort
 
-__all__ = ["CLEAN", "COUNTS_RANGE", "consumer_truth", "datasheet_noise", "generate"]
+__all__ = ["CLEAN", "COUNTS_RANGE", "MAGNETOMETER", "consumer_truth", "datasheet_noise", "datasheet_thermal",
+           "generate",
+           "simulate_magnetometer"]
 
 #: MPU-6050 accelerometer sensitivity at AFS_SEL=0 (±2 g) [counts/g] (datasheet §6.2)
 ACC_COUNTS_PER_G = 16384.0
@@ -536,6 +539,76 @@ def _plain(x):
 
 
 # --------------------------------------------------------------- scenario
+def datasheet_thermal(rng, truth: Calibration, quadratic: bool = False) -> dict:
+    """Thermal coefficients of an MPU-6050/ICM-20948-class IMU around 25 °C, in raw units (datasheet-like).
+
+    Per axis, 1σ: accelerometer bias 0.5 mg/°C, gyroscope bias 0.03 °/s/°C, scale factors 0.02 %/°C;
+    with ``quadratic``, a second-order term of 1 % of the slope per °C.
+    """
+    out = {}
+    for sensor, tri, bias_sd in (("accelerometer", truth.accelerometer, 0.5e-3 * truth.gravity),
+                                 ("gyroscope", truth.gyroscope, math.radians(0.03))):
+        for i, axis in enumerate("xyz"):
+            slope = rng.normal() * bias_sd / abs(tri.scale[i])  # raw per °C
+            out[f"{sensor}.bias.{axis}"] = [slope, 0.01 * slope * rng.normal() if quadratic else 0.0]
+            out[f"{sensor}.scale.{axis}"] = [rng.normal() * 2e-4 * tri.scale[i], 0.0]
+    return out
+
+
+def _thermometer(rng, temperature: np.ndarray) -> np.ndarray:
+    """The temperature sensor's reading: 0.05 °C of noise, 1/340 °C steps (MPU-6050 datasheet §4.18)."""
+    return np.round((temperature + rng.normal(size=temperature.shape) * 0.05) * 340.0) / 340.0
+
+
+#: defaults of the simulated magnetometer (an AK8963-class die beside an MPU-6500-class IMU, as on the MPU-9250)
+MAGNETOMETER = {
+    "field_uT": 48.0,           # local field magnitude [µT]
+    "dip_deg": 60.0,            # inclination below the horizontal (northern hemisphere > 0)
+    "resolution_uT": 0.15,      # µT per count
+    "noise_uT": 0.4,            # white noise per sample, 1σ [µT]
+    "hard_iron_uT": 30.0,       # 1σ per axis of the hard-iron bias [µT]
+    "soft_iron": 0.03,          # 1σ of the symmetric soft-iron deviation from the identity
+    "misalignment_deg": 1.0,    # 1σ per axis of the die's small rotation [deg]
+    # magnetometer axes in terms of the accelerometer's (m_mag = P m_acc): the MPU-9250's x ↔ y, z reversed
+    "axes": [[0, 1, 0], [1, 0, 0], [0, 0, -1]],
+}
+
+
+def simulate_magnetometer(rng, body_to_world: np.ndarray, options: dict) -> tuple:
+    """Raw magnetometer counts (N, 3) for the attitudes ``body_to_world`` (N, 3, 3), its truth and facts.
+
+    The world field is ``h = F (cos δ · north − sin δ · up)`` with a random north; the die reads
+    ``u = b + S⁻¹ Oᵀ (m / F)`` in counts (:class:`~imucalib.models.MagnetometerModel` inverted) with
+    ``O = Pᵀ Exp(ε)``, then noise and rounding.
+    """
+    unknown = set(options) - set(MAGNETOMETER)
+    if unknown:
+        raise ValueError(f"unknown magnetometer option(s) {sorted(unknown)}; known: {sorted(MAGNETOMETER)}")
+    k = {**MAGNETOMETER, **options}
+    p = np.asarray(k["axes"], dtype=float)
+    if p.shape != (3, 3) or not np.allclose(p @ p.T, np.eye(3)):
+        raise ValueError("the magnetometer's axes must be an orthogonal 3×3 matrix (a signed permutation)")
+    res = float(k["resolution_uT"])
+    field_uT, dip = float(k["field_uT"]), math.radians(float(k["dip_deg"]))
+    heading = rng.uniform(-math.pi, math.pi)
+    north = np.array([math.cos(heading), math.sin(heading), 0.0])
+    h = field_uT * (math.cos(dip) * north - math.sin(dip) * _UP)
+    m_body = np.einsum("nji,j->ni", body_to_world, h)  # µT in the accelerometer's frame
+    eps = rng.normal(size=3) * math.radians(float(k["misalignment_deg"]))
+    o = p.T @ quat_to_matrix(quat_from_rotvec(eps))
+    e = rng.normal(size=(3, 3)) * float(k["soft_iron"])
+    soft = np.eye(3) + 0.5 * (e + e.T)  # raw µT = soft · (ideal µT); S = soft⁻¹ scaled to the unit sphere
+    s = np.linalg.inv(soft) * (res / field_uT)  # counts → unit field: S (u − b) = soft⁻¹ (u − b) res / F
+    s = 0.5 * (s + s.T)
+    bias = rng.normal(size=3) * float(k["hard_iron_uT"]) / res  # counts
+    model = MagnetometerModel(bias=bias, soft_iron=s, alignment=o, field_norm=1.0, unit="normalised")
+    raw = model.inverse(m_body / field_uT)
+    raw += rng.normal(size=raw.shape) * float(k["noise_uT"]) / res
+    raw = np.round(raw)
+    facts = {**k, "counts_per_uT": 1.0 / res, "heading_deg": math.degrees(heading)}
+    return model, raw, facts
+
+
 def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: str = "poses",
              rate: float = 100.0, rest: float = 30.0, n_poses: int = 30, dwell=(2.0, 5.0), move=(1.0, 3.0),
              max_rate: float | None = 220.0, hesitation: float = 0.3, reposition: float = 0.4,
@@ -544,7 +617,8 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
              drop: float = 0.005, gap: float = 0.0, turn_on: float = 0.5, gyro_drift: float = 0.01,
              gyro_rw: float = 1e-4, acc_drift: float = 0.0, quantise: bool = True, full_scale: int | None = 32768,
              face_dwell=(5.0, 7.0), quarter=(0.3, 0.8), quarter_pause=(0.2, 0.4),
-             nudge_deg: float = 0.0) -> dict:
+             nudge_deg: float = 0.0, magnetometer: bool | dict | None = None, temperature: float | None = None,
+             ramp: tuple | None = None, thermal: dict | None = None) -> dict:
     """Simulate a hand-held calibration session of a consumer IMU (see the module docstring).
 
     Parameters
@@ -618,6 +692,22 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
         Pause between quarter-turns [s] (``"ferraris"``; 0.2–0.4; e.g. 2 makes them separate motions).
     nudge_deg : float
         A 0.5 s turn of this many degrees about the vertical right after the rest (``"ferraris"``; 0: none).
+    magnetometer : bool or dict, optional
+        Add a magnetometer (True: the defaults of :data:`MAGNETOMETER`; a dict overrides some of them):
+        a uniform local field with a dip, hard and soft iron, the die's axes permuted/reflected and
+        slightly rotated relative to the accelerometer's, noise and quantisation, in counts. Its truth
+        (normalised: ``F = 1``) is the ``magnetometer`` of the returned truth. None/False: no magnetometer,
+        and the session is the same as without this option.
+    temperature : float, optional
+        The sensor's temperature [°C] for the whole session: the truth's parameters are the thermal
+        model's at that temperature (:func:`datasheet_thermal` around 25 °C, or ``thermal``), and the
+        recording gets a temperature column. The returned truth holds the parameters at ``temperature``.
+    ramp : (start, end, tau), optional
+        A warm-up instead: the temperature goes from ``start`` to ``end`` [°C] as ``1 − exp(−t/tau)``
+        (``tau`` [s]); the returned truth is the model at 25 °C with its thermal model.
+    thermal : dict, optional
+        Thermal coefficients ``{"gyroscope.bias.x": [c1, c2], …}`` (raw units per °C, per °C²) around
+        25 °C (default: drawn by :func:`datasheet_thermal` when ``temperature`` or ``ramp`` is given).
 
     Returns
     -------
@@ -673,6 +763,24 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
     g = nominal.gravity
     noise = _noise(noise, rate)
     k_gyro, k_acc = nominal.gyroscope.scale, nominal.accelerometer.scale
+    temp_profile = None
+    if temperature is not None or ramp is not None:
+        if temperature is not None and ramp is not None:
+            raise ValueError("give the session one temperature or one ramp, not both")
+        model = ThermalModel(reference_c=REFERENCE_C, source="simulated",
+                             coefficients=thermal if thermal is not None else datasheet_thermal(rng, nominal))
+        if temperature is not None:
+            if not (np.isfinite(temperature) and -60 <= temperature <= 150):
+                raise ValueError(f"temperature must be a sensor temperature in °C (-60 to 150); got {temperature!r}")
+            nominal = evaluate(nominal.with_(thermal=model), float(temperature))
+            k["temperature"] = float(temperature)
+        else:
+            t_start, t_end, tau = (float(v) for v in ramp)
+            if not tau > 0:
+                raise ValueError(f"the ramp's time constant must be positive seconds; got {tau!r}")
+            nominal = nominal.with_(thermal=model)
+            k["ramp"] = [t_start, t_end, tau]
+        k["thermal"] = {name: c.tolist() for name, c in model.coefficients.items()}
 
     # ---- the session's gyroscope bias: a turn-on offset from the truth's, then drift
     offset = rng.normal(size=3) * math.radians(k["turn_on"]) / k_gyro  # counts
@@ -701,7 +809,13 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
     hand = np.linalg.norm(f - np.einsum("nji,j->ni", r, g * _UP), axis=1)
 
     # ---- readings: the canonical model inverted (Zhang 2021, eqs. 31–32), noise, drift, counts
-    acc, gyro = distort(truth_s, f, w, rng, noise, None, None)
+    acc, gyro = distort(truth_s.with_(thermal=None), f, w, rng, noise, None, None)
+    if "temperature" in k:
+        temp_profile = np.full(n, k["temperature"])
+    elif "ramp" in k:
+        t_start, t_end, tau = k["ramp"]
+        temp_profile = t_end + (t_start - t_end) * np.exp(-t / tau)
+        acc, gyro = decompensate(truth_s, (acc, gyro), temp_profile, f)  # the parameters follow it (thermal.py)
     minutes = t / 60.0
     g_slope = rng.normal(size=3) * math.radians(k["gyro_drift"]) / k_gyro  # counts per minute
     g_walk = np.cumsum(rng.normal(size=(n, 3)), axis=0) * (math.radians(k["gyro_rw"]) * math.sqrt(dt) / k_gyro)
@@ -758,9 +872,16 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
         if s:
             static_map[j] = sum(iv.kind == "static" for iv in segments)
             segments.append(Interval(*s, "static"))
+    mag = mag_facts = None
+    if magnetometer:  # drawn after everything else: a session with a magnetometer is the same session plus it
+        mag_model, mag, mag_facts = simulate_magnetometer(rng, r, {} if magnetometer is True else magnetometer)
+        truth_s = truth_s.with_(magnetometer=mag_model,
+                                units={**truth_s.units, "magnetometer": {"raw": "counts", "calibrated": "normalised"}})
+        mag = mag[kept]
     units = truth_s.units
     rec = Recording(stamp, acc[kept], gyro[kept], acc_unit=units["accelerometer"]["raw"],
-                    gyro_unit=units["gyroscope"]["raw"], metadata={"scenario": "handheld", "procedure": procedure})
+                    gyro_unit=units["gyroscope"]["raw"], metadata={"scenario": "handheld", "procedure": procedure},
+                    mag=mag, temperature=None if temp_profile is None else _thermometer(rng, temp_profile)[kept])
 
     # ---- facts, in recorded indices
     options = dict(k)
@@ -780,6 +901,8 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
         "acc_bias_end": truth_s.accelerometer.bias + a_slope * minutes[-1],
         "truth": "given" if truth is not None else "consumer_truth",
     })
+    if mag_facts is not None:
+        options["magnetometer"] = mag_facts
     if procedure == "poses":
         options["vertical_turns"] = [
             {"motion": remap(*v["range"]), "angle_deg": v["angle_deg"],

@@ -1,0 +1,342 @@
+"""Magnetometer: hard and soft iron, and the field expressed in the accelerometer's frame.
+
+The magnetometer is calibrated after the accelerometer and the gyroscope, from
+the same static poses and the rotations between them, with the model of
+:class:`~imucalib.models.MagnetometerModel`::
+
+    m = F · O · S · (u − b)                                                  (M1)
+
+The Earth's field ``h`` is constant in the world frame while the sensor is
+turned by hand, so three sets of equations hold (the multi-position approach of
+Särkkä et al. 2017 and the magnetometer-aided calibration reviewed in Ru 2022,
+§4.2 (3), written here for this model):
+
+* **norm** — ``‖S (u_i − b)‖ = 1`` for every pose ``i`` (and every sample while
+  moving): hard and soft iron make the readings an ellipsoid, ``S`` and ``b``
+  map it onto the unit sphere;                                             (M2)
+* **dip** — ``d_iᵀ n_i = −sin δ`` with ``d_i`` the calibrated gravity direction
+  (the accelerometer's unit specific force at rest, pointing up), ``n_i =
+  O S (u_i − b) / ‖·‖`` and ``δ`` the field's dip below the horizontal: the
+  angle between field and gravity does not change from pose to pose;      (M3)
+* **rotation** — ``n_{k+1} = R_kᵀ n_k`` with ``R_k`` the attitude change from
+  pose ``k`` to ``k+1`` integrated from the calibrated gyroscope, exactly as the
+  gravity direction is carried in Zhang 2021, eq. (14).                   (M4)
+
+(M2) alone is the usual ellipsoid fit: it leaves ``O`` free, so a magnetometer
+die whose axes are permuted and reflected relative to the accelerometer's (the
+MPU-9250's magnetometer has x and y swapped and z reversed) keeps a wandering
+angle to gravity. (M3) and (M4) fix ``O``: first by a linear solve — (M4) and
+(M3) are linear and homogeneous in the nine entries of ``L = O`` and in
+``κ = −sin δ``, so the smallest right singular vector of the stacked equations
+gives ``L`` up to scale, and the nearest orthogonal matrix (polar
+decomposition, determinant +1 or −1) is ``O``; then all of ``b``, ``S``, ``O``,
+``δ`` together by Gauss–Newton (Levenberg–Marquardt) on (M2)–(M4), each group
+weighted by its own residual spread, which also gives the 1σ of every parameter.
+
+The data cannot tell ``O`` from ``−O`` (a field reversed everywhere rotates the
+same way): the sign is chosen so that the field points below the horizontal in
+the northern magnetic hemisphere (``hemisphere="north"``, dip > 0) and above it
+in the southern one. Near the magnetic equator (``|δ| < 5°``) the choice is
+weak, and the fit says so.
+
+The calibrated unit: with raw readings in µT (or gauss), ``F`` is the
+geometric-mean radius of the fitted ellipsoid, ``det(S)^(−1/3)``, in µT (no
+external reference fixes the field's magnitude better); with raw counts the
+field is normalised (``F = 1``) unless the local field magnitude is given
+(e.g. from a geomagnetic model), in µT.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..kinematics import IntervalIntegrator, quat_from_rotvec, quat_to_matrix
+from ..metrics import interval_means, transition_bounds
+from ..models import AXES, MagnetometerModel
+from ..recording import Interval, Recording
+from .accelerometer import fit_ellipsoid
+
+__all__ = ["MIN_MAG_POSES", "MagnetometerFit", "alignment_from_rotations", "fit_magnetometer", "pose_figures",
+           "soft_iron_from_ellipsoid"]
+
+#: the fewest static poses the magnetometer fit takes
+MIN_MAG_POSES = 6
+#: below this |dip| [deg] the field's sign (hence det O) is weakly determined
+WEAK_DIP_DEG = 5.0
+_SYM = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+
+@dataclass(frozen=True)
+class MagnetometerFit:
+    """A fitted magnetometer: the model, its figures for ``Calibration.fit`` and the 1σ errors by name."""
+
+    model: MagnetometerModel
+    figures: dict
+    uncertainty: dict
+    covariance: np.ndarray
+
+
+def _sym(v: np.ndarray) -> np.ndarray:
+    s = np.empty((3, 3))
+    for k, (i, j) in enumerate(_SYM):
+        s[i, j] = s[j, i] = v[k]
+    return s
+
+
+def soft_iron_from_ellipsoid(raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Hard iron ``b`` and symmetric ``S`` with ``‖S (u − b)‖ ≈ 1`` from an algebraic ellipsoid fit (M2).
+
+    ``raw`` (N, 3) are readings spread over directions (N ≥ 9). ``S`` is the
+    symmetric square root of the fitted quadric ``(u − b)ᵀ Q (u − b) = 1``.
+    """
+    tri = fit_ellipsoid(raw, 1.0)  # (u − b)ᵀ (T K)ᵀ (T K) (u − b) = 1
+    tk = tri.misalignment @ np.diag(tri.scale)
+    q = tk.T @ tk
+    w, v = np.linalg.eigh(q)
+    return tri.bias, (v * np.sqrt(w)) @ v.T
+
+
+def alignment_from_rotations(s: np.ndarray, up: np.ndarray, rot: np.ndarray, use: np.ndarray,
+                             hemisphere: str) -> np.ndarray:
+    """The orthogonal ``O`` from the linear equations (M3), (M4) (see the module docstring).
+
+    ``s`` (M, 3) are the poses' sphere-mapped fields ``S (u − b)``, ``up`` (M, 3) the unit gravity
+    directions, ``rot`` (M−1, 3, 3) the attitude changes between consecutive poses, ``use`` (M−1,)
+    which transitions to use.
+    """
+    rows = []
+    eye = np.eye(3)
+    for k in np.nonzero(use)[0]:  # (L s_{k+1})_a − (R_kᵀ L s_k)_a = 0
+        rows.append(np.hstack([np.kron(eye, s[k + 1][None, :]) - np.kron(rot[k].T, s[k][None, :]), np.zeros((3, 1))]))
+    for i in range(s.shape[0]):  # d_iᵀ L s_i − κ = 0
+        rows.append(np.hstack([np.kron(up[i][None, :], s[i][None, :]), [[-1.0]]]))
+    a = np.vstack(rows)
+    x = np.linalg.svd(a)[2][-1]
+    u, _, vt = np.linalg.svd(x[:9].reshape(3, 3))
+    o = u @ vt
+    down = float(np.mean(np.einsum("ij,ij->i", up, s @ o.T)))  # < 0: the field points below the horizontal
+    if (down > 0) == (hemisphere == "north"):
+        o = -o
+    return o
+
+
+def _rotvec_matrix(v: np.ndarray) -> np.ndarray:
+    return quat_to_matrix(quat_from_rotvec(v))
+
+
+def pose_figures(model: MagnetometerModel, mag_means: np.ndarray, up: np.ndarray, rot: np.ndarray) -> dict:
+    """Field-norm spread, dip and its spread, direction errors between poses, for ``model``."""
+    m = model.forward(mag_means)
+    norm = np.linalg.norm(m, axis=1)
+    n = m / norm[:, None]
+    dip = np.degrees(np.arcsin(np.clip(-np.einsum("ij,ij->i", up, n), -1.0, 1.0)))
+    pred = np.einsum("kji,kj->ki", rot, n[:-1])
+    err = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", pred, n[1:]), -1.0, 1.0)))
+    return {"norm_spread": float(np.std(norm) / np.mean(norm)), "dip_deg": float(np.mean(dip)),
+            "dip_spread_deg": float(np.std(dip)), "direction_errors_deg": err,
+            "norms": norm, "dips_deg": dip}
+
+
+def fit_magnetometer(recording: Recording, intervals: list[Interval], calibration, *, hemisphere: str = "north",
+                     field: float | None = None, motion_samples: int = 1000) -> MagnetometerFit:
+    """Calibrate the magnetometer of ``recording`` after its accelerometer and gyroscope (``calibration``).
+
+    Parameters
+    ----------
+    recording : Recording
+        Raw readings with ``mag``.
+    intervals : list of Interval
+        The static poses the accelerometer and gyroscope were calibrated on, in time order.
+    calibration : Calibration
+        The accelerometer and gyroscope calibration (the gravity directions and the rotations).
+    hemisphere : {"north", "south"}
+        Magnetic hemisphere: the field points below (north) or above (south) the horizontal.
+    field : float, optional
+        Local field magnitude [µT]: the calibrated field is then in µT whatever the raw unit.
+    motion_samples : int
+        Readings taken while moving (decimated to at most this many) also enter the norm equations (M2).
+
+    Raises
+    ------
+    ValueError
+        No magnetometer in the recording, too few poses, poses that do not determine the
+        ellipsoid, or a bad option.
+    """
+    if recording.mag is None:
+        raise ValueError("the recording has no magnetometer columns (mx, my, mz) to calibrate")
+    if hemisphere not in ("north", "south"):
+        raise ValueError(f"hemisphere must be 'north' or 'south'; got {hemisphere!r}")
+    if field is not None and not (np.isfinite(field) and field > 0):
+        raise ValueError(f"the local field magnitude must be a positive number of µT; got {field!r}")
+    if len(intervals) < MIN_MAG_POSES:
+        raise ValueError(f"the magnetometer fit needs at least {MIN_MAG_POSES} static poses; got {len(intervals)}")
+
+    mag_means = interval_means(recording.mag, intervals)
+    acc_means = interval_means(recording.acc, intervals)
+    starts, stops = transition_bounds(intervals)
+    integrator = IntervalIntegrator(recording.t, starts, stops)
+    idx = integrator.samples
+    raw_gyro, raw_acc = recording.gyro[idx], recording.acc[idx]
+
+    def references(cal):
+        """Gravity directions at the poses and attitude changes between them, by ``cal``."""
+        acc = cal.accelerometer.forward(acc_means)
+        rates = cal.gyroscope.forward(raw_gyro, cal.accelerometer.forward(raw_acc))
+        return acc / np.linalg.norm(acc, axis=1, keepdims=True), quat_to_matrix(integrator.from_samples(rates))
+
+    up, rot = references(calibration)  # v_{k+1} = R_kᵀ v_k
+
+    moving = np.ones(len(recording), bool)
+    for iv in intervals:
+        moving[iv.start:iv.stop] = False
+    mov = np.nonzero(moving)[0]
+    if mov.size > motion_samples:
+        mov = mov[np.linspace(0, mov.size - 1, motion_samples).round().astype(int)]
+    mag_moving = recording.mag[mov]
+
+    # ---- start: ellipsoid (M2), then the linear solve of (M3)-(M4) for O
+    spread = np.vstack([mag_means, mag_moving])
+    try:
+        b0, s0 = soft_iron_from_ellipsoid(spread)
+    except ValueError as exc:
+        raise ValueError(f"the magnetometer readings do not determine hard and soft iron: {exc}") from None
+    use = np.ones(len(intervals) - 1, bool)
+    o0 = alignment_from_rotations((mag_means - b0) @ s0, up, rot, use, hemisphere)
+    n0 = (mag_means - b0) @ s0 @ o0.T
+    n0 /= np.linalg.norm(n0, axis=1, keepdims=True)
+    dip0 = float(np.arcsin(np.clip(-np.mean(np.einsum("ij,ij->i", up, n0)), -1, 1)))
+
+    def unpack(th):
+        return th[:3], _sym(th[3:9]), o0 @ _rotvec_matrix(th[9:12]), th[12]
+
+    def groups(th, up=up, rot=rot):
+        b, s, o, dip = unpack(th)
+        v = (mag_means - b) @ s
+        norm = np.linalg.norm(v, axis=1)
+        n = v @ o.T / norm[:, None]
+        r_norm = norm - 1.0
+        r_move = np.linalg.norm((mag_moving - b) @ s, axis=1) - 1.0
+        r_dip = np.einsum("ij,ij->i", up, n) + np.sin(dip)
+        r_rot = (n[1:] - np.einsum("kji,kj->ki", rot, n[:-1]))[use].ravel()
+        return r_norm, r_move, r_dip, r_rot
+
+    theta = np.concatenate([b0, [s0[i, j] for i, j in _SYM], np.zeros(3), [dip0]])
+    scale = np.concatenate([np.full(3, 1.0 / np.abs(s0).max()), np.full(6, np.abs(s0).max()), np.ones(4)])
+    sigma = np.array([1e-3, 1e-2, 1e-2, 1e-2])
+    p = theta.size
+    for _ in range(3):  # weights from each group's own residual spread, refitted
+        def fun(th, sig=sigma):
+            return np.concatenate([g / s for g, s in zip(groups(th), sig, strict=True)])
+
+        sol = least_squares(fun, theta, x_scale=scale, method="lm", xtol=1e-14, ftol=1e-14, max_nfev=2000)
+        theta = sol.x
+        res = groups(theta)
+        dof = np.array([r.size for r in res], dtype=float)
+        dof[3] *= 2.0 / 3.0  # a unit-vector difference has two degrees of freedom, not three
+        total = dof.sum()
+        sigma = np.array([np.sqrt(np.sum(r**2) / max(d * (1 - p / total), 1.0)) if r.size else 1.0
+                          for r, d in zip(res, dof, strict=True)])
+        sigma = np.maximum(sigma, 1e-12)
+        # a transition the gyroscope got wrong (a bump, a missed pose) is left out once: > 5σ and > 3°
+        err = np.linalg.norm(res[3].reshape(-1, 3), axis=1)
+        bad = np.zeros_like(use)
+        bad[np.nonzero(use)[0]] = (err > 5 * sigma[3]) & (err > np.radians(3.0))
+        if np.any(bad) and np.count_nonzero(use & ~bad) >= max(3, use.sum() * 4 // 5):
+            use = use & ~bad
+
+    def fun_final(th):
+        return np.concatenate([g / s for g, s in zip(groups(th), sigma, strict=True)])
+
+    jac = _central_jacobian(fun_final, theta, scale)
+    try:
+        cov = np.linalg.inv(jac.T @ jac)
+    except np.linalg.LinAlgError:
+        cov = np.full((p, p), np.nan)
+    else:
+        cov += _carried_covariance(calibration, references, groups, theta, sigma, jac, cov)
+    b, s, o, dip = unpack(theta)
+    if np.linalg.det(s) <= 0 or np.any(np.linalg.eigvalsh(s) <= 0):
+        raise ValueError("the magnetometer fit did not give a positive definite soft-iron matrix: the poses "
+                         "do not spread the field over enough directions")
+    unit_raw = recording.mag_unit
+    if field is not None:
+        f_norm, unit = float(field), "uT"
+    elif unit_raw in ("uT", "gauss"):
+        f_norm, unit = float(np.linalg.det(s) ** (-1.0 / 3.0)) * (100.0 if unit_raw == "gauss" else 1.0), "uT"
+    else:
+        f_norm, unit = 1.0, "normalised"
+    model = MagnetometerModel(bias=b, soft_iron=s, alignment=o, field_norm=f_norm, unit=unit)
+
+    # ---- 1σ by name; the alignment as a small rotation about the accelerometer's axes: O Exp(φ) Oᵀ is the
+    # rotation det(O)·O φ, so ψ = det(O) O φ and cov_ψ = O cov_φ Oᵀ
+    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+    unc = {f"magnetometer.bias.{a}": float(sd[i]) for i, a in enumerate(AXES)}
+    for k, (i, j) in enumerate(_SYM):
+        unc[f"magnetometer.soft_iron.{AXES[i]}{AXES[j]}"] = float(sd[3 + k])
+    cov_psi = o @ cov[9:12, 9:12] @ o.T
+    for i, a in enumerate(AXES):
+        unc[f"magnetometer.alignment_angle.{a}"] = float(np.sqrt(max(cov_psi[i, i], 0.0)))
+    unc["magnetometer.dip"] = float(sd[12])
+
+    fig = pose_figures(model, mag_means, up, rot)
+    err = fig["direction_errors_deg"][use]
+    names, angle = model.axes()
+    figures = {
+        "magnetometer_poses": len(intervals),
+        "magnetometer_norm_spread": fig["norm_spread"],
+        "magnetometer_dip_deg": float(np.degrees(dip)),
+        "magnetometer_dip_spread_deg": fig["dip_spread_deg"],
+        "magnetometer_direction_error_mean_deg": float(err.mean()) if err.size else None,
+        "magnetometer_direction_error_max_deg": float(err.max()) if err.size else None,
+        "magnetometer_rotations_left_out": int(np.count_nonzero(~use)),
+        "magnetometer_axes": names,
+        "magnetometer_alignment_rotation_deg": angle if np.isfinite(angle) else None,
+        "magnetometer_hemisphere": hemisphere,
+        "magnetometer_field_norms": fig["norms"].tolist(),
+        "magnetometer_dips_deg": fig["dips_deg"].tolist(),
+    }
+    return MagnetometerFit(model=model, figures=figures, uncertainty=unc, covariance=cov)
+
+
+def _carried_covariance(calibration, references, groups, theta, sigma, jac, cov) -> np.ndarray:
+    """The accelerometer's and gyroscope's own 1σ carried into the magnetometer's parameters.
+
+    The gravity directions and the rotations are inputs the fit holds fixed; to first order
+    ``∂θ̂/∂x = −(JᵀJ)⁻¹ Jᵀ ∂r/∂x``, so each parameter ``x`` of the calibration with a 1σ in
+    ``fit["uncertainty"]`` adds ``σ_x² (∂θ̂/∂x)(∂θ̂/∂x)ᵀ`` (their correlations are not kept in the
+    calibration file and are left out).
+    """
+    unc = (calibration.fit or {}).get("uncertainty") or {}
+    values = calibration.parameters()
+    extra = np.zeros_like(cov)
+    base = np.concatenate([g / s for g, s in zip(groups(theta), sigma, strict=True)])
+    pinv = cov @ jac.T
+    for name, sd in unc.items():
+        if not name.startswith(("accelerometer.", "gyroscope.")) or name not in values:
+            continue
+        if sd is None or not np.isfinite(sd) or sd <= 0:
+            continue
+        h = sd * 1e-2
+        try:
+            up, rot = references(calibration.with_parameters({name: values[name] + h}))
+        except ValueError:
+            continue
+        moved = np.concatenate([g / s for g, s in zip(groups(theta, up, rot), sigma, strict=True)])
+        sens = -pinv @ ((moved - base) / h)
+        extra += np.outer(sens, sens) * sd**2
+    return extra
+
+
+def _central_jacobian(fun, x: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """∂fun/∂x by central differences with steps proportional to ``scale``."""
+    f0 = fun(x)
+    jac = np.empty((f0.size, x.size))
+    for i in range(x.size):
+        h = 1e-6 * scale[i]
+        e = np.zeros_like(x)
+        e[i] = h
+        jac[:, i] = (fun(x + e) - fun(x - e)) / (2 * h)
+    return jac
