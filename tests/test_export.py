@@ -79,6 +79,6 @@ def test_export_command_and_errors(tmp_path, capsys):
     session(0).truth.save(tmp_path / "c.json")
     assert main(["export", str(tmp_path / "c.json"), "--prefix", "imu0"]) == 0
     out = capsys.readouterr().out
-    assert "static void imu0_apply(" in out and "IMU0_GYRO_G" in out
+    assert "static inline void imu0_apply(" in out and "IMU0_GYRO_G" in out
     assert main(["export", str(tmp_path / "c.json"), "--prefix", "9bad"]) == 2
     assert "prefix must be a C identifier" in capsys.readouterr().err

@@ -27,7 +27,8 @@ from .io.atomic import atomic_path, atomic_write
 from .metrics import gravity_direction_errors, gravity_residuals
 from .recording import Interval, Recording
 
-__all__ = ["fit_figure", "html_report", "parameter_unit", "plot_allan", "plot_fit", "reference_levels"]
+__all__ = ["fit_figure", "html_report", "magnetometer_figure", "parameter_unit", "plot_allan", "plot_fit",
+           "reference_levels", "thermal_figure"]
 
 
 def _pyplot():
@@ -191,9 +192,75 @@ def parameter_unit(name: str, calibration: Calibration) -> str:
     sensor, key = name.split(".")[:2]
     raw = _unit_text(calibration.units[sensor]["raw"])
     out = _unit_text(calibration.units[sensor]["calibrated"])
+    if sensor == "magnetometer":
+        return {"bias": raw, "soft_iron": f"1 per {raw}", "alignment": "1", "field": out}.get(key, "")
     return {"misalignment": "1", "scale": f"{out} per {raw}", "scale_quadratic": f"{out} per {raw}²",
             "scale_cubic": f"{out} per {raw}³", "bias": raw, "output_bias": out,
             "g_sensitivity": f"{raw} per m/s²"}.get(key, "")
+
+
+def magnetometer_figure(calibration: Calibration):
+    """The calibrated field's norm and its dip to gravity per pose, with the verdict's limits (a Figure).
+
+    Both must be the same in every pose (fit/magnetometer.py, eqs. M2 and M3): the dashed lines are
+    the mean ± the spread at which the verdict calls the calibration suspect.
+    """
+    from .verdict import THRESHOLDS
+
+    plt = _pyplot()
+    fit = calibration.fit or {}
+    norms = np.asarray(fit.get("magnetometer_field_norms") or [], float)
+    dips = np.asarray(fit.get("magnetometer_dips_deg") or [], float)
+    if norms.size == 0:
+        raise ValueError("this calibration has no magnetometer figures per pose")
+    unit = calibration.magnetometer.unit if calibration.magnetometer is not None else "normalised"
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    poses = np.arange(norms.size)
+    for ax, values, limit, label in ((ax1, norms, THRESHOLDS["mag_norm_spread"][0] * norms.mean(),
+                                      f"|m| [{'µT' if unit == 'uT' else unit}]"),
+                                     (ax2, dips, THRESHOLDS["mag_dip_spread_deg"][0], "dip below horizontal [deg]")):
+        ax.plot(poses, values, "o", ms=4)
+        mean = float(values.mean())
+        for level in (mean - limit, mean + limit):
+            ax.axhline(level, color="#b26a00", ls="--", lw=1)
+        ax.axhline(mean, color="0.5", lw=0.8)
+        ax.set_ylabel(label)
+    ax1.set_title("magnetometer per pose: dashed, the spread the verdict calls suspect")
+    ax2.set_xlabel("static pose")
+    fig.tight_layout()
+    return fig
+
+
+def thermal_figure(calibration: Calibration):
+    """Each temperature-dependent bias against temperature: the model ± its 1σ and the calibration points."""
+    plt = _pyplot()
+    model = calibration.thermal
+    if model is None:
+        raise ValueError("this calibration does not follow temperature")
+    names = [n for n in model.coefficients if ".bias." in n] or list(model.coefficients)
+    sensors = sorted({n.split(".")[0] for n in names})
+    fig, axes = plt.subplots(1, len(sensors), figsize=(5 * len(sensors), 3.8), squeeze=False)
+    lo, hi = model.range_c
+    temps = np.linspace(lo - 2.0, hi + 2.0, 100)
+    values = calibration.parameters()
+    for ax, sensor in zip(axes[0], sensors, strict=True):
+        for n in (n for n in names if n.startswith(sensor + ".")):
+            curve = values[n] + model.deltas(temps)[n]
+            sd = np.array([model.sigma(n, t) for t in temps])
+            line, = ax.plot(temps, curve, label=n.split(".", 1)[1])
+            ax.fill_between(temps, curve - sd, curve + sd, color=line.get_color(), alpha=0.2)
+            pts = [(p["temperature_c"], p["values"].get(n), (p.get("sigmas") or {}).get(n)) for p in model.points]
+            pts = [(t, v, s or 0.0) for t, v, s in pts if v is not None]
+            if pts:
+                t, v, s = np.array(pts, dtype=float).T
+                ax.errorbar(t, v, yerr=s, fmt="o", color=line.get_color(), ms=4, capsize=2)
+        ax.axvspan(lo, hi, color="0.9", zorder=0)
+        ax.set_xlabel("temperature [°C]")
+        ax.set_ylabel(f"{sensor} bias [{_unit_text(calibration.units[sensor]['raw'])}]")
+        ax.legend(fontsize=8)
+    fig.suptitle(f"biases against temperature ({model.source}; grey: the calibrated range)")
+    fig.tight_layout()
+    return fig
 
 
 #: background and text/border colour of the verdict banner: green, amber, red
@@ -273,6 +340,15 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
     if fit.get("temperature_c"):
         quality.append(("temperature min / mean / max [°C]", fit["temperature_c"],
                         "{0[0]:.1f} / {0[1]:.1f} / {0[2]:.1f}"))
+    if cal.magnetometer is not None:
+        quality += [("magnetometer: field norm spread over the poses", fit.get("magnetometer_norm_spread"),
+                     "{:.2%}"),
+                    ("magnetometer: dip [deg]", fit.get("magnetometer_dip_deg"), "{:.2f}"),
+                    ("magnetometer: dip spread over the poses [deg]", fit.get("magnetometer_dip_spread_deg"),
+                     "{:.3g}"),
+                    ("magnetometer: direction error between poses, mean [deg]",
+                     fit.get("magnetometer_direction_error_mean_deg"), "{:.3g}"),
+                    ("magnetometer axes (accelerometer x, y, z =)", " ".join(cal.magnetometer.axes()[0]), "{}")]
     rows = "".join(f"<tr><td>{esc(k)}</td><td>{f.format(v)}</td></tr>" for k, v, f in quality if v is not None)
     if rows:
         parts.append(f"<h2>Fit</h2><table><tr><th>figure</th><th>value</th></tr>{rows}</table>")
@@ -333,6 +409,18 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
                          f"transition: {ref['angle_acceptable_deg']:g}° acceptable (green, dashed) and "
                          f"{ref['angle_rejected_deg']:g}° rejected when beyond the noise (red, dashed), the "
                          f"verdict's limits{predicted}; bars green, amber, red by where they fall.</p>")
+        except ValueError as exc:  # matplotlib missing
+            parts.append(f"<p class='warn'>{esc(str(exc))}</p>")
+    for heading, draw, ok in (("Magnetometer", magnetometer_figure, cal.magnetometer is not None
+                               and bool(fit.get("magnetometer_field_norms"))),
+                              ("Temperature", thermal_figure, cal.thermal is not None)):
+        if not ok:
+            continue
+        try:
+            buf = io.BytesIO()
+            _save(draw(cal), buf, _pyplot())
+            data = base64.b64encode(buf.getvalue()).decode("ascii")
+            parts.append(f"<h2>{heading}</h2><img alt='{heading.lower()}' src='data:image/png;base64,{data}'>")
         except ValueError as exc:  # matplotlib missing
             parts.append(f"<p class='warn'>{esc(str(exc))}</p>")
     parts.append("<p><small>written by imucalib; the calibration file (JSON) holds the same numbers.</small></p>"

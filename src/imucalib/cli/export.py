@@ -68,6 +68,19 @@ def cmd_export(args: argparse.Namespace) -> int:
     cal = Calibration.load(args.calibration)
     check_verdict(cal, args.calibration, args.force)
     notes: list[str] = []
+    if args.temperature is not None:
+        if cal.thermal is None:
+            raise CliError(f"--temperature applies to a calibration that follows temperature; {args.calibration} "
+                           "is for one temperature")
+        from ..thermal import evaluate
+
+        cal = evaluate(cal, args.temperature)
+    elif cal.thermal is not None and fmt != "c":
+        raise CliError(f"{args.calibration} follows temperature, which --format {fmt} has no place for: pass "
+                       "--temperature C to write it at one temperature (the C header follows it)")
+    if cal.magnetometer is not None and fmt != "c":
+        notes.append(f"the magnetometer calibration has no place in the {_WHAT[fmt]}: it is left out (the JSON "
+                     "and the C header hold it)")
     if fmt == "c":
         texts = [export.to_c(cal, prefix=args.prefix, ctype="float" if args.float else "double")]
     elif fmt == "imutk":
@@ -96,7 +109,10 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.json:
         return print_json({"calibration": str(args.calibration), "format": fmt, "outputs": outputs,
                            "notes": notes})
-    what = f"{args.prefix}_apply(acc_raw, gyro_raw, acc, gyro)" if fmt == "c" else _WHAT[fmt]
+    temp = ", temperature_c" if cal.thermal is not None else ""
+    what = f"{args.prefix}_apply(acc_raw, gyro_raw{temp}, acc, gyro)" if fmt == "c" else _WHAT[fmt]
+    if fmt == "c" and cal.magnetometer is not None:
+        what += f" and {args.prefix}_apply_mag(mag_raw, mag)"
     print(f"wrote {' and '.join(outputs)}: {what}")
     return 0
 
@@ -127,6 +143,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--raw-scale", type=_raw_scale, metavar="ACC,GYRO",
                    help="openvins, kalibr, for a calibration of raw counts: m/s^2 and rad/s per count as the "
                    "driver publishes them (1,1: it publishes the counts themselves)")
+    p.add_argument("--temperature", type=float, metavar="C", help="for a calibration that follows temperature: "
+                   "write it as it is at C degrees (the formats other than c have no place for the thermal model)")
     p.add_argument("--openvins-model", choices=("kalibr", "rpng"),
                    help="openvins: the IMU model, kalibr (default: lower-triangular Dw, Da) or rpng (upper)")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout (with -o)")

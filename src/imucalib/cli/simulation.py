@@ -29,6 +29,24 @@ def _noise_options(args: argparse.Namespace) -> dict | None:
     return noise or None
 
 
+def _ramp(text: str) -> tuple[float, float, float]:
+    try:
+        start, end, tau = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected START,END,TAU (°C, °C, seconds), e.g. 22,40,150; got {text!r}") \
+            from None
+    return start, end, tau
+
+
+def _handheld_options(args: argparse.Namespace) -> dict:
+    """The hand-held scenario's magnetometer and temperature options; an error for another scenario."""
+    out = {k: v for k, v in (("magnetometer", args.magnetometer or None), ("temperature", args.temperature),
+                             ("ramp", args.ramp)) if v is not None}
+    if out and args.scenario != "handheld":
+        raise CliError(f"--magnetometer, --temperature and --ramp apply to --scenario handheld, not {args.scenario}")
+    return out
+
+
 # ------------------------------------------------------------------ commands
 def cmd_simulate(args: argparse.Namespace) -> int:
     """``imucalib simulate``: a scenario's session written by :func:`imucalib.scenarios.write_session`."""
@@ -47,7 +65,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print(f"wrote the wang2019 session (seed {args.seed}) to {out}: {summary['positions']} "
               f"positions, {summary['turn_pairs']} turn pairs")
         return 0
-    sim = session(args.scenario, rng=args.seed, noise=_noise_options(args))
+    sim = session(args.scenario, rng=args.seed, noise=_noise_options(args), **_handheld_options(args))
     out = write_session(sim, args.output)
     summary = {"scenario": args.scenario, "seed": args.seed, "directory": str(out),
                "samples": len(sim.recording), "static": sum(s.kind == "static" for s in sim.segments),
@@ -198,6 +216,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--noise-gyro", type=float, help="gyroscope noise [rad/s] per sample")
     _add_wang_options(p)
     _add_dwell_option(p)
+    p.add_argument("--magnetometer", action="store_true",
+                   help="handheld: add a magnetometer (MPU-9250-like: axes swapped and z reversed, hard and soft iron)")
+    p.add_argument("--temperature", type=float, metavar="C", help="handheld: the sensor at C degrees (datasheet-like "
+                   "thermal coefficients around 25 °C; a temperature column)")
+    p.add_argument("--ramp", type=_ramp, metavar="START,END,TAU", help="handheld: a warm-up from START to END °C "
+                   "with time constant TAU seconds instead")
     p.add_argument("-o", "--output", required=True, help="output directory")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
     p.set_defaults(func=cmd_simulate)

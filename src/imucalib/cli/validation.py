@@ -51,7 +51,12 @@ def cmd_validate(args: argparse.Namespace) -> int:
     print_verdict(result, HEADLINES[result["verdict"]])
     then = result["at_calibration"]
     print(f"{cal.method} calibration on {len(intervals)} static poses of this recording (not refitted):")
-    if result["temperature_c"] and then["temperature_c"]:
+    if result["temperature_c"] and cal.thermal is not None:
+        lo, hi = cal.thermal.range_c
+        t_now = result["temperature_c"][1]
+        print(f"  temperature {t_now:.1f} °C (the calibration follows temperature, made over {lo:.1f}–{hi:.1f} °C)"
+              + ("  — outside that range: it extrapolates" if not lo - 1 <= t_now <= hi + 1 else ""))
+    elif result["temperature_c"] and then["temperature_c"]:
         t_now, t_then = result["temperature_c"][1], then["temperature_c"][1]
         print(f"  temperature {t_now:.1f} °C (at calibration {t_then:.1f} °C)"
               + ("  — more than 5 °C apart: biases may have drifted" if abs(t_now - t_then) > 5 else ""))

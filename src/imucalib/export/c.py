@@ -1,7 +1,7 @@
 """A calibration as C source, to correct readings on the device itself.
 
 The generated header holds the canonical model's constants and one function,
-``<prefix>_apply(const double acc_raw[3], const double gyro_raw[3], double acc[3], double gyro[3])``,
+``static inline void <prefix>_apply(const double acc_raw[3], const double gyro_raw[3], double acc[3], double gyro[3])``,
 that evaluates exactly what :meth:`imucalib.calibration.Calibration.apply` does:
 
 * ``a = T_a · (f_a(u_a − b_a) + d_a)``  [m/s²]
@@ -10,6 +10,14 @@ that evaluates exactly what :meth:`imucalib.calibration.Calibration.apply` does:
 
 Constants are printed with 17 significant digits (double round-trip); use
 ``float`` on a small microcontroller by passing ``ctype="float"``.
+
+A calibration that follows temperature (:mod:`imucalib.thermal`) gets
+``<prefix>_apply(acc_raw, gyro_raw, temperature_c, acc, gyro)``: every bias,
+linear scale factor and misalignment term is first evaluated at the sample's
+temperature as ``c₀ + c₁ ΔT + c₂ ΔT²`` (``ΔT = T − T₀``, thermal.py eq. T1;
+the ``_C1``/``_C2`` arrays, zero where a term does not follow temperature).
+A calibrated magnetometer gets ``<prefix>_apply_mag(mag_raw, mag)``:
+``m = M (u − b)`` with ``M = F O S`` (models.py).
 """
 
 from __future__ import annotations
@@ -47,6 +55,7 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
     up = prefix.upper()
     cal = calibration
     units = cal.units
+    thermal = cal.thermal
     lines = [
         f"/* imucalib calibration: method {cal.method}, model {cal.model}, created {cal.created or '-'}",
         f" * raw units: accelerometer {units['accelerometer']['raw']}, gyroscope {units['gyroscope']['raw']}",
@@ -64,10 +73,20 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
             f"static const {ctype} {up}_{name}_B[3] = {_array(m.bias, num)};",
             f"static const {ctype} {up}_{name}_D[3] = {_array(m.output_bias, num)};",
         ]
+        if thermal is not None:
+            sensor = "accelerometer" if name == "ACC" else "gyroscope"
+            for order in (1, 2):
+                coeffs = _thermal_arrays(thermal, sensor, order)
+                lines += [f"static const {ctype} {up}_{name}_{key}_C{order}{shape} = {_array(coeffs[key], num)};"
+                          for key, shape in (("T", "[3][3]"), ("K1", "[3]"), ("B", "[3]"))]
+    if thermal is not None:
+        lines.insert(3, f" * temperature: c0 + c1 dT + c2 dT^2 with dT = T - {thermal.reference_c:g} degC, calibrated "
+                        f"over {thermal.range_c[0]:.1f}..{thermal.range_c[1]:.1f} degC")
+        lines.append(f"static const {ctype} {up}_REFERENCE_C = {num(thermal.reference_c)};")
     lines += [
         f"static const {ctype} {up}_GYRO_G[3][3] = {_array(cal.gyroscope.g_sensitivity, num)};",
         "",
-        f"static void {prefix}_triad(const {ctype} t[3][3], const {ctype} k[3][3], const {ctype} d[3],",
+        f"static inline void {prefix}_triad(const {ctype} t[3][3], const {ctype} k[3][3], const {ctype} d[3],",
         f"                           const {ctype} x[3], {ctype} out[3])",
         "{",
         f"    {ctype} f[3];",
@@ -77,7 +96,54 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
         "        out[i] = t[i][0] * f[0] + t[i][1] * f[1] + t[i][2] * f[2];",
         "}",
         "",
-        f"static void {prefix}_apply(const {ctype} acc_raw[3], const {ctype} gyro_raw[3],",
+    ]
+    lines += _apply_thermal(prefix, up, ctype) if thermal is not None else _apply_plain(prefix, up, ctype)
+    if cal.magnetometer is not None:
+        mag = cal.magnetometer
+        lines += [
+            f"/* magnetometer: m = M (u - b), raw {units.get('magnetometer', {}).get('raw', 'counts')}, "
+            f"calibrated {mag.unit}, in the accelerometer's frame */",
+            f"static const {ctype} {up}_MAG_M[3][3] = {_array(mag.matrix, num)};",
+            f"static const {ctype} {up}_MAG_B[3] = {_array(mag.bias, num)};",
+            "",
+            f"static inline void {prefix}_apply_mag(const {ctype} mag_raw[3], {ctype} mag[3])",
+            "{",
+            "    for (int i = 0; i < 3; ++i)",
+            f"        mag[i] = {up}_MAG_M[i][0] * (mag_raw[0] - {up}_MAG_B[0]) + {up}_MAG_M[i][1] * (mag_raw[1] - "
+            f"{up}_MAG_B[1]) + {up}_MAG_M[i][2] * (mag_raw[2] - {up}_MAG_B[2]);",
+            "}",
+            "",
+        ]
+    lines += [f"#endif /* {up}_CALIBRATION_H */", ""]
+    return "\n".join(lines)
+
+
+def _thermal_arrays(thermal, sensor: str, order: int) -> dict:
+    """The ``c_order`` coefficients of ``sensor``'s misalignment, k1 and bias (zeros where constant)."""
+    out = {"T": np.zeros((3, 3)), "K1": np.zeros(3), "B": np.zeros(3)}
+    axes = "xyz"
+    for name, c in thermal.coefficients.items():
+        s, key, comp = name.split(".")
+        if s != sensor:
+            continue
+        v = c[order - 1]
+        if key == "bias":
+            out["B"][axes.index(comp)] = v
+        elif key == "scale":
+            out["K1"][axes.index(comp)] = v
+        else:
+            out["T"][axes.index(comp[0]), axes.index(comp[1])] = v
+    return out
+
+
+def _gyro_input(up: str, b: str) -> str:
+    return (f"        x[i] = gyro_raw[i] - {b}[i] - ({up}_GYRO_G[i][0] * acc[0] + {up}_GYRO_G[i][1] * acc[1]"
+            f" + {up}_GYRO_G[i][2] * acc[2]);")
+
+
+def _apply_plain(prefix: str, up: str, ctype: str) -> list[str]:
+    return [
+        f"static inline void {prefix}_apply(const {ctype} acc_raw[3], const {ctype} gyro_raw[3],",
         f"                           {ctype} acc[3], {ctype} gyro[3])",
         "{",
         f"    {ctype} x[3];",
@@ -85,12 +151,44 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
         f"        x[i] = acc_raw[i] - {up}_ACC_B[i];",
         f"    {prefix}_triad({up}_ACC_T, {up}_ACC_K, {up}_ACC_D, x, acc);",
         "    for (int i = 0; i < 3; ++i)",
-        f"        x[i] = gyro_raw[i] - {up}_GYRO_B[i] - ({up}_GYRO_G[i][0] * acc[0] + {up}_GYRO_G[i][1] * acc[1]"
-        f" + {up}_GYRO_G[i][2] * acc[2]);",
+        _gyro_input(up, f"{up}_GYRO_B"),
         f"    {prefix}_triad({up}_GYRO_T, {up}_GYRO_K, {up}_GYRO_D, x, gyro);",
         "}",
         "",
-        f"#endif /* {up}_CALIBRATION_H */",
-        "",
     ]
-    return "\n".join(lines)
+
+
+def _apply_thermal(prefix: str, up: str, ctype: str) -> list[str]:
+    lines = [
+        f"/* the constants of one sensor at temperature dt = T - {up}_REFERENCE_C */",
+        f"static inline void {prefix}_at(const {ctype} t0[3][3], const {ctype} t1[3][3], const {ctype} t2[3][3],",
+        f"                        const {ctype} k0[3][3], const {ctype} k1[3], const {ctype} k2[3],",
+        f"                        const {ctype} b0[3], const {ctype} b1[3], const {ctype} b2[3], {ctype} dt,",
+        f"                        {ctype} t[3][3], {ctype} k[3][3], {ctype} b[3])",
+        "{",
+        "    for (int i = 0; i < 3; ++i) {",
+        "        for (int j = 0; j < 3; ++j) {",
+        "            t[i][j] = t0[i][j] + dt * (t1[i][j] + dt * t2[i][j]);",
+        "            k[i][j] = k0[i][j];",
+        "        }",
+        "        k[0][i] += dt * (k1[i] + dt * k2[i]);",
+        "        b[i] = b0[i] + dt * (b1[i] + dt * b2[i]);",
+        "    }",
+        "}",
+        "",
+        f"static inline void {prefix}_apply(const {ctype} acc_raw[3], const {ctype} gyro_raw[3],",
+        f"                                  {ctype} temperature_c, {ctype} acc[3], {ctype} gyro[3])",
+        "{",
+        f"    {ctype} x[3], t[3][3], k[3][3], b[3];",
+        f"    const {ctype} dt = temperature_c - {up}_REFERENCE_C;",
+    ]
+    for name, out in (("ACC", "acc"), ("GYRO", "gyro")):
+        lines += [
+            f"    {prefix}_at({up}_{name}_T, {up}_{name}_T_C1, {up}_{name}_T_C2, {up}_{name}_K, {up}_{name}_K1_C1, "
+            f"{up}_{name}_K1_C2,",
+            f"        {up}_{name}_B, {up}_{name}_B_C1, {up}_{name}_B_C2, dt, t, k, b);",
+            "    for (int i = 0; i < 3; ++i)",
+            "        x[i] = acc_raw[i] - b[i];" if name == "ACC" else _gyro_input(up, "b"),
+            f"    {prefix}_triad((const {ctype} (*)[3])t, (const {ctype} (*)[3])k, {up}_{name}_D, x, {out});",
+        ]
+    return lines + ["}", ""]
