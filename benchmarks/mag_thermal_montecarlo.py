@@ -26,10 +26,9 @@ import warnings
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from imucalib.fit.magnetometer import pose_figures
-from imucalib.kinematics import IntervalIntegrator, quat_to_matrix
+from imucalib.fit.magnetometer import pose_figures, pose_references
 from imucalib.methods import calibrate
-from imucalib.metrics import interval_means, transition_bounds
+from imucalib.metrics import interval_means
 from imucalib.recording import ImucalibWarning, Interval
 from imucalib.scenarios import handheld
 from imucalib.thermal import combine
@@ -37,14 +36,6 @@ from imucalib.validate import validate
 
 STEADY = {"turn_on": 0.0, "gyro_drift": 0.0, "gyro_rw": 0.0}
 AXES = {"mpu9250": [[0, 1, 0], [1, 0, 0], [0, 0, -1]], "reflected": [[0, 1, 0], [1, 0, 0], [0, 0, 1]]}
-
-
-def _references(cal, rec, intervals):
-    acc = cal.accelerometer.forward(interval_means(rec.acc, intervals))
-    starts, stops = transition_bounds(intervals)
-    integ = IntervalIntegrator(rec.t, starts, stops)
-    rates = cal.gyroscope.forward(rec.gyro[integ.samples], cal.accelerometer.forward(rec.acc[integ.samples]))
-    return acc / np.linalg.norm(acc, axis=1, keepdims=True), quat_to_matrix(integ.from_samples(rates))
 
 
 def magnetometer_run(seed: int, method: str, axes: str) -> dict:
@@ -61,7 +52,7 @@ def magnetometer_run(seed: int, method: str, axes: str) -> dict:
     z.append(np.radians(cal.fit["magnetometer_dip_deg"] - d["options"]["magnetometer"]["dip_deg"])
              / u["magnetometer.dip"])
     ivs = [Interval(a, b) for a, b in cal.fit["intervals"]]
-    up, rot = _references(truth, rec, ivs)
+    up, rot = pose_references(truth, rec, ivs)
     true_fig = pose_figures(t, interval_means(rec.mag, ivs), up, rot)
     return {"seed": seed, "verdict": cal.fit["verdict"], "z": [float(v) for v in z],
             "norm_spread_ratio": cal.fit["magnetometer_norm_spread"] / true_fig["norm_spread"],

@@ -8,10 +8,9 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from imucalib.calibration import Calibration
-from imucalib.fit.magnetometer import fit_magnetometer, pose_figures
-from imucalib.kinematics import IntervalIntegrator, quat_to_matrix
+from imucalib.fit.magnetometer import fit_magnetometer, pose_figures, pose_references
 from imucalib.methods import calibrate
-from imucalib.metrics import interval_means, transition_bounds
+from imucalib.metrics import interval_means
 from imucalib.models import MagnetometerModel
 from imucalib.recording import Interval
 from imucalib.scenarios import handheld
@@ -23,15 +22,6 @@ SWAPPED = [[0, 1, 0], [1, 0, 0], [0, 0, 1]]  # x ↔ y only: a reflection (det �
 
 def _session(seed, **mag):
     return handheld.generate(np.random.default_rng(seed), magnetometer=mag or True)
-
-
-def _references(cal, rec, intervals):
-    """Unit gravity directions and attitude changes between poses by ``cal`` (the fit's inputs)."""
-    acc = cal.accelerometer.forward(interval_means(rec.acc, intervals))
-    starts, stops = transition_bounds(intervals)
-    integ = IntervalIntegrator(rec.t, starts, stops)
-    rates = cal.gyroscope.forward(rec.gyro[integ.samples], cal.accelerometer.forward(rec.acc[integ.samples]))
-    return acc / np.linalg.norm(acc, axis=1, keepdims=True), quat_to_matrix(integ.from_samples(rates))
 
 
 def _z_scores(cal, truth, dip_deg):
@@ -51,7 +41,7 @@ def test_the_simulated_readings_follow_the_truth_model():
     d = _session(3, noise_uT=0.0)
     rec, truth = d["recording"], d["truth"]
     ivs = [s for s in d["segments"] if s.kind == "static"]
-    up, _ = _references(truth, rec, ivs)
+    up, _ = pose_references(truth, rec, ivs)
     fig = pose_figures(truth.magnetometer, interval_means(rec.mag, ivs), up, np.tile(np.eye(3), (len(ivs) - 1, 1, 1)))
     assert fig["norm_spread"] < 2e-3  # rounding to counts and tremor only
     assert abs(fig["dip_deg"] - 60.0) < 0.1
@@ -77,7 +67,7 @@ def test_monte_carlo_recovers_the_truth_within_3_sigma_and_the_spreads_of_the_tr
         assert cal.fit["verdict"] == "accepted", cal.fit["verdict_reasons"]
         z_all.append(_z_scores(cal, truth, d["options"]["magnetometer"]["dip_deg"]))
         ivs = [Interval(a, b) for a, b in cal.fit["intervals"]]
-        up, rot = _references(truth, rec, ivs)
+        up, rot = pose_references(truth, rec, ivs)
         true_fig = pose_figures(truth.magnetometer, interval_means(rec.mag, ivs), up, rot)
         ratios.append((cal.fit["magnetometer_norm_spread"] / true_fig["norm_spread"],
                        cal.fit["magnetometer_dip_spread_deg"] / true_fig["dip_spread_deg"]))
@@ -102,7 +92,7 @@ def test_reflected_axes_are_found_where_a_rotation_only_alignment_cannot_fit():
     # the best proper rotation, from many starts, with the same hard and soft iron and the field below the
     # horizontal (the northern hemisphere's dip > 0): −O is a rotation too, but it turns the field upside down
     ivs = [Interval(a, b) for a, b in cal.fit["intervals"]]
-    up, rot = _references(cal, rec, ivs)
+    up, rot = pose_references(cal, rec, ivs)
     s = (interval_means(rec.mag, ivs) - mag.bias) @ mag.soft_iron
     s /= np.linalg.norm(s, axis=1, keepdims=True)
 
@@ -130,7 +120,7 @@ def test_a_plain_ellipsoid_fit_of_permuted_axes_is_rejected():
     ellipsoid_only = MagnetometerModel(bias=plain.bias, soft_iron=plain.soft_iron, alignment=np.eye(3))
     rec = d["recording"]
     ivs = [Interval(a, b) for a, b in cal.fit["intervals"]]
-    up, rot = _references(cal, rec, ivs)
+    up, rot = pose_references(cal, rec, ivs)
     fig = pose_figures(ellipsoid_only, interval_means(rec.mag, ivs), up, rot)
     assert fig["dip_spread_deg"] > 10
     bad = cal.with_(magnetometer=ellipsoid_only,

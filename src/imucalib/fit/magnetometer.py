@@ -60,7 +60,7 @@ from ..recording import Interval, Recording
 from .accelerometer import fit_ellipsoid
 
 __all__ = ["MIN_MAG_POSES", "MagnetometerFit", "alignment_from_rotations", "fit_magnetometer", "pose_figures",
-           "soft_iron_from_ellipsoid"]
+           "pose_references", "soft_iron_from_ellipsoid"]
 
 #: the fewest static poses the magnetometer fit takes
 MIN_MAG_POSES = 6
@@ -125,6 +125,19 @@ def alignment_from_rotations(s: np.ndarray, up: np.ndarray, rot: np.ndarray, use
 
 def _rotvec_matrix(v: np.ndarray) -> np.ndarray:
     return quat_to_matrix(quat_from_rotvec(v))
+
+
+def pose_references(calibration, recording: Recording, intervals: list[Interval]) -> tuple[np.ndarray, np.ndarray]:
+    """Unit gravity directions at the poses (M, 3) and attitude changes between them (M−1, 3, 3) by ``calibration``.
+
+    The references (M3) and (M4) hold the field to: ``v_{k+1} = R_kᵀ v_k``.
+    """
+    acc = calibration.accelerometer.forward(interval_means(recording.acc, intervals))
+    starts, stops = transition_bounds(intervals)
+    integ = IntervalIntegrator(recording.t, starts, stops)
+    idx = integ.samples
+    rates = calibration.gyroscope.forward(recording.gyro[idx], calibration.accelerometer.forward(recording.acc[idx]))
+    return acc / np.linalg.norm(acc, axis=1, keepdims=True), quat_to_matrix(integ.from_samples(rates))
 
 
 def pose_figures(model: MagnetometerModel, mag_means: np.ndarray, up: np.ndarray, rot: np.ndarray) -> dict:
