@@ -202,5 +202,8 @@ def check_verdict(calibration, path, force: bool) -> None:
 
 
 def show_warning(message, category=None, filename=None, lineno=None, file=None, line=None) -> None:
-    """``warnings.showwarning`` for the command line: one line on stderr."""
+    """``warnings.showwarning`` for the command line: one line on stderr (numpy's arithmetic warnings in words)."""
+    if category is not None and issubclass(category, RuntimeWarning):
+        message = ("a computation went out of range (a number overflowed or was undefined), so the result may "
+                   "not be reliable: check the input for extreme or constant readings")
     print(f"imucalib: warning: {message}", file=sys.stderr)
