@@ -42,8 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["IMU_FIELDS_BYTES", "Block", "ImuBlock", "Ros1Connection", "Ros1Index", "decode_imu", "joined",
-           "mcap_blocks", "ros1_blocks", "ros1_index", "sqlite_blocks"]
+__all__ = ["IMU_FIELDS_BYTES", "Block", "ImuBlock", "BagConnection", "Ros1Index", "decode_imu", "joined",
+           "mcap_blocks", "ros1_blocks", "ros1_index", "rosbag2_sqlite", "sqlite_blocks"]
 
 #: bytes of a sensor_msgs/Imu after header.frame_id's characters (and CDR's alignment padding)
 IMU_FIELDS_BYTES = 37 * 8
@@ -199,6 +199,27 @@ def joined(raws: list[bytes], logged: list[int]) -> Block:
     return _joined(raws, np.asarray(logged, dtype=np.int64))
 
 
+def rosbag2_sqlite(path: Path) -> tuple[list[BagConnection], list[Path]] | None:
+    """Topics (with their message counts) and SQLite files of an uncompressed rosbag2 directory, from its
+    ``metadata.yaml``; None when it is another kind (or ``ruamel.yaml``, which rosbags brings, is missing)."""
+    try:
+        from ruamel.yaml import YAML
+
+        info = YAML(typ="safe").load((path / "metadata.yaml").read_text(encoding="utf-8"))
+        info = info["rosbag2_bagfile_information"]
+        if info.get("storage_identifier") != "sqlite3" or (info.get("compression_mode") or "").lower() not in (
+                "", "none"):
+            return None
+        files = [path / Path(name).name for name in info["relative_file_paths"]]
+        conns = [BagConnection(k, str(t["topic_metadata"]["name"]), str(t["topic_metadata"]["type"]), "",
+                               int(t["message_count"])) for k, t in enumerate(info["topics_with_message_count"])]
+    except Exception:  # any other layout: rosbags' reader decides
+        return None
+    if not files or not all(f.is_file() for f in files):
+        return None
+    return conns, files
+
+
 # ----------------------------------------------------------------------- ROS 1
 def _ros1_fields(header: bytes) -> dict[str, bytes]:
     out, pos = {}, 0
@@ -247,13 +268,13 @@ def _decompressor(name: str):
 
 
 @dataclass
-class Ros1Connection:
-    """A connection of a ROS 1 bag as its index section describes it."""
+class BagConnection:
+    """A connection (topic) of a bag as its index section or metadata describe it."""
 
     id: int
     topic: str
     msgtype: str  # "sensor_msgs/msg/Imu", as rosbags spells types
-    md5sum: str
+    md5sum: str  # ROS 1; "" for ROS 2
     msgcount: int = 0
 
 
@@ -261,7 +282,7 @@ class Ros1Connection:
 class Ros1Index:
     """The index section of a ROS 1 bag: its connections and chunks (position, connections in it)."""
 
-    connections: list[Ros1Connection]
+    connections: list[BagConnection]
     chunks: list[tuple[int, int]]
 
 
@@ -288,7 +309,7 @@ def ros1_index(path: Path) -> Ros1Index | None:
                     info = _ros1_fields(f.read(dlen))
                     cid = struct.unpack("<I", fields["conn"])[0]
                     pkg, _, name = info["type"].decode("utf-8", errors="replace").partition("/")
-                    conns[cid] = Ros1Connection(cid, fields["topic"].decode("utf-8", errors="replace"),
+                    conns[cid] = BagConnection(cid, fields["topic"].decode("utf-8", errors="replace"),
                                                 f"{pkg}/msg/{name}", info["md5sum"].decode("ascii", "replace"))
                 elif op == b"\x06":
                     (chunk_pos,) = struct.unpack("<Q", fields["chunk_pos"])

@@ -125,49 +125,53 @@ def _storage_files(path: Path, suffix: str) -> list[Path]:
 def _fast_blocks(reader, path: Path, topic: str):
     """Raw blocks from the bag's own indexes (:mod:`.bagraw`), or None when this bag needs rosbags' reader."""
     if not reader.is2:
-        index = reader.index if isinstance(reader, _Ros1Bag) else bagraw.ros1_index(path)
+        index = reader.index if isinstance(reader, _LightBag) else bagraw.ros1_index(path)
         return None if index is None else bagraw.ros1_blocks(path, index, topic)
     mcaps = _storage_files(path, ".mcap")
     if mcaps:
         parts = [bagraw.mcap_blocks(f, topic) for f in mcaps]
         return None if any(p is None for p in parts) else itertools.chain.from_iterable(parts)
-    dbs = _storage_files(path, ".db3")
+    dbs = reader.files if isinstance(reader, _LightBag) else _storage_files(path, ".db3")
     return bagraw.sqlite_blocks(dbs, topic) if dbs else None
 
 
-class _Ros1Bag:
-    """A ROS 1 bag opened from its index section alone (rosbags' reader builds an object per message).
+class _LightBag:
+    """A bag opened from its own index or metadata alone (rosbags' reader builds an object per message).
 
     Used only to read standard ``sensor_msgs/Imu`` topics; anything else goes through rosbags.
     """
 
-    is2 = False
-
-    def __init__(self, index: bagraw.Ros1Index, typestore) -> None:
-        self.index, self.typestore = index, typestore
-        self.connections = index.connections
+    def __init__(self, connections, deserialize, is2: bool, *, index=None, files=None) -> None:
+        self.connections, self._deserialize, self.is2 = connections, deserialize, is2
+        self.index, self.files = index, files
 
     def deserialize(self, raw: bytes, msgtype: str):
-        return self.typestore.deserialize_ros1(raw, msgtype)
+        return self._deserialize(raw, msgtype)
 
     def close(self) -> None:
         pass
 
 
 def _open_for_reading(path: Path):
-    """A light reader for an indexed ROS 1 bag whose IMU topics are standard, else rosbags' own."""
+    """A light reader for an indexed ROS 1 bag or an uncompressed SQLite rosbag2 whose IMU topics are
+    standard, else rosbags' own reader."""
+    try:
+        import rosbags.highlevel  # noqa: F401  (the reader of everything else; the same extra)
+        from rosbags.typesys import Stores, get_typestore
+    except ImportError:
+        return _open(path)  # says how to install it
     if path.is_file() and path.suffix != ".mcap":
         index = bagraw.ros1_index(path)
         if index is not None:
-            try:
-                import rosbags.highlevel  # noqa: F401  (the reader of everything else; the same extra)
-                from rosbags.typesys import Stores, get_typestore
-            except ImportError:
-                return _open(path)  # says how to install it
             store = get_typestore(Stores.ROS1_NOETIC)
             standard = store.generate_msgdef(IMU_TYPE)[1]
             if all(c.md5sum == standard for c in index.connections if c.msgtype == IMU_TYPE):
-                return _Ros1Bag(index, store)
+                return _LightBag(index.connections, store.deserialize_ros1, False, index=index)
+    elif path.is_dir():
+        found = bagraw.rosbag2_sqlite(path)
+        if found is not None:
+            store = get_typestore(Stores.ROS2_HUMBLE)
+            return _LightBag(found[0], store.deserialize_cdr, True, files=found[1])
     return _open(path)
 
 
@@ -233,7 +237,7 @@ def _read_topic(reader, path: Path, topic: str, progress=None):
                 if blocks is None:
                     continue
             else:
-                if isinstance(reader, _Ros1Bag):
+                if isinstance(reader, _LightBag):
                     decoder = _open(path)
                     stack.callback(decoder.close)
                 blocks = _library_blocks(decoder, [c for c in decoder.connections if c.topic == topic], seen)
