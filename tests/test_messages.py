@@ -191,3 +191,31 @@ def test_an_xsens_export_reads_with_no_flags_as_the_plain_csv(files, tmp_path, c
     b = json.loads(run(capsys, "calibrate", files["csv"], "--json")[1])
     np.testing.assert_allclose(a["gyroscope"]["scale"], b["gyroscope"]["scale"], rtol=1e-9)
     np.testing.assert_allclose(a["accelerometer"]["bias"], b["accelerometer"]["bias"], rtol=1e-6, atol=1e-9)
+
+
+def test_advice_to_name_the_columns_works(files, tmp_path, capsys):
+    si = files["si"]
+    path = tmp_path / "named.csv"
+    np.savetxt(path, np.column_stack([si.t, si.acc, si.gyro]), fmt="%.12g", delimiter=",", comments="",
+               header="time,a1,a2,a3,w1,w2,w3")
+    code, _, err = run(capsys, "calibrate", path)
+    assert code == 2 and "pass --columns with the names in the order t,ax,ay,az,gx,gy,gz" in err, err
+    code, _, err = run(capsys, "calibrate", path, "--columns", "time,a1,a2,a3,w1,w2,w3", "--acc-unit", "m/s^2",
+                       "--gyro-unit", "rad/s", "-o", tmp_path / "c.json")
+    assert code in (0, 3), err
+
+
+def test_apply_takes_a_phone_pair(files, cal_si, tmp_path, capsys):
+    si = files["si"]
+    for name, what, data in (("acc.csv", "Acceleration", si.acc), ("gyr.csv", "Gyroscope", si.gyro)):
+        unit = "m/s^2" if what == "Acceleration" else "rad/s"
+        header = ",".join(['"Time (s)"', *(f'"{what} {a} ({unit})"' for a in "xyz"), f'"Absolute ({unit})"'])
+        np.savetxt(tmp_path / name, np.column_stack([si.t, data, np.linalg.norm(data, axis=1)]), fmt="%.12g",
+                   delimiter=",", comments="", header=header)
+    code, _, err = run(capsys, "apply", cal_si, tmp_path / "acc.csv", tmp_path / "gyr.csv", "-o", tmp_path / "o.csv")
+    assert code == 0, err
+    out = read(tmp_path / "o.csv")
+    np.testing.assert_allclose(out.extra["acc_x_cal [m/s^2]"], si.acc[:, 0], rtol=1e-9)
+    code, _, err = run(capsys, "apply", cal_si, tmp_path / "acc.csv", tmp_path / "gyr.csv", "--acc-unit", "g",
+                       "-o", tmp_path / "p.csv")
+    assert code == 2 and "--acc-unit g contradicts the header" in err, err
