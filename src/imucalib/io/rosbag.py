@@ -1,7 +1,14 @@
 """ROS bags: ``sensor_msgs/Imu`` messages from ROS 1 ``.bag`` files and ROS 2 bags (SQLite or MCAP).
 
 Reading uses the ``rosbags`` library (pure Python, no ROS installation), an
-optional dependency: ``pip install "imucalib[ros]"``. A ``sensor_msgs/Imu``
+optional dependency: ``pip install "imucalib[ros]"``. The IMU topic itself is
+read in bulk (:mod:`.bagraw`: the bag's own indexes locate every message, numpy
+reads the fields of the fixed ``sensor_msgs/Imu`` layout, checked against
+rosbags' deserialiser on the first and last message of every block; timed by
+``benchmarks/bench_rosbag.py``); bags without indexes, compressed ROS 2 messages or
+another layout go through rosbags' own reader message by message. A damaged
+bag is a :class:`~imucalib.io.errors.ReaderError` naming the file, the topic
+and the message. A ``sensor_msgs/Imu``
 carries ``linear_acceleration`` in m/s² and ``angular_velocity`` in rad/s
 (REP 103/145), so the recording is in SI units; a calibration of such data
 corrects a driver's own calibration rather than raw counts.
