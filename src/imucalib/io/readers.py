@@ -141,7 +141,9 @@ def read(
     inputs.check_against_header(paths, reader, rec, acc_unit, gyro_unit, time_unit, unit_in=_unit_in,
                                 phone_specs=_phone_specs)
     inputs.check_magnitudes(paths, rec)
-    if acc_unit is None and gyro_unit is None and reader in ("csv", "imutk", "mat"):
+    named = (rec.metadata.get("columns") or {}) if rec.metadata.get("header") else {}
+    written = any(_unit_in(named.get(f) or "") for f in ("ax", "gx"))  # a header's "[counts]" is an answer
+    if acc_unit is None and gyro_unit is None and reader in ("csv", "imutk", "mat") and not written:
         inputs.note_physical_units(paths, rec)
     rec.metadata.setdefault("source", [str(p) for p in paths])
     rec.metadata["reader"] = reader
