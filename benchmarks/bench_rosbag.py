@@ -139,7 +139,7 @@ def main() -> None:
                "after_times_s": [round(t, 2) for t in after_all]}
         if args.before_runs:
             before, before_all = timed(lambda p=path: library_only(lambda: read(p)), args.before_runs, warm=False)
-            ref = library_only(lambda: read(path))
+            ref = library_only(lambda p=path: read(p))
             assert np.array_equal(ref.acc, rec.acc) and np.array_equal(ref.t, rec.t)
             row.update(before_median_s=round(before, 2), before_times_s=[round(t, 2) for t in before_all],
                        speedup=round(before / after, 1))
