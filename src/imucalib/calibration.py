@@ -7,6 +7,7 @@ The file format is the versioned JSON of ``DESIGN.md`` (``"format":
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -16,11 +17,11 @@ import numpy as np
 
 from .io.atomic import atomic_write
 from .io.jsontext import dumps, jsonable
-from .models import AXES, MagnetometerModel, TriadModel
-from .recording import STANDARD_GRAVITY, Recording
+from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
+from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, Recording
 from .thermal import ThermalModel
 
-__all__ = ["Calibration", "FORMAT", "FORMAT_VERSION"]
+__all__ = ["Calibration", "CalibrationFileError", "FORMAT", "FORMAT_VERSION", "check_document"]
 
 FORMAT = "imucalib.calibration"
 FORMAT_VERSION = 1
@@ -210,18 +211,12 @@ class Calibration:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Calibration:
-        """Inverse of :meth:`to_dict`; checks the format and its version."""
-        if d.get("format") != FORMAT:
-            raise ValueError(f"not an imucalib calibration: 'format' is {d.get('format')!r}")
-        version = d.get("format_version")
-        if version != FORMAT_VERSION:
-            raise ValueError(
-                f"calibration format_version {version!r} is not supported "
-                f"(this imucalib reads version {FORMAT_VERSION})"
-            )
-        missing = [k for k in ("accelerometer", "gyroscope") if not isinstance(d.get(k), dict)]
-        if missing:
-            raise ValueError(f"calibration lacks the {' and '.join(missing)} section(s)")
+        """Inverse of :meth:`to_dict`; checks the format, its version and every entry's type and shape.
+
+        Raises :class:`CalibrationFileError` naming the entry that is wrong.
+        """
+        check_document(d)
+        units = d.get("units")
         return cls(
             accelerometer=TriadModel.from_dict(d["accelerometer"], default_shape="upper"),
             gyroscope=TriadModel.from_dict(d["gyroscope"], default_shape="full"),
@@ -229,10 +224,11 @@ class Calibration:
             gravity=float(d.get("gravity", STANDARD_GRAVITY)),
             method=d.get("method", "unknown"),
             model=d.get("model", "linear"),
-            units=d.get("units") or cls().units,
+            units={s: dict(units[s]) for s in ("accelerometer", "gyroscope", "magnetometer") if s in units}
+            if units else cls().units,
             device=d.get("device"),
             created=d.get("created"),
-            fit=d.get("fit", {}),
+            fit=d.get("fit") or {},
             magnetometer=None if d.get("magnetometer") is None else MagnetometerModel.from_dict(d["magnetometer"]),
             thermal=None if d.get("thermal") is None else ThermalModel.from_dict(d["thermal"]),
         )
@@ -248,18 +244,167 @@ class Calibration:
 
     @classmethod
     def load(cls, path: str | Path) -> Calibration:
-        """Read a calibration file written by :meth:`save`."""
+        """Read a calibration file written by :meth:`save`.
+
+        Raises :class:`CalibrationFileError` (a ValueError) naming the file and
+        the entry when it is missing, not JSON, or not a calibration.
+        """
         path = Path(path)
+        if path.is_dir():
+            raise CalibrationFileError(f"{path}: is a directory, not a calibration file (JSON)")
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
+            data = json.loads(path.read_bytes().decode("utf-8-sig"))
         except FileNotFoundError:
-            raise ValueError(f"{path}: calibration file not found") from None
+            raise CalibrationFileError(f"{path}: calibration file not found") from None
+        except UnicodeDecodeError:
+            raise CalibrationFileError(f"{path}: not a text file; a calibration file is JSON, as "
+                                       "'imucalib calibrate -o FILE.json' writes it") from None
         except json.JSONDecodeError as exc:
-            raise ValueError(f"{path}: not valid JSON ({exc})") from None
+            raise CalibrationFileError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno}, column "
+                                       f"{exc.colno})") from None
         try:
             return cls.from_dict(data)
         except ValueError as exc:
-            raise ValueError(f"{path}: {exc}") from None
+            raise CalibrationFileError(f"{path}: {exc}") from None
+
+
+class CalibrationFileError(ValueError):
+    """A calibration file (or dictionary) that cannot be used; the message names the entry."""
+
+
+def _kind(value) -> str:
+    """A JSON value's kind in words."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return {dict: "an object", list: "a list", str: "a string", int: "a number", float: "a number"}.get(
+        type(value), type(value).__name__)
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def _finite(v) -> bool:
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:  # an integer beyond any float
+        return False
+
+
+def _numbers(value, shape: tuple[int, ...], where: str) -> None:
+    """``value`` is a list (of lists) of finite numbers of ``shape``; else an error naming ``where``."""
+    words = "3 numbers" if shape == (3,) else "3 rows of 3 numbers"
+    rows = value if shape == (3,) else value if isinstance(value, list) else None
+    ok = isinstance(value, list) and len(value) == shape[0]
+    if ok and len(shape) == 2:
+        ok = all(isinstance(r, list) and len(r) == shape[1] for r in rows)
+        cells = [c for r in rows for c in r] if ok else []
+    else:
+        cells = value if ok else []
+    if not ok or not all(_is_number(c) for c in cells):
+        raise CalibrationFileError(f"{where}: expected {words}; got {json.dumps(value)[:80]}")
+    if not all(_finite(c) for c in cells):
+        raise CalibrationFileError(f"{where}: every entry must be a finite number; got {json.dumps(value)[:80]}")
+
+
+def _check_triad(d, name: str, default_shape: str) -> None:
+    if not isinstance(d, dict):
+        raise CalibrationFileError(f"'{name}': expected an object of the model's entries; got {_kind(d)}")
+    for key in ("misalignment", "scale", "bias"):
+        if key not in d:
+            raise CalibrationFileError(f"'{name}' lacks the entry '{key}'")
+    shape = d.get("misalignment_shape", default_shape)
+    if shape not in MISALIGNMENT_SHAPES:
+        raise CalibrationFileError(f"'{name}.misalignment_shape': expected one of "
+                                   f"{', '.join(MISALIGNMENT_SHAPES)}; got {json.dumps(shape)}")
+    for key, value in d.items():
+        if key in ("misalignment", "g_sensitivity"):
+            _numbers(value, (3, 3), f"'{name}.{key}'")
+        elif key in ("scale", "scale_quadratic", "scale_cubic", "bias", "output_bias"):
+            _numbers(value, (3,), f"'{name}.{key}'")
+    t = d["misalignment"]
+    if any(t[i][i] != 1 for i in range(3)):
+        raise CalibrationFileError(f"'{name}.misalignment': the diagonal must be 1, 1, 1; got "
+                                   f"{', '.join(format(t[i][i], 'g') for i in range(3))}")
+    free = set(MISALIGNMENT_SHAPES[shape])
+    stray = [AXES[i] + AXES[j] for i in range(3) for j in range(3) if i != j and (i, j) not in free and t[i][j]]
+    if stray:
+        raise CalibrationFileError(f"'{name}.misalignment': misalignment_shape {shape!r} has no entry "
+                                   f"{', '.join(stray)} (they must be 0)")
+    if any(k == 0 for k in d["scale"]):
+        raise CalibrationFileError(f"'{name}.scale': every scale factor must be non-zero")
+
+
+def check_document(d) -> None:
+    """Check a calibration document (the parsed JSON of the file) entry by entry.
+
+    Raises :class:`CalibrationFileError` naming the first entry that is
+    missing, of the wrong kind or shape, or not a finite number.
+    """
+    if not isinstance(d, dict):
+        raise CalibrationFileError(f"expected a JSON object (an imucalib calibration); got {_kind(d)}")
+    if d.get("format") != FORMAT:
+        raise CalibrationFileError(f"not an imucalib calibration: 'format' is {json.dumps(d.get('format'))}, "
+                                   f"not \"{FORMAT}\"")
+    version = d.get("format_version")
+    if version != FORMAT_VERSION:
+        raise CalibrationFileError(f"calibration format_version {json.dumps(version)} is not supported "
+                                   f"(this imucalib reads version {FORMAT_VERSION})")
+    missing = [k for k in ("accelerometer", "gyroscope") if k not in d]
+    if missing:
+        raise CalibrationFileError(f"calibration lacks the {' and '.join(missing)} section(s)")
+    _check_triad(d["accelerometer"], "accelerometer", "upper")
+    _check_triad(d["gyroscope"], "gyroscope", "full")
+    units = d.get("units")
+    if units is not None:
+        if not isinstance(units, dict):
+            raise CalibrationFileError(f"'units': expected an object with 'accelerometer' and 'gyroscope'; "
+                                       f"got {_kind(units)}")
+        for sensor, allowed in (("accelerometer", ACC_UNITS), ("gyroscope", GYRO_UNITS)):
+            entry = units.get(sensor)
+            if not isinstance(entry, dict):
+                raise CalibrationFileError(f"'units' has no '{sensor}' entry (an object with 'raw', one of "
+                                           f"{', '.join(allowed)})" if entry is None else
+                                           f"'units.{sensor}': expected an object with 'raw'; got {_kind(entry)}")
+            if entry.get("raw") not in allowed:
+                raise CalibrationFileError(f"'units.{sensor}.raw': expected one of {', '.join(allowed)}; got "
+                                           f"{json.dumps(entry.get('raw'))}")
+    gravity = d.get("gravity", STANDARD_GRAVITY)
+    if not (_is_number(gravity) and _finite(gravity) and gravity > 0):
+        raise CalibrationFileError(f"'gravity': expected a positive number of m/s^2; got {json.dumps(gravity)[:40]}")
+    if d.get("lever_arm") is not None:
+        _numbers(d["lever_arm"], (3,), "'lever_arm'")
+    for key in ("method", "model"):
+        if key in d and not isinstance(d[key], str):
+            raise CalibrationFileError(f"'{key}': expected a string; got {_kind(d[key])}")
+    for key in ("device", "created"):
+        if d.get(key) is not None and not isinstance(d[key], str):
+            raise CalibrationFileError(f"'{key}': expected a string or null; got {_kind(d[key])}")
+    mag = d.get("magnetometer")
+    if mag is not None:
+        if not isinstance(mag, dict):
+            raise CalibrationFileError(f"'magnetometer': expected an object (bias, soft_iron, alignment); got "
+                                       f"{_kind(mag)}")
+        for key, shape in (("bias", (3,)), ("soft_iron", (3, 3)), ("alignment", (3, 3))):
+            _numbers(mag.get(key), shape, f"'magnetometer.{key}'")
+        raw = ((units or {}).get("magnetometer") or {}).get("raw")
+        if raw not in MAG_UNITS:
+            raise CalibrationFileError(f"'units.magnetometer.raw': expected one of {', '.join(MAG_UNITS)}; got "
+                                       f"{json.dumps(raw)}")
+    if d.get("thermal") is not None and not isinstance(d["thermal"], dict):
+        raise CalibrationFileError(f"'thermal': expected an object (reference_c, range_c, parameters); got "
+                                   f"{_kind(d['thermal'])}")
+    fit = d.get("fit")
+    if fit is not None and not isinstance(fit, dict):
+        raise CalibrationFileError(f"'fit': expected an object (the fit figures); got {_kind(fit)}")
+    if isinstance(fit, dict):
+        reasons = fit.get("verdict_reasons")
+        if fit.get("verdict") is not None and not isinstance(fit["verdict"], str):
+            raise CalibrationFileError(f"'fit.verdict': expected a string; got {_kind(fit['verdict'])}")
+        if reasons is not None and not (isinstance(reasons, list) and all(isinstance(r, str) for r in reasons)):
+            raise CalibrationFileError("'fit.verdict_reasons': expected a list of strings")
 
 
 def units_of(recording: Recording) -> dict:

@@ -206,7 +206,14 @@ class TriadModel:
         out = np.empty((3, 2))
         for i in range(3):
             k1, k2, k3 = self.scale[i], self.scale_quadratic[i], self.scale_cubic[i]
-            roots = np.roots([3 * k3, 2 * k2, k1]) if (k2 or k3) else np.array([])
+            roots = np.array([])
+            if k2 or k3:
+                with np.errstate(all="ignore"):  # a vanishing k2, k3 puts the roots beyond any float
+                    try:
+                        roots = np.roots([3 * k3, 2 * k2, k1])
+                    except np.linalg.LinAlgError:
+                        roots = np.array([])
+            roots = roots[np.isfinite(roots)]
             roots = np.sort(roots[np.abs(roots.imag) <= 1e-12 * np.abs(roots.real)].real)
             neg, pos = roots[roots < 0], roots[roots > 0]
             out[i] = (neg[-1] if neg.size else -np.inf, pos[0] if pos.size else np.inf)

@@ -132,7 +132,7 @@ class Recording:
                 what = "duplicated" if dt[i - 1] == 0 else "decreasing"
                 raise ValueError(
                     f"timestamps must be strictly increasing; sample {i} is {what} "
-                    f"(t={self.t[i - 1]!r} then {self.t[i]!r})"
+                    f"(t={float(self.t[i - 1]):.10g} then {float(self.t[i]):.10g})"
                 )
         self.acc_unit = _check_unit(self.acc_unit, ACC_UNITS, "accelerometer")
         self.gyro_unit = _check_unit(self.gyro_unit, GYRO_UNITS, "gyroscope")

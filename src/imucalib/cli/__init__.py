@@ -24,7 +24,7 @@ from collections.abc import Sequence
 from .. import __version__
 from ..recording import ImucalibWarning
 from . import analysis, calibration, export, simulation, thermal, validation
-from ._common import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_REJECTED, CliError, show_warning
+from ._common import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_REJECTED, CliError, normalise_argv, show_warning
 
 __all__ = ["EXIT_ERROR", "EXIT_REJECTED", "CliError", "build_parser", "main"]
 
@@ -45,7 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``imucalib`` with ``argv`` (default: the process's arguments); the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(normalise_argv(sys.argv[1:] if argv is None else argv))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("always", ImucalibWarning)

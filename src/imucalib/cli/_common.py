@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -14,8 +15,8 @@ from ..recording import STANDARD_GRAVITY, Recording
 
 __all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_REJECTED", "STANDARD_GRAVITY", "CliError", "Progress",
            "add_force_option", "add_gravity_option", "add_init_static_option", "add_reader_options",
-           "check_verdict", "positive_float", "print_json", "print_verdict", "progress", "read",
-           "read_recording", "show_warning"]
+           "check_verdict", "gravity_value", "normalise_argv", "positive_float", "print_json", "print_verdict",
+           "progress", "read", "read_recording", "reading_progress", "show_warning"]
 
 #: exit code of a command that failed with a reported error
 EXIT_ERROR = 2
@@ -41,10 +42,34 @@ def positive_float(text: str) -> float:
     return v
 
 
+#: the range of gravity on the Earth's surface, with a margin [m/s^2] (9.78 at the equator, 9.83 at the poles)
+GRAVITY_RANGE = (9.7, 9.9)
+
+
+def gravity_value(text: str) -> float:
+    """An argparse type: a positive number; a warning naming it when it is not a gravity found on the Earth."""
+    g = positive_float(text)
+    lo, hi = GRAVITY_RANGE
+    if not lo <= g <= hi:
+        show_warning(f"--gravity {text}: {g:g} m/s^2 is outside {lo}-{hi} m/s^2, the gravity on the Earth's "
+                     f"surface; it is used as given (the default is {STANDARD_GRAVITY})")
+    return g
+
+
 def add_gravity_option(p: argparse.ArgumentParser) -> None:
     """``--gravity`` with the standard gravity as its default."""
-    p.add_argument("--gravity", type=positive_float, default=STANDARD_GRAVITY,
-                   help=f"local gravity [m/s^2] (default: {STANDARD_GRAVITY})")
+    p.add_argument("--gravity", type=gravity_value, default=STANDARD_GRAVITY,
+                   help=f"local gravity [m/s^2] (default: {STANDARD_GRAVITY}; a value outside "
+                   f"{GRAVITY_RANGE[0]}-{GRAVITY_RANGE[1]} is used with a warning)")
+
+
+def normalise_argv(argv: Sequence[str]) -> list[str]:
+    """``--columns -,0,1,…`` as ``--columns=-,0,1,…``: argparse reads a value starting with '-' as an option."""
+    out = [str(a) for a in argv]
+    for i in range(len(out) - 1, 0, -1):
+        if out[i - 1] == "--columns" and out[i].startswith("-") and (out[i] == "-" or "," in out[i]):
+            out[i - 1:i + 1] = [f"--columns={out[i]}"]
+    return out
 
 
 def add_reader_options(p: argparse.ArgumentParser) -> None:
@@ -53,8 +78,9 @@ def add_reader_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--reader", choices=("csv", "imutk", "mat", "phone", "rosbag", "session"),
                    help="input format (default: guessed from the file)")
     g.add_argument("--topic", help="ROS bags: the sensor_msgs/Imu topic (needed when there are several)")
-    g.add_argument("--columns", help="comma-separated column names or 0-based indices in the "
-                   "order t,ax,ay,az,gx,gy,gz ('-' for no time column)")
+    g.add_argument("--columns", metavar="T,AX,AY,AZ,GX,GY,GZ",
+                   help="comma-separated column names or 0-based indices in the order t,ax,ay,az,gx,gy,gz, "
+                   "'-' for t when there is no time column (with --rate), e.g. --columns -,0,1,2,3,4,5")
     g.add_argument("--acc-unit", choices=("counts", "g", "m/s^2"),
                    help="accelerometer unit of the input (default: from the header, else counts)")
     g.add_argument("--gyro-unit", choices=("counts", "deg/s", "rad/s"),
@@ -90,11 +116,40 @@ def read(args: argparse.Namespace, paths: Sequence[str]):
     from ..io import read as read_files
 
     columns = args.columns.split(",") if args.columns else None
-    return read_files(
-        list(paths), reader=args.reader, columns=columns, acc_unit=args.acc_unit,
-        gyro_unit=args.gyro_unit, rate=args.rate, variable=args.variable,
-        time_unit=args.time_unit, topic=args.topic,
-    )
+    with reading_progress(args, f"reading {paths[0]}") as bar:
+        return read_files(
+            list(paths), reader=args.reader, columns=columns, acc_unit=args.acc_unit,
+            gyro_unit=args.gyro_unit, rate=args.rate, variable=args.variable,
+            time_unit=args.time_unit, topic=args.topic, progress=bar,
+        )
+
+
+class _LateProgress:
+    """A :class:`Progress` that appears only once the work has taken ``delay`` seconds (quick reads stay silent)."""
+
+    def __init__(self, label: str, unit: str, delay: float = 2.0) -> None:
+        self.label, self.unit, self.delay = label, unit, delay
+        self.start = time.perf_counter()
+        self.bar: Progress | None = None
+
+    def __call__(self, done: int, total: int | None = None) -> None:
+        if self.bar is None:
+            if time.perf_counter() - self.start < self.delay:
+                return
+            self.bar = Progress(self.label, total, unit=self.unit)
+        self.bar(done, total)
+
+    def __enter__(self) -> _LateProgress:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def reading_progress(args: argparse.Namespace, label: str) -> _LateProgress:
+    """Progress (on stderr, never stdout) of reading or copying a long input, message by message."""
+    return _LateProgress(label, "message")
 
 
 def read_recording(args: argparse.Namespace, paths: Sequence[str]) -> Recording:
@@ -147,5 +202,8 @@ def check_verdict(calibration, path, force: bool) -> None:
 
 
 def show_warning(message, category=None, filename=None, lineno=None, file=None, line=None) -> None:
-    """``warnings.showwarning`` for the command line: one line on stderr."""
+    """``warnings.showwarning`` for the command line: one line on stderr (numpy's arithmetic warnings in words)."""
+    if category is not None and issubclass(category, RuntimeWarning):
+        message = ("a computation went out of range (a number overflowed or was undefined), so the result may "
+                   "not be reliable: check the input for extreme or constant readings")
     print(f"imucalib: warning: {message}", file=sys.stderr)

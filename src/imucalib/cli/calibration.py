@@ -1,7 +1,7 @@
 """Commands around one calibration.
 
-Make it (calibrate, compare the methods) and use it (apply, detect-fall;
-export is in :mod:`.export`); checking it on another recording (validate) is in :mod:`.validation`.
+Make it (calibrate, compare the methods) and use it (detect-fall; apply is in :mod:`.apply`, export in
+:mod:`.export`); checking it on another recording (validate) is in :mod:`.validation`.
 """
 
 from __future__ import annotations
@@ -17,14 +17,13 @@ import numpy as np
 from ..calibration import Calibration
 from ..io.atomic import refuse_overwriting_inputs
 from ..recording import ImucalibWarning, Interval
+from . import apply as apply_command
 from ._common import (
     EXIT_REJECTED,
     CliError,
-    add_force_option,
     add_gravity_option,
     add_init_static_option,
     add_reader_options,
-    check_verdict,
     positive_float,
     print_json,
     print_verdict,
@@ -138,8 +137,14 @@ def _method_options(args: argparse.Namespace) -> dict:
     ferraris = dict(given.values())
     if "sections" in ferraris:
         ferraris["sections"] = _sections(args.sections)
+    zhang = {flag: (key, False) for flag, key, on in (("--keep-terms", "select", args.keep_terms),
+                                                      ("--no-noise-weights", "noise_weights", args.no_noise_weights))
+             if on}
+    if zhang and args.method != "zhang2021":
+        raise CliError(f"{' and '.join(zhang)} {'apply' if len(zhang) > 1 else 'applies'} to --method zhang2021 "
+                       f"only, not {args.method}")
     return {**{k: v for k, v in (("init_static", args.init_static), ("detector", args.detector)) if v is not None},
-            **ferraris}
+            **ferraris, **dict(zhang.values())}
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
@@ -197,36 +202,6 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         if done:
             print(f"{what} {done}")
     return code
-
-
-def cmd_apply(args: argparse.Namespace) -> int:
-    """``imucalib apply``: :meth:`Calibration.apply` into a CSV, or a ROS bag calibrated topic by topic."""
-    from ..io import write_csv
-    from ..io.rosbag import is_rosbag
-
-    refuse_overwriting_inputs([args.output], [args.calibration, args.data])
-    cal = Calibration.load(args.calibration)
-    check_verdict(cal, args.calibration, args.force)
-    verdict = (cal.fit or {}).get("verdict")
-    if (args.reader == "rosbag" or is_rosbag(Path(args.data))) and Path(args.output).suffix.lower() != ".csv":
-        from ..io.rosbag import write_calibrated_bag
-
-        summary = write_calibrated_bag(args.data, args.output, cal, topic=args.topic)
-        summary["calibration"] = str(args.calibration)
-        summary["verdict"] = verdict
-        if args.json:
-            return print_json(summary)
-        print(f"wrote {args.output}: {summary['corrected']} {summary['topic']} messages calibrated, "
-              f"{summary['copied']} other messages copied unchanged")
-        return 0
-    rec = read_recording(args, [args.data])
-    out = cal.apply(rec)
-    write_csv(args.output, rec, calibrated_acc=out.acc, calibrated_gyro=out.gyro)
-    if args.json:
-        return print_json({"input": str(args.data), "output": str(args.output), "samples": len(rec),
-                           "calibration": str(args.calibration), "method": cal.method, "verdict": verdict})
-    print(f"wrote {len(rec)} calibrated samples to {args.output}")
-    return 0
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
@@ -296,6 +271,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--detector", choices=("accelerometer", "gyroscope"),
                    help="zhang2021: static detector, Tedaldi's accelerometer variance (default) or "
                    "the gyroscope norm of Zhang 2021 eq. (22)")
+    p.add_argument("--keep-terms", action="store_true", help="zhang2021: keep the model's nonlinear terms even "
+                   "where Akaike's criterion prefers fewer (the library's select=False)")
+    p.add_argument("--no-noise-weights", action="store_true", help="zhang2021: weigh every residual alike, "
+                   "for noise-free data (the library's noise_weights=False)")
     p.add_argument("-o", "--output", help="write the calibration file (JSON) here")
     p.add_argument("--plot", metavar="FILE.png", help="write a figure of the fit (needs matplotlib)")
     p.add_argument("--report", metavar="FILE.html",
@@ -309,18 +288,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_reader_options(p)
     p.set_defaults(func=cmd_calibrate)
 
-    p = sub.add_parser("apply", help="apply a calibration to a recording",
-                       description="Write the recording with calibrated columns added "
-                       "(every input row and column is kept). A ROS bag is written as a bag "
-                       "with the IMU topic calibrated and everything else copied, unless "
-                       "OUTPUT ends in .csv. A rejected calibration is refused unless --force is given.")
-    p.add_argument("calibration", help="calibration file (JSON)")
-    p.add_argument("data", help="data file to correct")
-    p.add_argument("-o", "--output", required=True, help="output CSV file (or, for a ROS bag, the calibrated bag)")
-    p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
-    add_force_option(p)
-    add_reader_options(p)
-    p.set_defaults(func=cmd_apply)
+    apply_command.register(sub)
 
     p = sub.add_parser("compare", help="run every method the data supports and cross-validate",
                        description="Calibrate with every method the recording supports and "

@@ -17,7 +17,7 @@ from ._common import (
     EXIT_REJECTED,
     add_init_static_option,
     add_reader_options,
-    positive_float,
+    gravity_value,
     print_json,
     print_verdict,
     read_recording,
@@ -88,7 +88,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "when it was made. The verdict comes first; exit code 3 when it no longer holds.")
     p.add_argument("calibration", help="calibration file (JSON)")
     p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
-    p.add_argument("--gravity", type=positive_float, help="local gravity [m/s^2] (default: the calibration's)")
+    p.add_argument("--gravity", type=gravity_value, help="local gravity [m/s^2] (default: the calibration's)")
     add_init_static_option(p)
     p.add_argument("--plot", metavar="FILE", help="also draw the fit figure (PNG/SVG/PDF; plot extra)")
     p.add_argument("--json", action="store_true", help="print the verdict and the figures as JSON")

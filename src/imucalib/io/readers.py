@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..recording import ACC_UNITS, GYRO_UNITS, ImucalibWarning, Recording
+from . import inputs
 from .errors import ReaderError
 from .phone import PhoneFile, check_specific_force, identify, sensor_logger_header
 from .rosbag import is_rosbag, read_rosbag
@@ -41,6 +42,7 @@ def read(
     variable: str | None = None,
     time_unit: str | None = None,
     topic: str | None = None,
+    progress=None,
 ) -> Recording:
     """Read a recording.
 
@@ -70,6 +72,15 @@ def read(
         the median step: see :func:`_infer_time_unit`).
     topic : str, optional
         ROS bags: the ``sensor_msgs/Imu`` topic, when the bag has several.
+    progress : callable, optional
+        ``progress(done, total)`` while a long input is read (ROS bags: messages).
+
+    Xsens MT Manager text exports (``//`` comment lines, then ``PacketCounter
+    SampleTimeFine … Acc_X … Gyr_Z``) are recognised from their header:
+    ``SampleTimeFine`` counts 100 µs ticks, the readings are in m/s² and rad/s.
+    A unit option that contradicts a unit written in the header is an error;
+    with no unit given or written, readings that look like m/s², g, rad/s or
+    deg/s are still taken as counts, with a note saying so.
     """
     if isinstance(paths, str | Path):
         paths = [paths]
@@ -98,6 +109,10 @@ def read(
         what = ("two files: the accelerometer file, then the gyroscope file" if expected == 2
                 else "one file")
         raise ReaderError(f"the {reader} reader takes {what}; got {len(paths)}")
+    if reader in ("csv", "imutk", "phone"):
+        for p in paths:
+            inputs.check_text(p)
+    inputs.check_distinct_columns(columns)
     if reader == "rosbag":
         ignored = [name for name, v in (("columns", columns), ("acc_unit", acc_unit), ("gyro_unit", gyro_unit),
                                         ("rate", rate), ("variable", variable), ("time_unit", time_unit))
@@ -105,7 +120,7 @@ def read(
         if ignored:
             raise ReaderError(f"a ROS bag's sensor_msgs/Imu fixes the fields, units and time; "
                               f"{', '.join(ignored)} cannot be set")
-        rec = read_rosbag(paths[0], topic=topic)
+        rec = read_rosbag(paths[0], topic=topic, progress=progress)
     elif topic is not None:
         raise ReaderError(f"topic applies to ROS bags; the {reader} reader has none")
     elif reader == "phone":
@@ -119,8 +134,17 @@ def read(
         rec = _read_imutk(paths[0], paths[1], acc_unit, gyro_unit, time_unit)
     elif reader == "mat":
         rec = _read_mat(paths[0], columns, acc_unit, gyro_unit, rate, variable, time_unit)
+    elif columns is None and (xsens := inputs.xsens_header(paths[0])) is not None:
+        rec = inputs.read_xsens(paths[0], xsens, acc_unit, gyro_unit, rate, time_unit, read_csv=_read_csv)
     else:
         rec = _read_csv(paths[0], columns, acc_unit, gyro_unit, rate, time_unit)
+    inputs.check_against_header(paths, reader, rec, acc_unit, gyro_unit, time_unit, unit_in=_unit_in,
+                                phone_specs=_phone_specs)
+    inputs.check_magnitudes(paths, rec)
+    named = (rec.metadata.get("columns") or {}) if rec.metadata.get("header") else {}
+    written = any(_unit_in(named.get(f) or "") for f in ("ax", "gx"))  # a header's "[counts]" is an answer
+    if acc_unit is None and gyro_unit is None and reader in ("csv", "imutk", "mat") and not written:
+        inputs.note_physical_units(paths, rec)
     rec.metadata.setdefault("source", [str(p) for p in paths])
     rec.metadata["reader"] = reader
     return rec
@@ -205,7 +229,7 @@ def _check_time(path: Path, t: np.ndarray, first_line: int, name: str = "time") 
         what = "duplicated" if d[i] == 0 else "goes backwards"
         raise ReaderError(
             f"{path}: line {first_line + i + 1}, {name}: timestamp {what} "
-            f"({t[i]!r} then {t[i + 1]!r}); timestamps must increase strictly "
+            f"({float(t[i]):.10g} then {float(t[i + 1]):.10g}); timestamps must increase strictly "
             "(sort the file or remove duplicated rows)"
         )
 
@@ -244,7 +268,7 @@ def _to_seconds(t: np.ndarray, unit: str, metadata: dict) -> np.ndarray:
 def _read_imutk(acc_path: Path, gyro_path: Path, acc_unit, gyro_unit, time_unit) -> Recording:
     arrays = []
     for path in (acc_path, gyro_path):
-        text = path.read_text(encoding="utf-8", errors="replace")
+        text = path.read_bytes().decode("utf-8-sig", errors="replace")
         arrays.append(_numeric_table(path, text, 4, ("time", "x", "y", "z")))
     acc, gyro = arrays
     meta: dict = {"source": [str(acc_path), str(gyro_path)]}
@@ -271,9 +295,12 @@ def _numeric_table(path: Path, text: str, ncols: int, names: Sequence[str]) -> n
     nlines = stripped.count("\n") + 1
     data = None
     if "\n\n" not in stripped:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # fromstring warns on trailing garbage
-            flat = np.fromstring(stripped, dtype=np.float64, sep=" ")
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # fromstring warns (older numpy) or raises on a bad cell
+                flat = np.fromstring(stripped, dtype=np.float64, sep=" ")
+        except ValueError:
+            flat = np.empty(0)  # the line-by-line parser below names the line
         if flat.size == ncols * nlines:
             data = flat.reshape(nlines, ncols)
             if not np.all(np.isfinite(data)):
@@ -685,6 +712,12 @@ def _read_phone(paths: Sequence[Path], acc_unit, gyro_unit, time_unit) -> Record
 def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_unit) -> Recording:
     from scipy.io import loadmat
 
+    with path.open("rb") as f:
+        head = f.read(128)
+    if head.startswith(b"MATLAB 7.3 MAT-file") or b"HDF5" in head[:128]:
+        raise ReaderError(f"{path}: a MATLAB v7.3 file (HDF5 inside), which imucalib does not read; in MATLAB "
+                          f"save the matrix again with save('{path.name}', 'VARIABLE', '-v7'), or write it "
+                          "as CSV with writematrix")
     try:
         content = loadmat(str(path))
     except Exception as exc:  # scipy raises several types for non-MAT input

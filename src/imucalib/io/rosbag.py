@@ -1,7 +1,14 @@
 """ROS bags: ``sensor_msgs/Imu`` messages from ROS 1 ``.bag`` files and ROS 2 bags (SQLite or MCAP).
 
 Reading uses the ``rosbags`` library (pure Python, no ROS installation), an
-optional dependency: ``pip install "imucalib[ros]"``. A ``sensor_msgs/Imu``
+optional dependency: ``pip install "imucalib[ros]"``. The IMU topic itself is
+read in bulk (:mod:`.bagraw`: the bag's own indexes locate every message, numpy
+reads the fields of the fixed ``sensor_msgs/Imu`` layout, checked against
+rosbags' deserialiser on the first and last message of every block; timed by
+``benchmarks/bench_rosbag.py``); bags without indexes, compressed ROS 2 messages or
+another layout go through rosbags' own reader message by message. A damaged
+bag is a :class:`~imucalib.io.errors.ReaderError` naming the file, the topic
+and the message. A ``sensor_msgs/Imu``
 carries ``linear_acceleration`` in m/s² and ``angular_velocity`` in rad/s
 (REP 103/145), so the recording is in SI units; a calibration of such data
 corrects a driver's own calibration rather than raw counts.
@@ -16,12 +23,17 @@ is changed.
 
 from __future__ import annotations
 
+import contextlib
+import itertools
+import os
+import re
 import warnings
 from pathlib import Path
 
 import numpy as np
 
 from ..recording import ImucalibWarning, Recording
+from . import bagraw
 from .atomic import atomic_create
 from .errors import ReaderError
 
@@ -87,11 +99,182 @@ def _open(path: Path):
         reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except Exception as exc:  # the library's own errors (corrupt file, unknown storage)
-        raise _reader_error(f"{path}: not a readable ROS bag ({exc})") from None
+        raise _reader_error(f"{path}: not a readable ROS bag ({_why(exc)})") from None
     return reader
 
 
-def read_rosbag(path: str | Path, *, topic: str | None = None) -> Recording:
+def _why(exc: BaseException) -> str:
+    """The library's words for a failure, or its kind when it has none (a bare AssertionError)."""
+    text = str(exc).strip()
+    return text if text else f"{type(exc).__name__} in the rosbags library"
+
+
+def _damaged(path: Path, topic: str, k: int, exc: BaseException) -> ReaderError:
+    return _reader_error(f"{path}: topic {topic!r}, message {k + 1}: the bag is damaged there and cannot be read "
+                         f"({_why(exc)}); if it was copied or cut short, copy it again")
+
+
+# ---------------------------------------------------------------- reading
+_BLOCK = 65536
+
+
+def _storage_files(path: Path, suffix: str) -> list[Path]:
+    if path.is_file():
+        return [path] if path.suffix == suffix else []
+    meta = path / "metadata.yaml"
+    text = meta.read_text(encoding="utf-8", errors="replace") if meta.is_file() else ""
+    mode = re.search(r"compression_mode:\s*['\"]?(\w*)", text)
+    if mode and mode.group(1).lower() not in ("", "none"):
+        return []  # compressed files or messages: rosbags decompresses them
+    return sorted(path.glob(f"*{suffix}"))
+
+
+def _fast_blocks(reader, path: Path, topic: str):
+    """Raw blocks from the bag's own indexes (:mod:`.bagraw`), or None when this bag needs rosbags' reader."""
+    if not reader.is2:
+        index = reader.index if isinstance(reader, _LightBag) else bagraw.ros1_index(path)
+        return None if index is None else bagraw.ros1_blocks(path, index, topic)
+    mcaps = _storage_files(path, ".mcap")
+    if mcaps:
+        parts = [bagraw.mcap_blocks(f, topic) for f in mcaps]
+        return None if any(p is None for p in parts) else itertools.chain.from_iterable(parts)
+    dbs = reader.files if isinstance(reader, _LightBag) else _storage_files(path, ".db3")
+    return bagraw.sqlite_blocks(dbs, topic) if dbs else None
+
+
+class _LightBag:
+    """A bag opened from its own index or metadata alone (rosbags' reader builds an object per message).
+
+    Used only to read standard ``sensor_msgs/Imu`` topics; anything else goes through rosbags.
+    """
+
+    def __init__(self, connections, deserialize, is2: bool, *, index=None, files=None) -> None:
+        self.connections, self._deserialize, self.is2 = connections, deserialize, is2
+        self.index, self.files = index, files
+
+    def deserialize(self, raw: bytes, msgtype: str):
+        return self._deserialize(raw, msgtype)
+
+    def close(self) -> None:
+        pass
+
+
+def _open_for_reading(path: Path):
+    """A light reader for an indexed ROS 1 bag or an uncompressed SQLite rosbag2 whose IMU topics are
+    standard, else rosbags' own reader."""
+    try:
+        import rosbags.highlevel  # noqa: F401  (the reader of everything else; the same extra)
+        from rosbags.typesys import Stores, get_typestore
+    except ImportError:
+        return _open(path)  # says how to install it
+    if path.is_file() and path.suffix != ".mcap":
+        index = bagraw.ros1_index(path)
+        if index is not None:
+            store = get_typestore(Stores.ROS1_NOETIC)
+            standard = store.generate_msgdef(IMU_TYPE)[1]
+            if all(c.md5sum == standard for c in index.connections if c.msgtype == IMU_TYPE):
+                return _LightBag(index.connections, store.deserialize_ros1, False, index=index)
+    elif path.is_dir():
+        found = bagraw.rosbag2_sqlite(path)
+        if found is not None:
+            store = get_typestore(Stores.ROS2_HUMBLE)
+            return _LightBag(found[0], store.deserialize_cdr, True, files=found[1])
+    return _open(path)
+
+
+def _library_blocks(reader, conns, seen: list[int] | None = None):
+    """Raw blocks through rosbags' own iteration (any bag it reads); ``seen[0]`` counts the messages met."""
+    seen = [0] if seen is None else seen
+    raws, logged = [], []
+    for _conn, log_ns, raw in reader.messages(connections=conns):
+        raws.append(raw)
+        logged.append(log_ns)
+        seen[0] += 1
+        if len(raws) == _BLOCK:
+            yield bagraw.joined(raws, logged)
+            raws, logged = [], []
+    if raws:
+        yield bagraw.joined(raws, logged)
+
+
+def _decoded(reader, block: bagraw.Block, msgtype: str, first: int, path: Path, topic: str) -> bagraw.ImuBlock:
+    """The block's readings: numpy over the fixed layout, checked against the deserialiser on its first and
+    last message; message by message through the deserialiser when the layout is not the standard one."""
+    fast = bagraw.decode_imu(block, not reader.is2)
+    if fast is not None:
+        try:
+            for k in {0, len(block) - 1}:
+                m = reader.deserialize(block.message(k), msgtype)
+                stamp = m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec
+                if (stamp != fast.stamp[k] or m.header.frame_id not in fast.frames
+                        or _readings(m) != tuple(fast.readings[k])):
+                    fast = None
+                    break
+        except Exception:  # the deserialiser's verdict comes below, message by message
+            fast = None
+    if fast is not None:
+        return fast
+    n = len(block)
+    stamp, readings, frames = np.empty(n, np.int64), np.empty((n, 6)), set()
+    for k in range(n):
+        try:
+            m = reader.deserialize(block.message(k), msgtype)
+            stamp[k] = m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec
+            readings[k] = _readings(m)
+        except Exception as exc:
+            raise _damaged(path, topic, first + k, exc) from None
+        frames.add(m.header.frame_id)
+    return bagraw.ImuBlock(stamp, readings, frames, np.full(n, -1, np.int64))
+
+
+def _read_topic(reader, path: Path, topic: str, progress=None):
+    """Record time [ns], stamp [ns], readings (N, 6), frames and field offsets of a topic, in record order.
+
+    The bag's own indexes first (:mod:`.bagraw`); rosbags' iteration when the
+    bag has none, or when what they give disagrees with the bag.
+    """
+    conns = [c for c in reader.connections if c.topic == topic]
+    msgtype = conns[0].msgtype
+    total = sum(c.msgcount for c in conns)
+    with contextlib.ExitStack() as stack:
+        for source in ("index", "library"):
+            decoder, seen = reader, [0]
+            if source == "index":
+                blocks = _fast_blocks(reader, path, topic)
+                if blocks is None:
+                    continue
+            else:
+                if isinstance(reader, _LightBag):
+                    decoder = _open(path)
+                    stack.callback(decoder.close)
+                blocks = _library_blocks(decoder, [c for c in decoder.connections if c.topic == topic], seen)
+            parts, done = [], 0
+            try:
+                for block in blocks:
+                    parts.append((block.logged, _decoded(decoder, block, msgtype, done, path, topic)))
+                    done += len(block)
+                    if progress is not None:
+                        progress(done, total)
+            except ReaderError:
+                raise
+            except Exception as exc:  # a damaged bag: the library's reader says where, or fails itself
+                if source == "index":
+                    continue
+                raise _damaged(path, topic, max(seen[0] - 1, done), exc) from None
+            if source == "library" or done == total:
+                break  # (an index that disagrees with the bag's message count: read it the library's way)
+    if not parts:
+        return (np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 6)), set(), np.empty(0, np.int64))
+    logged = np.concatenate([p[0] for p in parts])
+    order = np.argsort(logged, kind="stable")  # record order, as rosbags yields
+    stamp = np.concatenate([p[1].stamp for p in parts])[order]
+    readings = np.concatenate([p[1].readings for p in parts])[order]
+    fields_at = np.concatenate([p[1].fields_at for p in parts])[order]
+    frames = set().union(*(p[1].frames for p in parts))
+    return logged[order], stamp, readings, frames, fields_at
+
+
+def read_rosbag(path: str | Path, *, topic: str | None = None, progress=None) -> Recording:
     """Read the IMU messages of one topic of a ROS bag.
 
     Parameters
@@ -100,27 +283,17 @@ def read_rosbag(path: str | Path, *, topic: str | None = None) -> Recording:
         A ROS 1 ``.bag`` file, a ROS 2 bag directory, or an ``.mcap`` file.
     topic : str, optional
         The ``sensor_msgs/Imu`` topic; needed only when the bag has several.
+    progress : callable, optional
+        ``progress(done, total)`` as messages are read (e.g. :class:`imucalib.progress.Progress`).
     """
     path = Path(path)
-    reader = _open(path)
+    reader = _open_for_reading(path)
     try:
         topic = _choose_topic(reader, topic, path)
-        conns = [c for c in reader.connections if c.topic == topic]
-        n = sum(c.msgcount for c in conns)
-        stamp = np.empty(n, dtype=np.int64)
-        logged = np.empty(n, dtype=np.int64)
-        data = np.empty((n, 6))
-        frames = set()
-        i = 0
-        for log_ns, m in _imu_messages(reader, conns):
-            stamp[i] = m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec
-            logged[i] = log_ns
-            data[i] = _readings(m)
-            frames.add(m.header.frame_id)
-            i += 1
+        logged, stamp, data, frames, _ = _read_topic(reader, path, topic, progress)
     finally:
         reader.close()
-    stamp, logged, data = stamp[:i], logged[:i], data[:i]
+    i = stamp.size
     if i < 2:
         raise _reader_error(f"{path}: topic {topic!r} has {i} message(s); a recording needs more")
     if not np.all(np.isfinite(data)):
@@ -142,7 +315,7 @@ def read_rosbag(path: str | Path, *, topic: str | None = None) -> Recording:
         differ = same[np.any(data[same] != data[same + 1], axis=1)]
         if differ.size:
             k = int(differ[0])
-            raise _reader_error(f"{path}: topic {topic!r}: two messages share the stamp {stamp[k]} ns with "
+            raise _reader_error(f"{path}: topic {topic!r}: two messages share the stamp {int(stamp[k])} ns with "
                                 "different readings; the bag mixes two sources or the driver's clock is broken")
         keep = np.ones(i, dtype=bool)
         keep[same + 1] = False
@@ -156,7 +329,7 @@ def read_rosbag(path: str | Path, *, topic: str | None = None) -> Recording:
 
 
 def write_calibrated_bag(source: str | Path, destination: str | Path, calibration, *,
-                         topic: str | None = None) -> dict:
+                         topic: str | None = None, progress=None) -> dict:
     """Copy a ROS bag with the IMU topic's readings replaced by their calibrated values.
 
     Every other topic, every message's stamp, record time, frame and
@@ -166,7 +339,10 @@ def write_calibrated_bag(source: str | Path, destination: str | Path, calibratio
     readings are the calibration's raw input, so the calibration must have
     been made from this driver's output: units ``m/s^2`` and ``rad/s``). A
     ROS 1 bag is written as a ROS 1 bag, a ROS 2 bag as a ROS 2 bag directory
-    (MCAP storage when the source is MCAP, else SQLite).
+    (MCAP storage when the source is MCAP, else SQLite), a lone ``.mcap``
+    file as a lone ``.mcap`` file. The IMU messages keep every byte but the
+    six doubles that change (written in place in the serialised message when
+    it has the standard layout, else deserialised and serialised again).
 
     The bag is written under a hidden temporary name next to ``destination``
     and renamed to it only when complete (:func:`imucalib.io.atomic.atomic_create`),
@@ -187,27 +363,63 @@ def write_calibrated_bag(source: str | Path, destination: str | Path, calibratio
     try:
         topic = _choose_topic(reader, topic, source)
         imu_conns = [c for c in reader.connections if c.topic == topic]
-        raw = np.asarray([_readings(m) for _, m in _imu_messages(reader, imu_conns)], dtype=float).reshape(-1, 6)
+        msgtype = imu_conns[0].msgtype
+        raw_parts, offsets, done = [], [], 0
+        try:  # rosbags' own order, the order the copy below meets the messages in
+            for block in _library_blocks(reader, imu_conns):
+                decoded = _decoded(reader, block, msgtype, done, source, topic)
+                raw_parts.append(decoded.readings)
+                offsets.append(decoded.fields_at)
+                done += len(block)
+        except ReaderError:
+            raise
+        except Exception as exc:
+            raise _damaged(source, topic, done, exc) from None
+        raw = np.concatenate(raw_parts) if raw_parts else np.empty((0, 6))
+        fields_at = np.concatenate(offsets) if offsets else np.empty(0, np.int64)
         acc = calibration.accelerometer_si(raw[:, :3])
         gyro = calibration.gyroscope.forward(raw[:, 3:], acc)
+        acc_bytes, gyro_bytes = acc.astype("<f8"), gyro.astype("<f8")
+        total = sum(c.msgcount for c in reader.connections)
+        lone_mcap = reader.is2 and source.is_file()
         with atomic_create(destination) as building:
-            writer, serialize = _writer_like(reader, source, building)
+            target = building.with_name(building.name + ".bag") if lone_mcap else building
+            writer, serialize = _writer_like(reader, source, target)
             copied = corrected = 0
             with writer:
                 out = {}
                 for c in reader.connections:
-                    out[c.id] = _add_connection_like(writer, c, reader.is2)
-                for conn, log_ns, data in reader.messages():
-                    if conn.topic == topic:
-                        m = reader.deserialize(data, conn.msgtype)
-                        a, w = acc[corrected], gyro[corrected]
-                        m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z = map(float, a)
-                        m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z = map(float, w)
-                        data = serialize(m, conn.msgtype)
-                        corrected += 1
-                    else:
-                        copied += 1
-                    writer.write(out[conn.id], log_ns, data)
+                    out[c.id] = _add_connection_like(writer, c, reader)
+                try:
+                    for conn, log_ns, data in reader.messages():
+                        if conn.topic == topic:
+                            k, o = corrected, int(fields_at[corrected])
+                            if o >= 0:  # the standard layout: the six doubles in place
+                                b = bytearray(data)
+                                b[o + 104:o + 128] = gyro_bytes[k].tobytes()
+                                b[o + 200:o + 224] = acc_bytes[k].tobytes()
+                                data = bytes(b)
+                            else:
+                                m = reader.deserialize(data, conn.msgtype)
+                                la, av = m.linear_acceleration, m.angular_velocity
+                                la.x, la.y, la.z = map(float, acc[k])
+                                av.x, av.y, av.z = map(float, gyro[k])
+                                data = serialize(m, conn.msgtype)
+                            corrected += 1
+                        else:
+                            copied += 1
+                        writer.write(out[conn.id], log_ns, data)
+                        if progress is not None and (copied + corrected) % 10_000 == 0:
+                            progress(copied + corrected, total)
+                except (ReaderError, OSError):
+                    raise
+                except Exception as exc:
+                    raise _reader_error(f"{source}: the bag is damaged and cannot be copied past message "
+                                        f"{copied + corrected + 1} ({_why(exc)})") from None
+            if lone_mcap:
+                os.rename(target / f"{target.name}.mcap", building)
+            if progress is not None:
+                progress(copied + corrected, total)
     finally:
         reader.close()
     return {"topic": topic, "corrected": corrected, "copied": copied, "output": str(destination)}
@@ -226,11 +438,12 @@ def _writer_like(reader, source: Path, destination: Path):
     return Writer(destination, version=9, storage_plugin=plugin), reader.typestore.serialize_cdr
 
 
-def _add_connection_like(writer, c, is2: bool):
-    if not is2:
+def _add_connection_like(writer, c, reader):
+    if not reader.is2:
         return writer.add_connection(c.topic, c.msgtype, msgdef=c.msgdef.data, md5sum=c.digest,
                                      callerid=c.ext.callerid, latching=c.ext.latching)
-    return writer.add_connection(c.topic, c.msgtype, msgdef=c.msgdef.data,
-                                 rihs01=c.digest if c.digest.startswith("RIHS01_") else None,
-                                 serialization_format=c.ext.serialization_format,
-                                 offered_qos_profiles=c.ext.offered_qos_profiles)
+    qos = {"serialization_format": c.ext.serialization_format, "offered_qos_profiles": c.ext.offered_qos_profiles}
+    if c.digest.startswith("RIHS01_"):
+        return writer.add_connection(c.topic, c.msgtype, msgdef=c.msgdef.data, rihs01=c.digest, **qos)
+    # a lone .mcap names no type hash: the reader's type store (which holds the bag's own definitions) does
+    return writer.add_connection(c.topic, c.msgtype, typestore=reader.typestore, **qos)

@@ -664,7 +664,8 @@ def calibrate(
         )
         if not all(np.all(np.isfinite(v)) for v in c.values()):
             raise ValueError("the initial rest has zero noise: the weights of eqs. (25)-(30) "
-                             "are infinite (pass noise_weights=False for noise-free data)")
+                             "are infinite (for noise-free data: noise_weights=False, on the command line "
+                             "--no-noise-weights)")
     else:
         m = len(static)
         c = {"C1": np.ones(m), "C2": np.ones(m), "C3": np.ones(m - 1), "C4": np.float64(1.0)}
@@ -705,7 +706,8 @@ def calibrate(
             warnings.warn(
                 f"zhang2021 model {model!r}: without weightless data the poses do not support "
                 f"the extra terms (Akaike's criterion prefers {best!r}); the {best!r} solution "
-                "is returned with the other terms at zero (pass select=False to keep them)",
+                "is returned with the other terms at zero (to keep them: select=False, on the command line "
+                "--keep-terms)",
                 ImucalibWarning, stacklevel=2,
             )
             problem, sol, layout = candidates[best]

@@ -8,7 +8,6 @@ saturation. Everything is deterministic for a given seed.
 
 from __future__ import annotations
 
-import json
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -134,17 +133,6 @@ def _write_rec(path: Path, rec: Recording) -> None:
     _write_table(path, np.column_stack(cols), names)
 
 
-def _read_rec(path: Path, units: dict) -> Recording:
-    with open(path, encoding="utf-8") as fh:
-        names = fh.readline().strip().split(",")
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-    mag = data[:, names.index("mx"):names.index("mx") + 3] if "mx" in names else None
-    temp = data[:, names.index("temperature")] if "temperature" in names else None
-    return Recording(data[:, 0], data[:, 1:4], data[:, 4:7], acc_unit=units["accelerometer"],
-                     gyro_unit=units["gyroscope"], metadata={"source": [str(path)]}, mag=mag,
-                     mag_unit=units.get("magnetometer", "counts"), temperature=temp)
-
-
 def write_session(sim: Session | WangSession, directory: str | Path) -> Path:
     """Write a simulated session into a directory that :func:`read_session` reads back.
 
@@ -217,38 +205,38 @@ def _write_turntable_session(sim: WangSession, d: Path) -> None:
 
 
 def read_session(directory: str | Path) -> Session | WangSession:
-    """Read a directory written by :func:`write_session`: a :class:`Session`, or a ``WangSession``."""
+    """Read a directory written by :func:`write_session`: a :class:`Session`, or a ``WangSession``.
+
+    A fault in ``session.json`` or a table is a ValueError naming the file and the entry or line
+    (:mod:`.sessionfile`).
+    """
+    from .sessionfile import load_meta, read_recording, read_table, segments
+
     d = Path(directory)
+    meta = load_meta(d)
     meta_path = d / "session.json"
-    if not meta_path.is_file():
-        raise ValueError(f"{d}: not a simulated session directory (no session.json)")
-    meta = json.loads(meta_path.read_text(encoding="utf-8"))
-    if meta.get("format") != "imucalib.session":
-        raise ValueError(f"{meta_path}: not an imucalib session file")
-    if meta.get("scenario") == "wang2019":  # turntable aggregates, not recordings
+    truth = Calibration.load(d / "truth.json") if (d / "truth.json").is_file() else None
+    if meta["scenario"] == "wang2019":  # turntable aggregates, not recordings
         from .wang2019 import WangSession
 
-        pos = np.loadtxt(d / "positions.csv", delimiter=",", skiprows=1, ndmin=2)
-        turns = np.loadtxt(d / "turns.csv", delimiter=",", skiprows=1, ndmin=2)
-        truth = Calibration.load(d / "truth.json") if (d / "truth.json").is_file() else None
+        pos = read_table(d / "positions.csv", 6)
+        turns = read_table(d / "turns.csv", 7)
         return WangSession(positions_acc=pos[:, :3], positions_gyro=pos[:, 3:6], turn_sum=turns[:, :3],
                            turn_sum2=turns[:, 3:6], turn_angle=turns[:, 6], truth=truth,
                            latitude_deg=meta.get("latitude_deg", 0.0),
                            turntable_error=meta.get("turntable_error", ""), options=meta.get("options", {}),
                            seed=meta.get("seed"))
-    units = meta["units"]
-    files = meta["files"]
+    units, files = meta["units"], meta["files"]
 
-    def segs(name):
-        return [Interval(s["start"], s["stop"], s["kind"]) for s in files[name]]
+    def rec_and_segments(name):
+        ivs = segments(meta_path, name, files[name])
+        return read_recording(d / name, units, ivs), ivs
 
-    rec = _read_rec(d / "recording.csv", units)
-    weightless = [_read_rec(d / n, units) for n in sorted(files) if n.startswith("weightless_")]
-    tests = [TossSequence(_read_rec(d / n, units), segs(n))
-             for n in sorted(files) if n.startswith("test_")]
-    truth = Calibration.load(d / "truth.json") if (d / "truth.json").is_file() else None
+    rec, ivs = rec_and_segments("recording.csv")
+    weightless = [rec_and_segments(n)[0] for n in sorted(files) if n.startswith("weightless_")]
+    tests = [TossSequence(*rec_and_segments(n)) for n in sorted(files) if n.startswith("test_")]
     return Session(scenario=meta["scenario"], seed=meta.get("seed"), recording=rec,
-                   segments=segs("recording.csv"), truth=truth, weightless=weightless,
+                   segments=ivs, truth=truth, weightless=weightless,
                    tests=tests, noise=meta.get("noise", {}), options=meta.get("options", {}))
 
 

@@ -1,0 +1,76 @@
+"""``imucalib apply``: a calibration applied to a recording, read as ``calibrate`` reads it.
+
+Every input ``calibrate`` takes is taken here: one CSV/MAT file, imu_tk's two
+files, a phone app's accelerometer and gyroscope files, a ROS bag (written
+back as a bag unless the output ends in ``.csv``).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..calibration import Calibration
+from ..io.atomic import refuse_overwriting_inputs
+from ._common import add_force_option, add_reader_options, check_verdict, print_json, read_recording, reading_progress
+
+__all__ = ["cmd_apply", "register"]
+
+
+def _is_bag(args: argparse.Namespace) -> bool:
+    from ..io.rosbag import is_rosbag
+
+    return args.reader == "rosbag" or (args.reader is None and len(args.data) == 1 and is_rosbag(Path(args.data[0])))
+
+
+def cmd_apply(args: argparse.Namespace) -> int:
+    """``imucalib apply``: :meth:`Calibration.apply` into a CSV, or a ROS bag calibrated topic by topic."""
+    from ..io import write_csv
+
+    refuse_overwriting_inputs([args.output], [args.calibration, *args.data])
+    cal = Calibration.load(args.calibration)
+    check_verdict(cal, args.calibration, args.force)
+    verdict = (cal.fit or {}).get("verdict")
+    if _is_bag(args) and Path(args.output).suffix.lower() != ".csv":
+        from ..io.rosbag import write_calibrated_bag
+
+        if len(args.data) != 1:
+            from ._common import CliError
+
+            raise CliError(f"a ROS bag is one input; got {len(args.data)}: {', '.join(args.data)}")
+        with reading_progress(args, f"calibrating {args.data[0]}") as bar:
+            summary = write_calibrated_bag(args.data[0], args.output, cal, topic=args.topic, progress=bar)
+        summary["calibration"] = str(args.calibration)
+        summary["verdict"] = verdict
+        if args.json:
+            return print_json(summary)
+        print(f"wrote {args.output}: {summary['corrected']} {summary['topic']} messages calibrated, "
+              f"{summary['copied']} other messages copied unchanged")
+        return 0
+    rec = read_recording(args, args.data)
+    out = cal.apply(rec)
+    write_csv(args.output, rec, calibrated_acc=out.acc, calibrated_gyro=out.gyro)
+    source = args.data[0] if len(args.data) == 1 else list(args.data)
+    if args.json:
+        return print_json({"input": source, "output": str(args.output), "samples": len(rec),
+                           "calibration": str(args.calibration), "method": cal.method, "verdict": verdict})
+    print(f"wrote {len(rec)} calibrated samples to {args.output}")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``apply`` to the ``imucalib`` sub-commands."""
+    p = sub.add_parser("apply", help="apply a calibration to a recording",
+                       description="Write the recording with calibrated columns added "
+                       "(every input row and column is kept). The data are read as 'calibrate' reads them: "
+                       "one CSV/MAT file, two imu_tk files (accelerometer, then gyroscope), a phone app's "
+                       "accelerometer and gyroscope files, or a ROS bag. A ROS bag is written as a bag "
+                       "with the IMU topic calibrated and everything else copied, unless "
+                       "OUTPUT ends in .csv. A rejected calibration is refused unless --force is given.")
+    p.add_argument("calibration", help="calibration file (JSON)")
+    p.add_argument("data", nargs="+", help="data file(s) to correct, as for calibrate")
+    p.add_argument("-o", "--output", required=True, help="output CSV file (or, for a ROS bag, the calibrated bag)")
+    p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    add_force_option(p)
+    add_reader_options(p)
+    p.set_defaults(func=cmd_apply)

@@ -1,0 +1,168 @@
+"""Checks every reader shares, and the Xsens MT Manager text export.
+
+* :func:`check_text`: a text input that is UTF-16 or binary is an error saying
+  so (the text readers read UTF-8 and ASCII);
+* :func:`check_distinct_columns`: one column named for two fields is an error;
+* :func:`check_against_header`: a unit option that contradicts the unit the
+  header writes is an error;
+* :func:`check_magnitudes`: readings too large for any sensor (beyond 1e15)
+  are an error, before arithmetic on them overflows;
+* :func:`note_physical_units`: readings taken as counts that look like m/s²,
+  g, rad/s or deg/s get a note saying so;
+* :func:`xsens_header`, :func:`read_xsens`: MT Manager's export (``//``
+  comment lines, then ``PacketCounter SampleTimeFine … Acc_X … Gyr_Z``,
+  usually tab-separated). ``SampleTimeFine`` counts ticks of 100 µs (10 kHz)
+  in an unsigned 32-bit counter; ``Acc_*`` are in m/s² and ``Gyr_*`` in rad/s
+  (Xsens's SI outputs). ``FreeAcc_*`` (gravity removed) cannot calibrate.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..recording import ImucalibWarning, Recording
+from .errors import ReaderError
+
+__all__ = ["check_against_header", "check_distinct_columns", "check_magnitudes", "check_text",
+           "note_physical_units", "read_xsens", "xsens_header"]
+
+#: readings beyond this are no sensor's (and their squares are near float overflow)
+LARGEST_READING = 1e15
+
+
+# --------------------------------------------------------------------- text
+def check_text(path: Path) -> None:
+    """Refuse UTF-16 and binary files before a text reader garbles them."""
+    if path.is_dir():
+        return
+    with path.open("rb") as f:
+        head = f.read(4096)
+    utf16 = head.startswith((b"\xff\xfe", b"\xfe\xff")) or (
+        len(head) >= 8 and head.count(b"\x00") * 3 >= len(head) and (head[1::2].count(0) > len(head) // 3
+                                                                        or head[0::2].count(0) > len(head) // 3))
+    if utf16:
+        raise ReaderError(f"{path}: the text is UTF-16 encoded; imucalib reads UTF-8 text: save it as UTF-8 "
+                          f"(in a spreadsheet or editor: Save As, encoding UTF-8; or iconv -f UTF-16 -t UTF-8 "
+                          f"'{path}' > '{path.with_name(path.stem + '-utf8' + path.suffix)}')")
+    if b"\x00" in head:
+        raise ReaderError(f"{path}: a binary file, not text; the text readers take CSV or imu_tk text "
+                          "(--reader mat for MATLAB files, a ROS bag is recognised from its content)")
+
+
+# ------------------------------------------------------------------ columns
+def check_distinct_columns(columns: Sequence[str] | None) -> None:
+    """Each of t, ax … gz needs its own column: one column named twice is an error."""
+    if columns is None:
+        return
+    fields = ("t", "ax", "ay", "az", "gx", "gy", "gz")
+    seen: dict[str, str] = {}
+    for field, c in zip(fields, columns, strict=False):
+        key = c.strip().lower()
+        if key == "-":
+            continue
+        if key in seen:
+            raise ReaderError(f"--columns names {c.strip()!r} for both {seen[key]} and {field}; each of "
+                              f"{','.join(fields)} needs its own column")
+        seen[key] = field
+
+
+def check_against_header(paths: Sequence[Path], reader: str, rec: Recording, acc_unit, gyro_unit, time_unit, *,
+                         unit_in: Callable, phone_specs: Callable) -> None:
+    """A unit option must agree with a unit the file's header writes (it does not override it).
+
+    ``unit_in(name)`` is the unit a column name writes; ``phone_specs(paths)`` the phone-app layouts.
+    """
+    given = {"ax": ("--acc-unit", acc_unit), "gx": ("--gyro-unit", gyro_unit), "t": ("--time-unit", time_unit)}
+    written: dict[str, tuple[str, str]] = {}
+    if reader == "csv" and rec.metadata.get("header"):
+        for field, name in (rec.metadata.get("columns") or {}).items():
+            if field in given and name is not None and unit_in(name) is not None:
+                written[field] = (name, unit_in(name))
+    elif reader == "phone":
+        specs = phone_specs(paths)
+        for spec in specs or []:
+            field = "ax" if spec.sensor == "acc" else "gx"
+            if spec.unit is not None:
+                written[field] = (f"{spec.app} {'accelerometer' if field == 'ax' else 'gyroscope'} file", spec.unit)
+    for field, (where, unit) in written.items():
+        flag, value = given[field]
+        if value is not None and value != unit:
+            raise ReaderError(f"{paths[0] if reader != 'phone' else ', '.join(map(str, paths))}: {flag} {value} "
+                              f"contradicts the header ({where!r} says {unit}); drop {flag} (the header's unit is "
+                              "used) or fix the header")
+
+
+def check_magnitudes(paths: Sequence[Path], rec: Recording) -> None:
+    for name, arr in (("accelerometer", rec.acc), ("angular rate", rec.gyro)):
+        big = np.abs(arr) > LARGEST_READING
+        if np.any(big):
+            i = int(np.nonzero(big.any(axis=1))[0][0])
+            raise ReaderError(f"{paths[0]}: sample {i + 1}: an {name} reading of {float(arr[big][0]):.3g} is beyond "
+                              "any sensor's range; check the columns and the file")
+
+
+def note_physical_units(paths: Sequence[Path], rec: Recording) -> None:
+    """A note when readings taken as counts look like m/s², g, rad/s or deg/s (static norm ≈ 9.81 or ≈ 1)."""
+    if rec.acc_unit != "counts" or len(rec) < 10:
+        return
+    norm = float(np.median(np.linalg.norm(rec.acc, axis=1)))
+    acc = "m/s^2" if 9.0 <= norm <= 10.6 else "g" if 0.9 <= norm <= 1.1 else None
+    if acc is None:
+        return
+    flags = [f"--acc-unit {acc}"]
+    looks = [f"the accelerometer like {acc} (median norm {norm:.3g})"]
+    if rec.gyro_unit == "counts":
+        rate = float(np.percentile(np.abs(rec.gyro), 99))
+        gyro = "rad/s" if rate <= 35.0 else "deg/s" if rate <= 2500.0 else None
+        if gyro is not None:
+            flags.append(f"--gyro-unit {gyro}")
+            looks.append(f"the gyroscope like {gyro} (99% of its readings within {rate:.3g})")
+    warnings.warn(f"{', '.join(map(str, paths))}: no unit given or written in a header, so the readings are taken "
+                  f"as counts; they look like physical units, {' and '.join(looks)}: if they are, pass "
+                  f"{' '.join(flags)}", ImucalibWarning, stacklevel=3)
+
+
+# -------------------------------------------------------------------- Xsens
+_XSENS_FIELDS = ("SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z")
+
+
+def xsens_header(path: Path) -> list[str] | None:
+    """The column names of an MT Manager text export (after its ``//`` lines), or None when it is not one."""
+    if path.is_dir() or path.suffix.lower() == ".mat":
+        return None
+    with path.open("r", encoding="utf-8-sig", errors="replace") as f:
+        for _ in range(200):
+            line = f.readline()
+            if not line:
+                return None
+            if line.startswith("//") or not line.strip():
+                continue
+            names = [c.strip().strip('"') for c in re.split(r"[\t,;]", line.strip())]
+            return names if "SampleTimeFine" in names and ("PacketCounter" in names or "Acc_X" in names) else None
+    return None
+
+
+def read_xsens(path: Path, names: list[str], acc_unit, gyro_unit, rate, time_unit, *, read_csv: Callable) -> Recording:
+    """An MT Manager export, read by ``read_csv(path, columns, acc_unit, gyro_unit, rate, time_unit)``."""
+    missing = [n for n in _XSENS_FIELDS[1:] if n not in names]
+    if missing:
+        free = " (FreeAcc is the acceleration with gravity taken out, which cannot calibrate)" \
+            if "FreeAcc_X" in names else ""
+        raise ReaderError(f"{path}: an Xsens MT Manager export without {', '.join(missing)}{free}; export "
+                          "Acc_X..Acc_Z (acceleration) and Gyr_X..Gyr_Z (rate of turn) with SampleTimeFine")
+    if rate is not None or time_unit is not None:
+        raise ReaderError(f"{path}: an Xsens MT Manager export carries its own time (SampleTimeFine, 100 us "
+                          "ticks); drop --rate and --time-unit")
+    with warnings.catch_warnings():  # the skipped // lines are this format's, not worth a note
+        warnings.filterwarnings("ignore", message=".*skipped .* lines? before the", category=ImucalibWarning)
+        rec = read_csv(path, list(_XSENS_FIELDS), acc_unit or "m/s^2", gyro_unit or "rad/s", None, "us")
+    ticks = rec.t * 1e6  # read as µs: the tick counts themselves
+    seconds = (ticks - ticks[0]) * 1e-4  # SampleTimeFine: 10 kHz
+    meta = {**rec.metadata, "format": "Xsens MT Manager", "time_unit": "100us", "t0": float(ticks[0]) * 1e-4}
+    return Recording(seconds, rec.acc, rec.gyro, acc_unit=rec.acc_unit, gyro_unit=rec.gyro_unit,
+                     temperature=rec.temperature, extra=rec.extra, metadata=meta)
