@@ -234,7 +234,9 @@ class TriadModel:
             ends = []
             for x_end in rng[i]:
                 if np.isfinite(x_end):
-                    ends.append(float(self.polynomial(np.full(3, x_end))[i]))
+                    k1, k2, k3 = self.scale[i], self.scale_quadratic[i], self.scale_cubic[i]
+                    with np.errstate(over="ignore"):  # an end beyond float range: the branch is unbounded
+                        ends.append(float(x_end * (k1 + x_end * (k2 + x_end * k3))))
                 else:  # unbounded branch: the cubic (or linear) term decides the sign
                     lead = self.scale_cubic[i] if self.scale_cubic[i] else self.scale[i]
                     ends.append(np.sign(lead) * np.sign(x_end) * np.inf)
