@@ -89,6 +89,9 @@ def add_reader_options(p: argparse.ArgumentParser) -> None:
                    help="unit of the time column (default: from the header or its values)")
     g.add_argument("--rate", type=positive_float, help="sampling rate [Hz] when there is no time column")
     g.add_argument("--variable", help="name of the matrix in a MATLAB .mat file")
+    g.add_argument("--mag-unit", choices=("counts", "uT", "gauss"),
+                   help="magnetometer unit of the mx,my,mz (or mag_x,…) columns (default: from the header, else "
+                   "counts)")
 
 
 def add_init_static_option(p: argparse.ArgumentParser) -> None:
@@ -116,12 +119,15 @@ def read(args: argparse.Namespace, paths: Sequence[str]):
     from ..io import read as read_files
 
     columns = args.columns.split(",") if args.columns else None
+    from ..io.magnetometer import attach_magnetometer
+
     with reading_progress(args, f"reading {paths[0]}") as bar:
-        return read_files(
+        data = read_files(
             list(paths), reader=args.reader, columns=columns, acc_unit=args.acc_unit,
             gyro_unit=args.gyro_unit, rate=args.rate, variable=args.variable,
             time_unit=args.time_unit, topic=args.topic, progress=bar,
         )
+    return attach_magnetometer(data, getattr(args, "mag_unit", None)) if isinstance(data, Recording) else data
 
 
 class _LateProgress:

@@ -87,6 +87,8 @@ def print_calibration(cal: Calibration) -> None:
                 print(f"  intervals: {len(v)} (sample ranges in the JSON)")
             elif k == "uncertainty":
                 continue
+            elif isinstance(v, list) and len(v) > 6:
+                print(f"  {k}: {len(v)} values (in the JSON)")
             elif k == "pose_coverage":
                 print("  pose_coverage (gravity component, min..max): "
                       + "  ".join(f"{a} {lo:+.2f}..{hi:+.2f}" for a, (lo, hi) in v.items()))
@@ -143,8 +145,12 @@ def _method_options(args: argparse.Namespace) -> dict:
     if zhang and args.method != "zhang2021":
         raise CliError(f"{' and '.join(zhang)} {'apply' if len(zhang) > 1 else 'applies'} to --method zhang2021 "
                        f"only, not {args.method}")
+    sensors = {k: v for k, v in (("temperature_model", args.temperature_model), ("mag_field", args.mag_field),
+                                 ("mag_hemisphere", args.mag_hemisphere)) if v is not None}
+    if args.no_magnetometer:
+        sensors["magnetometer"] = False
     return {**{k: v for k, v in (("init_static", args.init_static), ("detector", args.detector)) if v is not None},
-            **ferraris, **dict(zhang.values())}
+            **ferraris, **dict(zhang.values()), **sensors}
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
@@ -284,6 +290,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sections", metavar="FILE", help="ferraris: a JSON object of named sample ranges "
                    "[start, stop): x_p, x_a, y_p, y_a, z_p, z_a (each axis up, down) and x_rot, y_rot, z_rot "
                    "(the turns), instead of finding them")
+    p.add_argument("--temperature-model", choices=("linear",), help="a session recorded while the temperature "
+                   "changed (a warm-up): biases, and scale factors where the data show it, linear in temperature "
+                   "(needs a temperature column)")
+    g = p.add_argument_group("magnetometer (when the data have mx, my, mz columns)")
+    g.add_argument("--no-magnetometer", action="store_true", help="leave the magnetometer uncalibrated")
+    g.add_argument("--mag-field", type=positive_float, metavar="UT", help="the local field magnitude [µT] (e.g. "
+                   "from a geomagnetic model): the calibrated field in µT (default: normalised for counts)")
+    g.add_argument("--mag-hemisphere", choices=("north", "south"), help="magnetic hemisphere: the field points "
+                   "below (north, the default) or above (south) the horizontal")
     p.add_argument("--json", action="store_true", help="print the calibration as JSON on stdout")
     add_reader_options(p)
     p.set_defaults(func=cmd_calibrate)

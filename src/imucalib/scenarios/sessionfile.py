@@ -116,6 +116,7 @@ def read_table(path: Path, ncols: int) -> np.ndarray:
 def read_recording(path: Path, units: dict, intervals: list[Interval]) -> Recording:
     """One recording of the session (``t,ax,ay,az,gx,gy,gz`` in the session's units), its segments checked."""
     from ..io import read
+    from ..io.magnetometer import attach_magnetometer
 
     rec = read(path, reader="csv", columns=["t", "ax", "ay", "az", "gx", "gy", "gz"],
                acc_unit=units["accelerometer"], gyro_unit=units["gyroscope"], time_unit="s")
@@ -123,9 +124,7 @@ def read_recording(path: Path, units: dict, intervals: list[Interval]) -> Record
         if iv.stop > len(rec):
             raise SessionFileError(f"{path}: session.json gives it a segment up to sample {iv.stop}, but it has "
                                    f"{len(rec)} samples")
-    mag = None
-    if all(k in rec.extra for k in ("mx", "my", "mz")):  # a simulated magnetometer
-        mag = np.column_stack([np.asarray(rec.extra[k], dtype=float) for k in ("mx", "my", "mz")])
+    rec = attach_magnetometer(rec, units.get("magnetometer") if "mx" in rec.extra else None)
     return Recording(rec.t, rec.acc, rec.gyro, acc_unit=rec.acc_unit, gyro_unit=rec.gyro_unit,
-                     metadata={"source": [str(path)]}, temperature=rec.temperature, mag=mag,
-                     mag_unit=units.get("magnetometer", "counts"))
+                     metadata={"source": [str(path)]}, temperature=rec.temperature, mag=rec.mag,
+                     mag_unit=rec.mag_unit)
