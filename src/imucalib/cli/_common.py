@@ -78,6 +78,7 @@ def add_reader_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--reader", choices=("csv", "imutk", "mat", "phone", "rosbag", "session"),
                    help="input format (default: guessed from the file)")
     g.add_argument("--topic", help="ROS bags: the sensor_msgs/Imu topic (needed when there are several)")
+    g.add_argument("--mag-topic", help="ROS bags: a sensor_msgs/MagneticField topic to calibrate beside the IMU")
     g.add_argument("--columns", metavar="T,AX,AY,AZ,GX,GY,GZ",
                    help="comma-separated column names or 0-based indices in the order t,ax,ay,az,gx,gy,gz, "
                    "'-' for t when there is no time column (with --rate), e.g. --columns -,0,1,2,3,4,5")
@@ -127,6 +128,12 @@ def read(args: argparse.Namespace, paths: Sequence[str]):
             gyro_unit=args.gyro_unit, rate=args.rate, variable=args.variable,
             time_unit=args.time_unit, topic=args.topic, progress=bar,
         )
+    if getattr(args, "mag_topic", None):
+        if data.metadata.get("reader") != "rosbag":
+            raise CliError("--mag-topic applies to ROS bags")
+        from ..io.rosbag import add_magnetic_field
+
+        return add_magnetic_field(data, paths[0], args.mag_topic)
     return attach_magnetometer(data, getattr(args, "mag_unit", None)) if isinstance(data, Recording) else data
 
 

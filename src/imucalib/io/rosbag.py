@@ -37,9 +37,11 @@ from . import bagraw
 from .atomic import atomic_create
 from .errors import ReaderError
 
-__all__ = ["read_rosbag", "is_rosbag", "write_calibrated_bag"]
+__all__ = ["MAG_TYPE", "add_magnetic_field", "is_rosbag", "read_rosbag", "write_calibrated_bag"]
 
 IMU_TYPE = "sensor_msgs/msg/Imu"
+#: the magnetometer's message type (field in tesla)
+MAG_TYPE = "sensor_msgs/msg/MagneticField"
 
 
 def is_rosbag(path: Path) -> bool:
@@ -274,7 +276,8 @@ def _read_topic(reader, path: Path, topic: str, progress=None):
     return logged[order], stamp, readings, frames, fields_at
 
 
-def read_rosbag(path: str | Path, *, topic: str | None = None, progress=None) -> Recording:
+def read_rosbag(path: str | Path, *, topic: str | None = None, progress=None, mag_topic: str | None = None
+                ) -> Recording:
     """Read the IMU messages of one topic of a ROS bag.
 
     Parameters
@@ -285,8 +288,72 @@ def read_rosbag(path: str | Path, *, topic: str | None = None, progress=None) ->
         The ``sensor_msgs/Imu`` topic; needed only when the bag has several.
     progress : callable, optional
         ``progress(done, total)`` as messages are read (e.g. :class:`imucalib.progress.Progress`).
+    mag_topic : str, optional
+        A ``sensor_msgs/MagneticField`` topic beside it (:func:`add_magnetic_field`).
     """
-    path = Path(path)
+    rec = _read_imu(Path(path), topic, progress)
+    return rec if mag_topic is None else add_magnetic_field(rec, path, mag_topic)
+
+
+def add_magnetic_field(recording: Recording, path: str | Path, mag_topic: str) -> Recording:
+    """``recording`` (read from the bag ``path``) with the field of a ``sensor_msgs/MagneticField`` topic.
+
+    The field [T → µT] is interpolated linearly onto the IMU's stamps; IMU messages outside the span
+    the magnetometer covers are left out, with a note.
+    """
+    if "start_time_ns" not in recording.metadata:
+        raise ValueError("a magnetometer topic goes with a recording read from the same ROS bag")
+    stamp, field = _read_magnetic_field(Path(path), mag_topic)
+    imu_ns = recording.metadata["start_time_ns"] + np.round(recording.t * 1e9)
+    keep = (imu_ns >= stamp[0]) & (imu_ns <= stamp[-1])
+    if not np.any(keep):
+        raise _reader_error(f"{path}: the magnetometer topic {mag_topic!r} and the IMU topic do not overlap in time")
+    if not np.all(keep):
+        warnings.warn(f"{path}: {int((~keep).sum())} IMU messages outside the span of {mag_topic!r} were left out",
+                      ImucalibWarning, stacklevel=2)
+    sel = np.nonzero(keep)[0]
+    sub = recording[int(sel[0]):int(sel[-1]) + 1]
+    x = (imu_ns[sel] - stamp[0]) * 1e-9
+    xs = (stamp - stamp[0]) * 1e-9
+    mag = np.column_stack([np.interp(x, xs, field[:, k]) for k in range(3)]) * 1e6  # T → µT
+    return Recording(sub.t, sub.acc, sub.gyro, acc_unit=sub.acc_unit, gyro_unit=sub.gyro_unit,
+                     metadata={**sub.metadata, "mag_topic": mag_topic}, mag=mag, mag_unit="uT")
+
+
+def _read_magnetic_field(path: Path, topic: str) -> tuple[np.ndarray, np.ndarray]:
+    """Stamps [ns] (increasing) and fields [T] (N, 3) of a ``sensor_msgs/MagneticField`` topic."""
+    reader = _open(path)
+    try:
+        conns = [c for c in reader.connections if c.topic == topic]
+        if not conns or any(c.msgtype != MAG_TYPE for c in conns):
+            mags = sorted({c.topic for c in reader.connections if c.msgtype == MAG_TYPE})
+            why = "no such topic" if not conns else f"it is {conns[0].msgtype}, not sensor_msgs/MagneticField"
+            raise _reader_error(f"{path}: magnetometer topic {topic!r}: {why}; MagneticField topics: "
+                                f"{', '.join(mags) or 'none'}")
+        rows = []
+        for k, (conn, log_ns, raw) in enumerate(reader.messages(connections=conns)):
+            try:
+                m = reader.deserialize(raw, conn.msgtype)
+            except Exception as exc:  # the library's own errors on damaged bytes
+                raise _damaged(path, topic, k, exc) from None
+            ns = int(m.header.stamp.sec) * 10**9 + int(m.header.stamp.nanosec) or int(log_ns)
+            f = m.magnetic_field
+            rows.append((ns, f.x, f.y, f.z))
+    finally:
+        reader.close()
+    if len(rows) < 2:
+        raise _reader_error(f"{path}: magnetometer topic {topic!r} has {len(rows)} message(s)")
+    data = np.array(rows, dtype=np.float64)
+    stamp = np.array([r[0] for r in rows], dtype=np.int64)
+    order = np.argsort(stamp, kind="stable")
+    stamp, field = stamp[order], data[order, 1:]
+    keep = np.concatenate([[True], np.diff(stamp) > 0])
+    if not np.all(np.isfinite(field[keep])):
+        raise _reader_error(f"{path}: magnetometer topic {topic!r}: a reading is not a finite number")
+    return stamp[keep], field[keep]
+
+
+def _read_imu(path: Path, topic: str | None, progress) -> Recording:
     reader = _open_for_reading(path)
     try:
         topic = _choose_topic(reader, topic, path)
