@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
-from pathlib import Path
 
 import numpy as np
 
@@ -80,17 +79,10 @@ def add_force_option(p: argparse.ArgumentParser) -> None:
 # ------------------------------------------------------------------ reading
 def read(args: argparse.Namespace, paths: Sequence[str]):
     """The data in ``paths`` as the reader options say: a recording or a simulated session."""
-    from ..io.rosbag import is_rosbag
-
-    if args.reader == "session" or (args.reader is None and len(paths) == 1 and Path(paths[0]).is_dir()
-                                    and not is_rosbag(Path(paths[0]))):
-        from ..scenarios import read_session
-
-        return read_session(paths[0])
-    from ..io import read as read_files
+    from ..io.data import read_data
 
     columns = args.columns.split(",") if args.columns else None
-    return read_files(
+    return read_data(
         list(paths), reader=args.reader, columns=columns, acc_unit=args.acc_unit,
         gyro_unit=args.gyro_unit, rate=args.rate, variable=args.variable,
         time_unit=args.time_unit, topic=args.topic,
