@@ -11,8 +11,10 @@ files (:meth:`Store.export`).
 
 The file is an SQLite database (the standard library's :mod:`sqlite3`) in
 write-ahead-log mode: each record is written in its own transaction, so a
-run killed at any point (SIGKILL, power loss) leaves the store as of its last
-complete record, readable while a batch writes to it. This is the one file
+run killed at any point (SIGKILL) leaves the store as of its last complete
+record (after a power loss, of one of its last ones: the next run redoes the
+others), readable while a batch writes to it. Keep it on a local disk (WAL
+needs shared memory, which network file systems do not give). This is the one file
 the package writes without :mod:`imucalib.io.atomic` (a database is updated
 in place by its own journal); exports go through it as every other output.
 
