@@ -269,3 +269,8 @@ def test_rows_read_from_fsspec_urls_match_the_local_files(fleet, tmp_path):
     assert remote["source_sha256"] == local["source_sha256"]
     assert Calibration.from_dict(remote["calibration"]).parameters() == \
         Calibration.from_dict(local["calibration"]).parameters()
+
+
+def test_montecarlo_scheduler_is_refused_for_the_papers_own_experiments(capsys):
+    assert main(["montecarlo", "--scenario", "wang2019", "--method", "wang2019", "--scheduler", "local"]) == 2
+    assert "the wang2019 experiment runs on local processes" in capsys.readouterr().err

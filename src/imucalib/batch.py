@@ -71,8 +71,8 @@ from .io.atomic import refuse_overwriting_inputs
 from .recording import STANDARD_GRAVITY
 from .store import Store, canonical_json, parse_time
 
-__all__ = ["MANIFEST_COLUMNS", "BatchError", "ManifestError", "Row", "execute", "read_manifest", "run_batch",
-           "run_row"]
+__all__ = ["MANIFEST_COLUMNS", "BatchError", "ManifestError", "Row", "dask_client", "execute", "is_url",
+           "read_manifest", "run_batch", "run_row"]
 
 #: the manifest's columns; ``device`` and ``files`` are required
 MANIFEST_COLUMNS = ("device", "files", "method", "model", "reader", "columns", "acc_unit", "gyro_unit",
