@@ -3,7 +3,8 @@
 A manifest of ``--devices`` simulated hand-held sessions (the ``handheld`` scenario's defaults: a 30 s rest
 and 30 poses, about 3.5 min at 100 Hz, each device with its own drawn truth) is calibrated with
 tedaldi2014 into a new store, ``--runs`` times per configuration; the figure is the median wall time of
-the whole ``run_batch`` call (pool or cluster start, reading, hashing, calibrating, storing). The
+the whole ``run_batch`` call (pool or cluster start, reading, hashing, calibrating, storing), the
+configurations taking turns run by run. The
 LocalCluster's start-up is also timed on its own. Then the time of one calibration of a 10-minute 100 Hz
 session (reading, hashing and calibrating one manifest row, :func:`imucalib.batch.run_row`).
 
@@ -36,18 +37,15 @@ def _fleet(directory: Path, devices: int) -> Path:
     return manifest
 
 
-def _time_batch(manifest: Path, runs: int, **where) -> list[float]:
-    times = []
-    for r in range(runs + 1):  # the first one warms the file cache and the imports
-        with tempfile.TemporaryDirectory(dir=manifest.parent) as tmp:
-            t0 = time.perf_counter()
-            result = run_batch(manifest, Path(tmp) / "store.sqlite", **where)
-            elapsed = time.perf_counter() - t0
-        if result["calibrated"] + result["failed"] != result["rows"]:
-            raise SystemExit(f"a run skipped rows: {result}")
-        if r:
-            times.append(elapsed)
-    return times
+def _time_batch(manifest: Path, where: dict) -> float:
+    """Wall time [s] of one batch of ``manifest`` into a new store."""
+    with tempfile.TemporaryDirectory(dir=manifest.parent) as tmp:
+        t0 = time.perf_counter()
+        result = run_batch(manifest, Path(tmp) / "store.sqlite", **where)
+        elapsed = time.perf_counter() - t0
+    if result["calibrated"] + result["failed"] != result["rows"]:
+        raise SystemExit(f"a run skipped rows: {result}")
+    return elapsed
 
 
 def _long_session(directory: Path, minutes: float) -> tuple[Path, float, int]:
@@ -78,10 +76,15 @@ def main() -> None:
         configs = {"workers_1": {"workers": 1}, "workers_2": {"workers": 2}}
         if not args.no_cluster:
             configs["localcluster_2"] = {"scheduler": "local", "workers": 2}
-        for name, where in configs.items():
-            times = _time_batch(manifest, args.runs, **where)
-            med = statistics.median(times)
-            out[name] = {"median_s": round(med, 3), "times_s": [round(t, 3) for t in times],
+        times: dict[str, list[float]] = {name: [] for name in configs}
+        for where in configs.values():  # warm the file cache and the imports
+            _time_batch(manifest, where)
+        for _ in range(args.runs):  # configurations interleaved: a change of the machine's load hits all of them
+            for name, where in configs.items():
+                times[name].append(_time_batch(manifest, where))
+        for name in configs:
+            med = statistics.median(times[name])
+            out[name] = {"median_s": round(med, 3), "times_s": [round(t, 3) for t in times[name]],
                          "calibrations_per_hour": round(args.devices / med * 3600)}
         out["speedup_2_workers"] = round(out["workers_1"]["median_s"] / out["workers_2"]["median_s"], 3)
         if not args.no_cluster:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import sqlite3
 
 import numpy as np
 import pytest
@@ -153,6 +154,15 @@ def test_what_is_not_a_store_is_refused(tmp_path):
     assert not (tmp_path / "none.sqlite").exists()
     with pytest.raises(StoreError, match="is a directory"):
         Store(tmp_path)
+    other = tmp_path / "other.db"
+    with sqlite3.connect(other) as db:
+        db.execute("CREATE TABLE parts (name TEXT)")
+    db.close()
+    with pytest.raises(StoreError, match="other.db: an SQLite file, but not an imucalib store"):
+        Store(other)
+    with sqlite3.connect(other) as db:  # left as it was: not switched to write-ahead logging
+        assert db.execute("PRAGMA journal_mode").fetchone()[0] == "delete"
+    db.close()
 
 
 def test_parse_time():

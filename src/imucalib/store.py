@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import functools
 import hashlib
 import json
 import re
@@ -150,6 +151,18 @@ def _safe_name(text: str) -> str:
     return name[:100]
 
 
+def _sql_errors(method):
+    """A :class:`Store` method whose database errors (disk full, a read-only file) become :class:`StoreError`."""
+    @functools.wraps(method)
+    def wrapped(self, *args, **kwargs):
+        try:
+            return method(self, *args, **kwargs)
+        except sqlite3.Error as exc:
+            raise StoreError(f"{self.path}: {exc}") from None
+
+    return wrapped
+
+
 class Store:
     """A calibration store in the SQLite file ``path``.
 
@@ -175,9 +188,7 @@ class Store:
             self._db = sqlite3.connect(self.path, timeout=60.0, isolation_level=None)
         except sqlite3.Error as exc:
             raise StoreError(f"{self.path}: cannot open the store ({exc})") from None
-        try:
-            self._db.execute("PRAGMA journal_mode=WAL")
-            self._db.execute("PRAGMA synchronous=NORMAL")
+        try:  # look before changing anything: another program's database is left as it is
             version = self._db.execute("PRAGMA user_version").fetchone()[0]
             tables = {r[0] for r in self._db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
         except sqlite3.DatabaseError as exc:
@@ -191,8 +202,14 @@ class Store:
         elif tables or not create:
             self._db.close()
             raise StoreError(f"{self.path}: an SQLite file, but not an imucalib store (no calibrations table)")
-        else:
-            self._db.executescript(f"BEGIN; {_SCHEMA} PRAGMA user_version = {SCHEMA_VERSION}; COMMIT;")
+        try:
+            self._db.execute("PRAGMA journal_mode=WAL")
+            self._db.execute("PRAGMA synchronous=NORMAL")
+            if "calibrations" not in tables:
+                self._db.executescript(f"BEGIN; {_SCHEMA} PRAGMA user_version = {SCHEMA_VERSION}; COMMIT;")
+        except sqlite3.Error as exc:
+            self._db.close()
+            raise StoreError(f"{self.path}: cannot use the store ({exc})") from None
 
     # ------------------------------------------------------------ lifecycle
     def close(self) -> None:
@@ -207,10 +224,12 @@ class Store:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    @_sql_errors
     def __len__(self) -> int:
         return int(self._db.execute("SELECT COUNT(*) FROM calibrations").fetchone()[0])
 
     # --------------------------------------------------------------- writing
+    @_sql_errors
     def add(self, record: dict[str, Any], *, replace: bool = False) -> int | None:
         """Write one record in its own transaction; its id, or None when its key is already stored.
 
@@ -273,6 +292,7 @@ class Store:
         self._db.execute("COMMIT")
 
     # --------------------------------------------------------------- reading
+    @_sql_errors
     def source_hashes(self) -> dict[tuple[str, str, str], set[str]]:
         """``(device, recorded_at or "", settings JSON) → {source hashes}`` of every record (what a batch skips)."""
         out: dict[tuple[str, str, str], set[str]] = {}
@@ -281,6 +301,7 @@ class Store:
             out.setdefault((device, at or "", settings), set()).add(source)
         return out
 
+    @_sql_errors
     def records(self, device: str | None = None, *, with_calibration: bool = False) -> list[dict[str, Any]]:
         """Every record (of ``device``), oldest recording first: dicts of :data:`SUMMARY_COLUMNS`.
 
@@ -304,10 +325,12 @@ class Store:
             out.append(rec)
         return out
 
+    @_sql_errors
     def devices(self) -> list[str]:
         """The devices with at least one record, sorted."""
         return [r[0] for r in self._db.execute("SELECT DISTINCT device FROM calibrations ORDER BY device")]
 
+    @_sql_errors
     def counts(self) -> dict[str, int]:
         """``{"records", "ok", "failed", "accepted", "suspect", "rejected", "devices"}``."""
         q = self._db.execute
