@@ -8,8 +8,9 @@ configurations taking turns run by run. The
 LocalCluster's start-up is also timed on its own. Then the time of one calibration of a 10-minute 100 Hz
 session (reading, hashing and calibrating one manifest row, :func:`imucalib.batch.run_row`).
 
-The machine's load average is printed at the start and the end: other work on the machine lowers the
-figures, and the 2-process speed-up most.
+Other work on the machine lowers the figures, and the 2-process speed-up most: the load average is
+printed at the start and the end, and for each timed run the CPU seconds that other programs used on the
+machine meanwhile (``other_programs_cpu_s``; 0 on a quiet machine).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import tempfile
 import time
@@ -37,15 +39,35 @@ def _fleet(directory: Path, devices: int) -> Path:
     return manifest
 
 
-def _time_batch(manifest: Path, where: dict) -> float:
-    """Wall time [s] of one batch of ``manifest`` into a new store."""
+def _machine_busy_s() -> float | None:
+    """CPU seconds the whole machine has been busy (all cores; Linux /proc/stat), or None elsewhere."""
+    try:
+        fields = [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
+    except (OSError, ValueError):
+        return None
+    user, nice, system, _idle, _iowait, irq, softirq, steal = fields[:8]
+    return (user + nice + system + irq + softirq + steal) / os.sysconf("SC_CLK_TCK")
+
+
+def _own_cpu_s() -> float:
+    """CPU seconds of this process and its ended children (pool workers, the cluster's processes)."""
+    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def _time_batch(manifest: Path, where: dict) -> tuple[float, float | None]:
+    """Wall time [s] of one batch of ``manifest`` into a new store, and the CPU seconds other programs
+    used on the machine meanwhile (what makes the figure noisy)."""
     with tempfile.TemporaryDirectory(dir=manifest.parent) as tmp:
+        busy0, own0 = _machine_busy_s(), _own_cpu_s()
         t0 = time.perf_counter()
         result = run_batch(manifest, Path(tmp) / "store.sqlite", **where)
         elapsed = time.perf_counter() - t0
+        busy1, own1 = _machine_busy_s(), _own_cpu_s()
     if result["calibrated"] + result["failed"] != result["rows"]:
         raise SystemExit(f"a run skipped rows: {result}")
-    return elapsed
+    other = None if busy0 is None else max(0.0, (busy1 - busy0) - (own1 - own0))
+    return elapsed, other
 
 
 def _long_session(directory: Path, minutes: float) -> tuple[Path, float, int]:
@@ -77,15 +99,19 @@ def main() -> None:
         if not args.no_cluster:
             configs["localcluster_2"] = {"scheduler": "local", "workers": 2}
         times: dict[str, list[float]] = {name: [] for name in configs}
+        others: dict[str, list[float | None]] = {name: [] for name in configs}
         for where in configs.values():  # warm the file cache and the imports
             _time_batch(manifest, where)
         for _ in range(args.runs):  # configurations interleaved: a change of the machine's load hits all of them
             for name, where in configs.items():
-                times[name].append(_time_batch(manifest, where))
+                elapsed, other = _time_batch(manifest, where)
+                times[name].append(elapsed)
+                others[name].append(other)
         for name in configs:
             med = statistics.median(times[name])
             out[name] = {"median_s": round(med, 3), "times_s": [round(t, 3) for t in times[name]],
-                         "calibrations_per_hour": round(args.devices / med * 3600)}
+                         "calibrations_per_hour": round(args.devices / med * 3600),
+                         "other_programs_cpu_s": [None if o is None else round(o, 1) for o in others[name]]}
         out["speedup_2_workers"] = round(out["workers_1"]["median_s"] / out["workers_2"]["median_s"], 3)
         if not args.no_cluster:
             out["speedup_localcluster_2"] = round(out["workers_1"]["median_s"] / out["localcluster_2"]["median_s"],
