@@ -23,10 +23,10 @@ import os
 import time
 import traceback
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import numpy as np
 
+from .batch import execute
 from .calibration import Calibration
 from .kinematics import IntervalIntegrator, five_point_derivative, quat_to_matrix
 from .methods.zhang2021 import lever_arm_matrix
@@ -134,7 +134,8 @@ def montecarlo(
     *,
     model: str | None = None,
     runs: int = 20,
-    workers: int = 1,
+    workers: int | None = 1,
+    scheduler: str | None = None,
     seed: int = 0,
     baseline: str | None = None,
     progress: Callable[[int, int], None] | None = None,
@@ -144,7 +145,11 @@ def montecarlo(
     """Seeded runs of simulate → calibrate → compare with the truth.
 
     Run ``i`` uses seed ``seed + i``, so the summary does not depend on
-    ``workers``. Returns ``{"scenario", "method", "model", "runs",
+    where the runs run: ``workers`` local processes (a pool that lives for
+    the whole study), or with ``scheduler`` one Dask task per run on a
+    ``"local"`` LocalCluster of ``workers`` processes (None: one per core) or
+    the cluster at an address (:func:`imucalib.batch.execute`). Returns
+    ``{"scenario", "method", "model", "runs",
     "parameters": [{"name", "truth", "mean", "std", "rms_error"}, …],
     "metrics": {…}, "verdicts": {"accepted": n, "suspect": n, "rejected": n},
     "failures": [{"seed", "message"}, …]}``; ``verdicts`` counts the runs that
@@ -154,24 +159,13 @@ def montecarlo(
 
     if runs < 1:
         raise ValueError(f"runs must be ≥ 1; got {runs}")
-    workers = max(1, min(int(workers), os.cpu_count() or 1, runs))
+    if scheduler is None:
+        workers = max(1, min(int(workers or 1), os.cpu_count() or 1, runs))
     sim_options = sim_options or {}
     method_options = method_options or {}
     jobs = [(scenario, method, model, seed + i, baseline, sim_options, method_options)
             for i in range(runs)]
-    results: list[dict] = []
-    if workers == 1:
-        for i, job in enumerate(jobs):
-            results.append(_one_run(job))
-            if progress:
-                progress(i + 1, runs)
-    else:
-        with ProcessPoolExecutor(max_workers=workers) as ex:
-            futures = [ex.submit(_one_run, job) for job in jobs]
-            for i, fut in enumerate(as_completed(futures)):
-                results.append(fut.result())
-                if progress:
-                    progress(i + 1, runs)
+    results = [r for _, r in execute(_one_run, jobs, workers=workers, scheduler=scheduler, progress=progress)]
     results.sort(key=lambda r: r["seed"])
     ok = [r for r in results if "error" not in r]
     failures = [{"seed": r["seed"], "message": r["error"]} for r in results if "error" in r]

@@ -6,7 +6,6 @@ import argparse
 import sys
 import time
 from collections.abc import Callable, Sequence
-from pathlib import Path
 
 import numpy as np
 
@@ -110,31 +109,16 @@ def add_force_option(p: argparse.ArgumentParser) -> None:
 # ------------------------------------------------------------------ reading
 def read(args: argparse.Namespace, paths: Sequence[str]):
     """The data in ``paths`` as the reader options say: a recording or a simulated session."""
-    from ..io.rosbag import is_rosbag
-
-    if args.reader == "session" or (args.reader is None and len(paths) == 1 and Path(paths[0]).is_dir()
-                                    and not is_rosbag(Path(paths[0]))):
-        from ..scenarios import read_session
-
-        return read_session(paths[0])
-    from ..io import read as read_files
+    from ..io.data import read_data
 
     columns = args.columns.split(",") if args.columns else None
-    from ..io.magnetometer import attach_magnetometer
-
     with reading_progress(args, f"reading {paths[0]}") as bar:
-        data = read_files(
+        return read_data(
             list(paths), reader=args.reader, columns=columns, acc_unit=args.acc_unit,
             gyro_unit=args.gyro_unit, rate=args.rate, variable=args.variable,
             time_unit=args.time_unit, topic=args.topic, progress=bar,
+            mag_unit=getattr(args, "mag_unit", None), mag_topic=getattr(args, "mag_topic", None),
         )
-    if getattr(args, "mag_topic", None):
-        if data.metadata.get("reader") != "rosbag":
-            raise CliError("--mag-topic applies to ROS bags")
-        from ..io.rosbag import add_magnetic_field
-
-        return add_magnetic_field(data, paths[0], args.mag_topic)
-    return attach_magnetometer(data, getattr(args, "mag_unit", None)) if isinstance(data, Recording) else data
 
 
 class _LateProgress:

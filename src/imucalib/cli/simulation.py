@@ -9,6 +9,7 @@ import numpy as np
 
 from ..scenarios import SCENARIOS
 from ._common import CliError, Progress, positive_float, print_json, progress
+from .fleet import add_scheduler_option
 
 __all__ = ["register", "scenario_choices"]
 
@@ -82,13 +83,17 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     """``imucalib montecarlo``: :func:`imucalib.evaluate.montecarlo`, or a paper's own Monte Carlo experiment."""
     from ..evaluate import montecarlo
 
+    if args.scheduler is not None and args.scenario in (*TURNTABLE_SCENARIOS, *EXPERIMENT_SCENARIOS):
+        raise CliError(f"--scheduler runs the simulate → calibrate Monte Carlo of {', '.join(SCENARIOS)}; the "
+                       f"{args.scenario} experiment runs on local processes (--workers)")
+    workers = args.workers or 1
     if args.scenario == "wang2019":
         if args.method != "wang2019":
             raise CliError("the wang2019 scenario holds turntable data: use --method wang2019")
         from ..scenarios.wang2019 import montecarlo as wang_mc
 
         result = wang_mc(args.runs, turntable_error=args.turntable_error, seed=args.seed,
-                         initial=args.initial, workers=args.workers, noise=_noise_options(args),
+                         initial=args.initial, workers=workers, noise=_noise_options(args),
                          dwell_s=args.dwell)
         return print_json(result) if args.json else _print_wang_montecarlo(result)
     if args.scenario == "qureshi2017":
@@ -96,13 +101,14 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
             raise CliError("the qureshi2017 scenario reproduces Qureshi 2017 §IV: use --method qureshi2017")
         from ..scenarios.qureshi2017 import montecarlo as qureshi_mc
 
-        result = qureshi_mc(args.runs, seed=args.seed, workers=args.workers)
+        result = qureshi_mc(args.runs, seed=args.seed, workers=workers)
         return print_json(result) if args.json else _print_qureshi_montecarlo(result)
     if _noise_options(args) is not None:
         raise CliError("--noise-acc/--noise-gyro apply to the wang2019 scenario here; for the others "
                        "write a session with `imucalib simulate --noise-…` and calibrate it")
     result = montecarlo(args.scenario, args.method, model=args.model, runs=args.runs,
-                        workers=args.workers, seed=args.seed, baseline=args.baseline,
+                        workers=workers if args.scheduler is None else args.workers,
+                        scheduler=args.scheduler, seed=args.seed, baseline=args.baseline,
                         progress=Progress(f"montecarlo {args.method} on {args.scenario}", unit="run"))
     if args.json:
         return print_json(result)
@@ -235,7 +241,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--method", required=True)
     p.add_argument("--model", help="model variant")
     p.add_argument("--runs", type=int, default=20)
-    p.add_argument("--workers", type=int, default=1, help="parallel processes")
+    p.add_argument("--workers", type=int, help="parallel processes (default 1); with --scheduler local, the "
+                   "LocalCluster's workers (default one per core)")
+    add_scheduler_option(p)
     p.add_argument("--seed", type=int, default=0, help="seed of the first run (run i: seed+i)")
     p.add_argument("--baseline", help="also run this method and report the §IV-B reductions")
     _add_wang_options(p)

@@ -1,0 +1,579 @@
+"""Batch calibration: every recording of a manifest into a calibration store, on local processes or Dask.
+
+A manifest is a CSV file with one recording per line. Columns (a header line names them; any order):
+
+=============== ===========================================================================
+``device``      required: the device's name or serial number
+``files``       required: the data files, ``;``-separated, relative to the manifest (or absolute, or
+                fsspec URLs such as ``s3://bucket/run.csv`` when ``fsspec`` is installed)
+``method``      calibration method (default ``tedaldi2014``, as ``imucalib calibrate``)
+``model``       model variant
+``reader``      input format (``csv``, ``imutk``, ``mat``, ``phone``, ``rosbag``, ``session``)
+``columns``     column names or indices in the order t,ax,ay,az,gx,gy,gz (``,`` or ``;``-separated)
+``acc_unit``    ``counts``, ``g``, ``m/s^2``
+``gyro_unit``   ``counts``, ``deg/s``, ``rad/s``
+``time_unit``   ``s``, ``ms``, ``us``, ``ns``
+``rate``        sampling rate [Hz] when there is no time column
+``topic``       ROS bags: the ``sensor_msgs/Imu`` topic
+``variable``    MATLAB files: the matrix's name
+``gravity``     local gravity [m/s²] (default 9.80665)
+``recorded_at`` when the recording was made: an ISO date or date-time
+``temperature_c`` the sensor's temperature [°C] during the recording
+=============== ===========================================================================
+
+Empty cells take the default; lines that are empty or start with ``#`` are skipped. The whole manifest is
+checked before anything runs, and every problem is reported with its line.
+
+Each row is read with :func:`imucalib.io.data.read_data` and calibrated with
+:func:`imucalib.methods.calibrate`, exactly as ``imucalib calibrate FILES --method … `` does, in a
+worker (:func:`run_row`), which also hashes the files (SHA-256 of their contents). The process that runs
+the batch writes each result into the store (:class:`imucalib.store.Store`) as it arrives, one transaction
+per row. A row that fails (a file missing or unreadable, too few poses, a rejected verdict) is stored
+with its error and never stops the batch. A row already in the store, same device, time, settings and
+file contents, is skipped (``force`` redoes it, replacing the record): a batch killed half-way and run
+again does the rest, and every row ends up in the store once.
+
+Where the rows run (:func:`execute`, shared with :func:`imucalib.evaluate.montecarlo`):
+
+* ``workers=1``: in this process;
+* ``workers=N``: a pool of N processes that lives for the whole batch (started once, imports done once),
+  rows handed out in small chunks;
+* ``scheduler="local"``: a Dask ``LocalCluster`` of ``workers`` single-threaded processes on this machine
+  (default: one per core);
+* ``scheduler="tcp://HOST:8786"``: an existing Dask cluster, one task per row. The workers read the
+  files themselves, so the paths must be valid on the workers (a shared file system) or be URLs.
+
+The results do not depend on where the rows run: each row is calibrated by the same function from the same
+bytes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import hashlib
+import logging
+import math
+import os
+import signal
+import tempfile
+import threading
+import time
+import warnings
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .io.atomic import refuse_overwriting_inputs
+from .recording import STANDARD_GRAVITY
+from .store import Store, canonical_json, parse_time
+
+__all__ = ["MANIFEST_COLUMNS", "BatchError", "ManifestError", "Row", "dask_client", "execute", "is_url",
+           "read_manifest", "run_batch", "run_row"]
+
+#: the manifest's columns; ``device`` and ``files`` are required
+MANIFEST_COLUMNS = ("device", "files", "method", "model", "reader", "columns", "acc_unit", "gyro_unit",
+                    "time_unit", "rate", "topic", "variable", "gravity", "recorded_at", "temperature_c")
+#: the method of a row that names none (``imucalib calibrate``'s default)
+DEFAULT_METHOD = "tedaldi2014"
+_READERS = ("csv", "imutk", "mat", "phone", "rosbag", "session")
+_UNITS = {"acc_unit": ("counts", "g", "m/s^2"), "gyro_unit": ("counts", "deg/s", "rad/s"),
+          "time_unit": ("s", "ms", "us", "ns")}
+_HASH_BLOCK = 1 << 20
+
+
+class ManifestError(ValueError):
+    """A manifest that cannot be read or has invalid entries; the message names the file and lines."""
+
+
+class BatchError(ValueError):
+    """A batch that could not go on (a worker process died, the Dask scheduler is out of reach)."""
+
+
+# ------------------------------------------------------------------ manifest
+@dataclass(frozen=True)
+class Row:
+    """One recording of a manifest, checked: what :func:`run_row` calibrates.
+
+    ``files`` are absolute local paths or URLs; ``recorded_at`` is normalised (:func:`imucalib.store.parse_time`).
+    """
+
+    line: int
+    device: str
+    files: tuple[str, ...]
+    method: str = DEFAULT_METHOD
+    model: str | None = None
+    reader: str | None = None
+    columns: tuple[str, ...] | None = None
+    acc_unit: str | None = None
+    gyro_unit: str | None = None
+    time_unit: str | None = None
+    rate: float | None = None
+    topic: str | None = None
+    variable: str | None = None
+    gravity: float = STANDARD_GRAVITY
+    recorded_at: str | None = None
+    temperature_c: float | None = None
+
+    def settings(self) -> dict[str, Any]:
+        """Everything but the device, time and files: the rest of a record's identity."""
+        return {"method": self.method, "model": self.model, "reader": self.reader,
+                "columns": list(self.columns) if self.columns else None, "acc_unit": self.acc_unit,
+                "gyro_unit": self.gyro_unit, "time_unit": self.time_unit, "rate": self.rate, "topic": self.topic,
+                "variable": self.variable, "gravity": self.gravity, "temperature_c": self.temperature_c}
+
+    def reader_options(self) -> dict[str, Any]:
+        """The keyword options of :func:`imucalib.io.data.read_data`."""
+        return {"reader": self.reader, "columns": list(self.columns) if self.columns else None,
+                "acc_unit": self.acc_unit, "gyro_unit": self.gyro_unit, "time_unit": self.time_unit,
+                "rate": self.rate, "topic": self.topic, "variable": self.variable}
+
+
+def is_url(path: str) -> bool:
+    """True for ``scheme://…`` (read through fsspec), False for a local path."""
+    head, sep, _ = path.partition("://")
+    return bool(sep) and head.isidentifier() and len(head) > 1
+
+
+def _positive(text: str, what: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise ValueError(f"{what} must be a number; got {text!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{what} must be a positive number; got {text!r}")
+    return v
+
+
+def _row(cells: dict[str, str], line: int, base: Path, methods: Sequence[str]) -> Row:
+    """One manifest line checked into a :class:`Row` (ValueError naming the column on a bad entry)."""
+    device = cells.get("device", "")
+    if not device:
+        raise ValueError("device is empty")
+    names = [f.strip() for f in cells.get("files", "").split(";") if f.strip()]
+    if not names:
+        raise ValueError("files is empty (one or more paths, ';'-separated)")
+    files = tuple(n if is_url(n) else str((base / Path(n).expanduser()).resolve()) for n in names)
+    opts: dict[str, Any] = {}
+    method = cells.get("method") or DEFAULT_METHOD
+    if method not in methods:
+        raise ValueError(f"method {method!r} is unknown; choose one of {', '.join(methods)}")
+    opts["method"] = method
+    opts["model"] = cells.get("model") or None
+    reader = cells.get("reader") or None
+    if reader is not None and reader not in _READERS:
+        raise ValueError(f"reader {reader!r} is unknown; choose one of {', '.join(_READERS)}")
+    opts["reader"] = reader
+    if cells.get("columns"):
+        opts["columns"] = tuple(c.strip() for c in cells["columns"].replace(";", ",").split(","))
+    for key, allowed in _UNITS.items():
+        value = cells.get(key) or None
+        if value is not None and value not in allowed:
+            raise ValueError(f"{key} {value!r} is unknown; choose one of {', '.join(allowed)}")
+        opts[key] = value
+    if cells.get("rate"):
+        opts["rate"] = _positive(cells["rate"], "rate")
+    for key in ("topic", "variable"):
+        opts[key] = cells.get(key) or None
+    if cells.get("gravity"):
+        opts["gravity"] = _positive(cells["gravity"], "gravity")
+    opts["recorded_at"] = parse_time(cells.get("recorded_at"), what="recorded_at")[0]
+    if cells.get("temperature_c"):
+        try:
+            t = float(cells["temperature_c"])
+        except ValueError:
+            raise ValueError(f"temperature_c must be a number of °C; got {cells['temperature_c']!r}") from None
+        if not math.isfinite(t):
+            raise ValueError(f"temperature_c must be a finite number of °C; got {cells['temperature_c']!r}")
+        opts["temperature_c"] = t
+    return Row(line=line, device=device, files=files, **opts)
+
+
+def read_manifest(path: str | Path) -> list[Row]:
+    """The rows of the manifest CSV ``path``, every entry checked (see the module docstring).
+
+    Raises
+    ------
+    ManifestError
+        The file cannot be read, a required column is missing, a column is unknown, or entries are
+        invalid: every problem found, each with its line.
+    """
+    from .methods import method_names
+
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise ManifestError(f"{path}: manifest not found") from None
+    except IsADirectoryError:
+        raise ManifestError(f"{path}: is a directory; the manifest is a CSV file") from None
+    except UnicodeDecodeError as exc:
+        raise ManifestError(f"{path}: not a text file (UTF-8): {exc.reason} at byte {exc.start}") from None
+    lines = [(i, line) for i, line in enumerate(text.splitlines(), start=1)
+             if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        raise ManifestError(f"{path}: the manifest is empty (a header line with device,files and one line per "
+                            "recording expected)")
+    numbers = [i for i, _ in lines]
+    table = list(csv.reader([line for _, line in lines]))
+    header = [h.strip().lower() for h in table[0]]
+    missing = [c for c in ("device", "files") if c not in header]
+    unknown = [h for h in header if h not in MANIFEST_COLUMNS]
+    duplicated = sorted({h for h in header if header.count(h) > 1})
+    if missing or unknown or duplicated:
+        raise ManifestError(
+            f"{path}, line {numbers[0]} (the header): "
+            + "; ".join(filter(None, (
+                f"missing column(s) {', '.join(missing)}" if missing else "",
+                f"unknown column(s) {', '.join(unknown)} (known: {', '.join(MANIFEST_COLUMNS)})" if unknown else "",
+                f"column(s) named twice: {', '.join(duplicated)}" if duplicated else ""))))
+    base = path.resolve().parent
+    methods = method_names()
+    rows, problems = [], []
+    for number, cells in zip(numbers[1:], table[1:], strict=True):
+        if len(cells) > len(header):
+            problems.append(f"line {number}: {len(cells)} cells for {len(header)} columns (quote a cell that "
+                            "holds a comma)")
+            continue
+        values = {h: (cells[k].strip() if k < len(cells) else "") for k, h in enumerate(header)}
+        try:
+            rows.append(_row(values, number, base, methods))
+        except ValueError as exc:
+            problems.append(f"line {number}: {exc}")
+    if problems:
+        shown = problems[:20] + ([f"… and {len(problems) - 20} more"] if len(problems) > 20 else [])
+        raise ManifestError(f"{path}: {len(problems)} invalid line(s), nothing was run:\n  " + "\n  ".join(shown))
+    if not rows:
+        raise ManifestError(f"{path}: the manifest has a header but no recordings")
+    return rows
+
+
+# ------------------------------------------------------------------ one row
+def _hash_path(path: Path) -> tuple[str, int]:
+    """SHA-256 of a file's contents, or of a directory's (relative names and contents, in sorted order)."""
+    h = hashlib.sha256()
+    size = 0
+    files = [path] if path.is_file() else sorted(p for p in path.rglob("*") if p.is_file())
+    for p in files:
+        if p is not path:
+            h.update(p.relative_to(path).as_posix().encode("utf-8") + b"\0")
+        with open(p, "rb") as fh:
+            while block := fh.read(_HASH_BLOCK):
+                h.update(block)
+                size += len(block)
+    return h.hexdigest(), size
+
+
+def _fetch(url: str, directory: Path) -> Path:
+    """A local copy of the fsspec URL ``url`` in ``directory``, under its own name."""
+    try:
+        import fsspec
+    except ImportError:
+        raise ValueError(f"{url}: reading URLs needs fsspec (pip install fsspec, or the cluster extra: "
+                         'pip install "imucalib[cluster]")') from None
+    fs, remote = fsspec.core.url_to_fs(url)
+    name = Path(remote.rstrip("/")).name or "data"
+    target = directory / f"{len(list(directory.iterdir()))}" / name
+    target.parent.mkdir()
+    if not fs.exists(remote):
+        raise FileNotFoundError(f"{url}: file not found")
+    fs.get(remote, str(target), recursive=fs.isdir(remote))
+    return target
+
+
+def _message(exc: BaseException, replace: dict[str, str]) -> str:
+    """An exception as the row's error: its message (with the type for unexpected kinds), local copies named
+    by their URLs."""
+    text = str(exc) if isinstance(exc, ValueError | OSError) else f"{type(exc).__name__}: {exc}"
+    for local, original in replace.items():
+        text = text.replace(local, original)
+    return text or type(exc).__name__
+
+
+def run_row(task: dict) -> dict:
+    """Hash, read and calibrate one manifest row; the result the batch stores. Never raises.
+
+    Parameters
+    ----------
+    task : dict
+        ``{"row": Row, "skip": [source hashes already stored for this row's device, time and settings]}``.
+
+    Returns
+    -------
+    dict
+        ``{"line", "status": "ok" | "failed" | "skipped", "verdict", "calibration" (JSON text or None),
+        "error", "notes", "files": [{"path", "sha256", "bytes"}], "source_sha256", "seconds"}``. A row is
+        ``skipped`` when its files' hash is in ``task["skip"]``; ``failed`` on any error, and when the
+        calibration's verdict is ``rejected`` (its calibration is returned all the same).
+    """
+    from .io.data import read_data
+    from .methods import calibrate
+    from .recording import ImucalibWarning
+
+    t0 = time.perf_counter()
+    row: Row = task["row"]
+    out: dict[str, Any] = {"line": row.line, "status": "failed", "verdict": None, "calibration": None,
+                           "error": None, "notes": [], "files": [], "source_sha256": None, "seconds": None}
+    replace: dict[str, str] = {}
+    with tempfile.TemporaryDirectory(prefix="imucalib-batch-") if any(is_url(f) for f in row.files) \
+            else contextlib.nullcontext() as tmp:
+        local: list[Path | None] = []
+        problems: list[str] = []
+        digest = hashlib.sha256()
+        for name in row.files:
+            try:
+                p = _fetch(name, Path(tmp)) if is_url(name) else Path(name)
+                if is_url(name):
+                    replace[str(p)] = name
+                if not p.exists():
+                    raise FileNotFoundError(f"{name}: file not found")
+                sha, size = _hash_path(p)
+            except Exception as exc:  # the row fails with this file's error; the batch goes on
+                problems.append(_message(exc, replace))
+                local.append(None)
+                out["files"].append({"path": name, "sha256": None, "bytes": None})
+                digest.update(f"missing:{name}\n".encode())
+                continue
+            local.append(p)
+            out["files"].append({"path": name, "sha256": sha, "bytes": size})
+            digest.update(f"{sha}\n".encode())
+        out["source_sha256"] = digest.hexdigest()
+        if out["source_sha256"] in task.get("skip", ()):
+            out["status"] = "skipped"
+            return out
+        try:
+            if problems:
+                raise FileNotFoundError("; ".join(problems))
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                data = read_data([str(p) for p in local], **row.reader_options())
+                cal = calibrate(data, method=row.method, model=row.model, gravity=row.gravity)
+            out["notes"] = [_message(ValueError(str(w.message)), replace) for w in caught
+                            if issubclass(w.category, ImucalibWarning)]
+            cal = cal.with_(device=row.device)
+            verdict = (cal.fit or {}).get("verdict")
+            out["calibration"] = cal.to_json()
+            out["verdict"] = verdict
+            if verdict == "rejected":
+                reasons = "; ".join(cal.fit.get("verdict_reasons") or []) or "no reason recorded"
+                out["error"] = f"the calibration is rejected: {reasons}"
+            else:
+                out["status"] = "ok"
+        except Exception as exc:  # a failing row is stored with its error, never stops the batch
+            out["error"] = _message(exc, replace)
+    out["seconds"] = time.perf_counter() - t0
+    return out
+
+
+# ----------------------------------------------------------------- executing
+def _watch_parent(parent: int) -> None:
+    """End this worker when the process that started it is gone (killed with SIGKILL: no clean shutdown)."""
+    while True:
+        time.sleep(0.5)
+        if os.getppid() != parent:
+            os._exit(1)
+
+
+def _init_worker() -> None:
+    """A pool worker: leave Ctrl-C to the parent (which stops the pool) and die with it."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True).start()
+
+
+def _run_chunk(fn: Callable[[Any], Any], chunk: list[tuple[int, Any]]) -> list[tuple[int, Any]]:
+    return [(i, fn(task)) for i, task in chunk]
+
+
+def _auto_chunksize(n: int, workers: int) -> int:
+    """Rows per hand-out: 1 for short batches (balance), up to 16 for long ones (fewer round trips)."""
+    return max(1, min(16, n // (32 * workers)))
+
+
+@contextlib.contextmanager
+def dask_client(scheduler: str, workers: int | None = None) -> Iterator[Any]:
+    """A Dask ``Client``: of a new ``LocalCluster`` (``scheduler="local"``, ``workers`` single-threaded
+    processes, default one per core, listening on 127.0.0.1 only), or of the scheduler at an address."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise BatchError('--scheduler needs Dask distributed: pip install "imucalib[cluster]"') from None
+    if scheduler == "local":
+        import dask
+
+        n = workers if workers is not None else (os.cpu_count() or 1)
+        # Dask's nannies start their workers with MALLOC_TRIM_THRESHOLD_=65536, which sends every array
+        # above 128 kB back to the system when freed: the calibrations' temporaries then cost a fresh mmap
+        # and page faults each time, 1.6-2 times slower. The one-thread BLAS settings are kept.
+        with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}), \
+                LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                             dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
+                Client(cluster) as client:
+            yield client
+        return
+    if workers is not None:
+        raise BatchError(f"--workers applies to local processes and --scheduler local; the cluster at "
+                         f"{scheduler} has its own workers")
+    try:
+        client = Client(scheduler)  # waits distributed.comm.timeouts.connect (Dask's configuration)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise BatchError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+    with client:
+        yield client
+
+
+def execute(fn: Callable[[Any], Any], tasks: Sequence[Any], *, workers: int | None = None,
+            scheduler: str | None = None, chunksize: int | None = None,
+            progress: Callable[[int, int], None] | None = None) -> Iterator[tuple[int, Any]]:
+    """``fn(task)`` for every task, locally or on Dask; yields ``(index, result)`` as each one completes.
+
+    Parameters
+    ----------
+    fn : callable
+        A module-level function (it is pickled by name for other processes).
+    tasks : sequence
+        Its arguments, one per call.
+    workers : int, optional
+        Without ``scheduler``: the number of processes (default 1: this process); a pool of them lives for
+        the whole run. With ``scheduler="local"``: the number of LocalCluster workers (default: one per
+        core).
+    scheduler : str, optional
+        ``"local"`` or the address of a Dask scheduler (``tcp://HOST:8786``): one Dask task per call.
+    chunksize : int, optional
+        Local pool only: tasks per hand-out (default: 1 for up to 64 tasks per worker, up to 16 beyond).
+    progress : callable, optional
+        ``progress(done, total)`` after each result.
+
+    Raises
+    ------
+    BatchError
+        A worker process died (the results yielded so far stand), or the scheduler cannot be reached.
+    """
+    tasks = list(tasks)
+    n = len(tasks)
+    done = 0
+
+    def tick() -> None:
+        nonlocal done
+        done += 1
+        if progress is not None:
+            progress(done, n)
+
+    if scheduler is not None:
+        with dask_client(scheduler, workers) as client:
+            from distributed import as_completed
+
+            futures = {client.submit(fn, task, pure=False): i for i, task in enumerate(tasks)}
+            for fut in as_completed(futures):
+                result = fut.result()
+                i = futures[fut]
+                fut.release()
+                tick()
+                yield i, result
+        return
+    workers = 1 if workers is None else int(workers)
+    if workers < 1:
+        raise ValueError(f"workers must be ≥ 1; got {workers}")
+    workers = min(workers, max(n, 1))
+    if workers == 1:
+        for i, task in enumerate(tasks):
+            result = fn(task)
+            tick()
+            yield i, result
+        return
+    size = chunksize or _auto_chunksize(n, workers)
+    items = list(enumerate(tasks))
+    chunks = [items[k:k + size] for k in range(0, n, size)]
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=_init_worker)
+    try:
+        pending = {pool.submit(_run_chunk, fn, chunk) for chunk in chunks}
+        while pending:
+            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                try:
+                    results = fut.result()
+                except BrokenProcessPool:
+                    raise BatchError("a worker process died (killed, or out of memory); what finished "
+                                     "before is kept: run again to do the rest") from None
+                for i, result in results:
+                    tick()
+                    yield i, result
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+# -------------------------------------------------------------------- batch
+def _size(row: Row) -> int:
+    """Bytes of a row's local files (0 for URLs and what is missing): the order rows are handed out in."""
+    total = 0
+    for f in row.files:
+        if not is_url(f):
+            with contextlib.suppress(OSError):
+                total += os.path.getsize(f)
+    return total
+
+
+def run_batch(manifest: str | Path, store: str | Path, *, workers: int | None = None, scheduler: str | None = None,
+              force: bool = False, chunksize: int | None = None,
+              progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """Calibrate every row of ``manifest`` into the store ``store`` (created if missing).
+
+    Parameters
+    ----------
+    manifest : str or Path
+        The manifest CSV (see the module docstring).
+    store : str or Path
+        The store file (:class:`imucalib.store.Store`).
+    workers, scheduler, chunksize :
+        Where the rows run (:func:`execute`).
+    force : bool
+        Calibrate rows already in the store again, replacing their records.
+    progress : callable, optional
+        ``progress(done, total)`` after each row.
+
+    Returns
+    -------
+    dict
+        ``{"manifest", "store", "rows", "calibrated", "failed", "skipped", "verdicts": {"accepted",
+        "suspect", "rejected"}, "errors": [{"line", "device", "error"}], "seconds", "workers",
+        "scheduler"}``: ``calibrated`` counts the rows stored with a calibration that is not rejected,
+        ``failed`` those stored with an error (a rejected verdict included), ``skipped`` those already in
+        the store (or twice in the manifest).
+    """
+    t0 = time.perf_counter()
+    rows = read_manifest(manifest)
+    refuse_overwriting_inputs([store], [manifest, *(f for r in rows for f in r.files if not is_url(f))])
+    summary: dict[str, Any] = {"manifest": str(manifest), "store": str(store), "rows": len(rows), "calibrated": 0,
+                               "failed": 0, "skipped": 0, "verdicts": {"accepted": 0, "suspect": 0, "rejected": 0},
+                               "errors": [], "seconds": None, "workers": workers, "scheduler": scheduler}
+    with Store(store) as st:
+        stored = {} if force else st.source_hashes()
+        # the largest recordings first: the last ones to finish are then short, and the workers end together
+        order = sorted(range(len(rows)), key=lambda k: -_size(rows[k]))
+        tasks = [{"row": rows[k], "skip": sorted(stored.get(
+            (rows[k].device, rows[k].recorded_at or "", canonical_json(rows[k].settings())), ()))} for k in order]
+        for i, res in execute(run_row, tasks, workers=workers, scheduler=scheduler, chunksize=chunksize,
+                              progress=progress):
+            row = rows[order[i]]
+            if res["status"] == "skipped":
+                summary["skipped"] += 1
+                continue
+            record = {"device": row.device, "recorded_at": row.recorded_at, "temperature_c": row.temperature_c,
+                      "method": row.method, "model": row.model, "settings": row.settings(), **{
+                          k: res[k] for k in ("status", "verdict", "calibration", "files", "source_sha256",
+                                              "error", "notes", "seconds")}}
+            if st.add(record, replace=force) is None:  # the same row twice in the manifest
+                summary["skipped"] += 1
+                continue
+            if res["verdict"] in summary["verdicts"]:
+                summary["verdicts"][res["verdict"]] += 1
+            if res["status"] == "ok":
+                summary["calibrated"] += 1
+            else:
+                summary["failed"] += 1
+                summary["errors"].append({"line": row.line, "device": row.device, "error": res["error"]})
+    summary["errors"].sort(key=lambda e: e["line"])
+    summary["seconds"] = round(time.perf_counter() - t0, 3)
+    return summary
