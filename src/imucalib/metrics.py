@@ -32,13 +32,18 @@ __all__ = [
 
 
 def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
-    """Mean of ``x`` (N, K) over each interval → (M, K), vectorised by cumulative sums."""
+    """Mean of ``x`` (N, K) over each interval → (M, K), in float64.
+
+    Interval by interval, over each interval's own samples less its first one
+    (small numbers keep the sums accurate): no temporary the size of the
+    recording.
+    """
     x = np.asarray(x, dtype=np.float64)
-    starts = np.array([iv.start for iv in intervals], dtype=np.intp)
-    stops = np.array([iv.stop for iv in intervals], dtype=np.intp)
-    ref = x[starts[0]] if len(starts) else 0.0  # subtract a sample to keep the sums accurate
-    c = np.concatenate([np.zeros((1, x.shape[1])), np.cumsum(x - ref, axis=0)])
-    return (c[stops] - c[starts]) / (stops - starts)[:, None] + ref
+    out = np.empty((len(intervals), x.shape[1]))
+    for k, iv in enumerate(intervals):
+        ref = x[iv.start]
+        out[k] = (x[iv.start:iv.stop] - ref).mean(axis=0) + ref
+    return out
 
 
 def transition_bounds(intervals: Sequence[Interval]) -> tuple[np.ndarray, np.ndarray]:
@@ -76,8 +81,9 @@ def predicted_gravity(
     u = acc_means / np.linalg.norm(acc_means, axis=1, keepdims=True)
     if integrator is None:
         integrator = IntervalIntegrator(recording.t, *transition_bounds(intervals))
-    rates = calibration.gyroscope_si(recording.gyro, recording.acc)
-    r = quat_to_matrix(integrator(rates))
+    used = integrator.samples  # only the samples the rotations are integrated over are calibrated
+    rates = calibration.gyroscope_si(recording.gyro[used], recording.acc[used])
+    r = quat_to_matrix(integrator.from_samples(rates))
     predicted = np.einsum("kji,kj->ki", r, u[:-1])  # Rᵀ · g_{k-1}
     return u[1:], predicted
 

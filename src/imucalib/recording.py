@@ -148,10 +148,16 @@ class Recording:
 
     @property
     def rate(self) -> float:
-        """Median sampling rate [Hz]."""
+        """Median sampling rate [Hz] (computed once per time array: the median of a long recording's steps
+        costs two copies of it)."""
         if len(self) < 2:
             raise ValueError("the sampling rate needs at least two samples")
-        return float(1.0 / np.median(np.diff(self.t)))
+        cached = self.__dict__.get("_rate")
+        if cached is not None and cached[0] is self.t:
+            return cached[1]
+        rate = float(1.0 / np.median(np.diff(self.t)))
+        self.__dict__["_rate"] = (self.t, rate)
+        return rate
 
     def __getitem__(self, index: slice | Interval) -> Recording:
         """Samples ``index`` (a slice or an :class:`Interval`) as a new Recording."""
