@@ -50,7 +50,7 @@ import numpy as np
 from .errors import ReaderError
 
 __all__ = ["CHUNK_BYTES", "ENGINE", "Chunk", "Head", "Layout", "PANDAS_MIN_BYTES", "chunks", "column_kinds",
-           "count_rows", "engine_for", "fingerprint", "parse", "read_head", "split_cells"]
+           "count_rows", "engine_for", "fingerprint", "pandas_available", "parse", "read_head", "split_cells"]
 
 #: body text parsed at a time [bytes] (about 100 000 rows of 7 columns)
 CHUNK_BYTES = 1 << 23
@@ -204,8 +204,10 @@ class Chunk:
     comments: int    # full-line comments among them
 
 
-def chunks(layout: Layout, chunk_bytes: int = CHUNK_BYTES) -> Iterator[Chunk]:
-    """The body of ``layout``'s file in pieces of whole lines, each with its first line number."""
+def chunks(layout: Layout, chunk_bytes: int | None = None) -> Iterator[Chunk]:
+    """The body of ``layout``'s file in pieces of whole lines (about ``chunk_bytes``, default
+    :data:`CHUNK_BYTES`), each with its first line number."""
+    chunk_bytes = chunk_bytes or CHUNK_BYTES
     start, end = layout.body
     line = layout.first_line
     with layout.path.open("rb") as f:
@@ -224,7 +226,7 @@ def chunks(layout: Layout, chunk_bytes: int = CHUNK_BYTES) -> Iterator[Chunk]:
             line += n
 
 
-def count_rows(layout: Layout, chunk_bytes: int = CHUNK_BYTES) -> tuple[int, int]:
+def count_rows(layout: Layout, chunk_bytes: int | None = None) -> tuple[int, int]:
     """Rows (lines that are not full-line comments) and comment lines of the body."""
     rows = comments = 0
     for ch in chunks(layout, chunk_bytes):
@@ -238,13 +240,18 @@ def engine_for(layout: Layout) -> str:
     """The parser :func:`parse` uses for ``layout`` (see :data:`ENGINE`)."""
     if ENGINE != "auto":
         return ENGINE
-    if layout.body[1] - layout.body[0] >= PANDAS_MIN_BYTES:
-        try:
-            import pandas  # noqa: F401
-        except ImportError:
-            return "numpy"
+    if layout.body[1] - layout.body[0] >= PANDAS_MIN_BYTES and pandas_available():
         return "pandas"
     return "numpy"
+
+
+def pandas_available() -> bool:
+    """Whether pandas can be imported (the ``pandas`` extra)."""
+    try:
+        import pandas  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 class _Demote(Exception):
@@ -256,7 +263,7 @@ class _Demote(Exception):
 
 def parse(layout: Layout, kinds: Sequence[str | None], names: Sequence[str], *, required: Sequence[int] = (),
           out: dict[int, np.ndarray] | None = None, rows: int | None = None,
-          chunk_bytes: int = CHUNK_BYTES) -> tuple[dict[int, np.ndarray], dict]:
+          chunk_bytes: int | None = None) -> tuple[dict[int, np.ndarray], dict]:
     """Read the body's columns into arrays, one chunk at a time.
 
     Parameters

@@ -47,11 +47,13 @@ def read(
 
     Parameters
     ----------
-    paths : path or sequence of paths
+    paths : path, sequence of paths, or pandas.DataFrame
         One CSV or MAT file, two imu_tk files (accelerometer, then gyroscope),
         a phone app's accelerometer and gyroscope files (phyphox, Sensor Logger:
         see :mod:`.phone`), or one ROS bag (a ROS 1 ``.bag``, a ROS 2 bag
-        directory, an ``.mcap``).
+        directory, an ``.mcap``); or a pandas DataFrame, read as a CSV file
+        with its column names as the header (same names, units and options;
+        a datetime64 time column is taken in nanoseconds).
     reader : {"csv", "imutk", "mat", "phone", "rosbag"}, optional
         The format; guessed from the file(s) when omitted (:func:`guess_reader`).
     columns : sequence of str, optional
@@ -72,6 +74,8 @@ def read(
     topic : str, optional
         ROS bags: the ``sensor_msgs/Imu`` topic, when the bag has several.
     """
+    if _is_frame(paths):
+        return _read_frame(paths, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic)
     if isinstance(paths, str | Path):
         paths = [paths]
     paths = [Path(p) for p in paths]
@@ -316,9 +320,12 @@ def _unit_in(name: str) -> str | None:
 
 
 def _sniff_separator(line: str) -> str | None:
-    for sep in (";", "\t"):  # numbers with decimal commas, separated by semicolons or tabs
-        if sep in line and "," in line and not any(_not_number(c.strip().replace(",", ".")) for c in line.split(sep)):
-            return sep
+    for sep in (";", "\t"):  # numbers with decimal commas, separated by semicolons or tabs (text cells too)
+        if sep in line and "," in line:
+            cells = line.split(sep)
+            numbers = sum(not _not_number(c.strip().strip('"').replace(",", ".")) for c in cells)
+            if numbers > len(cells) / 2 and any(_DECIMAL_COMMA.match(c.strip()) for c in cells):
+                return sep
     for sep in (",", ";", "\t"):
         if sep in line:
             return sep
@@ -385,7 +392,7 @@ class _Table:
     first_line: int
     sep: str | None
     ncols: int
-    layout: csvparse.Layout
+    layout: csvparse.Layout | None  # None for a DataFrame
     first_row: list[str]
     skipped: int = 0
     rate: float | None = None
@@ -469,14 +476,14 @@ def _time_column(col: np.ndarray) -> tuple[np.ndarray, int]:
     return col, 0
 
 
-def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit) -> Recording:
-    table = _split_table(path)
+def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=None) -> Recording:
+    table = _split_table(path) if frame is None else _frame_table(frame)
     has_header = table.header is not None
     first_line, names = table.first_line, table.names
     mapping = _map_columns(path, names, columns, has_header)
     numeric_cols = sorted({j for j in mapping.values() if j is not None})
     # the samples go straight into the recording's arrays: no copy of the whole table
-    rows, _ = csvparse.count_rows(table.layout)
+    rows = csvparse.count_rows(table.layout)[0] if frame is None else len(frame)
     if rows == 0:
         raise ReaderError(f"{path}: no data rows after the header")
     acc, gyro = np.empty((rows, 3)), np.empty((rows, 3))
@@ -484,7 +491,12 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit) -> Reco
     out: dict[int, np.ndarray] = {}
     for f, view in targets.items():
         out.setdefault(mapping[f], view)
-    cols = _parse_table(path, table, numeric_cols, out=out, rows=rows)
+    if frame is None:
+        cols = _parse_table(path, table, numeric_cols, out=out, rows=rows)
+    else:
+        cols, stamps = _frame_columns(path, frame, numeric_cols, out)
+        if mapping["t"] in stamps and time_unit is None:
+            time_unit = "ns"
     for f, view in targets.items():
         if cols[mapping[f]] is not view:  # a column used for two fields
             view[:] = cols[mapping[f]]
@@ -535,9 +547,87 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit) -> Reco
         extra[name if name not in extra else f"{name} (column {j + 1})"] = col
     rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
                     extra=extra, metadata=meta)
-    # what apply needs to copy the file's own text (imucalib.io.writers)
-    meta["source_layout"] = {**table.layout.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec)}
+    if table.layout is not None:  # what apply needs to copy the file's own text (imucalib.io.writers)
+        meta["source_layout"] = {**table.layout.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec)}
     return rec
+
+
+# ------------------------------------------------------------- DataFrames
+def _is_frame(obj) -> bool:
+    """Whether ``obj`` is a pandas DataFrame (without importing pandas)."""
+    return type(obj).__module__.split(".")[0] == "pandas" and hasattr(obj, "columns") and hasattr(obj, "iloc")
+
+
+def _read_frame(frame, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic) -> Recording:
+    """A DataFrame read as a CSV file whose header is the frame's column names."""
+    label = Path("DataFrame")
+    for name, value, allowed in (("accelerometer", acc_unit, ACC_UNITS), ("gyroscope", gyro_unit, GYRO_UNITS),
+                                 ("time", time_unit, tuple(TIME_UNITS))):
+        if value is not None and value not in allowed:
+            raise ReaderError(f"unknown {name} unit {value!r}; use one of {', '.join(allowed)}")
+    if rate is not None and not (np.isfinite(rate) and rate > 0):
+        raise ReaderError(f"rate must be a positive number of Hz; got {rate!r}")
+    ignored = [n for n, v in (("variable", variable), ("topic", topic)) if v is not None]
+    if reader not in (None, "csv") or ignored:
+        raise ReaderError(f"a DataFrame is read as a table (the csv reader); {', '.join(ignored) or 'reader'} "
+                          "cannot be set")
+    rec = _read_csv(label, columns, acc_unit, gyro_unit, rate, time_unit, frame=frame)
+    rec.metadata["reader"] = "dataframe"
+    return rec
+
+
+def _frame_table(frame) -> _Table:
+    names = [str(c).strip() for c in frame.columns]
+    return _Table(names, 1, ",", len(names), None, [])
+
+
+def _frame_columns(label: Path, frame, required: Sequence[int], out: dict[int, np.ndarray]
+                   ) -> tuple[dict[int, np.ndarray], set[int]]:
+    """The frame's columns as arrays (numbers, int64 for integers and datetimes, or text) and the datetime ones.
+
+    ``required`` columns must hold finite numbers (else a :class:`ReaderError` naming the row and column).
+    """
+    names = [str(c).strip() for c in frame.columns]
+    cols: dict[int, np.ndarray] = {}
+    stamps: set[int] = set()
+    for j, name in enumerate(names):
+        series = frame.iloc[:, j]
+        kind = series.dtype.kind
+        if kind in "Mm":  # datetimes and durations: integer nanoseconds
+            values = series.to_numpy().astype("datetime64[ns]" if kind == "M" else "timedelta64[ns]")
+            cols[j] = values.view(np.int64)
+            stamps.add(j)
+            if np.any(np.isnat(values)):
+                i = int(np.nonzero(np.isnat(values))[0][0])
+                raise ReaderError(f"{label}: row {i + 1}, {name}: a missing time (NaT); fix or remove the row")
+            continue
+        if kind in "iu" and j not in out:
+            ints = series.to_numpy().astype(np.int64)
+            if ints.size and np.abs(ints).max() >= 10 ** (csvparse.INT_DIGITS - 1):  # as for a CSV file's cells
+                cols[j] = ints
+                continue
+        if kind in "fiub":
+            values = series.to_numpy(dtype=np.float64)
+        elif j in required:
+            values = np.empty(len(series))
+            for i, cell in enumerate(series.tolist()):
+                try:
+                    values[i] = float(cell)
+                except (TypeError, ValueError):
+                    raise ReaderError(f"{label}: row {i + 1}, {name}: {cell!r} is not a number; fix or remove "
+                                      "the row (imucalib never skips rows)") from None
+        else:
+            cols[j] = series.to_numpy().astype(str)
+            continue
+        if j in required and not np.all(np.isfinite(values)):
+            i = int(np.nonzero(~np.isfinite(values))[0][0])
+            raise ReaderError(f"{label}: row {i + 1}, {name}: {values[i]} is not finite (NaN or inf); fix or "
+                              "remove the row (imucalib never skips rows)")
+        if j in out:
+            out[j][:] = values
+            values = out[j]
+        cols[j] = values
+    return cols, stamps
 
 
 def _not_number(cell: str) -> bool:
