@@ -34,15 +34,17 @@ __all__ = [
 def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
     """Mean of ``x`` (N, K) over each interval → (M, K), in float64.
 
-    Interval by interval, over each interval's own samples less its first one
-    (small numbers keep the sums accurate): no temporary the size of the
-    recording.
+    Interval by interval and column by column, over each interval's own
+    samples less its first one (pairwise sums of small numbers keep the mean
+    accurate; a constant interval's mean is exact): no temporary the size of
+    the recording.
     """
     x = np.asarray(x, dtype=np.float64)
     out = np.empty((len(intervals), x.shape[1]))
     for k, iv in enumerate(intervals):
         ref = x[iv.start]
-        out[k] = (x[iv.start:iv.stop] - ref).mean(axis=0) + ref
+        for j in range(x.shape[1]):
+            out[k, j] = (x[iv.start:iv.stop, j] - ref[j]).mean() + ref[j]
     return out
 
 
