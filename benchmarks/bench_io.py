@@ -4,7 +4,8 @@ Two files are timed: ``counts`` (integer readings, as a logger of raw counts
 writes them) and ``float`` (readings with 9 significant digits and a time in
 seconds with microseconds, as a logger of physical units writes them).
 
-``--save FILE`` stores the figures; ``--before FILE`` reads figures stored
+``--apply-write`` also times what ``imucalib apply`` writes (the file read
+back, six calibrated columns added). ``--save FILE`` stores the figures; ``--before FILE`` reads figures stored
 earlier (from the code before a change) and prints them next to today's, with
 the speed-up. ``--candidates`` also times the bare numeric parsers that the
 reader could use on the body of the same files (no header logic): numpy's
@@ -74,6 +75,8 @@ def main() -> None:
     parser.add_argument("--rows", type=int, default=1_000_000)
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--candidates", action="store_true", help="also time the bare numeric parsers")
+    parser.add_argument("--apply-write", action="store_true",
+                        help="also time writing what apply writes (the file read back, six columns added)")
     parser.add_argument("--save", metavar="FILE", help="store the figures (JSON) here")
     parser.add_argument("--before", metavar="FILE", help="figures stored earlier, printed with the speed-up")
     args = parser.parse_args()
@@ -89,6 +92,16 @@ def main() -> None:
             entry = {"file_mb": round(path.stat().st_size / 1e6, 1),
                      "write_median_s": round(w, 3), "read_median_s": round(r, 3),
                      "write_times_s": [round(t, 3) for t in w_all], "read_times_s": [round(t, 3) for t in r_all]}
+            if args.apply_write:
+                # what apply writes: the recording read from the file, with six calibrated columns added
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    back = read(path)
+                out = Path(tmp) / f"{kind}_calibrated.csv"
+                a, a_all = median_time(lambda back=back, out=out: write_csv(out, back, back.acc * 1e-3,
+                                                                             back.gyro * 1e-3), args.runs)
+                entry["apply_write_median_s"] = round(a, 3)
+                entry["apply_write_times_s"] = [round(t, 3) for t in a_all]
             if args.candidates:
                 entry["parsers_median_s"] = candidates(path, args.runs)
             result["files"][kind] = entry
@@ -98,7 +111,8 @@ def main() -> None:
         before = json.loads(Path(args.before).read_text(encoding="utf-8"))
         result = {"benchmark": "csv_io", "rows": n, "before": before, "after": result, "speedup": {
             kind: {op: round(before["files"][kind][f"{op}_median_s"] / result["files"][kind][f"{op}_median_s"], 2)
-                   for op in ("read", "write")}
+                   for op in ("read", "write", "apply_write")
+                   if f"{op}_median_s" in before["files"][kind] and f"{op}_median_s" in result["files"][kind]}
             for kind in result["files"] if kind in before.get("files", {})}}
     print(json.dumps(result))
 

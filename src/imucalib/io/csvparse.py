@@ -358,7 +358,7 @@ def _parse_chunk(layout: Layout, ch: Chunk, kinds: list, names: Sequence[str], r
             except Exception:  # noqa: BLE001  any refusal of the C parser: the line-by-line parser says why
                 part = None
             if part is not None and all(a.shape == (n,) for a in part.values()) and all(
-                    np.isfinite(a).all() for j, a in part.items() if kinds[j] == "float"):
+                    np.isfinite(part[j]).all() for j in required if kinds[j] == "float"):
                 return part
     return _python_chunk(layout, ch, kinds, names, required)
 

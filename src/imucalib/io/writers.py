@@ -218,8 +218,8 @@ def _write_values(path: str | Path, rec: Recording, added: dict[str, np.ndarray]
     formats: list[str] = []
     for name, v in cols.items():
         v = np.asarray(v)  # no copies: each block is converted as it is written
-        if v.dtype.kind in "iub":
-            formats.append("%d")
+        if v.dtype.kind in "iub" or (name not in added and _whole(v)):
+            formats.append("%d")  # integers, and floats that hold integers (raw counts): exact and fast
         elif v.dtype.kind == "f":
             formats.append(ADDED_FORMAT if name in added else "%r")  # %r: the shortest text of the same double
         else:
@@ -230,9 +230,24 @@ def _write_values(path: str | Path, rec: Recording, added: dict[str, np.ndarray]
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(",".join(_quote(k) for k in cols) + "\n")
         for start in range(0, n, _ROWS):
-            parts = [(a[start:start + _ROWS] if f != "%s" else a[start:start + _ROWS].astype(str)).tolist()
-                     for a, f in zip(arrays, formats, strict=True)]
+            parts = [_block(a[start:start + _ROWS], f) for a, f in zip(arrays, formats, strict=True)]
             for j in text_cols:
                 parts[j] = [_quote(c) for c in parts[j]]
             fh.write("\n".join(row_format % row for row in zip(*parts, strict=True)))
             fh.write("\n")
+
+
+def _whole(v: np.ndarray) -> bool:
+    """Whether a float column holds only integers that float64 represents exactly."""
+    if v.dtype.kind != "f" or v.size == 0:
+        return False
+    big = float(np.max(np.abs(v)))
+    return big < 2.0**53 and bool(np.all(np.trunc(v) == v))
+
+
+def _block(a: np.ndarray, fmt: str) -> list:
+    if fmt == "%s":
+        return a.astype(str).tolist()
+    if fmt == "%d" and a.dtype.kind == "f":
+        return a.astype(np.int64).tolist()
+    return a.tolist()
