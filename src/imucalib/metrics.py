@@ -140,13 +140,22 @@ def gravity_noise_floor(calibration, recording: Recording, intervals: Sequence[I
     above 1 means model error or poses that were not still.
     """
     var = []
+    model = calibration.accelerometer
+    linear = model.is_linear and not np.any(model.g_sensitivity)
     for iv in intervals:
-        a = calibration.accelerometer_si(recording.acc[iv.slice])
-        if a.shape[0] < 2:
+        raw = recording.acc[iv.slice]
+        if raw.shape[0] < 2:
             continue
-        u = a.mean(axis=0)
-        along = a @ (u / np.linalg.norm(u))
-        var.append(np.var(along, ddof=1) / a.shape[0])
+        if linear:
+            # a = T diag(k1) (u − b) + T d is affine in u: its mean is the model of the mean, and its
+            # component along û is u · (diag(k1) Tᵀ û) plus a constant, so no calibrated copy is needed
+            u = model.forward(raw.mean(axis=0)[None, :])[0]
+            along = raw @ (model.scale * (model.misalignment.T @ (u / np.linalg.norm(u))))
+        else:
+            a = calibration.accelerometer_si(raw)
+            u = a.mean(axis=0)
+            along = a @ (u / np.linalg.norm(u))
+        var.append(np.var(along, ddof=1) / raw.shape[0])
     return float(np.sqrt(np.mean(var))) if var else 0.0
 
 
