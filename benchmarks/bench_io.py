@@ -4,7 +4,7 @@ Two files are timed: ``counts`` (integer readings, as a logger of raw counts
 writes them) and ``float`` (readings with 9 significant digits and a time in
 seconds with microseconds, as a logger of physical units writes them).
 
-``--apply-write`` also times what ``imucalib apply`` writes (the file read
+``--engine`` picks the reader's CSV parser. ``--apply-write`` also times what ``imucalib apply`` writes (the file read
 back, six calibrated columns added). ``--save FILE`` stores the figures; ``--before FILE`` reads figures stored
 earlier (from the code before a change) and prints them next to today's, with
 the speed-up. ``--candidates`` also times the bare numeric parsers that the
@@ -77,11 +77,18 @@ def main() -> None:
     parser.add_argument("--candidates", action="store_true", help="also time the bare numeric parsers")
     parser.add_argument("--apply-write", action="store_true",
                         help="also time writing what apply writes (the file read back, six columns added)")
+    parser.add_argument("--engine", choices=("auto", "numpy", "pandas", "python"),
+                        help="the reader's CSV parser (imucalib.io.csvparse.ENGINE; default: its own choice)")
     parser.add_argument("--save", metavar="FILE", help="store the figures (JSON) here")
     parser.add_argument("--before", metavar="FILE", help="figures stored earlier, printed with the speed-up")
     args = parser.parse_args()
     n = args.rows
-    result: dict = {"benchmark": "csv_io", "rows": n, "runs": args.runs, "files": {}}
+    if args.engine:
+        from imucalib.io import csvparse
+
+        csvparse.ENGINE = args.engine
+    result: dict = {"benchmark": "csv_io", "rows": n, "runs": args.runs, "engine": args.engine or "default",
+                    "files": {}}
     with tempfile.TemporaryDirectory() as tmp:
         for kind, rec in recordings(n).items():
             path = Path(tmp) / f"{kind}.csv"

@@ -169,3 +169,16 @@ def test_pandas_engine_is_used_only_for_large_files(tmp_path, monkeypatch):
     monkeypatch.setattr(csvparse, "PANDAS_MIN_BYTES", 10)
     expected = "pandas" if csvparse.pandas_available() else "numpy"
     assert csvparse.engine_for(csvparse.Layout.from_dict(layout)) == expected
+
+
+@pytest.mark.parametrize("extra", ["every", "first"])
+def test_whitespace_rows_with_an_extra_cell_are_errors(tmp_path, engine, extra):
+    """A blank-separated table whose rows (all of a chunk, or its first) have a cell too many is refused."""
+    t, a, g = _table(n=2000)
+    lines = _text(t, a, g, sep=" ", header="t ax ay az gx gy gz").split("\n")
+    rows = range(1, 2001) if extra == "every" else [1]
+    for i in rows:
+        lines[i] += " 7"
+    (tmp_path / "w.txt").write_text("\n".join(lines))
+    with pytest.raises(ReaderError, match=r"line 2: expected 7 values, found 8"):
+        read(tmp_path / "w.txt")

@@ -49,8 +49,8 @@ import numpy as np
 
 from .errors import ReaderError
 
-__all__ = ["CHUNK_BYTES", "ENGINE", "Chunk", "Head", "Layout", "PANDAS_MIN_BYTES", "chunks", "column_kinds",
-           "count_rows", "engine_for", "fingerprint", "pandas_available", "parse", "read_head", "split_cells"]
+__all__ = ["CHUNK_BYTES", "ENGINE", "Chunk", "Head", "Layout", "PANDAS_MIN_BYTES", "Plan", "chunks", "column_kinds",
+           "count_rows", "plan", "engine_for", "fingerprint", "pandas_available", "parse", "read_head", "split_cells"]
 
 #: body text parsed at a time [bytes] (about 100 000 rows of 7 columns)
 CHUNK_BYTES = 1 << 23
@@ -204,35 +204,57 @@ class Chunk:
     comments: int    # full-line comments among them
 
 
-def chunks(layout: Layout, chunk_bytes: int | None = None) -> Iterator[Chunk]:
+@dataclass(frozen=True)
+class Plan:
+    """The body cut into chunks of whole lines: each chunk's byte length, lines and comment lines."""
+
+    pieces: tuple[tuple[int, int, int], ...]
+
+    @property
+    def rows(self) -> int:
+        return sum(lines - comments for _, lines, comments in self.pieces)
+
+    @property
+    def comments(self) -> int:
+        return sum(comments for *_, comments in self.pieces)
+
+
+def chunks(layout: Layout, chunk_bytes: int | None = None, plan: Plan | None = None) -> Iterator[Chunk]:
     """The body of ``layout``'s file in pieces of whole lines (about ``chunk_bytes``, default
-    :data:`CHUNK_BYTES`), each with its first line number."""
+    :data:`CHUNK_BYTES`, or as ``plan`` cut it), each with its first line number."""
     chunk_bytes = chunk_bytes or CHUNK_BYTES
     start, end = layout.body
     line = layout.first_line
+    known = iter(plan.pieces) if plan is not None else None
     with layout.path.open("rb") as f:
         f.seek(start)
         pos = start
         while pos < end:
-            data = f.read(min(chunk_bytes, end - pos))
-            if pos + len(data) < end and not data.endswith(b"\n"):
-                data += f.readline()  # finish the line
-            if pos + len(data) > end:
-                data = data[:end - pos]
+            if known is not None:
+                size, n, comments = next(known)
+                data = f.read(size)
+            else:
+                data = f.read(min(chunk_bytes, end - pos))
+                if pos + len(data) < end and not data.endswith(b"\n"):
+                    data += f.readline()  # finish the line
+                if pos + len(data) > end:
+                    data = data[:end - pos]
+                n = data.count(b"\n") + (0 if data.endswith(b"\n") else 1)
+                comments = len(_COMMENT.findall(data)) if b"#" in data else 0
             pos += len(data)
-            n = data.count(b"\n") + (0 if data.endswith(b"\n") else 1)
-            comments = len(_COMMENT.findall(data)) if b"#" in data else 0
             yield Chunk(data, line, n, comments)
             line += n
 
 
+def plan(layout: Layout, chunk_bytes: int | None = None) -> Plan:
+    """One pass over the body: where its chunks end, and their lines (rows to allocate before parsing)."""
+    return Plan(tuple((len(ch.data), ch.lines, ch.comments) for ch in chunks(layout, chunk_bytes)))
+
+
 def count_rows(layout: Layout, chunk_bytes: int | None = None) -> tuple[int, int]:
     """Rows (lines that are not full-line comments) and comment lines of the body."""
-    rows = comments = 0
-    for ch in chunks(layout, chunk_bytes):
-        rows += ch.lines - ch.comments
-        comments += ch.comments
-    return rows, comments
+    p = plan(layout, chunk_bytes)
+    return p.rows, p.comments
 
 
 # ------------------------------------------------------------------ parse
@@ -262,7 +284,7 @@ class _Demote(Exception):
 
 
 def parse(layout: Layout, kinds: Sequence[str | None], names: Sequence[str], *, required: Sequence[int] = (),
-          out: dict[int, np.ndarray] | None = None, rows: int | None = None,
+          out: dict[int, np.ndarray] | None = None, plan: Plan | None = None,
           chunk_bytes: int | None = None) -> tuple[dict[int, np.ndarray], dict]:
     """Read the body's columns into arrays, one chunk at a time.
 
@@ -280,8 +302,8 @@ def parse(layout: Layout, kinds: Sequence[str | None], names: Sequence[str], *, 
     out : dict of int to (rows,) float64 arrays, optional
         Arrays (may be strided views) to fill for some float columns; the
         others are allocated here.
-    rows : int, optional
-        Rows in the body when known (:func:`count_rows`).
+    plan : Plan, optional
+        The body's chunks when already known (:func:`plan`): saves a pass over the file.
 
     Returns
     -------
@@ -291,15 +313,16 @@ def parse(layout: Layout, kinds: Sequence[str | None], names: Sequence[str], *, 
         ``rows``, ``comment_lines``, ``engine`` and ``kinds`` (after any demotion).
     """
     kinds = list(kinds)
-    if rows is None:
-        rows, _ = count_rows(layout, chunk_bytes)
+    if plan is None:
+        plan = globals()["plan"](layout, chunk_bytes)
+    rows = plan.rows
     engine = engine_for(layout)
     while True:
         cols = {j: _allocate(kind, rows, (out or {}).get(j)) for j, kind in enumerate(kinds) if kind is not None}
         try:
             done = 0
             comments = 0
-            for ch in chunks(layout, chunk_bytes):
+            for ch in chunks(layout, chunk_bytes, plan):
                 n = ch.lines - ch.comments
                 if done + n > rows:
                     raise ReaderError(f"{layout.path}: the file changed while it was read")
@@ -349,8 +372,11 @@ def _parse_chunk(layout: Layout, ch: Chunk, kinds: list, names: Sequence[str], r
         if layout.decimal_comma:
             data = data.replace(b",", b".")
         sep = layout.sep
-        # every row has ncols cells: count the separators (a separator inside quotes fails this: line by line)
-        if sep is None or data.count(sep.encode()) == (layout.ncols - 1) * n:
+        # every row has ncols cells: numpy's parser checks it when it reads every column as numbers; else count
+        # the separators (a separator inside quotes fails this: line by line)
+        checked = engine == "numpy" and all(k == "float" for k in kinds)
+        if checked or (_cell_count(data) == layout.ncols * n if sep is None
+                       else data.count(sep.encode()) == (layout.ncols - 1) * n):
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
@@ -361,6 +387,15 @@ def _parse_chunk(layout: Layout, ch: Chunk, kinds: list, names: Sequence[str], r
                     np.isfinite(part[j]).all() for j in required if kinds[j] == "float"):
                 return part
     return _python_chunk(layout, ch, kinds, names, required)
+
+
+def _cell_count(data: bytes) -> int:
+    """Cells of whitespace-separated text: the starts of runs of non-blank bytes."""
+    b = np.frombuffer(data, dtype=np.uint8)
+    if b.size == 0:
+        return 0
+    blank = (b == 32) | (b == 9) | (b == 10) | (b == 13)
+    return int(np.count_nonzero(blank[:-1] & ~blank[1:])) + int(not blank[0])
 
 
 def _numpy_chunk(data: bytes, layout: Layout, kinds: list) -> dict[int, np.ndarray]:

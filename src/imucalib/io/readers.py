@@ -449,7 +449,8 @@ _DECIMAL_COMMA = re.compile(r'^"?[+-]?\d*,\d+(?:[eE][+-]?\d+)?"?$')
 
 
 def _parse_table(path: Path, table: _Table, required: Sequence[int], *, others: bool = True,
-                 out: dict[int, np.ndarray] | None = None, rows: int | None = None) -> dict[int, np.ndarray]:
+                 out: dict[int, np.ndarray] | None = None, plan: csvparse.Plan | None = None
+                 ) -> dict[int, np.ndarray]:
     """The rows' columns as arrays (:func:`.csvparse.parse`): ``required`` ones numbers, checked; the others
     (when ``others``) numbers or text as their cells are; int64 for long integers (ns stamps, IDs)."""
     kinds: list[str | None] = csvparse.column_kinds(table.first_row, False)
@@ -460,7 +461,7 @@ def _parse_table(path: Path, table: _Table, required: Sequence[int], *, others: 
             kinds[j] = "float"  # the parse names the bad cell
         elif j not in required and not others:
             kinds[j] = None
-    cols, facts = csvparse.parse(table.layout, kinds, table.names, required=required, out=out, rows=rows)
+    cols, facts = csvparse.parse(table.layout, kinds, table.names, required=required, out=out, plan=plan)
     if facts["comment_lines"]:
         n = facts["comment_lines"]
         warnings.warn(f"{path}: skipped {n} comment line{'s' if n > 1 else ''} (starting with #) between the rows",
@@ -483,7 +484,8 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     mapping = _map_columns(path, names, columns, has_header)
     numeric_cols = sorted({j for j in mapping.values() if j is not None})
     # the samples go straight into the recording's arrays: no copy of the whole table
-    rows = csvparse.count_rows(table.layout)[0] if frame is None else len(frame)
+    plan = csvparse.plan(table.layout) if frame is None else None
+    rows = plan.rows if plan is not None else len(frame)
     if rows == 0:
         raise ReaderError(f"{path}: no data rows after the header")
     acc, gyro = np.empty((rows, 3)), np.empty((rows, 3))
@@ -492,7 +494,7 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     for f, view in targets.items():
         out.setdefault(mapping[f], view)
     if frame is None:
-        cols = _parse_table(path, table, numeric_cols, out=out, rows=rows)
+        cols = _parse_table(path, table, numeric_cols, out=out, plan=plan)
     else:
         cols, stamps = _frame_columns(path, frame, numeric_cols, out)
         if mapping["t"] in stamps and time_unit is None:
