@@ -23,6 +23,7 @@ __all__ = ["Calibration", "FORMAT", "FORMAT_VERSION"]
 
 FORMAT = "imucalib.calibration"
 FORMAT_VERSION = 1
+_BLOCK = 1 << 16  # samples calibrated at a time by apply
 
 
 def _default_acc() -> TriadModel:
@@ -117,8 +118,12 @@ class Calibration:
         if read_options:
             raise TypeError(f"apply takes reading options ({', '.join(read_options)}) only with a DataFrame")
         self.check_units(recording)
-        acc = self.accelerometer_si(recording.acc)
-        gyro = self.gyroscope.forward(recording.gyro, acc)
+        n = len(recording)
+        acc, gyro = np.empty((n, 3)), np.empty((n, 3))
+        for a in range(0, n, _BLOCK):  # the models' temporaries stay the size of a block
+            b = min(a + _BLOCK, n)
+            acc[a:b] = self.accelerometer_si(recording.acc[a:b])
+            gyro[a:b] = self.gyroscope.forward(recording.gyro[a:b], acc[a:b])
         return Recording(
             t=recording.t,
             acc=acc,

@@ -293,15 +293,21 @@ STILL_WINDOW = 0.25
 def moving_mean(x: np.ndarray, window: int) -> np.ndarray:
     """Mean over a centred window of ``window`` samples, per column (truncated at the ends), :data:`BLOCK` at a time."""
     x = np.asarray(x, dtype=np.float64)
+    return _moving_mean_rows(x, max(int(window) // 2, 0), 0, x.shape[0])
+
+
+def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int) -> np.ndarray:
+    """:func:`moving_mean` (window ``±half``) of rows ``[a, b)`` of ``x`` only, :data:`BLOCK` rows at a time."""
     n = x.shape[0]
-    half = max(int(window) // 2, 0)
     ref = x[0]  # subtracted to keep the running sums accurate
-    out = np.empty(x.shape)
-    for a, b, lo, hi in _blocks(n, half):
+    out = np.empty((b - a, x.shape[1]))
+    for s in range(a, b, BLOCK):
+        e = min(s + BLOCK, b)
+        lo, hi = max(s - half, 0), min(e + half, n)
         c = np.zeros((hi - lo + 1, x.shape[1]))
         np.cumsum(x[lo:hi] - ref, axis=0, out=c[1:])
-        wlo, whi = _window_bounds(a, b, lo, half, n)
-        out[a:b] = (c[whi] - c[wlo]) / (whi - wlo)[:, None] + ref
+        wlo, whi = _window_bounds(s, e, lo, half, n)
+        out[s - a:e - a] = (c[whi] - c[wlo]) / (whi - wlo)[:, None] + ref
     return out
 
 
@@ -326,13 +332,18 @@ def gyro_still(recording: Recording, rest: Interval, scale: float, intervals: li
     raw = recording.gyro[rest.slice]
     noise = float(np.linalg.norm(raw.std(axis=0))) / np.sqrt(n)
     limit = max(rate_limit / abs(scale), n_sigma * noise)
-    m = moving_mean(recording.gyro, n)
-    m -= raw.mean(axis=0)
-    dev = np.sqrt(np.einsum("ij,ij->i", m, m))
-    still = dev < limit
+    gyro = np.asarray(recording.gyro, dtype=np.float64)
+    bias = raw.mean(axis=0)
+    half = n // 2
+    still = np.empty(gyro.shape[0], dtype=bool)
+    for a in range(0, gyro.shape[0], BLOCK):  # block by block: no (N, 3) moving mean is kept
+        m = _moving_mean_rows(gyro, half, a, min(a + BLOCK, gyro.shape[0])) - bias
+        still[a:a + m.shape[0]] = np.sqrt(np.einsum("ij,ij->i", m, m)) < limit
     for iv in intervals or []:
-        local = np.linalg.norm(m[iv.slice] - np.median(m[iv.slice], axis=0), axis=1)
-        still[iv.slice] = (local < limit) & (dev[iv.slice] < offset_factor * limit)
+        m = _moving_mean_rows(gyro, half, iv.start, iv.stop) - bias
+        dev = np.sqrt(np.einsum("ij,ij->i", m, m))
+        local = np.linalg.norm(m - np.median(m, axis=0), axis=1)
+        still[iv.slice] = (local < limit) & (dev < offset_factor * limit)
     return still
 
 
