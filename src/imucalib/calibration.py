@@ -25,6 +25,7 @@ __all__ = ["Calibration", "CalibrationFileError", "FORMAT", "FORMAT_VERSION", "c
 
 FORMAT = "imucalib.calibration"
 FORMAT_VERSION = 1
+_BLOCK = 1 << 16  # samples calibrated at a time by apply
 
 
 def _default_acc() -> TriadModel:
@@ -107,19 +108,34 @@ class Calibration:
             a = self.accelerometer_si(raw_acc)
         return self.gyroscope.forward(raw_gyro, a)
 
-    def apply(self, recording: Recording) -> Recording:
+    def apply(self, recording, **read_options):
         """The recording with calibrated accelerometer [m/s²] and gyroscope [rad/s].
 
         The recording must be in the raw units this calibration was made for.
+
+        A pandas DataFrame is read as :func:`imucalib.io.read` reads it (its
+        column names as a CSV header; ``read_options`` are that function's:
+        ``columns``, ``acc_unit``, ``gyro_unit``, ``rate``, ``time_unit``) and
+        a copy of it is returned with the calibrated columns added:
+        ``acc_x_cal [m/s^2]`` … ``gyro_z_cal [rad/s]``, as ``imucalib apply``
+        adds them to a CSV file.
         """
+        if not isinstance(recording, Recording):
+            return self._apply_frame(recording, read_options)
+        if read_options:
+            raise TypeError(f"apply takes reading options ({', '.join(read_options)}) only with a DataFrame")
         self.check_units(recording)
         if self.thermal is not None:  # compensated to the reference temperature, then as below (thermal.py, T2)
             from .thermal import compensate
 
             base, compensated = compensate(self, recording)
             return base.apply(compensated)
-        acc = self.accelerometer_si(recording.acc)
-        gyro = self.gyroscope.forward(recording.gyro, acc)
+        n = len(recording)
+        acc, gyro = np.empty((n, 3)), np.empty((n, 3))
+        for a in range(0, n, _BLOCK):  # the models' temporaries stay the size of a block
+            b = min(a + _BLOCK, n)
+            acc[a:b] = self.accelerometer_si(recording.acc[a:b])
+            gyro[a:b] = self.gyroscope.forward(recording.gyro[a:b], acc[a:b])
         mag, mag_unit = recording.mag, recording.mag_unit
         if mag is not None and self.magnetometer is not None:
             mag, mag_unit = self.magnetometer.forward(mag), self.magnetometer.unit
@@ -135,6 +151,22 @@ class Calibration:
             mag=mag,
             mag_unit=mag_unit,
         )
+
+    def _apply_frame(self, frame, read_options: dict):
+        from .io.readers import _is_frame, read
+        from .io.writers import calibrated_columns
+
+        if not _is_frame(frame):
+            raise TypeError(f"apply takes a Recording or a pandas DataFrame; got {type(frame).__name__}")
+        rec = read(frame, **read_options)
+        out = self.apply(rec)
+        mag = out.mag if self.magnetometer is not None and rec.mag is not None else None
+        added = calibrated_columns(out.acc, out.gyro, mag, out.mag_unit)
+        clash = [name for name in added if name in frame.columns]
+        if clash:
+            raise ValueError(f"the DataFrame already has the column(s) {', '.join(clash)}: apply a calibration to "
+                             "raw data only once")
+        return frame.assign(**added)
 
     def check_units(self, recording: Recording) -> None:
         """Raise ValueError unless the recording is in the raw units this calibration maps."""

@@ -422,42 +422,52 @@ class IntervalIntegrator:
         if np.any(starts < 0) or np.any(stops >= t.shape[0]):
             raise ValueError("interval indices lie outside the recording")
         nsteps = stops - starts
-        width = 1 << int(np.ceil(np.log2(max(int(nsteps.max()), 1))))
-        pos = np.arange(width)[None, :]
-        idx = starts[:, None] + pos  # step idx → idx+1
-        valid = pos < nsteps[:, None]
-        steps = np.unique(idx[valid])
+        steps = np.unique(np.concatenate([np.arange(a, b) for a, b in zip(starts, stops, strict=True)]))
         self.samples = np.union1d(steps, steps + 1)
         #: positions in ``samples`` of each step's first and second sample
         self._i0 = np.searchsorted(self.samples, steps)
         self._i1 = self._i0 + 1
-        where = np.searchsorted(steps, np.where(valid, idx, steps[0]))
-        self._gather = np.where(valid, where, steps.size)  # padding → identity column
         self._dt = t[steps + 1] - t[steps]
         self.starts, self.stops = starts, stops
-        # trapezoid weights of the samples of each interval (positions 0..L)
-        spos = np.arange(width + 1)[None, :]
-        sval = spos <= nsteps[:, None]
-        sidx = np.where(sval, starts[:, None] + spos, self.samples[0])
-        self._sample_pos = np.searchsorted(self.samples, sidx)
-        dtp = np.zeros((len(starts), width + 2))
-        step_dt = np.where(valid, t[np.minimum(idx + 1, t.shape[0] - 1)] - t[np.minimum(idx, t.shape[0] - 1)], 0.0)
-        dtp[:, 1:-1] = step_dt
-        self._trapezoid = 0.5 * (dtp[:, :-1] + dtp[:, 1:])
+        self._nsteps = nsteps
+        #: position in ``samples`` of each interval's first sample (its samples follow it there)
+        self._first = np.searchsorted(self.samples, starts)
+        # intervals grouped by their length rounded up to a power of two: each group is padded to its own
+        # length (with identity steps), not to the longest interval's, so memory follows the samples integrated
+        widths = 1 << np.ceil(np.log2(np.maximum(nsteps, 1))).astype(int)
+        self._groups = []
+        for width in np.unique(widths):
+            members = np.nonzero(widths == width)[0]
+            pos = np.arange(width)[None, :]
+            valid = pos < nsteps[members, None]
+            idx = starts[members, None] + pos  # step idx → idx+1
+            where = np.searchsorted(steps, np.where(valid, idx, steps[0]))
+            gather = np.where(valid, where, steps.size)  # padding → identity column
+            # trapezoid weights of the samples of each interval (positions 0..width)
+            dtp = np.zeros((len(members), width + 2))
+            last = t.shape[0] - 1
+            dtp[:, 1:-1] = np.where(valid, t[np.minimum(idx + 1, last)] - t[np.minimum(idx, last)], 0.0)
+            self._groups.append((members, gather, 0.5 * (dtp[:, :-1] + dtp[:, 1:])))
 
     def __call__(self, rates: np.ndarray) -> np.ndarray:
         """Attitude change (M, 4) of every interval for rates (N, 3) [rad/s]."""
         return self.from_samples(np.asarray(rates, dtype=np.float64)[self.samples])
 
-    def from_samples(self, rates: np.ndarray) -> np.ndarray:
-        """Attitude change (M, 4) from rates (len(samples), 3) at :attr:`samples` only."""
+    def _steps(self, rates: np.ndarray) -> np.ndarray:
+        """RK4 factors (4, steps + 1) of every step, then an identity column for the padding."""
         w = np.ascontiguousarray(np.asarray(rates, dtype=np.float64).T)
         s = _rk4_soa(w[:, self._i0], w[:, self._i1], self._dt)
-        s = np.concatenate([s, np.array([[1.0], [0.0], [0.0], [0.0]])], axis=1)
-        q = _tree_product_soa(s[:, self._gather]).T
+        return np.concatenate([s, np.array([[1.0], [0.0], [0.0], [0.0]])], axis=1)
+
+    def from_samples(self, rates: np.ndarray) -> np.ndarray:
+        """Attitude change (M, 4) from rates (len(samples), 3) at :attr:`samples` only."""
+        s = self._steps(rates)
+        q = np.empty((len(self.starts), 4))
+        for members, gather, _ in self._groups:
+            q[members] = _tree_product_soa(s[:, gather]).T
         return quat_normalize(q)
 
-    def sensitivity(self, rates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def sensitivity(self, rates: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
         """End attitudes and the weights of the first-order attitude sensitivity.
 
         A perturbation ``δω`` of the rates turns the end attitude by
@@ -474,40 +484,42 @@ class IntervalIntegrator:
         -------
         q_end : (M, 4) ndarray
             Attitude change of each interval (as :meth:`from_samples`).
-        weights : (M, L+1, 3, 3) ndarray
-            ``A`` for the samples of each interval at positions
-            :attr:`sample_index` (zero for padding).
+        weights : list of M (n_m + 1, 3, 3) ndarrays
+            ``A_j`` for the ``n_m + 1`` samples of interval ``m``, in the
+            order they have in :attr:`samples` from :attr:`first_sample`.
         """
-        w = np.ascontiguousarray(np.asarray(rates, dtype=np.float64).T)
-        s = _rk4_soa(w[:, self._i0], w[:, self._i1], self._dt)
-        s = np.concatenate([s, np.array([[1.0], [0.0], [0.0], [0.0]])], axis=1)
-        pre = _prefix_product_soa(s[:, self._gather])  # attitude after each step
-        m = pre.shape[1]
-        att = np.empty((4, m, pre.shape[2] + 1))
-        att[:, :, 0] = _IDENTITY[:, None]
-        att[:, :, 1:] = pre
-        rot = quat_to_matrix(np.moveaxis(att, 0, -1))
-        q_end = quat_normalize(pre[:, :, -1].T)
-        return q_end, rot * self._trapezoid[:, :, None, None]
+        s = self._steps(rates)
+        q_end = np.empty((len(self.starts), 4))
+        weights: list[np.ndarray] = [np.empty(0)] * len(self.starts)
+        for members, gather, trapezoid in self._groups:
+            pre = _prefix_product_soa(s[:, gather])  # attitude after each step
+            m, width = pre.shape[1], pre.shape[2]
+            att = np.empty((4, m, width + 1))
+            att[:, :, 0] = _IDENTITY[:, None]
+            att[:, :, 1:] = pre
+            rot = quat_to_matrix(np.moveaxis(att, 0, -1))
+            rot *= trapezoid[:, :, None, None]
+            q_end[members] = pre[:, :, -1].T
+            for i, k in enumerate(members):
+                weights[k] = rot[i, : self._nsteps[k] + 1]
+        return quat_normalize(q_end), weights
 
     @property
-    def sample_index(self) -> np.ndarray:
-        """(M, L+1) positions in :attr:`samples` of each interval's samples (0 = padding)."""
-        return self._sample_pos
+    def first_sample(self) -> np.ndarray:
+        """(M,) position in :attr:`samples` of each interval's first sample; its others follow it there."""
+        return self._first
 
-    def weighted_sum(self, weights: np.ndarray, values: np.ndarray) -> np.ndarray:
+    def weighted_sum(self, weights: list[np.ndarray], values: np.ndarray) -> np.ndarray:
         """``Σ_j A_j v_j`` over each interval's samples: (M, 3, P) from the weights of :meth:`sensitivity`.
 
         ``values`` (len(samples), 3, P) are per-sample Jacobians (e.g. ``∂ω/∂θ``).
         Each interval's samples are consecutive in :attr:`samples`, so this is
         one (3 × 3n)·(3n × P) product per interval over its own samples, with
-        no gathered copy and no work on the padding.
+        no gathered copy and no work on padding.
         """
-        nsteps = self.stops - self.starts
-        first = self._sample_pos[:, 0]
-        out = np.empty((len(nsteps), 3, values.shape[2]))
-        for m, (p0, n) in enumerate(zip(first, nsteps + 1, strict=True)):
-            a = weights[m, :n].transpose(1, 0, 2).reshape(3, 3 * n)  # [A_0 A_1 …]
+        out = np.empty((len(self.starts), 3, values.shape[2]))
+        for m, (p0, n) in enumerate(zip(self._first, self._nsteps + 1, strict=True)):
+            a = weights[m][:n].transpose(1, 0, 2).reshape(3, 3 * n)  # [A_0 A_1 …]
             out[m] = a @ values[p0 : p0 + n].reshape(3 * n, -1)
         return out
 

@@ -32,13 +32,20 @@ __all__ = [
 
 
 def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
-    """Mean of ``x`` (N, K) over each interval → (M, K), vectorised by cumulative sums."""
+    """Mean of ``x`` (N, K) over each interval → (M, K), in float64.
+
+    Interval by interval and column by column, over each interval's own
+    samples less its first one (pairwise sums of small numbers keep the mean
+    accurate; a constant interval's mean is exact): no temporary the size of
+    the recording.
+    """
     x = np.asarray(x, dtype=np.float64)
-    starts = np.array([iv.start for iv in intervals], dtype=np.intp)
-    stops = np.array([iv.stop for iv in intervals], dtype=np.intp)
-    ref = x[starts[0]] if len(starts) else 0.0  # subtract a sample to keep the sums accurate
-    c = np.concatenate([np.zeros((1, x.shape[1])), np.cumsum(x - ref, axis=0)])
-    return (c[stops] - c[starts]) / (stops - starts)[:, None] + ref
+    out = np.empty((len(intervals), x.shape[1]))
+    for k, iv in enumerate(intervals):
+        ref = x[iv.start]
+        for j in range(x.shape[1]):
+            out[k, j] = (x[iv.start:iv.stop, j] - ref[j]).mean() + ref[j]
+    return out
 
 
 def transition_bounds(intervals: Sequence[Interval]) -> tuple[np.ndarray, np.ndarray]:
@@ -76,8 +83,9 @@ def predicted_gravity(
     u = acc_means / np.linalg.norm(acc_means, axis=1, keepdims=True)
     if integrator is None:
         integrator = IntervalIntegrator(recording.t, *transition_bounds(intervals))
-    rates = calibration.gyroscope_si(recording.gyro, recording.acc)
-    r = quat_to_matrix(integrator(rates))
+    used = integrator.samples  # only the samples the rotations are integrated over are calibrated
+    rates = calibration.gyroscope_si(recording.gyro[used], recording.acc[used])
+    r = quat_to_matrix(integrator.from_samples(rates))
     predicted = np.einsum("kji,kj->ki", r, u[:-1])  # Rᵀ · g_{k-1}
     return u[1:], predicted
 
@@ -132,13 +140,22 @@ def gravity_noise_floor(calibration, recording: Recording, intervals: Sequence[I
     above 1 means model error or poses that were not still.
     """
     var = []
+    model = calibration.accelerometer
+    linear = model.is_linear and not np.any(model.g_sensitivity)
     for iv in intervals:
-        a = calibration.accelerometer_si(recording.acc[iv.slice])
-        if a.shape[0] < 2:
+        raw = recording.acc[iv.slice]
+        if raw.shape[0] < 2:
             continue
-        u = a.mean(axis=0)
-        along = a @ (u / np.linalg.norm(u))
-        var.append(np.var(along, ddof=1) / a.shape[0])
+        if linear:
+            # a = T diag(k1) (u − b) + T d is affine in u: its mean is the model of the mean, and its
+            # component along û is u · (diag(k1) Tᵀ û) plus a constant, so no calibrated copy is needed
+            u = model.forward(raw.mean(axis=0)[None, :])[0]
+            along = raw @ (model.scale * (model.misalignment.T @ (u / np.linalg.norm(u))))
+        else:
+            a = calibration.accelerometer_si(raw)
+            u = a.mean(axis=0)
+            along = a @ (u / np.linalg.norm(u))
+        var.append(np.var(along, ddof=1) / raw.shape[0])
     return float(np.sqrt(np.mean(var))) if var else 0.0
 
 

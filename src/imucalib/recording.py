@@ -21,6 +21,8 @@ __all__ = [
     "Interval",
     "Recording",
     "STANDARD_GRAVITY",
+    "dataframe_columns",
+    "require_pandas",
 ]
 
 STANDARD_GRAVITY = 9.80665  # m/s², the conventional value (CGPM 1901)
@@ -35,6 +37,30 @@ MAG_UNITS = ("counts", "uT", "gauss", "normalised")
 
 class ImucalibWarning(UserWarning):
     """Warnings emitted by imucalib (data changed, weak geometry, poor fit...)."""
+
+
+def require_pandas(what: str):
+    """The pandas module, or a ValueError saying which extra installs it."""
+    try:
+        import pandas
+    except ImportError:
+        raise ValueError(f'{what} needs pandas: pip install "imucalib[pandas]" (or pandas)') from None
+    return pandas
+
+
+def dataframe_columns(recording: Recording) -> dict[str, np.ndarray]:
+    """Name → column of :meth:`Recording.to_dataframe`."""
+    cols: dict[str, np.ndarray] = {"t [s]": recording.t}
+    for sensor, values, unit in (("a", recording.acc, recording.acc_unit), ("g", recording.gyro, recording.gyro_unit)):
+        for i, axis in enumerate("xyz"):
+            cols[f"{sensor}{axis} [{unit}]"] = values[:, i]
+    if recording.temperature is not None:
+        cols["temperature [C]"] = recording.temperature
+    for name, values in recording.extra.items():
+        if name in cols or (recording.temperature is not None and values is recording.temperature):
+            continue
+        cols[name] = values
+    return cols
 
 
 def _check_unit(unit: str, allowed: tuple[str, ...], what: str) -> str:
@@ -165,10 +191,16 @@ class Recording:
 
     @property
     def rate(self) -> float:
-        """Median sampling rate [Hz]."""
+        """Median sampling rate [Hz] (computed once per time array: the median of a long recording's steps
+        costs two copies of it)."""
         if len(self) < 2:
             raise ValueError("the sampling rate needs at least two samples")
-        return float(1.0 / np.median(np.diff(self.t)))
+        cached = self.__dict__.get("_rate")
+        if cached is not None and cached[0] is self.t:
+            return cached[1]
+        rate = float(1.0 / np.median(np.diff(self.t)))
+        self.__dict__["_rate"] = (self.t, rate)
+        return rate
 
     def __getitem__(self, index: slice | Interval) -> Recording:
         """Samples ``index`` (a slice or an :class:`Interval`) as a new Recording."""
@@ -194,6 +226,18 @@ class Recording:
         i0 = 0 if t0 is None else int(np.searchsorted(self.t, t0, side="left"))
         i1 = len(self) if t1 is None else int(np.searchsorted(self.t, t1, side="left"))
         return self[i0:i1]
+
+    # ------------------------------------------------------------------ pandas
+    def to_dataframe(self):
+        """The recording as a pandas DataFrame (needs the ``pandas`` extra).
+
+        Columns ``t [s]``, ``ax [unit]`` … ``gz [unit]``, ``temperature [C]``
+        when there is one, then the extra columns by their names: the names
+        :func:`imucalib.io.read` recognises, so ``read(rec.to_dataframe())``
+        gives this recording back. The arrays are copied.
+        """
+        pd = require_pandas("Recording.to_dataframe")
+        return pd.DataFrame(dataframe_columns(self), copy=True)
 
     # ------------------------------------------------------------------ units
     def in_si(self, gravity: float = STANDARD_GRAVITY) -> Recording:

@@ -53,6 +53,7 @@ __all__ = [
     "still_intervals",
     "FACE_NAMES",
     "MIN_INTERVALS",
+    "BLOCK",
 ]
 
 #: the fewest static intervals the accelerometer detector's scan accepts
@@ -70,6 +71,38 @@ def runs(mask: np.ndarray, min_length: int = 1, kind: str = "static") -> list[In
             if b - a >= min_length]
 
 
+#: samples per block of the windowed statistics: their temporaries stay a few MB, whatever the recording's length
+BLOCK = 1 << 16
+
+
+def _blocks(n: int, half: int):
+    """Blocks ``[a, b)`` of samples with the span ``[lo, hi)`` their centred windows of ``±half`` samples read."""
+    for a in range(0, n, BLOCK):
+        b = min(a + BLOCK, n)
+        yield a, b, max(a - half, 0), min(b + half, n)
+
+
+def _window_bounds(a: int, b: int, lo: int, half: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Window ``[lo_i, hi_i)`` of each sample ``i`` of ``[a, b)`` (truncated at the record's ends), from ``lo``."""
+    idx = np.arange(a, b)
+    return np.clip(idx - half, 0, n) - lo, np.clip(idx + half + 1, 0, n) - lo
+
+
+def _block_variance(x: np.ndarray, centre: np.ndarray, a: int, b: int, lo: int, hi: int, half: int) -> np.ndarray:
+    """Population variance over the centred window of each sample of ``[a, b)``, per column (running sums)."""
+    seg = x[lo:hi] - centre  # centred for a numerically safe running sum of squares
+    c1 = np.zeros((seg.shape[0] + 1, seg.shape[1]))
+    c2 = np.zeros_like(c1)
+    np.cumsum(seg, axis=0, out=c1[1:])
+    np.square(seg, out=seg)
+    np.cumsum(seg, axis=0, out=c2[1:])
+    wlo, whi = _window_bounds(a, b, lo, half, x.shape[0])
+    cnt = (whi - wlo)[:, None].astype(np.float64)
+    mean = (c1[whi] - c1[wlo]) / cnt
+    var = (c2[whi] - c2[wlo]) / cnt - mean * mean
+    return np.maximum(var, 0.0, out=var)
+
+
 def moving_variance(x: np.ndarray, window: int) -> np.ndarray:
     """Variance over a centred window of ``window`` samples, per column.
 
@@ -83,29 +116,37 @@ def moving_variance(x: np.ndarray, window: int) -> np.ndarray:
     -------
     (N, K) ndarray
         Population variance of the window centred on each sample; the
-        window is shortened (truncated) at the ends of the record.
+        window is shortened (truncated) at the ends of the record. Computed
+        :data:`BLOCK` samples at a time from running sums of the centred
+        samples (``var = E[x²] − E[x]²`` over the window).
     """
     x = np.asarray(x, dtype=np.float64)
     if x.ndim == 1:
         x = x[:, None]
     n = x.shape[0]
     half = max(int(window) // 2, 1)
-    # centre each column for a numerically safe running sum of squares
-    xc = x - x.mean(axis=0)
-    c1 = np.concatenate([np.zeros((1, x.shape[1])), np.cumsum(xc, axis=0)])
-    c2 = np.concatenate([np.zeros((1, x.shape[1])), np.cumsum(xc * xc, axis=0)])
-    idx = np.arange(n)
-    lo = np.clip(idx - half, 0, n)
-    hi = np.clip(idx + half + 1, 0, n)
-    cnt = (hi - lo)[:, None].astype(np.float64)
-    mean = (c1[hi] - c1[lo]) / cnt
-    var = (c2[hi] - c2[lo]) / cnt - mean * mean
-    return np.maximum(var, 0.0)
+    centre = x.mean(axis=0)
+    out = np.empty(x.shape)
+    for a, b, lo, hi in _blocks(n, half):
+        out[a:b] = _block_variance(x, centre, a, b, lo, hi, half)
+    return out
 
 
 def variance_norm(acc: np.ndarray, window: int) -> np.ndarray:
-    """Norm of the per-axis moving variance vector (Tedaldi 2014 detector statistic)."""
-    return np.linalg.norm(moving_variance(acc, window), axis=1)
+    """Norm of the per-axis moving variance vector (Tedaldi 2014 detector statistic), (N,).
+
+    Block by block as :func:`moving_variance`, without its (N, 3) result.
+    """
+    x = np.asarray(acc, dtype=np.float64)
+    if x.ndim == 1:
+        x = x[:, None]
+    half = max(int(window) // 2, 1)
+    centre = x.mean(axis=0)
+    out = np.empty(x.shape[0])
+    for a, b, lo, hi in _blocks(x.shape[0], half):
+        var = _block_variance(x, centre, a, b, lo, hi, half)
+        out[a:b] = np.sqrt(np.einsum("ij,ij->i", var, var))
+    return out
 
 
 def find_initial_rest(
@@ -250,16 +291,24 @@ STILL_WINDOW = 0.25
 
 
 def moving_mean(x: np.ndarray, window: int) -> np.ndarray:
-    """Mean over a centred window of ``window`` samples, per column (truncated at the ends)."""
+    """Mean over a centred window of ``window`` samples, per column (truncated at the ends), :data:`BLOCK` at a time."""
     x = np.asarray(x, dtype=np.float64)
+    return _moving_mean_rows(x, max(int(window) // 2, 0), 0, x.shape[0])
+
+
+def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int) -> np.ndarray:
+    """:func:`moving_mean` (window ``±half``) of rows ``[a, b)`` of ``x`` only, :data:`BLOCK` rows at a time."""
     n = x.shape[0]
-    half = max(int(window) // 2, 0)
-    ref = x[0]
-    c = np.concatenate([np.zeros((1, x.shape[1])), np.cumsum(x - ref, axis=0)])
-    idx = np.arange(n)
-    lo = np.clip(idx - half, 0, n)
-    hi = np.clip(idx + half + 1, 0, n)
-    return (c[hi] - c[lo]) / (hi - lo)[:, None] + ref
+    ref = x[0]  # subtracted to keep the running sums accurate
+    out = np.empty((b - a, x.shape[1]))
+    for s in range(a, b, BLOCK):
+        e = min(s + BLOCK, b)
+        lo, hi = max(s - half, 0), min(e + half, n)
+        c = np.zeros((hi - lo + 1, x.shape[1]))
+        np.cumsum(x[lo:hi] - ref, axis=0, out=c[1:])
+        wlo, whi = _window_bounds(s, e, lo, half, n)
+        out[s - a:e - a] = (c[whi] - c[wlo]) / (whi - wlo)[:, None] + ref
+    return out
 
 
 def gyro_still(recording: Recording, rest: Interval, scale: float, intervals: list[Interval] | None = None, *,
@@ -283,12 +332,18 @@ def gyro_still(recording: Recording, rest: Interval, scale: float, intervals: li
     raw = recording.gyro[rest.slice]
     noise = float(np.linalg.norm(raw.std(axis=0))) / np.sqrt(n)
     limit = max(rate_limit / abs(scale), n_sigma * noise)
-    m = moving_mean(recording.gyro - raw.mean(axis=0), n)
-    dev = np.linalg.norm(m, axis=1)
-    still = dev < limit
+    gyro = np.asarray(recording.gyro, dtype=np.float64)
+    bias = raw.mean(axis=0)
+    half = n // 2
+    still = np.empty(gyro.shape[0], dtype=bool)
+    for a in range(0, gyro.shape[0], BLOCK):  # block by block: no (N, 3) moving mean is kept
+        m = _moving_mean_rows(gyro, half, a, min(a + BLOCK, gyro.shape[0])) - bias
+        still[a:a + m.shape[0]] = np.sqrt(np.einsum("ij,ij->i", m, m)) < limit
     for iv in intervals or []:
-        local = np.linalg.norm(m[iv.slice] - np.median(m[iv.slice], axis=0), axis=1)
-        still[iv.slice] = (local < limit) & (dev[iv.slice] < offset_factor * limit)
+        m = _moving_mean_rows(gyro, half, iv.start, iv.stop) - bias
+        dev = np.sqrt(np.einsum("ij,ij->i", m, m))
+        local = np.linalg.norm(m - np.median(m, axis=0), axis=1)
+        still[iv.slice] = (local < limit) & (dev < offset_factor * limit)
     return still
 
 
@@ -534,18 +589,24 @@ def spikes(x: np.ndarray, *, factor: float = 20.0, isolation: float = 4.0) -> np
     each other to a quarter of the jump.
     """
     x = np.asarray(x, dtype=np.float64)
-    out = np.zeros(x.shape[0], dtype=bool)
-    if x.shape[0] < 5:
+    if x.ndim == 1:
+        x = x[:, None]
+    n = x.shape[0]
+    out = np.zeros(n, dtype=bool)
+    if n < 5:
         return out
-    d = np.diff(x, axis=0)
-    scale = np.median(np.abs(d), axis=0)
+    scale = np.array([np.median(np.abs(np.diff(col))) for col in x.T])  # one channel at a time
     scale = np.where(scale > 0, scale, np.finfo(float).tiny)
-    d0, d1, d2, d3 = d[:-3], d[1:-2], d[2:-1], d[3:]  # steps around sample i = 2 … N−3
-    jump = np.minimum(np.abs(d1), np.abs(d2))
-    big = (jump > factor * scale) & (np.sign(d1) != np.sign(d2))
-    alone = jump > isolation * np.maximum(np.abs(d0), np.abs(d3))
-    back = np.abs(x[3:-1] - x[1:-3]) < 0.25 * np.abs(d1)
-    out[2:-2] = np.any(big & alone & back, axis=1)
+    for a in range(2, n - 2, BLOCK):  # samples a … b−1, each read with two neighbours either side
+        b = min(a + BLOCK, n - 2)
+        xb = x[a - 2:b + 2]
+        d = np.diff(xb, axis=0)
+        d0, d1, d2, d3 = d[:-3], d[1:-2], d[2:-1], d[3:]  # steps around sample i
+        jump = np.minimum(np.abs(d1), np.abs(d2))
+        big = (jump > factor * scale) & (np.sign(d1) != np.sign(d2))
+        alone = jump > isolation * np.maximum(np.abs(d0), np.abs(d3))
+        back = np.abs(xb[3:-1] - xb[1:-3]) < 0.25 * np.abs(d1)
+        out[a:b] = np.any(big & alone & back, axis=1)
     return out
 
 

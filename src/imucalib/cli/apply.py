@@ -12,7 +12,15 @@ from pathlib import Path
 
 from ..calibration import Calibration
 from ..io.atomic import refuse_overwriting_inputs
-from ._common import add_force_option, add_reader_options, check_verdict, print_json, read_recording, reading_progress
+from ._common import (
+    add_force_option,
+    add_reader_options,
+    check_verdict,
+    print_json,
+    read_recording,
+    reading_progress,
+    show_warning,
+)
 
 __all__ = ["cmd_apply", "register"]
 
@@ -49,7 +57,15 @@ def cmd_apply(args: argparse.Namespace) -> int:
         return 0
     rec = read_recording(args, args.data)
     out = cal.apply(rec)
-    write_csv(args.output, rec, calibrated_acc=out.acc, calibrated_gyro=out.gyro)
+    mag = None
+    if cal.magnetometer is not None and rec.mag is not None:
+        mag = out.mag
+    elif cal.magnetometer is not None or rec.mag is not None:
+        show_warning("the calibration has a magnetometer but the data have no magnetometer columns"
+                     if rec.mag is None else "the data have magnetometer columns but the calibration has no "
+                     "magnetometer: they are copied uncalibrated")
+    write_csv(args.output, rec, calibrated_acc=out.acc, calibrated_gyro=out.gyro, calibrated_mag=mag,
+              mag_unit=out.mag_unit)
     source = args.data[0] if len(args.data) == 1 else list(args.data)
     if args.json:
         return print_json({"input": source, "output": str(args.output), "samples": len(rec),

@@ -33,8 +33,8 @@ MIN_POSES = 4
 
 
 def _gyro_scale_guess(
-    v: np.ndarray, t: np.ndarray, starts: np.ndarray, stops: np.ndarray, gravity_dirs: np.ndarray,
-    pairs: np.ndarray | None = None,
+    gyro: np.ndarray, bias: np.ndarray, t: np.ndarray, starts: np.ndarray, stops: np.ndarray,
+    gravity_dirs: np.ndarray, pairs: np.ndarray | None = None,
 ) -> float:
     """Common gyroscope scale [rad/s per raw unit] for the initial values.
 
@@ -43,16 +43,20 @@ def _gyro_scale_guess(
     gravity-direction residuals of these rotations over a dense logarithmic grid
     around ``median(angle between poses / ∫‖u − b‖dt)`` (no sensor-specific guess).
     ``pairs`` are the transitions' first poses when not all consecutive poses are used.
+    The integrals are sums over each motion's own samples (rectangles of the
+    forward steps ``t_{j+1} − t_j``).
     """
     if pairs is not None:
         gravity_dirs = np.stack([gravity_dirs[pairs], gravity_dirs[pairs + 1]], axis=1)
     else:
         gravity_dirs = np.stack([gravity_dirs[:-1], gravity_dirs[1:]], axis=1)
-    dt = np.diff(t, append=t[-1])[:, None]
-    c = np.concatenate([np.zeros((1, 4)),
-                        np.cumsum(np.column_stack([v * dt, np.linalg.norm(v, axis=1) * dt[:, 0]]), axis=0)])
-    phi_vec = c[stops, :3] - c[starts, :3]
-    path = c[stops, 3] - c[starts, 3]
+    phi_vec = np.zeros((len(starts), 3))
+    path = np.zeros(len(starts))
+    for i, (a, b) in enumerate(zip(starts, stops, strict=True)):
+        v = gyro[a:b] - bias
+        dt = t[a + 1:b + 1] - t[a:b]
+        phi_vec[i] = dt @ v
+        path[i] = dt @ np.sqrt(np.einsum("ij,ij->i", v, v))
     theta = angle_between(gravity_dirs[:, 0], gravity_dirs[:, 1])
     ok = (theta > np.radians(10)) & (path > 0)
     if not np.any(ok):
@@ -72,7 +76,7 @@ def rough_scale(recording: Recording, intervals: list[Interval], accelerometer: 
     """A common gyroscope scale [rad/s per raw unit] good to a few per cent, from the rotations between poses."""
     acc = accelerometer.forward(interval_means(recording.acc, intervals))
     dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
-    return _gyro_scale_guess(recording.gyro - bias, recording.t, *transition_bounds(intervals), dirs)
+    return _gyro_scale_guess(recording.gyro, bias, recording.t, *transition_bounds(intervals), dirs)
 
 
 def gravity_direction_problem(recording, intervals, accelerometer, bias, estimate_bias, weights=None,
@@ -145,7 +149,7 @@ def _solve_direction(recording, intervals, accelerometer, bias, estimate_bias, w
                                                                         estimate_bias, weights, g_sensitivity)
     if start is None:
         keep = np.ones(len(starts), bool) if weights is None else np.asarray(weights) > 0
-        k = _gyro_scale_guess(recording.gyro - bias, recording.t, starts[keep], stops[keep],
+        k = _gyro_scale_guess(recording.gyro, bias, recording.t, starts[keep], stops[keep],
                               dirs, pairs=np.nonzero(keep)[0])
         start = TriadModel(scale=np.full(3, k), bias=bias)
     sol = levenberg_marquardt(fun, jac, layout.pack(start), xtol=1e-12, ftol=1e-12)

@@ -11,8 +11,8 @@ magnetometer's axes and makes them the recording's ``mag``:
   header's brackets (``uT``, ``µT``, ``microtesla``, ``G``, ``gauss``, ``mG``
   as gauss/1000 is refused: scale it first), else counts.
 
-The columns are moved out of ``extra`` (writers then write them as the
-magnetometer's, calibrated or not) — nothing is dropped.
+The columns stay in ``extra`` as well, so that a writer copies them as they
+were (``imucalib apply`` adds ``mag_x_cal`` … beside them).
 """
 
 from __future__ import annotations
@@ -86,8 +86,7 @@ def attach_magnetometer(recording: Recording, mag_unit: str | None = None) -> Re
         raise ValueError(f"the magnetometer column(s) have {int(bad.sum())} rows without a number (first at row "
                          f"{int(np.nonzero(bad)[0][0])}): a magnetometer logged at a lower rate must be "
                          "interpolated onto the other sensors' time stamps first")
-    extra = {k: v for k, v in recording.extra.items() if k not in cols}
     return Recording(t=recording.t, acc=recording.acc, gyro=recording.gyro, acc_unit=recording.acc_unit,
-                     gyro_unit=recording.gyro_unit, temperature=recording.temperature, extra=extra,
+                     gyro_unit=recording.gyro_unit, temperature=recording.temperature, extra=dict(recording.extra),
                      metadata={**recording.metadata, "magnetometer_columns": cols}, mag=mag,
                      mag_unit=mag_unit or header_unit or "counts")

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..recording import ACC_UNITS, GYRO_UNITS, ImucalibWarning, Recording
-from . import inputs
+from . import csvparse, inputs
 from .errors import ReaderError
 from .phone import PhoneFile, check_specific_force, identify, sensor_logger_header
 from .rosbag import is_rosbag, read_rosbag
@@ -48,11 +48,13 @@ def read(
 
     Parameters
     ----------
-    paths : path or sequence of paths
+    paths : path, sequence of paths, or pandas.DataFrame
         One CSV or MAT file, two imu_tk files (accelerometer, then gyroscope),
         a phone app's accelerometer and gyroscope files (phyphox, Sensor Logger:
         see :mod:`.phone`), or one ROS bag (a ROS 1 ``.bag``, a ROS 2 bag
-        directory, an ``.mcap``).
+        directory, an ``.mcap``); or a pandas DataFrame, read as a CSV file
+        with its column names as the header (same names, units and options;
+        a datetime64 time column is taken in nanoseconds).
     reader : {"csv", "imutk", "mat", "phone", "rosbag"}, optional
         The format; guessed from the file(s) when omitted (:func:`guess_reader`).
     columns : sequence of str, optional
@@ -82,6 +84,8 @@ def read(
     with no unit given or written, readings that look like m/s², g, rad/s or
     deg/s are still taken as counts, with a note saying so.
     """
+    if _is_frame(paths):
+        return _read_frame(paths, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic)
     if isinstance(paths, str | Path):
         paths = [paths]
     paths = [Path(p) for p in paths]
@@ -342,8 +346,12 @@ def _unit_in(name: str) -> str | None:
 
 
 def _sniff_separator(line: str) -> str | None:
-    if ";" in line and "," in line and not any(_not_number(c.strip().replace(",", ".")) for c in line.split(";")):
-        return ";"  # numbers with decimal commas, separated by semicolons
+    for sep in (";", "\t"):  # numbers with decimal commas, separated by semicolons or tabs (text cells too)
+        if sep in line and "," in line:
+            cells = line.split(sep)
+            numbers = sum(not _not_number(c.strip().strip('"').replace(",", ".")) for c in cells)
+            if numbers > len(cells) / 2 and any(_DECIMAL_COMMA.match(c.strip()) for c in cells):
+                return sep
     for sep in (",", ";", "\t"):
         if sep in line:
             return sep
@@ -404,13 +412,14 @@ def _table_start(lines: list[str]) -> int:
 
 @dataclass
 class _Table:
-    """The text of a delimited file, split into its parts (line numbers are 1-based)."""
+    """A delimited file's parts (line numbers are 1-based) and where its rows lie in it (:class:`.csvparse.Layout`)."""
 
     header: list[str] | None
-    body: list[str]
     first_line: int
     sep: str | None
     ncols: int
+    layout: csvparse.Layout | None  # None for a DataFrame
+    first_row: list[str]
     skipped: int = 0
     rate: float | None = None
 
@@ -423,30 +432,38 @@ class _Table:
 
 
 def _split_table(path: Path) -> _Table:
-    """Read ``path`` and find its preamble (skipped with a note), header and rows."""
-    text = path.read_text(encoding="utf-8-sig", errors="replace")
-    lines = text.splitlines()
-    while lines and not lines[-1].strip():
-        lines.pop()
-    if not lines:
+    """Find ``path``'s preamble (skipped with a note), header and rows from its first lines and its last.
+
+    Only the head of the file (1 MB) and its last line are read here; the rows
+    are parsed by :func:`_parse_table`, a chunk at a time.
+    """
+    head = csvparse.read_head(path)
+    if not head.lines:
         raise ReaderError(f"{path}: empty file")
+    lines = head.lines if head.complete else [*head.lines, head.last]
     start = _table_start(lines)
-    preamble, lines = lines[:start], lines[start:]
-    sep = _sniff_separator(lines[0])
-    first = _cells(lines[0], sep)
+    preamble = lines[:start]
+    sep = _sniff_separator(lines[start])
+    first = _cells(lines[start], sep)
     has_header = any(_not_number(c) for c in first)
     header = [c.strip('"\'').strip() for c in first] if has_header else None
-    body = lines[1:] if has_header else lines
-    first_line = start + (2 if has_header else 1)
-    if not body:
-        raise ReaderError(f"{path}: no data rows after the header")
-    blank = [i for i, ln in enumerate(body) if not ln.strip()]
-    if blank:
-        raise ReaderError(f"{path}: line {first_line + blank[0]} is empty; remove blank lines")
-    if sep == ";" and "," in body[0]:  # semicolons between cells, commas as decimal marks
-        body = [ln.replace(",", ".") for ln in body]
-    ncols = len(header) if header else len(_cells(body[0], sep))
-    table = _Table(header, body, first_line, sep, ncols, skipped=start, rate=_preamble_rate(preamble))
+    row0 = start + 1 if has_header else start
+    first_line = row0 + 1
+    if row0 >= len(head.lines):
+        raise ReaderError(f"{path}: no data rows after the header" if head.complete
+                          else f"{path}: no table in the first megabyte of the file")
+    row = head.lines[row0]
+    # semicolons or tabs between cells, commas as decimal marks
+    decimal_comma = sep in (";", "\t") and any(_DECIMAL_COMMA.match(c) for c in _cells(row, sep))
+    first_row = csvparse.split_cells(row.replace(",", ".") if decimal_comma else row, sep)
+    ncols = len(header) if header else len(first_row)
+    hdr = None
+    if has_header:
+        hdr_end = head.offsets[start + 1] - 1
+        hdr = (head.offsets[start], hdr_end)
+    layout = csvparse.Layout(path, hdr, (head.offsets[row0], head.end), first_line, sep, decimal_comma, ncols,
+                             head.size, head.mtime_ns)
+    table = _Table(header, first_line, sep, ncols, layout, first_row, skipped=start, rate=_preamble_rate(preamble))
     if start:
         what = "" if table.rate is None else f" (they give a sampling rate of {table.rate:g} Hz)"
         warnings.warn(f"{path}: skipped {start} line{'s' if start > 1 else ''} before the "
@@ -454,54 +471,63 @@ def _split_table(path: Path) -> _Table:
     return table
 
 
-def _parse_columns(path: Path, table: _Table, numeric_cols: Sequence[int]) -> tuple[np.ndarray, np.ndarray | None]:
-    """All columns as floats (NaN where a text column is) and, when there are text columns, the cells."""
-    body, first_line, ncols, names = table.body, table.first_line, table.ncols, table.names
-    try:
-        return _parse_block(path, body, first_line, ncols, table.sep, names), None
-    except ReaderError as exc:
-        # a text column elsewhere is fine; the mapped ones must be numeric
-        rows = [table.split(ln) for ln in body]
-        for i, r in enumerate(rows):
-            if len(r) != ncols:
-                raise ReaderError(
-                    f"{path}: line {first_line + i}: expected {ncols} values, found {len(r)}; "
-                    "every row needs the same columns"
-                ) from None
-        cells = np.array(rows, dtype=object)
-        data = np.full((len(rows), ncols), np.nan)
-        for j in range(ncols):
-            try:
-                data[:, j] = cells[:, j].astype(np.float64)
-            except ValueError:
-                if j in numeric_cols:
-                    raise exc from None
-                continue
-            if j in numeric_cols and not np.all(np.isfinite(data[:, j])):
-                raise exc from None
-        return data, cells
+_DECIMAL_COMMA = re.compile(r'^"?[+-]?\d*,\d+(?:[eE][+-]?\d+)?"?$')
 
 
-def _exact_time(table: _Table, data: np.ndarray, tcol: int) -> tuple[np.ndarray, int]:
-    """The time column, relative to an integer offset when its stamps exceed float precision (else 0)."""
-    raw_t = data[:, tcol]
-    if np.max(np.abs(raw_t)) >= 2.0**53:
-        # integer stamps (e.g. ns since the epoch) exceed float precision: parse exactly
-        try:
-            ints = np.array([table.split(ln)[tcol] for ln in table.body], dtype=np.int64)
-            return (ints - ints[0]).astype(np.float64), int(ints[0])
-        except (ValueError, OverflowError):
-            pass
-    return raw_t, 0
+def _parse_table(path: Path, table: _Table, required: Sequence[int], *, others: bool = True,
+                 out: dict[int, np.ndarray] | None = None, plan: csvparse.Plan | None = None
+                 ) -> dict[int, np.ndarray]:
+    """The rows' columns as arrays (:func:`.csvparse.parse`): ``required`` ones numbers, checked; the others
+    (when ``others``) numbers or text as their cells are; int64 for long integers (ns stamps, IDs)."""
+    kinds: list[str | None] = csvparse.column_kinds(table.first_row, False)
+    if len(kinds) != table.ncols:  # the first row's width is wrong: the line-by-line parser says so
+        kinds = (kinds + ["float"] * table.ncols)[:table.ncols]
+    for j in range(table.ncols):
+        if j in required and kinds[j] == "text":
+            kinds[j] = "float"  # the parse names the bad cell
+        elif j not in required and not others:
+            kinds[j] = None
+    cols, facts = csvparse.parse(table.layout, kinds, table.names, required=required, out=out, plan=plan)
+    if facts["comment_lines"]:
+        n = facts["comment_lines"]
+        warnings.warn(f"{path}: skipped {n} comment line{'s' if n > 1 else ''} (starting with #) between the rows",
+                      ImucalibWarning, stacklevel=4)
+    return cols
 
 
-def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit) -> Recording:
-    table = _split_table(path)
+def _time_column(col: np.ndarray) -> tuple[np.ndarray, int]:
+    """A time column as floats and an integer offset: long integer stamps (beyond float precision) are taken
+    relative to the first one, exactly; other columns are returned as they are, with offset 0."""
+    if col.dtype.kind == "i":
+        return (col - col[0]).astype(np.float64), int(col[0])
+    return col, 0
+
+
+def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=None) -> Recording:
+    table = _split_table(path) if frame is None else _frame_table(frame)
     has_header = table.header is not None
-    body, first_line, names = table.body, table.first_line, table.names
+    first_line, names = table.first_line, table.names
     mapping = _map_columns(path, names, columns, has_header)
     numeric_cols = sorted({j for j in mapping.values() if j is not None})
-    data, cells = _parse_columns(path, table, numeric_cols)
+    # the samples go straight into the recording's arrays: no copy of the whole table
+    plan = csvparse.plan(table.layout) if frame is None else None
+    rows = plan.rows if plan is not None else len(frame)
+    if rows == 0:
+        raise ReaderError(f"{path}: no data rows after the header")
+    acc, gyro = np.empty((rows, 3)), np.empty((rows, 3))
+    targets = {f: (acc if f[0] == "a" else gyro)[:, "xyz".index(f[1])] for f in FIELDS[1:]}
+    out: dict[int, np.ndarray] = {}
+    for f, view in targets.items():
+        out.setdefault(mapping[f], view)
+    if frame is None:
+        cols = _parse_table(path, table, numeric_cols, out=out, plan=plan)
+    else:
+        cols, stamps = _frame_columns(path, frame, numeric_cols, out)
+        if mapping["t"] in stamps and time_unit is None:
+            time_unit = "ns"
+    for f, view in targets.items():
+        if cols[mapping[f]] is not view:  # a column used for two fields
+            view[:] = cols[mapping[f]]
     meta: dict = {"columns": {f: (names[j] if j is not None else None) for f, j in mapping.items()},
                   "column_names": list(names), "header": has_header, "separator": table.sep or " "}
     if table.skipped:
@@ -513,7 +539,7 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit) -> Reco
             meta["rate_from"] = "preamble"
         if rate is None:
             raise ReaderError(f"{path}: no time column found; pass --rate HZ (the sampling rate)")
-        t = np.arange(len(body)) / rate
+        t = np.arange(rows) / rate
         meta["time_unit"] = None
     else:
         if rate is not None:
@@ -521,17 +547,15 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit) -> Reco
                 f"{path}: the file has a time column ({names[tcol]!r}) and --rate was given; "
                 "pass only one (use --columns with '-' for t to ignore the time column)"
             )
-        raw_t, offset = _exact_time(table, data, tcol)
+        raw_t, offset = _time_column(cols[tcol])
         _check_time(path, raw_t, first_line, names[tcol])
         unit = time_unit or _unit_in(names[tcol]) if has_header else time_unit
         if unit not in TIME_UNITS:
             unit = time_unit or _infer_time_unit(raw_t)
         t = _to_seconds(raw_t, unit, meta)
         if offset:
-            meta["t0"] = float(offset)
+            meta["t0"] = offset
             meta["time_relative"] = True
-    acc = data[:, [mapping["ax"], mapping["ay"], mapping["az"]]]
-    gyro = data[:, [mapping["gx"], mapping["gy"], mapping["gz"]]]
     au = acc_unit or (_unit_in(names[mapping["ax"]]) if has_header else None) or "counts"
     gu = gyro_unit or (_unit_in(names[mapping["gx"]]) if has_header else None) or "counts"
     if au not in ACC_UNITS:
@@ -544,13 +568,94 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit) -> Reco
     for j, name in enumerate(names):
         if j in used:
             continue
-        col = data[:, j] if (cells is None or np.all(np.isfinite(data[:, j]))) else cells[:, j]
-        if temperature is None and has_header and _TEMP.match(name) and col.dtype != object:
+        col = cols[j]
+        if temperature is None and has_header and _TEMP.match(name) and col.dtype.kind == "f":
             temperature = col
             meta["temperature_column"] = name
-        extra[name] = col
-    return Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
-                     extra=extra, metadata=meta)
+        extra[name if name not in extra else f"{name} (column {j + 1})"] = col
+    rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
+                    extra=extra, metadata=meta)
+    if table.layout is not None:  # what apply needs to copy the file's own text (imucalib.io.writers)
+        meta["source_layout"] = {**table.layout.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec)}
+    return rec
+
+
+# ------------------------------------------------------------- DataFrames
+def _is_frame(obj) -> bool:
+    """Whether ``obj`` is a pandas DataFrame (without importing pandas)."""
+    return type(obj).__module__.split(".")[0] == "pandas" and hasattr(obj, "columns") and hasattr(obj, "iloc")
+
+
+def _read_frame(frame, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic) -> Recording:
+    """A DataFrame read as a CSV file whose header is the frame's column names."""
+    label = Path("DataFrame")
+    for name, value, allowed in (("accelerometer", acc_unit, ACC_UNITS), ("gyroscope", gyro_unit, GYRO_UNITS),
+                                 ("time", time_unit, tuple(TIME_UNITS))):
+        if value is not None and value not in allowed:
+            raise ReaderError(f"unknown {name} unit {value!r}; use one of {', '.join(allowed)}")
+    if rate is not None and not (np.isfinite(rate) and rate > 0):
+        raise ReaderError(f"rate must be a positive number of Hz; got {rate!r}")
+    ignored = [n for n, v in (("variable", variable), ("topic", topic)) if v is not None]
+    if reader not in (None, "csv") or ignored:
+        raise ReaderError(f"a DataFrame is read as a table (the csv reader); {', '.join(ignored) or 'reader'} "
+                          "cannot be set")
+    rec = _read_csv(label, columns, acc_unit, gyro_unit, rate, time_unit, frame=frame)
+    rec.metadata["reader"] = "dataframe"
+    return rec
+
+
+def _frame_table(frame) -> _Table:
+    names = [str(c).strip() for c in frame.columns]
+    return _Table(names, 1, ",", len(names), None, [])
+
+
+def _frame_columns(label: Path, frame, required: Sequence[int], out: dict[int, np.ndarray]
+                   ) -> tuple[dict[int, np.ndarray], set[int]]:
+    """The frame's columns as arrays (numbers, int64 for integers and datetimes, or text) and the datetime ones.
+
+    ``required`` columns must hold finite numbers (else a :class:`ReaderError` naming the row and column).
+    """
+    names = [str(c).strip() for c in frame.columns]
+    cols: dict[int, np.ndarray] = {}
+    stamps: set[int] = set()
+    for j, name in enumerate(names):
+        series = frame.iloc[:, j]
+        kind = series.dtype.kind
+        if kind in "Mm":  # datetimes and durations: integer nanoseconds
+            values = series.to_numpy().astype("datetime64[ns]" if kind == "M" else "timedelta64[ns]")
+            cols[j] = values.view(np.int64)
+            stamps.add(j)
+            if np.any(np.isnat(values)):
+                i = int(np.nonzero(np.isnat(values))[0][0])
+                raise ReaderError(f"{label}: row {i + 1}, {name}: a missing time (NaT); fix or remove the row")
+            continue
+        if kind in "iu" and j not in out:
+            ints = series.to_numpy().astype(np.int64)
+            if ints.size and np.abs(ints).max() >= 10 ** (csvparse.INT_DIGITS - 1):  # as for a CSV file's cells
+                cols[j] = ints
+                continue
+        if kind in "fiub":
+            values = series.to_numpy(dtype=np.float64)
+        elif j in required:
+            values = np.empty(len(series))
+            for i, cell in enumerate(series.tolist()):
+                try:
+                    values[i] = float(cell)
+                except (TypeError, ValueError):
+                    raise ReaderError(f"{label}: row {i + 1}, {name}: {cell!r} is not a number; fix or remove "
+                                      "the row (imucalib never skips rows)") from None
+        else:
+            cols[j] = series.to_numpy().astype(str)
+            continue
+        if j in required and not np.all(np.isfinite(values)):
+            i = int(np.nonzero(~np.isfinite(values))[0][0])
+            raise ReaderError(f"{label}: row {i + 1}, {name}: {values[i]} is not finite (NaN or inf); fix or "
+                              "remove the row (imucalib never skips rows)")
+        if j in out:
+            out[j][:] = values
+            values = out[j]
+        cols[j] = values
+    return cols, stamps
 
 
 def _not_number(cell: str) -> bool:
@@ -671,10 +776,10 @@ def _read_phone(paths: Sequence[Path], acc_unit, gyro_unit, time_unit) -> Record
     streams = {}
     for path, spec in zip(paths, specs, strict=True):
         table = _split_table(path)
-        data, _ = _parse_columns(path, table, [spec.time, *spec.axes])
-        raw_t, offset = _exact_time(table, data, spec.time)
+        cols = _parse_table(path, table, [spec.time, *spec.axes], others=False)
+        raw_t, offset = _time_column(cols[spec.time])
         _check_time(path, raw_t, table.first_line, table.names[spec.time])
-        streams[spec.sensor] = (path, spec, table, raw_t, offset, data[:, list(spec.axes)])
+        streams[spec.sensor] = (path, spec, table, raw_t, offset, np.column_stack([cols[j] for j in spec.axes]))
     app = specs[0].app
     unit = time_unit or specs[0].time_unit
     # epoch stamps are kept as exact integers relative to the earliest start
