@@ -132,7 +132,7 @@ def test_a_text_cell_in_a_sensor_column_is_an_error_not_a_text_column(tmp_path, 
 def test_utf16_is_refused_in_plain_words(tmp_path):
     t, a, g = _table(n=10)
     (tmp_path / "u.csv").write_text(_text(t, a, g), encoding="utf-16")
-    with pytest.raises(ReaderError, match=r"u.csv: the file is UTF-16 .*save it as UTF-8"):
+    with pytest.raises(ReaderError, match=r"u.csv: the text is UTF-16 encoded.*save it as UTF-8"):
         read(tmp_path / "u.csv")
 
 
