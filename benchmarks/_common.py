@@ -11,9 +11,10 @@ from pathlib import Path
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 
-def median_time(fn: Callable[[], object], runs: int) -> tuple[float, list[float]]:
-    """Median wall time [s] of ``runs`` calls (after one warm-up call) and all times."""
-    fn()
+def median_time(fn: Callable[[], object], runs: int, warm: bool = True) -> tuple[float, list[float]]:
+    """Median wall time [s] of ``runs`` calls (after one warm-up call unless ``warm`` is False) and all times."""
+    if warm:
+        fn()
     times = []
     for _ in range(runs):
         t0 = time.perf_counter()

@@ -17,12 +17,12 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
-import statistics
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+from _common import median_time
 
 import imucalib.io.rosbag as rosbag
 from imucalib.io import bagraw, read
@@ -87,17 +87,6 @@ def write_bag(path: Path, kind: str, n: int) -> None:
     tmp.rename(path)
 
 
-def timed(fn, runs: int, warm: bool) -> tuple[float, list[float]]:
-    if warm:
-        fn()
-    times = []
-    for _ in range(runs):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), times
-
-
 def library_only(fn):
     """``fn`` run with the bulk path off: rosbags' reader and deserialiser for every message."""
     saved = rosbag._fast_blocks, rosbag._open_for_reading, bagraw.decode_imu
@@ -129,7 +118,7 @@ def main() -> None:
         if not path.exists():
             write_bag(path, kind, n)
         written = time.perf_counter() - t0
-        after, after_all = timed(lambda p=path: read(p), args.runs, warm=True)
+        after, after_all = median_time(lambda p=path: read(p), args.runs, warm=True)
         rec = read(path)
         assert len(rec) == n, len(rec)
         row = {"kind": kind, "messages": n, "bag_mb": round(sum(f.stat().st_size for f in
@@ -138,7 +127,7 @@ def main() -> None:
                "write_s": round(written, 1), "after_median_s": round(after, 2),
                "after_times_s": [round(t, 2) for t in after_all]}
         if args.before_runs:
-            before, before_all = timed(lambda p=path: library_only(lambda: read(p)), args.before_runs, warm=False)
+            before, before_all = median_time(lambda p=path: library_only(lambda: read(p)), args.before_runs, warm=False)
             ref = library_only(lambda p=path: read(p))
             assert np.array_equal(ref.acc, rec.acc) and np.array_equal(ref.t, rec.t)
             row.update(before_median_s=round(before, 2), before_times_s=[round(t, 2) for t in before_all],
