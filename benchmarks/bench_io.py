@@ -1,8 +1,12 @@
 """CSV write and read of a long recording (1 M rows, 7 columns by default); prints JSON.
 
-Two files are timed: ``counts`` (integer readings, as a logger of raw counts
+Two files are read: ``counts`` (integer readings, as a logger of raw counts
 writes them) and ``float`` (readings with 9 significant digits and a time in
-seconds with microseconds, as a logger of physical units writes them).
+seconds with microseconds, as a logger of physical units writes them). They
+are written by this script, not by imucalib, so that every version reads the
+same bytes. ``write`` times :func:`imucalib.io.write_csv` of the recording
+from its values (what it writes depends on the version: imucalib 0.1 wrote 10
+significant digits, later versions every double exactly).
 
 ``--engine`` picks the reader's CSV parser. ``--apply-write`` also times what ``imucalib apply`` writes (the file read
 back, six calibrated columns added). ``--save FILE`` stores the figures; ``--before FILE`` reads figures stored
@@ -37,6 +41,19 @@ def recordings(n: int) -> dict[str, Recording]:
     floats = Recording(np.round(t + rng.uniform(0, 2e-4, n), 6), rng.normal(0, 5, (n, 3)),
                        rng.normal(0, 0.5, (n, 3)), acc_unit="m/s^2", gyro_unit="rad/s")
     return {"counts": counts, "float": floats}
+
+
+def write_fixed(path: Path, rec: Recording, kind: str) -> None:
+    """The recording as a logger would write it, independently of imucalib's writer."""
+    fmt = "%.3f" + ",%d" * 6 if kind == "counts" else "%.6f" + ",%.9g" * 6
+    header = f"t [s],ax [{rec.acc_unit}],ay [{rec.acc_unit}],az [{rec.acc_unit}],gx [{rec.gyro_unit}]," \
+             f"gy [{rec.gyro_unit}],gz [{rec.gyro_unit}]"
+    data = np.column_stack([rec.t, rec.acc, rec.gyro])
+    with path.open("w", encoding="utf-8") as fh:
+        fh.write(header + "\n")
+        for start in range(0, len(data), 100_000):
+            rows = data[start:start + 100_000].tolist()
+            fh.write("\n".join(fmt % tuple(r) for r in rows) + "\n")
 
 
 def candidates(path: Path, runs: int) -> dict[str, float]:
@@ -92,7 +109,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for kind, rec in recordings(n).items():
             path = Path(tmp) / f"{kind}.csv"
-            w, w_all = median_time(lambda rec=rec, path=path: write_csv(path, rec), args.runs)
+            write_fixed(path, rec, kind)
+            written = Path(tmp) / f"{kind}_written.csv"
+            w, w_all = median_time(lambda rec=rec, written=written: write_csv(written, rec), args.runs)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 r, r_all = median_time(lambda path=path: read(path), args.runs)

@@ -2,26 +2,37 @@
 
 :mod:`.readers` decides what a file is (preamble, separator, header, which
 column is which, units: the header logic); this module finds where its parts
-lie in the file (:func:`scan`) and reads the rows into preallocated arrays
-(:func:`parse`), a few megabytes of text at a time, by a C parser:
+lie in the file (:func:`read_head`, :func:`plan`) and reads the rows into
+preallocated arrays (:func:`parse`), a few megabytes of text at a time, by a C
+parser:
 
 * ``numpy.loadtxt`` (numpy ≥ 1.23 parses in C) always;
 * pandas' C parser (``pandas.read_csv(engine="c")``) for large files when
   pandas is installed (the ``pandas`` extra).
 
-Measured on 1 M rows of 7 columns (``benchmarks/bench_io.py --candidates``,
-medians of 3 runs on this project's 2-core machine; the figures are in
-``benchmarks/results/``): ``numpy.fromstring`` over the whole text (the reader
-of imucalib 0.1) 1.6–1.9 s, ``numpy.loadtxt`` 0.6–1.0 s, pandas' C parser
-0.2 s. pandas is faster again by 3–5×, but importing it takes 0.4–0.6 s and it
-installs 84 MB: it pays off only above a few hundred thousand rows, and numpy's
-parser already makes reading a small part of a calibration's time. So pandas
-stays an optional extra, used when it is installed and the body is larger than
-:data:`PANDAS_MIN_BYTES`; both parsers round correctly and give the same
-arrays, bit for bit (tested).
+Why pandas is not a core dependency (measured on this project's 2-core
+machine, figures in ``benchmarks/results/``):
+
+* reading 1 M rows of 7 columns with :func:`imucalib.io.read`
+  (``benchmarks/bench_io.py``, medians of 3): integer counts (31 MB) 1.79 s
+  with the reader of imucalib 0.1 (``numpy.fromstring`` over the whole text),
+  0.88 s with ``numpy.loadtxt``, 0.35 s with pandas once imported (its import
+  takes another 0.4–0.6 s); readings with 9 significant digits (83 MB)
+  2.19 s, 1.14 s and 0.61 s;
+* calibrating a one-hour 1 kHz recording (3.6 M samples,
+  ``benchmarks/bench_long.py``, medians of 3): 11.9 s and 0.37 GB peak with
+  numpy's parser, 11.9 s and 0.41 GB with pandas'; 10 M samples 29.8 s and
+  0.99 GB, 24.8 s and 1.03 GB.
+
+numpy's parser alone meets the goals for long recordings (≤ 20 s, ≤ 0.6 GB
+for 3.6 M samples); pandas reads 2–2.5× faster again but installs 84 MB, costs
+0.4–0.6 s to import and more memory, and changes a calibration's time only
+beyond a few million samples. So it stays an optional extra, used when it is
+installed and the body is at least :data:`PANDAS_MIN_BYTES`; both parsers
+round correctly and give the same arrays, bit for bit (tested).
 
 Every value is checked: a row with another number of cells, a cell that is not
-a number, NaN or inf in a numeric column, a blank line. When the C parser
+a number, NaN or inf in a sensor column, a blank line. When the C parser
 refuses a chunk or its result fails a check, the chunk is read again line by
 line in Python (:func:`_python_chunk`), which names the first bad line and
 column in a :class:`~.errors.ReaderError`; it also parses what the C parsers
