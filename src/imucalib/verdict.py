@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .fit.accelerometer import fit_sphere
+from .fit.magnetometer import WEAK_DIP_DEG
 from .metrics import gravity_direction_errors, interval_means, transition_bounds
 from .recording import Interval, Recording
 
@@ -388,7 +389,7 @@ def _magnetometer(calibration) -> list[Check]:
         if level:
             out.append(Check(level, text.format(factor * value, factor * THRESHOLDS[limit][level - 1])))
     dip = fit.get("magnetometer_dip_deg")
-    if dip is not None and abs(dip) < 5.0:
+    if dip is not None and abs(dip) < WEAK_DIP_DEG:
         out.append(Check(1, f"the field's dip is {dip:.1f}°, near the magnetic equator: whether the magnetometer's "
                             "axes are reflected cannot be told from these data (the sign follows --mag-hemisphere)"))
     return out

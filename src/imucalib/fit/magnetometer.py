@@ -132,12 +132,18 @@ def pose_references(calibration, recording: Recording, intervals: list[Interval]
 
     The references (M3) and (M4) hold the field to: ``v_{k+1} = R_kᵀ v_k``.
     """
-    acc = calibration.accelerometer.forward(interval_means(recording.acc, intervals))
     starts, stops = transition_bounds(intervals)
     integ = IntervalIntegrator(recording.t, starts, stops)
     idx = integ.samples
-    rates = calibration.gyroscope.forward(recording.gyro[idx], calibration.accelerometer.forward(recording.acc[idx]))
-    return acc / np.linalg.norm(acc, axis=1, keepdims=True), quat_to_matrix(integ.from_samples(rates))
+    return _references(calibration, interval_means(recording.acc, intervals), recording.gyro[idx],
+                       recording.acc[idx], integ)
+
+
+def _references(calibration, acc_means, raw_gyro, raw_acc, integrator) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`pose_references` from the poses' raw accelerometer means and the integrated samples."""
+    acc = calibration.accelerometer.forward(acc_means)
+    rates = calibration.gyroscope.forward(raw_gyro, calibration.accelerometer.forward(raw_acc))
+    return acc / np.linalg.norm(acc, axis=1, keepdims=True), quat_to_matrix(integrator.from_samples(rates))
 
 
 def pose_figures(model: MagnetometerModel, mag_means: np.ndarray, up: np.ndarray, rot: np.ndarray) -> dict:
@@ -196,9 +202,7 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
 
     def references(cal):
         """Gravity directions at the poses and attitude changes between them, by ``cal``."""
-        acc = cal.accelerometer.forward(acc_means)
-        rates = cal.gyroscope.forward(raw_gyro, cal.accelerometer.forward(raw_acc))
-        return acc / np.linalg.norm(acc, axis=1, keepdims=True), quat_to_matrix(integrator.from_samples(rates))
+        return _references(cal, acc_means, raw_gyro, raw_acc, integrator)
 
     up, rot = references(calibration)  # v_{k+1} = R_kᵀ v_k
 
