@@ -259,7 +259,7 @@ def test_rows_read_from_fsspec_urls_match_the_local_files(fleet, tmp_path):
                                                    f"{name}-local,{sdir / 'recording.csv'},2024-05-01,",
                                                    "GONE,memory://fleet-test/gone.csv,,"])
     try:
-        result = run_batch(manifest, tmp_path / "s.sqlite")
+        result = run_batch(manifest, tmp_path / "s.sqlite", allow_urls=["memory"])
     finally:
         fs.rm("/fleet-test", recursive=True)
     assert (result["calibrated"], result["failed"]) == (2, 1)

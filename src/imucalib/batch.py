@@ -4,8 +4,8 @@ A manifest is a CSV file with one recording per line. Columns (a header line nam
 
 =============== ===========================================================================
 ``device``      required: the device's name or serial number
-``files``       required: the data files, ``;``-separated, relative to the manifest (or absolute, or
-                fsspec URLs such as ``s3://bucket/run.csv`` when ``fsspec`` is installed)
+``files``       required: the data files, ``;``-separated, relative to the manifest (or absolute; or
+                fsspec URLs such as ``s3://bucket/run.csv`` when URLs are allowed: ``allow_urls``)
 ``method``      calibration method (default ``tedaldi2014``, as ``imucalib calibrate``)
 ``model``       model variant
 ``reader``      input format (``csv``, ``imutk``, ``mat``, ``phone``, ``rosbag``, ``session``)
@@ -23,6 +23,22 @@ A manifest is a CSV file with one recording per line. Columns (a header line nam
 
 Empty cells take the default; lines that are empty or start with ``#`` are skipped. The whole manifest is
 checked before anything runs, and every problem is reported with its line.
+
+What a manifest can make the batch do, and whom to trust:
+
+* A row names files the batch reads. A local path must be a regular file, or a ROS 2 bag or simulated
+  session directory (only the files directly inside it are read): a FIFO, a device, a symbolic link loop
+  or another directory is the row's error, found before anything is opened.
+* A URL is read (through fsspec) only when it is allowed: ``allow_urls=True`` (``--allow-urls``) for any
+  scheme, or a list of schemes (``--allow-urls s3,gcs``). Otherwise a URL row is an error of the manifest
+  and nothing runs: a manifest from elsewhere cannot make the batch connect to a host it names (``ftp://``,
+  ``http://``) or copy a folder (``file://``). A URL folder is read only when it is a ROS 2 bag or a
+  simulated session, and then only the files directly inside it.
+* A row's error is stored; it quotes at most :data:`EXCERPT_CHARS` characters of any quoted file content,
+  so a row naming a file that is not a recording (``/etc/passwd``) does not copy its lines into the store.
+* On Dask (``scheduler``), tasks and results travel pickled: whoever can reach the scheduler or its
+  workers can run code in them, and in the process running the batch. Use only a scheduler of your own,
+  on a network that only trusted hosts reach (``scheduler="local"`` listens on 127.0.0.1).
 
 Each row is read with :func:`imucalib.io.data.read_data` and calibrated with
 :func:`imucalib.methods.calibrate`, exactly as ``imucalib calibrate FILES --method … `` does, in a
@@ -51,11 +67,14 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import errno
 import hashlib
 import logging
 import math
 import os
+import re
 import signal
+import stat
 import tempfile
 import threading
 import time
@@ -68,11 +87,14 @@ from pathlib import Path
 from typing import Any
 
 from .io.atomic import refuse_overwriting_inputs
+from .io.errors import ReaderError
+from .io.inputs import check_input_path, path_kind
+from .io.rosbag import is_rosbag
 from .recording import STANDARD_GRAVITY
 from .store import Store, canonical_json, parse_time
 
-__all__ = ["MANIFEST_COLUMNS", "BatchError", "ManifestError", "Row", "dask_client", "execute", "is_url",
-           "read_manifest", "run_batch", "run_row"]
+__all__ = ["EXCERPT_CHARS", "MANIFEST_COLUMNS", "BatchError", "ManifestError", "Row", "dask_client", "execute",
+           "is_url", "read_manifest", "run_batch", "run_row", "url_schemes"]
 
 #: the manifest's columns; ``device`` and ``files`` are required
 MANIFEST_COLUMNS = ("device", "files", "method", "model", "reader", "columns", "acc_unit", "gyro_unit",
@@ -83,6 +105,8 @@ _READERS = ("csv", "imutk", "mat", "phone", "rosbag", "session")
 _UNITS = {"acc_unit": ("counts", "g", "m/s^2"), "gyro_unit": ("counts", "deg/s", "rad/s"),
           "time_unit": ("s", "ms", "us", "ns")}
 _HASH_BLOCK = 1 << 20
+#: the most characters of a file's content a stored error quotes
+EXCERPT_CHARS = 16
 
 
 class ManifestError(ValueError):
@@ -138,6 +162,43 @@ def is_url(path: str) -> bool:
     return bool(sep) and head.isidentifier() and len(head) > 1
 
 
+def url_schemes(allow_urls: bool | str | Sequence[str] | None) -> frozenset[str] | None:
+    """The URL schemes a manifest may use: None for any (``True``), an empty set for none (``False``).
+
+    ``allow_urls`` is a bool, a list of schemes, or a comma-separated text of them (``"s3,gcs"``).
+    """
+    if allow_urls is True:
+        return None
+    if not allow_urls:
+        return frozenset()
+    names = allow_urls.split(",") if isinstance(allow_urls, str) else list(allow_urls)
+    schemes = frozenset(n.strip().lower() for n in names if n.strip())
+    bad = sorted(n for n in schemes if not (n.isidentifier() and len(n) > 1))
+    if bad:
+        raise ValueError(f"not a URL scheme: {', '.join(bad)} (schemes are names such as s3, gcs, https)")
+    return schemes
+
+
+def _check_url(name: str, schemes: frozenset[str] | None) -> None:
+    scheme = name.partition("://")[0].lower()
+    if schemes is None or scheme in schemes:
+        return
+    if not schemes:
+        raise ValueError(f"{name}: a URL; a manifest's URLs are read only when allowed (imucalib batch "
+                         f"--allow-urls, or --allow-urls {scheme} for this scheme alone): allow them for "
+                         "manifests you trust, since the batch connects to the hosts they name")
+    raise ValueError(f"{name}: the URL scheme {scheme} is not among those allowed ({', '.join(sorted(schemes))})")
+
+
+def _local(base: Path, name: str) -> str:
+    """A manifest's local path, absolute (symbolic links resolved when they lead somewhere)."""
+    path = base / Path(name).expanduser()
+    try:
+        return str(path.resolve())
+    except (RuntimeError, OSError):  # a symbolic link loop: the row's error says so when it runs
+        return os.path.abspath(path)
+
+
 def _positive(text: str, what: str) -> float:
     try:
         v = float(text)
@@ -148,7 +209,8 @@ def _positive(text: str, what: str) -> float:
     return v
 
 
-def _row(cells: dict[str, str], line: int, base: Path, methods: Sequence[str]) -> Row:
+def _row(cells: dict[str, str], line: int, base: Path, methods: Sequence[str],
+         schemes: frozenset[str] | None = frozenset()) -> Row:
     """One manifest line checked into a :class:`Row` (ValueError naming the column on a bad entry)."""
     device = cells.get("device", "")
     if not device:
@@ -156,7 +218,10 @@ def _row(cells: dict[str, str], line: int, base: Path, methods: Sequence[str]) -
     names = [f.strip() for f in cells.get("files", "").split(";") if f.strip()]
     if not names:
         raise ValueError("files is empty (one or more paths, ';'-separated)")
-    files = tuple(n if is_url(n) else str((base / Path(n).expanduser()).resolve()) for n in names)
+    for n in names:
+        if is_url(n):
+            _check_url(n, schemes)
+    files = tuple(n if is_url(n) else _local(base, n) for n in names)
     opts: dict[str, Any] = {}
     method = cells.get("method") or DEFAULT_METHOD
     if method not in methods:
@@ -192,8 +257,16 @@ def _row(cells: dict[str, str], line: int, base: Path, methods: Sequence[str]) -
     return Row(line=line, device=device, files=files, **opts)
 
 
-def read_manifest(path: str | Path) -> list[Row]:
+def read_manifest(path: str | Path, *, allow_urls: bool | str | Sequence[str] = False) -> list[Row]:
     """The rows of the manifest CSV ``path``, every entry checked (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+        The manifest.
+    allow_urls : bool, str or sequence of str
+        URLs in the ``files`` column: refused (default), any (True), or those of the schemes listed
+        (``["s3", "gcs"]`` or ``"s3,gcs"``).
 
     Raises
     ------
@@ -204,6 +277,7 @@ def read_manifest(path: str | Path) -> list[Row]:
     from .methods import method_names
 
     path = Path(path)
+    schemes = url_schemes(allow_urls)
     try:
         text = path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
@@ -240,7 +314,7 @@ def read_manifest(path: str | Path) -> list[Row]:
             continue
         values = {h: (cells[k].strip() if k < len(cells) else "") for k, h in enumerate(header)}
         try:
-            rows.append(_row(values, number, base, methods))
+            rows.append(_row(values, number, base, methods, schemes))
         except ValueError as exc:
             problems.append(f"line {number}: {exc}")
     if problems:
@@ -252,11 +326,24 @@ def read_manifest(path: str | Path) -> list[Row]:
 
 
 # ------------------------------------------------------------------ one row
+def _folder_files(path: Path) -> list[Path]:
+    """The regular files directly inside ``path`` (no sub-folders, FIFOs or devices), in sorted order."""
+    return sorted(p for p in path.iterdir() if p.is_file() and path_kind(p.stat().st_mode) is None)
+
+
+def _check_local(path: Path) -> None:
+    """A row's local input, looked at before it is opened: a regular file, a ROS 2 bag or a session folder."""
+    st = check_input_path(path)
+    if stat.S_ISDIR(st.st_mode) and not (is_rosbag(path) or (path / "session.json").is_file()):
+        raise ReaderError(f"{path}: is a directory, not a data file (a ROS 2 bag directory holds metadata.yaml, "
+                          "a simulated session session.json)")
+
+
 def _hash_path(path: Path) -> tuple[str, int]:
-    """SHA-256 of a file's contents, or of a directory's (relative names and contents, in sorted order)."""
+    """SHA-256 of a file's contents, or of a folder's (names and contents of the files directly inside it)."""
     h = hashlib.sha256()
     size = 0
-    files = [path] if path.is_file() else sorted(p for p in path.rglob("*") if p.is_file())
+    files = [path] if path.is_file() else _folder_files(path)
     for p in files:
         if p is not path:
             h.update(p.relative_to(path).as_posix().encode("utf-8") + b"\0")
@@ -280,16 +367,88 @@ def _fetch(url: str, directory: Path) -> Path:
     target.parent.mkdir()
     if not fs.exists(remote):
         raise FileNotFoundError(f"{url}: file not found")
-    fs.get(remote, str(target), recursive=fs.isdir(remote))
+    if not fs.isdir(remote):
+        fs.get(remote, str(target))
+        return target
+    # a folder: a ROS 2 bag or a simulated session, and then only the files directly inside it
+    entries = fs.ls(remote, detail=True)
+    names = {Path(str(e["name"]).rstrip("/")).name: e for e in entries}
+    if "metadata.yaml" not in names and "session.json" not in names:
+        raise ValueError(f"{url}: a folder, not a data file (a ROS 2 bag folder holds metadata.yaml, a "
+                         "simulated session session.json); name the file")
+    target.mkdir()
+    for base, e in sorted(names.items()):
+        if e.get("type") == "file":
+            fs.get(str(e["name"]), str(target / base))
     return target
 
 
-def _message(exc: BaseException, replace: dict[str, str]) -> str:
+#: a quoted excerpt in a message: '…' or "…" (Python's repr of a string), at least one character long
+_QUOTED = re.compile(r"'((?:[^'\\\n]|\\.)+)'" + r'|"((?:[^"\\\n]|\\.)+)"')
+
+
+def _short_quotes(text: str, limit: int = EXCERPT_CHARS) -> str:
+    """``text`` with every quoted excerpt longer than ``limit`` characters cut to its first ``limit``."""
+    def cut(m: re.Match) -> str:
+        inner = m.group(1) if m.group(1) is not None else m.group(2)
+        if len(inner) <= limit:
+            return m.group(0)
+        q = m.group(0)[0]
+        return f"{q}{inner[:limit]}…{q}"
+
+    return _QUOTED.sub(cut, text)
+
+
+#: the bytes at the start of each file whose text a row's error may not quote at length
+_CONTENT_BYTES = 1 << 16
+
+
+def _heads(paths: Sequence[Path | None]) -> list[str]:
+    """The first :data:`_CONTENT_BYTES` of each regular file of ``paths``, as text."""
+    out = []
+    for p in paths:
+        if p is None:
+            continue
+        with contextlib.suppress(OSError):
+            if p.is_file() and path_kind(p.stat().st_mode) is None:
+                with open(p, "rb") as fh:
+                    out.append(fh.read(_CONTENT_BYTES).decode("utf-8", errors="replace"))
+    return out
+
+
+def _cut_content(text: str, heads: Sequence[str], limit: int = EXCERPT_CHARS) -> str:
+    """``text`` with every run of more than ``limit`` characters that is found in one of ``heads`` cut to
+    its first ``limit`` characters."""
+    if not heads:
+        return text
+    out, i, n = [], 0, len(text)
+    while i < n:
+        j = i + limit + 1
+        if j <= n and any(text[i:j] in h for h in heads):
+            while j < n and any(text[i:j + 1] in h for h in heads):
+                j += 1
+            out.append(text[i:i + limit] + "…")
+            i = j
+        else:
+            out.append(text[i])
+            i += 1
+    return "".join(out)
+
+
+def _message(exc: BaseException, replace: dict[str, str], paths: Sequence[str] = (),
+             heads: Sequence[str] = ()) -> str:
     """An exception as the row's error: its message (with the type for unexpected kinds), local copies named
-    by their URLs."""
+    by their URLs, quoted file content and text found in ``heads`` (the start of the row's files) cut to
+    :data:`EXCERPT_CHARS` characters (the row's own paths kept)."""
     text = str(exc) if isinstance(exc, ValueError | OSError) else f"{type(exc).__name__}: {exc}"
     for local, original in replace.items():
         text = text.replace(local, original)
+    keep = {f"\0{k}\0": p for k, p in enumerate(sorted({*paths, *replace.values()}, key=len, reverse=True))}
+    for key, p in keep.items():
+        text = text.replace(p, key)
+    text = _cut_content(_short_quotes(text), heads)
+    for key, p in keep.items():
+        text = text.replace(key, p)
     return text or type(exc).__name__
 
 
@@ -324,15 +483,15 @@ def run_row(task: dict) -> dict:
         problems: list[str] = []
         digest = hashlib.sha256()
         for name in row.files:
+            p: Path | None = None
             try:
                 p = _fetch(name, Path(tmp)) if is_url(name) else Path(name)
                 if is_url(name):
                     replace[str(p)] = name
-                if not p.exists():
-                    raise FileNotFoundError(f"{name}: file not found")
+                _check_local(p)
                 sha, size = _hash_path(p)
             except Exception as exc:  # the row fails with this file's error; the batch goes on
-                problems.append(_message(exc, replace))
+                problems.append(_message(exc, replace, row.files, _heads([p])))
                 local.append(None)
                 out["files"].append({"path": name, "sha256": None, "bytes": None})
                 digest.update(f"missing:{name}\n".encode())
@@ -351,7 +510,8 @@ def run_row(task: dict) -> dict:
                 warnings.simplefilter("always")
                 data = read_data([str(p) for p in local], **row.reader_options())
                 cal = calibrate(data, method=row.method, model=row.model, gravity=row.gravity)
-            out["notes"] = [_message(ValueError(str(w.message)), replace) for w in caught
+            heads = _heads(local)
+            out["notes"] = [_message(ValueError(str(w.message)), replace, row.files, heads) for w in caught
                             if issubclass(w.category, ImucalibWarning)]
             cal = cal.with_(device=row.device)
             verdict = (cal.fit or {}).get("verdict")
@@ -363,7 +523,7 @@ def run_row(task: dict) -> dict:
             else:
                 out["status"] = "ok"
         except Exception as exc:  # a failing row is stored with its error, never stops the batch
-            out["error"] = _message(exc, replace)
+            out["error"] = _message(exc, replace, row.files, _heads(local))
     out["seconds"] = time.perf_counter() - t0
     return out
 
@@ -505,6 +665,14 @@ def execute(fn: Callable[[Any], Any], tasks: Sequence[Any], *, workers: int | No
 
 
 # -------------------------------------------------------------------- batch
+def _link_loop(path: str) -> bool:
+    try:
+        os.stat(path)
+    except OSError as exc:
+        return exc.errno == errno.ELOOP
+    return False
+
+
 def _size(row: Row) -> int:
     """Bytes of a row's local files (0 for URLs and what is missing): the order rows are handed out in."""
     total = 0
@@ -516,7 +684,7 @@ def _size(row: Row) -> int:
 
 
 def run_batch(manifest: str | Path, store: str | Path, *, workers: int | None = None, scheduler: str | None = None,
-              force: bool = False, chunksize: int | None = None,
+              force: bool = False, chunksize: int | None = None, allow_urls: bool | str | Sequence[str] = False,
               progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """Calibrate every row of ``manifest`` into the store ``store`` (created if missing).
 
@@ -530,6 +698,9 @@ def run_batch(manifest: str | Path, store: str | Path, *, workers: int | None = 
         Where the rows run (:func:`execute`).
     force : bool
         Calibrate rows already in the store again, replacing their records.
+    allow_urls : bool, str or sequence of str
+        URLs in the manifest: refused (default), any scheme (True), or the schemes listed
+        (:func:`read_manifest`).
     progress : callable, optional
         ``progress(done, total)`` after each row.
 
@@ -543,8 +714,10 @@ def run_batch(manifest: str | Path, store: str | Path, *, workers: int | None = 
         the store (or twice in the manifest).
     """
     t0 = time.perf_counter()
-    rows = read_manifest(manifest)
-    refuse_overwriting_inputs([store], [manifest, *(f for r in rows for f in r.files if not is_url(f))])
+    rows = read_manifest(manifest, allow_urls=allow_urls)
+    # a row's file that is a symbolic link loop cannot be the store; the row fails with it when it runs
+    refuse_overwriting_inputs([store], [manifest, *(f for r in rows for f in r.files
+                                                    if not is_url(f) and not _link_loop(f))])
     summary: dict[str, Any] = {"manifest": str(manifest), "store": str(store), "rows": len(rows), "calibrated": 0,
                                "failed": 0, "skipped": 0, "verdicts": {"accepted": 0, "suspect": 0, "rejected": 0},
                                "errors": [], "seconds": None, "workers": workers, "scheduler": scheduler}

@@ -43,6 +43,7 @@ import csv
 import functools
 import hashlib
 import json
+import os
 import re
 import sqlite3
 from collections.abc import Iterable, Iterator, Sequence
@@ -173,19 +174,28 @@ class Store:
     create : bool
         Create the store when the file does not exist (default). With False, a missing file is an error
         (commands that only read a store).
+    readonly : bool
+        Open the file for reading only (``store list``, ``get``, ``export``): nothing is written, not even
+        the write-ahead-log setting, so a store in a folder one cannot write to (or on read-only media) is
+        read. When SQLite cannot open it read-only there (a write-ahead-log store needs its ``-shm`` file,
+        which a read-only folder cannot hold), it is opened as immutable: as it is on disk, which is what a
+        folder that nobody can write to holds. Implies ``create=False``.
 
     Use it as a context manager, or call :meth:`close`.
     """
 
-    def __init__(self, path: str | Path, *, create: bool = True) -> None:
+    def __init__(self, path: str | Path, *, create: bool = True, readonly: bool = False) -> None:
         self.path = Path(path)
+        self.readonly = readonly
+        create = create and not readonly
         if self.path.is_dir():
             raise StoreError(f"{self.path}: is a directory; the store is one file (e.g. fleet.sqlite)")
         if not create and not self.path.is_file():
             raise StoreError(f"{self.path}: no store there (a batch creates it: imucalib batch MANIFEST "
                              f"--store {self.path})")
         try:
-            self._db = sqlite3.connect(self.path, timeout=60.0, isolation_level=None)
+            self._db = self._connect_readonly() if readonly else \
+                sqlite3.connect(self.path, timeout=60.0, isolation_level=None)
         except sqlite3.Error as exc:
             raise StoreError(f"{self.path}: cannot open the store ({exc})") from None
         try:  # look before changing anything: another program's database is left as it is
@@ -202,6 +212,8 @@ class Store:
         elif tables or not create:
             self._db.close()
             raise StoreError(f"{self.path}: an SQLite file, but not an imucalib store (no calibrations table)")
+        if readonly:
+            return
         try:
             self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute("PRAGMA synchronous=NORMAL")
@@ -210,6 +222,20 @@ class Store:
         except sqlite3.Error as exc:
             self._db.close()
             raise StoreError(f"{self.path}: cannot use the store ({exc})") from None
+
+    def _connect_readonly(self) -> sqlite3.Connection:
+        """A read-only connection (``mode=ro``), else an immutable one where the folder cannot be written."""
+        uri = self.path.absolute().as_uri()
+        db = sqlite3.connect(f"{uri}?mode=ro", uri=True, timeout=60.0, isolation_level=None)
+        try:
+            db.execute("SELECT COUNT(*) FROM sqlite_master").fetchone()
+            return db
+        except sqlite3.OperationalError:
+            db.close()
+            if os.access(self.path.absolute().parent, os.W_OK):
+                raise
+        # a write-ahead-log store in a folder that cannot hold its -shm file: nobody can be writing to it
+        return sqlite3.connect(f"{uri}?immutable=1", uri=True, timeout=60.0, isolation_level=None)
 
     # ------------------------------------------------------------ lifecycle
     def close(self) -> None:

@@ -24,7 +24,7 @@ from collections.abc import Sequence
 from .. import __version__
 from ..recording import ImucalibWarning
 from . import analysis, calibration, export, fleet, simulation, thermal, validation
-from ._common import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_REJECTED, CliError, normalise_argv, show_warning
+from ._common import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_REJECTED, CliError, check_paths, normalise_argv, show_warning
 
 __all__ = ["EXIT_ERROR", "EXIT_REJECTED", "CliError", "build_parser", "main"]
 
@@ -50,6 +50,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("always", ImucalibWarning)
             warnings.showwarning = show_warning
+            check_paths(args)
             return int(args.func(args) or 0)
     except BrokenPipeError:  # output piped into e.g. head: not an error
         sys.stderr.close()

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import errno
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -14,8 +16,8 @@ from ..recording import STANDARD_GRAVITY, Recording
 
 __all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_REJECTED", "STANDARD_GRAVITY", "CliError", "Progress",
            "add_force_option", "add_gravity_option", "add_init_static_option", "add_reader_options",
-           "check_verdict", "gravity_value", "normalise_argv", "positive_float", "print_json", "print_verdict",
-           "progress", "read", "read_recording", "reading_progress", "show_warning"]
+           "check_paths", "check_verdict", "gravity_value", "normalise_argv", "positive_float", "print_json",
+           "print_verdict", "progress", "read", "read_recording", "reading_progress", "show_warning"]
 
 #: exit code of a command that failed with a reported error
 EXIT_ERROR = 2
@@ -104,6 +106,55 @@ def add_force_option(p: argparse.ArgumentParser) -> None:
     """``--force``: use a calibration whose verdict is ``rejected``."""
     p.add_argument("--force", action="store_true",
                    help="use the calibration even though its verdict is 'rejected'")
+
+
+# -------------------------------------------------------------------- paths
+#: the options that name files a command reads, and those it writes
+INPUT_OPTIONS = ("data", "calibration", "calibrations", "sections", "noise", "manifest")
+OUTPUT_OPTIONS = ("output", "plot", "report", "kalibr")
+#: commands whose output is a folder they create with its parents
+_FOLDER_OUTPUTS = ("simulate",)
+
+
+def _named(args: argparse.Namespace, names: Sequence[str]) -> list[str]:
+    out = []
+    for name in names:
+        value = getattr(args, name, None)
+        values = value if isinstance(value, list | tuple) else [value]
+        out += [str(v) for v in values if v is not None and str(v) != "-"]
+    return out
+
+
+def check_paths(args: argparse.Namespace) -> None:
+    """Refuse, before anything is read or written, paths no command can use, naming the cause.
+
+    An input or output that is a symbolic link loop; an input that is a FIFO, socket or device (reading
+    it would block or never end; :func:`imucalib.io.inputs.check_input_path`); an output in a folder that
+    does not exist (or is not a folder). Inputs that are missing are left to the readers, which say so.
+    """
+    from ..io.errors import ReaderError
+    from ..io.inputs import check_input_path
+
+    for name in _named(args, INPUT_OPTIONS):
+        try:
+            check_input_path(name)
+        except ReaderError as exc:
+            if "not found" not in str(exc):
+                raise CliError(str(exc)) from None
+    for name in _named(args, OUTPUT_OPTIONS):
+        try:
+            os.stat(name)
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                raise CliError(f"{name}: the output is a symbolic link loop (the link leads back to itself "
+                               "through other links); remove the link or choose another output name") from None
+        folder = os.path.dirname(os.path.abspath(name))
+        if getattr(args, "command", None) in _FOLDER_OUTPUTS:
+            continue
+        if not os.path.isdir(folder):
+            what = "is not a folder" if os.path.lexists(folder) else "does not exist"
+            raise CliError(f"{name}: the folder {folder} {what}; create it first (mkdir -p '{folder}') or choose "
+                           "another output path")
 
 
 # ------------------------------------------------------------------ reading

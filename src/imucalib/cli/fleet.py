@@ -50,7 +50,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
                        "address has its own workers")
     with Progress(f"batch {Path(args.manifest).name}", unit="row") as bar:
         result = run_batch(args.manifest, args.store, workers=args.workers, scheduler=args.scheduler,
-                           force=args.force, progress=bar)
+                           force=args.force, allow_urls=args.allow_urls, progress=bar)
     code = EXIT_REJECTED if result["failed"] else 0
     if args.json:
         print_json(result)
@@ -70,7 +70,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
 def _open(args: argparse.Namespace):
     from ..store import Store
 
-    return Store(args.store, create=False)
+    return Store(args.store, readonly=True)
 
 
 def cmd_store_list(args: argparse.Namespace) -> int:
@@ -135,12 +135,19 @@ def register(sub: argparse._SubParsersAction) -> None:
         "temperature_c; files ';'-separated, relative to the manifest) as 'imucalib calibrate' would, and "
         "store every result, or the row's error, in an SQLite store. A failing row never stops the batch. "
         "Rows already in the store (same device, time, settings and file contents) are skipped, so a batch "
-        "that was interrupted is finished by running it again. Exits with 3 when a row failed.")
+        "that was interrupted is finished by running it again. Exits with 3 when a row failed. "
+        "Rows name local files unless --allow-urls is given: a URL row (s3://, https://, ftp://, file://) "
+        "makes the batch connect to the host it names, so allow URLs only for manifests you trust. With "
+        "--scheduler, tasks and results travel pickled: whoever reaches the scheduler or its workers can run "
+        "code there and in this process, so use only a scheduler of your own on a trusted network.")
     p.add_argument("manifest", help="manifest CSV, one recording per line")
     p.add_argument("--store", required=True, help="the store file (created if missing), e.g. fleet.sqlite")
     p.add_argument("--workers", type=_workers,
                    help="processes (default 1); with --scheduler local, the LocalCluster's workers")
     add_scheduler_option(p)
+    p.add_argument("--allow-urls", nargs="?", const=True, default=False, metavar="SCHEMES",
+                   help="read manifest rows that are fsspec URLs (needs fsspec): any scheme, or only those "
+                   "listed, e.g. --allow-urls s3,gcs (default: URLs are refused, nothing runs)")
     p.add_argument("--force", action="store_true",
                    help="calibrate rows already in the store again, replacing their records")
     p.add_argument("--json", action="store_true",

@@ -126,6 +126,10 @@ def read_head(path: Path, max_bytes: int = _HEAD_BYTES) -> Head:
         last = _decode(stripped[cut + 1:])
         if not complete and cut < 0:
             raise ReaderError(f"{path}: the last line is longer than 64 kB; is this a text table?")
+    if not complete and b"\n" not in head:
+        cells = max(head.count(b","), head.count(b";"), head.count(b"\t")) + 1
+        raise ReaderError(f"{path}: the first line is longer than {max_bytes >> 20} MB (more than {cells} cells); "
+                          "a recording's header and rows are short lines: is this a text table?")
     body = head[bom:] if complete else head[bom:head.rfind(b"\n") + 1]
     if complete:
         body = body[:end - bom]

@@ -1,7 +1,10 @@
 """Checks every reader shares, and the Xsens MT Manager text export.
 
-* :func:`check_text`: a text input that is UTF-16 or binary is an error saying
-  so (the text readers read UTF-8 and ASCII);
+* :func:`check_input_path`: an input that is missing, a symbolic link loop,
+  a FIFO, a socket or a device is an error naming what it is (a FIFO would
+  block the reader forever);
+* :func:`check_text`: a text input that is UTF-16, compressed or binary (NUL
+  bytes) is an error saying so (the text readers read UTF-8 and ASCII);
 * :func:`check_distinct_columns`: one column named for two fields is an error;
 * :func:`check_against_header`: a unit option that contradicts the unit the
   header writes is an error;
@@ -18,7 +21,10 @@
 
 from __future__ import annotations
 
+import errno
+import os
 import re
+import stat
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -28,7 +34,7 @@ import numpy as np
 from ..recording import ImucalibWarning, Recording
 from .errors import ReaderError
 
-__all__ = ["check_against_header", "check_distinct_columns", "check_magnitudes", "check_text",
+__all__ = ["check_against_header", "check_distinct_columns", "check_input_path", "check_magnitudes", "check_text",
            "note_physical_units", "read_xsens", "xsens_header"]
 
 #: readings beyond this are no sensor's (and their squares are near float overflow)
@@ -36,22 +42,77 @@ LARGEST_READING = 1e15
 
 
 # --------------------------------------------------------------------- text
+#: the longest line looked at for an Xsens header [characters]: a longer one is no MT Manager export
+_LONGEST_HEADER = 1 << 16
+#: what a compressed file starts with, and the command that decompresses it
+_COMPRESSED = ((b"\x1f\x8b", "gzip", "gunzip -k"), (b"BZh", "bzip2", "bunzip2 -k"),
+               (b"\xfd7zXZ\x00", "xz", "unxz -k"), (b"(\xb5/\xfd", "zstd", "unzstd"),
+               (b"PK\x03\x04", "zip", "unzip"))
+
+
+def path_kind(mode: int) -> str | None:
+    """What a non-regular, non-directory file is (``os.stat`` mode), or None for a regular file or a directory."""
+    for test, name in ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device")):
+        if test(mode):
+            return name
+    return None
+
+
+def check_input_path(path: str | Path, what: str = "file") -> os.stat_result:
+    """The ``os.stat`` of an input that a reader can open and read more than once; else a ReaderError.
+
+    Missing files, symbolic link loops (and links to nothing) and anything that is not a regular file or a
+    directory (a FIFO would block the reader forever, a device streams without end) are refused here, before
+    anything opens them.
+    """
+    path = Path(path)
+    try:
+        st = os.stat(path)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise ReaderError(f"{path}: a symbolic link loop (the link leads back to itself through other links); "
+                              f"point it at the {what}") from None
+        if exc.errno == errno.ENOENT and os.path.islink(path):
+            raise ReaderError(f"{path}: a symbolic link to nothing ({os.readlink(path)} does not exist)") from None
+        if exc.errno in (errno.ENOENT, errno.ENOTDIR):
+            raise ReaderError(f"{path}: {what} not found") from None
+        raise ReaderError(f"{path}: cannot be read ({exc.strerror})") from None
+    kind = path_kind(st.st_mode)
+    if kind is not None:
+        stream = "binary data without end (NUL bytes, random bytes)" if kind.endswith("device") else \
+            "a stream that can be read only once, and blocks until a writer comes"
+        raise ReaderError(f"{path}: {kind}, not a regular {what}: its content is {stream}; save the data to a "
+                          "file and give that")
+    return st
+
+
 def check_text(path: Path) -> None:
-    """Refuse UTF-16 and binary files before a text reader garbles them."""
+    """Refuse UTF-16, compressed and binary files before a text reader garbles them."""
     if path.is_dir():
         return
     with path.open("rb") as f:
         head = f.read(4096)
+    for magic, name, command in _COMPRESSED:
+        if head.startswith(magic):
+            raise ReaderError(f"{path}: {name}-compressed; decompress it first ({command} '{path}') and give the "
+                              "decompressed file")
+    if len(head) >= 8 and head.count(0) == len(head):
+        raise ReaderError(f"{path}: binary data (its first {len(head)} bytes are all NUL bytes: a sparse or "
+                          "zero-filled file, not text); check that the recording was written out completely")
+    # UTF-16 text: a byte-order mark, or NUL bytes at one parity of the positions (the high byte of ASCII)
+    # and hardly any at the other
+    half = len(head) // 2
+    nul_even, nul_odd = head[0::2].count(0), head[1::2].count(0)
     utf16 = head.startswith((b"\xff\xfe", b"\xfe\xff")) or (
-        len(head) >= 8 and head.count(b"\x00") * 3 >= len(head) and (head[1::2].count(0) > len(head) // 3
-                                                                        or head[0::2].count(0) > len(head) // 3))
+        len(head) >= 8 and max(nul_even, nul_odd) > 0.6 * half and min(nul_even, nul_odd) < 0.1 * half)
     if utf16:
         raise ReaderError(f"{path}: the text is UTF-16 encoded; imucalib reads UTF-8 text: save it as UTF-8 "
                           f"(in a spreadsheet or editor: Save As, encoding UTF-8; or iconv -f UTF-16 -t UTF-8 "
                           f"'{path}' > '{path.with_name(path.stem + '-utf8' + path.suffix)}')")
     if b"\x00" in head:
-        raise ReaderError(f"{path}: a binary file, not text; the text readers take CSV or imu_tk text "
-                          "(--reader mat for MATLAB files, a ROS bag is recognised from its content)")
+        raise ReaderError(f"{path}: a binary file, not text (it holds NUL bytes); the text readers take CSV or "
+                          "imu_tk text (--reader mat for MATLAB files, a ROS bag is recognised from its content)")
 
 
 # ------------------------------------------------------------------ columns
@@ -137,9 +198,11 @@ def xsens_header(path: Path) -> list[str] | None:
         return None
     with path.open("r", encoding="utf-8-sig", errors="replace") as f:
         for _ in range(200):
-            line = f.readline()
+            line = f.readline(_LONGEST_HEADER)
             if not line:
                 return None
+            if len(line) >= _LONGEST_HEADER and not line.endswith("\n"):
+                return None  # a line this long is no MT Manager header (and is not split into cells here)
             if line.startswith("//") or not line.strip():
                 continue
             names = [c.strip().strip('"') for c in re.split(r"[\t,;]", line.strip())]

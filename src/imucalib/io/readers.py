@@ -92,8 +92,7 @@ def read(
     if not paths:
         raise ReaderError("no data file given")
     for p in paths:
-        if not p.exists():
-            raise ReaderError(f"{p}: file not found")
+        inputs.check_input_path(p)
         if p.is_dir() and not is_rosbag(p):
             raise ReaderError(f"{p}: is a directory, not a data file (a ROS 2 bag directory holds metadata.yaml)")
     if acc_unit is not None and acc_unit not in ACC_UNITS:
