@@ -383,14 +383,23 @@ def detect_intervals(
     detector = _detector(recording, rest, window, min_interval)
     intervals, mult, model = _scan(detector, gravity, recording, multipliers, min_interval, None)
     if gyro_gate:
-        from .fit.gyroscope import rough_scale
+        from .fit.gyroscope import axes_disagreement, rough_scale
 
-        scale = rough_scale(recording, intervals, model, recording.gyro[rest.slice].mean(axis=0))
-        base, win, min_len, stat = detector
-        widest = detect_static(None, max(multipliers) * base, window=win, min_length=min_len, statistic=stat)
-        still = gyro_still(recording, rest, scale, widest)
-        if not all(np.all(still[iv.slice]) for iv in widest):  # else the scan would find the same again
-            intervals, mult, model = _scan(detector, gravity, recording, multipliers, min_interval, still)
+        bias = recording.gyro[rest.slice].mean(axis=0)
+        try:
+            scale = rough_scale(recording, intervals, model, bias)
+            base, win, min_len, stat = detector
+            widest = detect_static(None, max(multipliers) * base, window=win, min_length=min_len, statistic=stat)
+            still = gyro_still(recording, rest, scale, widest)
+            if not all(np.all(still[iv.slice]) for iv in widest):  # else the scan would find the same again
+                intervals, mult, model = _scan(detector, gravity, recording, multipliers, min_interval, still)
+        except ValueError:
+            # the accelerometer found the poses but the gyroscope does not confirm them: say why when its
+            # rotations disagree with the accelerometer's (axes swapped or reversed on one sensor)
+            hint = axes_disagreement(recording, intervals, model, bias)
+            if hint is not None:
+                raise ValueError(hint) from None
+            raise
     return intervals, mult, rest, model
 
 

@@ -7,11 +7,15 @@
 * :func:`fit_known_turns` — the sensitivity matrix from turns by a known angle
   (Ferraris 1995);
 * :func:`rotation_angles`, :func:`fit_measured_rotations` — turns whose angle
-  the calibrated accelerometer measures (Qureshi 2017, eqs. 18–28).
+  the calibrated accelerometer measures (Qureshi 2017, eqs. 18–28);
+* :func:`axes_disagreement` — whether the gyroscope's rotations carry gravity
+  from one pose to the next as the accelerometer sees it, and which order and
+  signs of the gyroscope's axes would (swapped or reversed axes on one sensor).
 """
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,9 +28,10 @@ from ..residuals import AccelLayout, GyroLayout, gravity_direction_residuals, gr
 from ..solve import levenberg_marquardt, standard_errors
 from .accelerometer import full_from_sensitivity
 
-__all__ = ["MIN_POSES", "GyroFit", "StaticGyro", "errors_at", "fit_gravity_direction", "fit_gyroscope",
-           "fit_known_turns", "fit_measured_rotations", "gravity_direction_problem", "gyroscope_errors",
-           "rotation_angles", "rough_scale", "static_gyro", "transition_errors"]
+__all__ = ["MIN_POSES", "SIGNED_PERMUTATIONS", "GyroFit", "StaticGyro", "axes_disagreement", "errors_at",
+           "fit_gravity_direction", "fit_gyroscope", "fit_known_turns", "fit_measured_rotations",
+           "gravity_direction_problem", "gyroscope_errors", "rotation_angles", "rough_scale", "static_gyro",
+           "transition_errors"]
 
 #: the fewest static poses a gravity-direction fit takes
 MIN_POSES = 4
@@ -69,6 +74,77 @@ def _gyro_scale_guess(
     pred = np.einsum("skji,kj->ski", rot, gravity_dirs[:, 0])
     cost = np.sum((gravity_dirs[None, :, 1] - pred) ** 2, axis=(1, 2))
     return float(ks[int(np.argmin(cost))])
+
+
+#: every order and sign of three axes: (permutation, signs), the identity first
+SIGNED_PERMUTATIONS = [(perm, signs) for perm in itertools.permutations(range(3))
+                       for signs in itertools.product((1.0, -1.0), repeat=3)]
+
+
+def _direction_errors(phi: np.ndarray, gravity_dirs: np.ndarray, ks: np.ndarray) -> np.ndarray:
+    """Per transition, the angle [rad] between the next pose's gravity direction and the previous one carried
+    by the rotation ``exp(k Φ_i)`` (the single-rotation approximation of :func:`_gyro_scale_guess`), at the
+    ``k`` of ``ks`` that fits them best."""
+    rot = quat_to_matrix(quat_from_rotvec(ks[:, None, None] * phi[None, :, :]))
+    pred = np.einsum("skji,kj->ski", rot, gravity_dirs[:, 0])
+    cost = np.sum((gravity_dirs[None, :, 1] - pred) ** 2, axis=(1, 2))
+    best = int(np.argmin(cost))
+    return angle_between(pred[best], gravity_dirs[:, 1])
+
+
+def axes_disagreement(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
+                      bias: np.ndarray, *, disagree_deg: float = 20.0, agree_deg: float = 10.0) -> str | None:
+    """A message when the accelerometer and the gyroscope disagree about the rotations between poses, else None.
+
+    Between consecutive static poses the gyroscope's integrated rotation carries
+    the previous pose's gravity direction onto the next one's (Zhang 2021,
+    eq. 14; Tedaldi 2014). Each motion is taken as one rotation about its
+    integrated raw rate ``Φ_i`` by ``k‖Φ_i‖``, with the common scale ``k`` fitted
+    as in :func:`_gyro_scale_guess`, once for the gyroscope's axes as they are
+    and once for each of the 47 other orders and signs. When the axes as they
+    are leave a median error above ``disagree_deg`` and another order or sign
+    brings it under ``agree_deg`` (and under a third of it), one sensor's axes
+    are swapped or reversed against the other's: the message names that order.
+    """
+    if len(intervals) < 3:
+        return None
+    acc = accelerometer.forward(interval_means(recording.acc, intervals))
+    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
+    pairs = np.stack([dirs[:-1], dirs[1:]], axis=1)
+    starts, stops = transition_bounds(intervals)
+    phi = np.zeros((len(starts), 3))
+    path = np.zeros(len(starts))
+    for i, (a, b) in enumerate(zip(starts, stops, strict=True)):
+        v = recording.gyro[a:b] - bias
+        dt = recording.t[a + 1:b + 1] - recording.t[a:b]
+        phi[i] = dt @ v
+        path[i] = dt @ np.sqrt(np.einsum("ij,ij->i", v, v))
+    theta = angle_between(pairs[:, 0], pairs[:, 1])
+    ok = (theta > np.radians(10)) & (path > 0)
+    if np.count_nonzero(ok) < 3:
+        return None
+    phi, pairs = phi[ok], pairs[ok]
+    ks = float(np.median(theta[ok] / path[ok])) * np.geomspace(0.3, 3.0, 200)
+    errors = [float(np.degrees(np.median(_direction_errors(phi[:, list(perm)] * np.array(signs), pairs, ks))))
+              for perm, signs in SIGNED_PERMUTATIONS]
+    best = int(np.argmin(errors))
+    as_is = errors[0]
+    if best == 0 or as_is <= disagree_deg or errors[best] > min(agree_deg, as_is / 3):
+        return None
+    perm, signs = SIGNED_PERMUTATIONS[best]
+    order = ", ".join(f"{'-' if sg < 0 else ''}{AXES[p]}" for p, sg in zip(perm, signs, strict=True))
+    what = [f"{AXES[i]} and {AXES[j]} swapped" for i, j in ((0, 1), (0, 2), (1, 2))
+            if perm[i] == j and perm[j] == i]
+    if perm != (0, 1, 2) and not what:
+        what.append("its axes in another order")
+    negated = sorted(AXES[p] for p, sg in zip(perm, signs, strict=True) if sg < 0)
+    if negated:
+        what.append(f"the {', '.join(negated)} column{'s' if len(negated) > 1 else ''} negated")
+    return (f"the accelerometer and the gyroscope disagree about the rotations between the poses: carried by the "
+            f"gyroscope's rotations, gravity lands a median {as_is:.0f}° away from where the accelerometer finds "
+            f"it in the next pose; with the gyroscope's axes read as ({order}) ({'; '.join(what)}) they agree "
+            f"within {errors[best]:.1f}°. One sensor's axes are swapped or reversed against the other's: check "
+            "the order and signs of the gyroscope's (or the accelerometer's) columns (--columns)")
 
 
 def rough_scale(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
