@@ -349,3 +349,23 @@ def test_a_calibration_on_the_cli_with_a_reversed_axis_says_why(tmp_path, capsys
     err = capsys.readouterr().err
     assert code == 2 and not (tmp_path / "c.json").exists()
     assert "disagree about the rotations" in err and "read as (x, y, -z)" in err and "the z column negated" in err
+
+
+@pytest.mark.parametrize("seed, perm, signs", [(20, (2, 1, 0), (1, 1, 1)), (21, (1, 2, 0), (-1, -1, 1))])
+def test_a_rejection_for_axes_near_90_degrees_names_the_swap(seed, perm, signs):
+    cal = calibrate(_with_gyro(_handheld(seed), perm, signs), method="tedaldi2014")
+    assert cal.fit["verdict"] == "rejected"
+    reasons = " ".join(cal.fit["verdict_reasons"])
+    assert f"the gyroscope's axes are swapped against the accelerometer's: the fit reads them as " \
+           f"({_fix_of(perm, signs)})" in reasons, reasons
+
+
+def test_real_data_with_two_gyroscope_columns_swapped_names_them(tmp_path, capsys):
+    data = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "xsens_imu_tk"
+    if not data.is_dir():
+        pytest.skip("../shared/data/xsens_imu_tk not present (fresh clone): real-data test skipped")
+    rows = np.loadtxt(data / "xsens_gyro.mat")
+    np.savetxt(tmp_path / "gyro.txt", rows[:, [0, 2, 1, 3]], fmt="%.7e")
+    code = main(["calibrate", str(data / "xsens_acc.mat"), str(tmp_path / "gyro.txt"), "--reader", "imutk"])
+    out = capsys.readouterr().out
+    assert code == 3 and "the fit reads them as (y, x, z)" in out, out

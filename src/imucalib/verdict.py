@@ -215,6 +215,19 @@ def plausible(calibration) -> bool:
     return all(c.level < 2 for c in plausibility(calibration))
 
 
+def _swapped_axes(sensor: str, model, deg: float) -> str:
+    """For a gyroscope cross-axis term near 90°: the order of its raw axes the fitted matrix reads, as a hint."""
+    if sensor != "gyroscope" or deg < 45.0:
+        return ""
+    m = model.misalignment @ np.diag(model.scale)
+    cols = np.argmax(np.abs(m), axis=1)
+    if len(set(cols.tolist())) != 3:
+        return ""
+    order = ", ".join(f"{'-' if m[i, c] < 0 else ''}{'xyz'[c]}" for i, c in enumerate(cols))
+    return (f"; near 90°, the gyroscope's axes are swapped against the accelerometer's: the fit reads them as "
+            f"({order}), so check the order and signs of the gyroscope's (or the accelerometer's) columns")
+
+
 def plausibility(calibration) -> list[Check]:
     """Convergence, scales against the declared units' nominal factors, cross-axis terms."""
     out = []
@@ -240,7 +253,7 @@ def plausibility(calibration) -> list[Check]:
             i, j = np.unravel_index(int(np.argmax(off)), off.shape)
             out.append(Check(level, f"the {sensor} cross-axis term {'xyz'[i]}{'xyz'[j]} is {deg:.1f}° (limit "
                                     f"{limits[0]:g}°): axes that far from orthogonal are implausible for a "
-                                    "MEMS sensor"))
+                                    f"MEMS sensor{_swapped_axes(sensor, model, deg)}"))
         if np.any(~np.isfinite(model.scale)) or np.any(model.scale == 0):
             out.append(Check(2, f"the {sensor} scale factors are not finite and non-zero"))
     return out
