@@ -111,6 +111,19 @@ def test_manifest_rows_that_are_loops_fifos_devices_or_folders_fail_quickly(file
     assert rec["D"]["files"][0]["sha256"] is None  # refused before anything in the tree was hashed
 
 
+@pytest.mark.parametrize("store", ["fifo", "loop1"])
+def test_a_store_or_manifest_that_is_a_fifo_or_a_loop_is_refused(files, tmp_path, store):
+    manifest = tmp_path / "m.csv"
+    manifest.write_text(f"device,files\nA,{files / 's.csv'}\n", encoding="utf-8")
+    for args in (["batch", manifest, "--store", files / store], ["store", "list", "--store", files / store],
+                 ["batch", files / store, "--store", tmp_path / "s.sqlite"]):
+        r = cli(*args)
+        kind = "a FIFO (named pipe)" if store == "fifo" else "a symbolic link loop"
+        assert r.returncode == 2 and f"{store}: {kind}" in r.stderr and plain(r.stderr), r.stderr
+    with pytest.raises(ManifestError, match="a FIFO"):
+        read_manifest(files / "fifo")  # the library refuses it too (reading it would block)
+
+
 def _peak_rss_kb(*args) -> tuple[int, subprocess.CompletedProcess]:
     """The peak resident memory [kB] of ``imucalib ARGS`` in a grandchild, measured by its parent."""
     code = ("import resource, subprocess, sys\n"

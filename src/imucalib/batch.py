@@ -91,7 +91,7 @@ from .io.errors import ReaderError
 from .io.inputs import check_input_path, path_kind
 from .io.rosbag import is_rosbag
 from .recording import STANDARD_GRAVITY
-from .store import Store, canonical_json, parse_time
+from .store import Store, canonical_json, check_store_path, parse_time
 
 __all__ = ["EXCERPT_CHARS", "MANIFEST_COLUMNS", "BatchError", "ManifestError", "Row", "dask_client", "execute",
            "is_url", "read_manifest", "run_batch", "run_row", "url_schemes"]
@@ -278,6 +278,11 @@ def read_manifest(path: str | Path, *, allow_urls: bool | str | Sequence[str] = 
 
     path = Path(path)
     schemes = url_schemes(allow_urls)
+    try:
+        check_input_path(path, "manifest")
+    except ReaderError as exc:
+        if "not found" not in str(exc):
+            raise ManifestError(str(exc)) from None
     try:
         text = path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
@@ -715,6 +720,7 @@ def run_batch(manifest: str | Path, store: str | Path, *, workers: int | None = 
     """
     t0 = time.perf_counter()
     rows = read_manifest(manifest, allow_urls=allow_urls)
+    check_store_path(store)
     # a row's file that is a symbolic link loop cannot be the store; the row fails with it when it runs
     refuse_overwriting_inputs([store], [manifest, *(f for r in rows for f in r.files
                                                     if not is_url(f) and not _link_loop(f))])

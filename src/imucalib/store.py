@@ -40,12 +40,14 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import errno
 import functools
 import hashlib
 import json
 import os
 import re
 import sqlite3
+import stat
 from collections.abc import Iterable, Iterator, Sequence
 from datetime import UTC, date, datetime
 from pathlib import Path
@@ -55,8 +57,8 @@ from .calibration import Calibration
 from .io.atomic import atomic_create, atomic_write
 from .io.jsontext import dumps, jsonable
 
-__all__ = ["SCHEMA_VERSION", "STATUSES", "SUMMARY_COLUMNS", "Store", "StoreError", "canonical_json", "parse_time",
-           "record_key"]
+__all__ = ["SCHEMA_VERSION", "STATUSES", "SUMMARY_COLUMNS", "Store", "StoreError", "canonical_json",
+           "check_store_path", "parse_time", "record_key"]
 
 #: ``PRAGMA user_version`` of the store's schema
 SCHEMA_VERSION = 1
@@ -152,6 +154,21 @@ def _safe_name(text: str) -> str:
     return name[:100]
 
 
+def check_store_path(path: str | Path) -> None:
+    """Refuse a store path that is a symbolic link loop, a FIFO, a socket or a device (a StoreError naming it)."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise StoreError(f"{path}: a symbolic link loop (the link leads back to itself through other links); "
+                             "the store is a file: point the link at it or give another name") from None
+        return  # a store that does not exist yet, or an error sqlite reports when it opens it
+    for test, kind in ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device")):
+        if test(mode):
+            raise StoreError(f"{path}: {kind}, not a store file; the store is an SQLite file (e.g. fleet.sqlite)")
+
+
 def _sql_errors(method):
     """A :class:`Store` method whose database errors (disk full, a read-only file) become :class:`StoreError`."""
     @functools.wraps(method)
@@ -188,6 +205,7 @@ class Store:
         self.path = Path(path)
         self.readonly = readonly
         create = create and not readonly
+        check_store_path(self.path)
         if self.path.is_dir():
             raise StoreError(f"{self.path}: is a directory; the store is one file (e.g. fleet.sqlite)")
         if not create and not self.path.is_file():
