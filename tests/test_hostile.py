@@ -382,3 +382,25 @@ def test_real_data_with_two_gyroscope_columns_swapped_names_them(tmp_path, capsy
     code = main(["calibrate", str(data / "xsens_acc.mat"), str(tmp_path / "gyro.txt"), "--reader", "imutk"])
     out = capsys.readouterr().out
     assert code == 3 and "the fit reads them as (y, x, z)" in out, out
+
+
+_TEXT = st.text(alphabet=st.characters(min_codepoint=32, max_codepoint=126), min_size=8, max_size=600)
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(text=_TEXT, encoding=st.sampled_from(["utf-16", "utf-16-le", "utf-16-be"]),
+       junk=st.binary(min_size=0, max_size=400), zeros=st.integers(8, 5000))
+def test_utf16_text_is_utf16_and_nul_filled_data_is_binary(tmp_path, text, encoding, junk, zeros):
+    """UTF-16 text (with or without a byte-order mark) is called UTF-16; NUL-filled data (a sparse file,
+    zeros then anything) is called binary data with NUL bytes, never UTF-16."""
+    from imucalib.io.errors import ReaderError
+    from imucalib.io.inputs import check_text
+
+    path = tmp_path / "x.csv"
+    path.write_bytes(text.encode(encoding))
+    with pytest.raises(ReaderError, match="the text is UTF-16 encoded"):
+        check_text(path)
+    path.write_bytes(b"\0" * zeros + junk)
+    with pytest.raises(ReaderError) as exc:
+        check_text(path)
+    assert "UTF-16" not in str(exc.value) and "NUL bytes" in str(exc.value), str(exc.value)
