@@ -62,6 +62,8 @@ def path_kind(mode: int) -> str | None:
 def check_input_path(path: str | Path, what: str = "file") -> os.stat_result:
     """The ``os.stat`` of an input that a reader can open and read more than once; else a ReaderError.
 
+    ``what`` names the input in the messages (``"file"``, ``"manifest"``).
+
     Missing files, symbolic link loops (and links to nothing) and anything that is not a regular file or a
     directory (a FIFO would block the reader forever, a device streams without end) are refused here, before
     anything opens them.
@@ -82,8 +84,9 @@ def check_input_path(path: str | Path, what: str = "file") -> os.stat_result:
     if kind is not None:
         stream = "binary data without end (NUL bytes, random bytes)" if kind.endswith("device") else \
             "a stream that can be read only once, and blocks until a writer comes"
-        raise ReaderError(f"{path}: {kind}, not a regular {what}: its content is {stream}; save the data to a "
-                          "file and give that")
+        content = "data" if what == "file" else what
+        raise ReaderError(f"{path}: {kind}, not a regular file: its content is {stream}; save the {content} to "
+                          "a file and give that")
     return st
 
 
