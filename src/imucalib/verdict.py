@@ -45,7 +45,7 @@ from .metrics import gravity_direction_errors, interval_means, transition_bounds
 from .recording import Interval, Recording
 
 __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibility", "plausible",
-           "predicted_direction_error", "turn_speed", "with_verdict"]
+           "predicted_direction_error", "time_unit_hint", "turn_speed", "with_verdict"]
 
 LEVELS = ("accepted", "suspect", "rejected")
 
@@ -149,8 +149,31 @@ def check_rate(recording: Recording) -> None:
     rate = recording.rate
     lo, hi = THRESHOLDS["rate_hz"]
     if not lo <= rate <= hi:
-        raise ValueError(f"the sampling rate is {rate:.4g} Hz, outside {lo:g}-{hi:g} Hz where IMUs record: the time "
-                         "column's unit is probably wrong (ms read as s, or s as ms; see --time-unit)")
+        raise ValueError(f"the sampling rate is {rate:.4g} Hz, outside {lo:g}-{hi:g} Hz where IMUs record: "
+                         f"{time_unit_hint(recording)}")
+
+
+#: the time units a time column can be read in, and their length [s]
+_TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+_TIME_NAMES = {"s": "seconds", "ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
+
+
+def time_unit_hint(recording: Recording) -> str:
+    """What a sampling rate outside an IMU's range most likely means: which time unit was read as which.
+
+    The time column was read in ``metadata["time_unit"]``; the other unit that
+    puts the rate at 10 Hz-2 kHz (where most IMUs record) is named, e.g.
+    "the timestamps look like milliseconds read as microseconds (62.5 Hz then)".
+    """
+    read_as = recording.metadata.get("time_unit")
+    if read_as not in _TIME_UNITS:
+        return "the time base is probably wrong (a time column in another unit, or a wrong --rate)"
+    for unit, length in _TIME_UNITS.items():
+        rate = recording.rate * _TIME_UNITS[read_as] / length  # the stamps were in unit, not read_as
+        if unit != read_as and 10 <= rate <= 2000:
+            return (f"the timestamps look like {_TIME_NAMES[unit]} read as {_TIME_NAMES[read_as]} ({rate:.4g} Hz "
+                    f"then): pass --time-unit {unit}")
+    return f"the time column (read in {_TIME_NAMES[read_as]}) is probably in another unit: see --time-unit"
 
 
 def turn_speed(calibration, recording: Recording, intervals: list[Interval]) -> float:
