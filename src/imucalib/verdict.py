@@ -465,6 +465,12 @@ def _magnetometer(calibration) -> list[Check]:
         level = _level(value, THRESHOLDS[limit])
         if level:
             out.append(Check(level, text.format(factor * value, factor * THRESHOLDS[limit][level - 1])))
+    drift = fit.get("magnetometer_hard_iron_drift_over_session")
+    if drift is not None:
+        level = int(drift > THRESHOLDS["mag_norm_spread"][0])
+        out.append(Check(level, f"the magnetometer's hard iron drifted by {100 * drift:.2g} % of the field over the "
+                                "poses (fitted: the calibration holds its value at the poses' mean time); used at "
+                                "another time it will be off by as much (let the sensor warm up, keep currents away)"))
     dip = fit.get("magnetometer_dip_deg")
     if dip is not None and abs(dip) < WEAK_DIP_DEG:
         out.append(Check(1, f"the field's dip is {dip:.1f}°, near the magnetic equator: whether the magnetometer's "
