@@ -191,7 +191,7 @@ def test_validate_on_a_second_recording(capsys, tmp_path, session_csv):
     bad.save(tmp_path / "bad.json")
     code, out, err = run(capsys, "validate", tmp_path / "bad.json", tmp_path / "second.csv")
     assert code == 3, err  # it no longer holds
-    assert out.startswith("the calibration holds: REJECTED")
+    assert out.startswith("verdict: REJECTED — the calibration does not hold")
     assert "not refitted" in out and "at calibration" in out and "noise floor" in out
     code, out, err = run(capsys, "validate", tmp_path / "bad.json", tmp_path / "second.csv", "--json")
     assert code == 3 and json.loads(out)["verdict"] == "rejected"

@@ -83,6 +83,40 @@ def test_rank_orders_ran_then_verdict_then_score():
     assert best is None
 
 
+def test_identical_scores_are_a_tie_not_an_arbitrary_best(tmp_path, capsys, monkeypatch):
+    """Two methods with the same verdict and the same figures share the first rank; there is no best, and the
+    table says it is a tie. A third, worse one keeps its own rank."""
+    from imucalib import compare as compare_module
+    from imucalib.cli import main
+    from imucalib.compare import rank, tied_best
+    from imucalib.io import write_csv
+    from imucalib.recording import Recording
+
+    def row(method, acc, ang, verdict="accepted"):
+        return {"method": method, "ok": True, "verdict": verdict, "cv_accelerometer_residual_rms": acc,
+                "cv_gyroscope_angle_error_mean_deg": ang, "model": None, "cv_folds_skipped": 0}
+
+    rows = [row("ferraris", 0.002, 0.1), row("worse", 0.004, 0.1), row("six_position", 0.002, 0.1)]
+    ranked, best = rank(rows)
+    assert best is None
+    assert [(r["method"], r["rank"]) for r in ranked] == [("ferraris", 1), ("six_position", 1), ("worse", 3)]
+    assert tied_best(ranked) == ["ferraris", "six_position"]
+    # a suspect method with the same figures is not tied with an accepted one
+    ranked, best = rank([row("a", 0.002, 0.1), row("b", 0.002, 0.1, verdict="suspect")])
+    assert best == "a" and tied_best(ranked) == []
+    ranked, _ = rank(rows)
+    result = {"static_intervals": 9, "folds": 4, "best": None, "tied": tied_best(ranked), "ranked_by": "score",
+              "methods": ranked}
+    monkeypatch.setattr(compare_module, "compare", lambda *a, **k: result)
+    n = 200
+    write_csv(tmp_path / "r.csv", Recording(np.arange(n) / 100, np.tile([0.0, 0.0, 9.81], (n, 1)), np.zeros((n, 3)),
+                                            acc_unit="m/s^2", gyro_unit="rad/s"))
+    assert main(["compare", str(tmp_path / "r.csv")]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[-1] == ("best: a tie between ferraris and six_position (the same verdict and score: "
+                                    "nothing here prefers one)")
+
+
 def test_compare_ranks_a_cubic_sensor_known_to_need_the_cubic_model(tmp_path, capsys):
     """A simulated sensor with ten times Zhang 2021 Table I's nonlinearity: the cubic zhang2021 must rank
     before the linear tedaldi2014 (its held-out |a|-g is ~10x smaller), and wang2019, which needs turntable

@@ -86,3 +86,163 @@ def test_overlapping_allan_deviation_matches_allantools():
     t1, a1 = allan_deviation(x[:, 1], rate, taus=[0.05, 1.0, 10.0])
     _, ref1, _, _ = allantools.oadev(x[:, 1], rate=rate, data_type="freq", taus=t1)
     np.testing.assert_allclose(a1, ref1, rtol=1e-10)
+
+
+# ------------------------------------------------------------- figures only where the curve shows them
+def _rest(rng, rate, n, white, walk, columns=3):
+    """White noise of density ``white`` [unit·√s] plus a rate random walk ``walk`` [unit/√s] per column."""
+    return (rng.normal(0, white * np.sqrt(rate), (n, columns))
+            + np.cumsum(rng.normal(0, walk / np.sqrt(rate), (n, columns)), axis=0))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_white_noise_and_random_walk_recovered_within_20_percent(seed):
+    """A long rest shows the −½ and the +½ slopes: both figures within 20 % of the simulated truth, on every axis;
+    white noise meeting a random walk has a flat minimum but no floor of its own, so no bias instability."""
+    rng = np.random.default_rng(seed)
+    rate, n, white, walk = 100.0, 300_000, 2e-3, 3e-4  # 3000 s; the terms cross at τ = √3 N/K ≈ 12 s
+    p = noise_parameters(_rest(rng, rate, n, white, walk), rate)
+    np.testing.assert_allclose(p["white_noise_density"], white, rtol=0.05)
+    np.testing.assert_allclose(p["random_walk"], walk, rtol=0.2)
+    assert np.all(np.isnan(p["bias_instability"]))
+    for key in ("white_noise_density", "random_walk"):  # a figure never exceeds its own bound
+        assert np.all(p[key] <= p[key + "_bound"])
+    assert np.all(p["random_walk_bound"] < 2 * walk)
+
+
+def test_short_rest_gives_random_walk_only_as_a_bound():
+    """50 s of rest cannot show a random walk whose slope appears only after minutes: NaN, and a bound
+    that holds the truth."""
+    rng = np.random.default_rng(2)
+    rate, white, walk = 100.0, 2e-3, 3e-4
+    p = noise_parameters(_rest(rng, rate, 5000, white, walk), rate)
+    np.testing.assert_allclose(p["white_noise_density"], white, rtol=0.1)
+    assert np.all(np.isnan(p["random_walk"]))
+    assert np.all(p["random_walk_bound"] >= walk)
+
+
+def test_bump_at_short_cluster_times_is_not_a_random_walk():
+    """A vibration (a 16 Hz line) over white noise makes the curve rise at τ ≈ 0.03 s: read as a random walk it
+    gives a figure far above what the longest clusters allow. The figure is NaN and the Kalibr file takes the
+    bound, marked as such."""
+    from imucalib.noise import BOUND_MARK, kalibr_yaml, noise_summary
+    from imucalib.recording import Recording
+
+    rng = np.random.default_rng(4)
+    rate, n = 100.0, 5000
+    t = np.arange(n) / rate
+    line = 0.05 * np.sin(2 * np.pi * 16.0 * t)[:, None] * [1.0, 0.0, 0.0]
+    acc = _rest(rng, rate, n, 3e-3, 1e-5) + line + [0.0, 0.0, 9.81]
+    gyro = _rest(rng, rate, n, 2e-4, 1e-6)
+    taus, adev = allan_deviation(acc[:, 0], rate)
+    slope = np.diff(np.log(adev)) / np.diff(np.log(taus))
+    assert np.any(slope[taus[:-1] < 0.1] > 0.3)  # the bump the old reading took for a random walk
+    doc = noise_summary(Recording(t, acc, gyro, acc_unit="m/s^2", gyro_unit="rad/s"))
+    a = doc["accelerometer"]
+    assert np.isnan(a["random_walk"][0])
+    text, notes = kalibr_yaml(a, doc["gyroscope"], rate)
+    line_rw = next(x for x in text.splitlines() if x.startswith("accelerometer_random_walk:"))
+    assert float(line_rw.split()[1]) == pytest.approx(max(a["random_walk_bound"]), rel=1e-6)
+    assert BOUND_MARK in line_rw and any("upper bound" in x for x in notes)
+    assert max(a["random_walk_bound"]) < 0.01
+
+
+def test_bias_instability_floor_is_read_where_flat():
+    """A bias that wanders as a sum of slow Gauss-Markov processes (a flicker-like floor, flat over two decades)
+    under white noise: B is a figure, between 0.7× the curve's minimum over 0.664 and its own bound."""
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(5)
+    rate, n = 100.0, 200_000
+    x = rng.normal(0, 0.02, n)
+    for tc in (2.0, 8.0, 32.0, 128.0):  # correlation times spread over the decades of the floor
+        a = np.exp(-1 / (tc * rate))
+        x = x + lfilter([1.0], [1.0, -a], rng.normal(0, 1e-3 * np.sqrt(1 - a**2), n))  # first-order Gauss-Markov
+    taus, adev = allan_deviation(x, rate)
+    p = noise_parameters(x, rate)
+    assert np.isfinite(p["bias_instability"][0])
+    assert 0.7 * adev.min() / 0.664 <= p["bias_instability"][0] <= p["bias_instability_bound"][0]
+    assert np.isnan(p["random_walk"][0])
+
+
+def test_confidence_matches_allantools_degrees_of_freedom():
+    """δ = 1/√(2(K−1)) against allantools' equivalent degrees of freedom (Greenhall) of the overlapping Allan
+    deviation, 1/√(2·edf): close for random-walk noise, on the safe (larger) side for white noise."""
+    allantools = pytest.importorskip("allantools")
+    from imucalib.noise import allan_confidence
+
+    rate, n = 100.0, 5000
+    for m in (1, 10, 100, 500):
+        d = float(allan_confidence(np.array([m / rate]), rate, n)[0])
+        white = 1 / np.sqrt(2 * allantools.edf_greenhall(alpha=0, d=2, m=m, N=n, overlapping=True))
+        walk = 1 / np.sqrt(2 * allantools.edf_greenhall(alpha=-2, d=2, m=m, N=n, overlapping=True))
+        assert 0.85 * d <= max(white, walk) <= 1.25 * d
+        assert d >= 0.85 * white
+
+
+def test_constant_column_is_below_the_resolution(tmp_path, capsys):
+    from imucalib.cli import main
+    from imucalib.io import write_csv
+    from imucalib.noise import noise_summary
+    from imucalib.recording import Recording
+
+    rng = np.random.default_rng(6)
+    n, rate = 6000, 100.0
+    acc = np.round(rng.normal([0, 0, 1000], 2.0, (n, 3)))
+    acc[:, 1] = 12.0  # a stuck (or very coarsely quantised) axis
+    gyro = np.round(rng.normal(0, 3.0, (n, 3)))
+    rec = Recording(np.arange(n) / rate, acc, gyro)
+    doc = noise_summary(rec)["accelerometer"]
+    assert doc["constant"] == [False, True, False]
+    assert np.isnan(doc["white_noise_density"][1]) and np.isnan(doc["white_noise_density_bound"][1])
+    assert doc["resolution"][0] == 1.0
+    assert any("y is constant" in x and "below the resolution" in x for x in doc["notes"])
+    write_csv(tmp_path / "stuck.csv", rec)
+    assert main(["noise", str(tmp_path / "stuck.csv"), "--whole"]) == 0
+    out, err = capsys.readouterr()
+    assert "const" in out and "e-3" not in out.split("accelerometer")[1].split("gyroscope")[0].split(",")[1]
+    assert "below the resolution" in err
+
+
+def test_noise_refuses_a_time_base_and_names_the_mix_up(tmp_path, capsys):
+    """Arduino millis() stamps (16 ms steps) read as microseconds: 62.5 kHz, refused, naming the mix-up; with
+    --time-unit ms the densities come out √1000 larger, as they should."""
+    from imucalib.cli import main
+
+    rng = np.random.default_rng(8)
+    n = 4000
+    stamps = np.arange(n) * 16  # millis() at 62.5 Hz
+    acc = rng.normal([0, 0, 9.81], 0.02, (n, 3))
+    gyro = rng.normal(0, 0.002, (n, 3))
+    body = "\n".join(",".join(f"{v:.6g}" for v in (t, *a, *g)) for t, a, g in zip(stamps, acc, gyro, strict=True))
+    (tmp_path / "arduino.csv").write_text("t,ax,ay,az,gx,gy,gz\n" + body + "\n")
+    args = ["noise", str(tmp_path / "arduino.csv"), "--whole", "--acc-unit", "m/s^2", "--gyro-unit", "rad/s"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "milliseconds read as microseconds" in err and "--time-unit ms" in err and "Traceback" not in err
+    assert main([*args, "--time-unit", "ms", "--json"]) == 0
+    doc = __import__("json").loads(capsys.readouterr().out)
+    assert doc["rate_hz"] == pytest.approx(62.5)
+    np.testing.assert_allclose(doc["accelerometer"]["white_noise_density"], 0.02 / np.sqrt(62.5), rtol=0.1)
+
+
+def test_noise_checks_the_rest_against_the_declared_unit(tmp_path, capsys):
+    """m/s² data declared g: |a| is 9.8 g at rest; refused, naming the unit the data look like."""
+    from imucalib.cli import main
+    from imucalib.io import write_csv
+    from imucalib.noise import check_rest
+    from imucalib.recording import Recording
+
+    rng = np.random.default_rng(9)
+    n, rate = 3000, 100.0
+    acc = rng.normal([0, 0, 9.81], 0.02, (n, 3))
+    rec = Recording(np.arange(n) / rate, acc, rng.normal(0, 0.002, (n, 3)), acc_unit="g", gyro_unit="rad/s")
+    with pytest.raises(ValueError, match="look like m/s\\^2.*--acc-unit"):
+        check_rest(rec)
+    si = Recording(rec.t, acc, rec.gyro, acc_unit="m/s^2", gyro_unit="rad/s")
+    assert check_rest(si) == []
+    slightly = Recording(rec.t, acc * 1.08, rec.gyro, acc_unit="m/s^2", gyro_unit="rad/s")
+    assert any("8 % from gravity" in w for w in check_rest(slightly))
+    write_csv(tmp_path / "rest.csv", rec)  # the header says g
+    assert main(["noise", str(tmp_path / "rest.csv"), "--whole"]) == 2
+    assert "look like m/s^2" in capsys.readouterr().err

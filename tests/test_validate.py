@@ -46,7 +46,7 @@ def test_short_recording_holds_with_the_true_calibration(capsys, short):
     assert result["gyroscope_error_to_noise"] < 3 and result["accelerometer_residual_to_noise"] < 3
     code, out, err = run(capsys, "validate", d / "truth.json", d / "short.csv")
     assert code == 0, err
-    assert out.splitlines()[0] == "the calibration holds: ACCEPTED"
+    assert out.splitlines()[0] == "verdict: ACCEPTED — the calibration holds on this recording"
     assert "2 static poses" in out and "noise alone predicts" in out
 
 
@@ -61,7 +61,7 @@ def test_short_recording_rejects_a_gyroscope_scale_off_by_half(capsys, short):
     code, out, err = run(capsys, "validate", d / "off.json", d / "short.csv")
     assert code == 3
     lines = out.splitlines()
-    assert lines[0] == "the calibration holds: REJECTED — it no longer holds"
+    assert lines[0] == "verdict: REJECTED — the calibration does not hold on this recording"
     assert lines[1].startswith("  - the gyroscope's gravity-direction error")
     code, out, err = run(capsys, "validate", d / "off.json", d / "short.csv", "--json")
     assert code == 3
@@ -153,3 +153,15 @@ def test_assess_for_validation_skips_the_checks_of_the_fit_itself():
     assert high["verdict"] == "rejected" and any("white-noise floor" in r for r in high["verdict_reasons"])
     with pytest.raises(ValueError, match="purpose"):
         assess(truth, purpose="nope")
+
+
+def test_headlines_say_what_the_verdict_says():
+    """Each headline names its verdict and says the same thing in words: 'holds' only when accepted, 'does not
+    hold' only when rejected."""
+    from imucalib.cli.validation import HEADLINES
+
+    for verdict, text in HEADLINES.items():
+        assert text.startswith(f"verdict: {verdict.upper()} — ")
+        assert ("does not hold" in text) == (verdict == "rejected")
+        assert ("may not hold" in text) == (verdict == "suspect")
+        assert (text.endswith("holds on this recording")) == (verdict == "accepted")

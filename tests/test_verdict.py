@@ -94,3 +94,77 @@ def test_noise_prediction_matches_a_simulated_noise_only_session():
         observed = np.mean(gravity_direction_errors(truth, rec, iv))
         ratios.append(observed / np.mean(predicted_direction_error(truth, rec, iv)))
     assert 0.7 < np.mean(ratios) < 1.4, ratios
+
+
+# ------------------------------------------------ a parameter the data cannot support
+def _poses_away_from_z(cal, rec, limit=0.3):
+    """The calibration's static intervals whose gravity direction has |u_z| below ``limit``: z barely covered."""
+    from imucalib.recording import Interval
+
+    iv = cal.fit["intervals"]
+    acc = cal.accelerometer_si(np.array([rec.acc[a:b].mean(axis=0) for a, b in iv]))
+    uz = acc[:, 2] / np.linalg.norm(acc, axis=1)
+    return [Interval(int(a), int(b), "static") for (a, b), z in zip(iv, uz, strict=True) if abs(z) < limit], uz
+
+
+def test_worse_than_nominal_rejects_and_names_the_parameter():
+    """A z scale with a 1σ of 13 % of its value (1.3 m/s² at 1 g) and 8 % from the nominal factor: estimating it
+    costs more than holding it at nominal, rejected; 13 % of 1σ on a scale 20 % from nominal is still estimated
+    (suspect: too uncertain), and 1 % is fine."""
+    from imucalib.calibration import Calibration
+    from imucalib.models import TriadModel
+    from imucalib.verdict import assess
+
+    def cal(z_scale, z_sigma):
+        acc = TriadModel(scale=np.array([1.0, 1.0, z_scale]), shape="upper")
+        unc = {"accelerometer.scale.x": 1e-3, "accelerometer.scale.y": 1e-3, "accelerometer.scale.z": z_sigma}
+        return Calibration(accelerometer=acc, gyroscope=TriadModel(), units={
+            "accelerometer": {"raw": "m/s^2", "calibrated": "m/s^2"}, "gyroscope": {"raw": "rad/s",
+                                                                                   "calibrated": "rad/s"}},
+            fit={"uncertainty": unc})
+
+    bad = assess(cal(1.084, 0.13))
+    assert bad["verdict"] == "rejected"
+    assert any(r.startswith("accelerometer.scale.z: its 1σ") and "worse than the nominal one" in r
+               for r in bad["verdict_reasons"])
+    far = assess(cal(1.20, 0.13))
+    assert far["verdict"] == "suspect" and not any("nominal one" in r for r in far["verdict_reasons"])
+    assert assess(cal(1.084, 0.01))["verdict"] == "accepted"
+
+
+def test_session_without_the_z_faces_is_rejected():
+    """The hand-held simulation calibrated on its poses with |u_z| < 0.3 only (z from −0.3 to +0.3 g): the z scale
+    cannot be told from its bias and misalignments (1σ ≈ 13 %); the calibration is rejected on z, where the whole
+    session's is accepted."""
+    from imucalib.scenarios import session
+
+    sim = session("handheld", rng=0)
+    full = calibrate(sim, method="tedaldi2014")
+    assert full.fit["verdict"] == "accepted", full.fit["verdict_reasons"]
+    weak, uz = _poses_away_from_z(full, sim.recording)
+    assert len(weak) >= 8 and np.max(np.abs(uz)) > 0.9
+    cal = calibrate(sim, method="tedaldi2014", intervals=weak)
+    assert cal.fit["verdict"] == "rejected"
+    assert any(r.startswith("accelerometer.scale.z: its 1σ") for r in cal.fit["verdict_reasons"])
+    sigma = cal.fit["uncertainty"]["accelerometer.scale.z"] / cal.accelerometer.scale[2]
+    error = cal.accelerometer.scale[2] / sim.truth.accelerometer.scale[2] - 1
+    assert sigma > 0.05 and abs(error) > 0.02  # the fit is a few per cent off and knows it is not determined
+
+
+@needs_data
+def test_real_session_halves_and_its_poses_without_z(xsens):
+    """The shared session's first half still covers z (−0.98 to +1 g): accepted, and what it leaves out changes
+    no linear scale by more than 0.03 %. Its poses with |u_z| < 0.3 (z from −0.07 to +0.21 g): tedaldi2014's
+    z scale keeps a 1σ of 0.6 % and is accepted (its error, 0.3 %, is within it); zhang2021's cubic z term
+    moves the output by metres per second squared at 1 g: rejected."""
+    full = calibrate(xsens, method="tedaldi2014")
+    half = calibrate(xsens[slice(0, len(xsens) // 2)], method="tedaldi2014")
+    assert half.fit["verdict"] == "accepted", half.fit["verdict_reasons"]
+    np.testing.assert_allclose(half.accelerometer.scale, full.accelerometer.scale, rtol=3e-4)
+    weak, _ = _poses_away_from_z(full, xsens)
+    weak = [iv for iv in weak if iv.stop < len(xsens) // 2 + 20_000]
+    linear = calibrate(xsens, method="tedaldi2014", intervals=weak)
+    assert linear.fit["verdict"] == "accepted", linear.fit["verdict_reasons"]
+    cubic = calibrate(xsens, method="zhang2021", intervals=weak)
+    assert cubic.fit["verdict"] == "rejected"
+    assert any(r.startswith("accelerometer.scale_cubic.z: its 1σ") for r in cubic.fit["verdict_reasons"])

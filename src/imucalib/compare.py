@@ -15,7 +15,8 @@ The methods are ranked (:func:`rank`) by, in turn:
    best value any method reached on this recording (a method best on both scores 2).
 
 The best method is the first one that ran and was not rejected (none when
-every method was rejected or could not run). Where a method selects
+every method was rejected or could not run, or when two or more share the
+first place with the same verdict and score: a tie, said as such). Where a method selects
 its model variant (zhang2021 without tosses), the variant is selected once on
 all poses and the folds refit it: ten times faster, slightly optimistic for
 that one choice.
@@ -33,7 +34,7 @@ from .crossval import leave_one_pose_out
 from .methods import calibrate, method_names
 from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 
-__all__ = ["DEFAULT_MODELS", "RANKED_BY", "compare", "even_folds", "rank"]
+__all__ = ["DEFAULT_MODELS", "RANKED_BY", "compare", "even_folds", "rank", "tied_best"]
 
 #: the model each method is compared with (None: the method's only model)
 DEFAULT_MODELS: dict[str, str | None] = {"zhang2021": "cubic"}
@@ -51,6 +52,9 @@ def rank(rows: Sequence[dict]) -> tuple[list[dict], str | None]:
     """The rows ranked as the module docstring says, each with its ``rank`` and ``score``; and the best method.
 
     ``rows`` are :func:`compare`'s, with ``ok``, ``verdict`` and the two cross-validated figures.
+    Rows equal in all of these share a rank; when the best place is shared
+    the best method is None and the tied rows carry ``tied: True``
+    (:func:`tied_best`): nothing in the figures prefers one of them.
     """
     def figure(row, key):
         v = row.get(key)
@@ -66,12 +70,28 @@ def rank(rows: Sequence[dict]) -> tuple[list[dict], str | None]:
         score = (sum(v / best[key] for v, key in zip(parts, best, strict=True))
                  if row.get("ok") and all(v is not None for v in parts) else None)
         out.append({**row, "score": score})
-    out.sort(key=lambda r: (not r.get("ok"), _VERDICT_ORDER.get(r.get("verdict"), 1),
-                            np.inf if r["score"] is None else r["score"]))
-    for i, row in enumerate(out, 1):
-        row["rank"] = i
-    winner = next((r["method"] for r in out if r.get("ok") and r.get("verdict") != "rejected"), None)
-    return out, winner
+    def key(r):
+        return (not r.get("ok"), _VERDICT_ORDER.get(r.get("verdict"), 1), np.inf if r["score"] is None else r["score"])
+
+    def same(a, b):  # equal in every ranked figure: no order between them
+        ka, kb = key(a), key(b)
+        return ka[:2] == kb[:2] and (ka[2] == kb[2] or bool(np.isclose(ka[2], kb[2], rtol=1e-9, atol=0)))
+
+    out.sort(key=key)
+    for i, row in enumerate(out, 1):  # tied rows share the rank of the first of them
+        row["rank"] = out[i - 2]["rank"] if i > 1 and same(row, out[i - 2]) else i
+    first = next((r for r in out if r.get("ok") and r.get("verdict") != "rejected"), None)
+    if first is None:
+        return out, None
+    tied = [r for r in out if r is not first and same(r, first)]
+    for r in (first, *tied) if tied else ():
+        r["tied"] = True
+    return out, None if tied else first["method"]
+
+
+def tied_best(ranked: Sequence[dict]) -> list[str]:
+    """The methods tied for the best place of :func:`rank` (the same verdict and score); empty without a tie."""
+    return [r["method"] for r in ranked if r.get("tied")]
 
 
 def even_folds(n_intervals: int, count: int | None) -> list[int]:
@@ -112,7 +132,8 @@ def compare(
     Returns
     -------
     dict
-        ``{"static_intervals": M, "folds": K, "best": method or None, "ranked_by": text,
+        ``{"static_intervals": M, "folds": K, "best": method or None, "tied": methods tied for
+        the best place (then ``best`` is None), "ranked_by": text,
         "methods": [{"rank", "method", "model", "ok", "reason", "verdict", "score",
         "cv_accelerometer_residual_rms", "cv_gyroscope_angle_error_mean_deg", "fit"}, …]}``,
         the methods in the order of :func:`rank`.
@@ -159,5 +180,5 @@ def compare(
                    cv_folds=cv["folds"], cv_folds_skipped=len(cv["folds_skipped"]))
         rows.append(row)
     ranked, best = rank(rows)
-    return {"static_intervals": len(intervals), "folds": len(fold_list), "best": best, "ranked_by": RANKED_BY,
-            "methods": ranked}
+    return {"static_intervals": len(intervals), "folds": len(fold_list), "best": best, "tied": tied_best(ranked),
+            "ranked_by": RANKED_BY, "methods": ranked}

@@ -10,6 +10,12 @@ On a log–log plot, white noise (angle/velocity random walk ``N``) has slope
 −½ with ``σ(τ) = N/√τ`` (read at ``τ = 1`` s), bias instability ``B`` is the flat
 minimum, ``σ_min ≈ 0.664 B``, and rate random walk ``K`` has slope +½ with
 ``σ(τ) = K √(τ/3)``.
+
+A term is a figure only where the curve shows its slope within the
+confidence its number of clusters gives (:func:`noise_parameters`); elsewhere
+only its upper bound holds, and the files written from it say so
+(:func:`kalibr_yaml`). A bump of the curve (a vibration, a filter's
+ringing) therefore never becomes a random walk.
 """
 
 from __future__ import annotations
@@ -18,10 +24,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .recording import STANDARD_GRAVITY
+
 if TYPE_CHECKING:
     from .recording import Recording
 
-__all__ = ["allan_deviation", "kalibr_noise", "kalibr_yaml", "noise_parameters", "noise_summary", "random_walk_bound"]
+__all__ = ["BOUND_MARK", "allan_confidence", "allan_deviation", "check_rest", "kalibr_noise", "kalibr_yaml",
+           "local_slopes", "noise_parameters", "noise_summary", "random_walk_bound"]
 
 
 def allan_deviation(x: np.ndarray, rate: float, taus: np.ndarray | None = None,
@@ -77,40 +86,235 @@ def allan_deviation(x: np.ndarray, rate: float, taus: np.ndarray | None = None,
     return taus_used, (out[:, 0] if squeeze else out)
 
 
-def noise_parameters(x: np.ndarray, rate: float) -> dict[str, np.ndarray]:
-    """White noise density, bias instability and random walk per column, from the Allan deviation.
+#: a term is read from the curve only where its slope holds over this factor of cluster times (half a decade)
+SLOPE_SPAN = 10**0.5
+#: confidence multiplier of the slope and bound tests (about 95 % on either side)
+CONFIDENCE = 2.0
+#: the slope may differ from the term's own by this much beyond its confidence (the neighbouring terms' share)
+SLOPE_TOLERANCE = 0.1
+#: σ(τ) of bias instability on its flat floor, ``σ = √(2 ln 2 / π) B`` (IEEE Std 952, Table C.1)
+FLOOR = np.sqrt(2 * np.log(2) / np.pi)  # 0.664
 
-    Returns ``{"white_noise_density": N [unit·√s], "bias_instability": B [unit],
-    "random_walk": K [unit/√s], "white_noise_per_sample": σ [unit]}``; ``N`` is
-    read from the −½ slope fitted over cluster times up to 1 s, ``K`` from the
-    longest cluster times where the slope is +½ (NaN when not reached).
+#: log-log slope of each term (IEEE Std 952, Annex C): white noise −½, bias instability 0, random walk +½
+_SLOPES = {"white_noise_density": -0.5, "bias_instability": 0.0, "random_walk": 0.5}
+
+
+def allan_confidence(taus: np.ndarray, rate: float, samples: int) -> np.ndarray:
+    """Relative 1σ error of each Allan deviation from the number of clusters it averages.
+
+    ``δ(τ) = 1 / √(2 (K − 1))`` with ``K = N / m`` clusters of ``m = τ f_s``
+    samples (IEEE Std 952, Annex C, the percentage error of an Allan
+    deviation; Hou 2004, cited as ref. 49 by Ru 2022). The overlapping
+    estimator does a little better on white noise and the same on random walk
+    (tests/test_noise.py compares it with allantools' equivalent degrees of
+    freedom), so ``δ`` is on the safe side.
     """
+    clusters = samples / np.maximum(np.round(np.asarray(taus, dtype=float) * rate), 1)
+    return 1 / np.sqrt(2 * np.maximum(clusters - 1, 1e-12))
+
+
+def local_slopes(taus: np.ndarray, adev: np.ndarray, delta: np.ndarray,
+                 span: float = SLOPE_SPAN) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Log-log slope of the Allan deviation from each cluster time to the one ``span`` times longer.
+
+    Returns ``(end, slope, sigma)`` per starting point ``i`` (entries of the
+    points with no end inside the curve are NaN, ``end`` −1): ``end[i]`` the
+    index of the first ``τ_j ≥ span τ_i``, ``slope = ln(σ_j/σ_i) / ln(τ_j/τ_i)``
+    and its 1σ ``√(δ_i² + δ_j²) / ln(τ_j/τ_i)`` from the confidences ``δ``
+    (:func:`allan_confidence`; the two ends share data, which only makes this
+    larger than the truth).
+    """
+    adev = adev if adev.ndim == 2 else adev[:, None]
+    end = np.searchsorted(taus, taus * span * (1 - 1e-9))
+    ok = end < taus.size
+    end = np.where(ok, end, -1)
+    slope = np.full(adev.shape, np.nan)
+    sigma = np.full(taus.shape, np.nan)
+    i = np.nonzero(ok)[0]
+    j = end[ok]
+    lever = np.log(taus[j] / taus[i])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope[i] = np.log(adev[j] / adev[i]) / lever[:, None]
+    sigma[i] = np.hypot(delta[i], delta[j]) / lever
+    return end, slope, sigma
+
+
+def _shown(slope: np.ndarray, sigma: np.ndarray, p: float) -> np.ndarray:
+    """Where a local slope shows the term of slope ``p``: within its confidence (and the tolerance) of ``p``
+    and, with that confidence, apart from the neighbouring terms' slopes ``p ± ½``."""
+    off = np.abs(slope - p)
+    z = CONFIDENCE * sigma
+    with np.errstate(invalid="ignore"):
+        return (off <= z + SLOPE_TOLERANCE) & (off < 0.5 - z) & (off <= 0.25)
+
+
+def noise_parameters(x: np.ndarray, rate: float) -> dict[str, np.ndarray]:
+    """White noise density, bias instability and random walk per column, each read where the curve shows it.
+
+    The Allan deviation ``σ(τ)`` (:func:`allan_deviation`) of a sum of the three
+    terms is ``σ² = N²/τ + (0.664 B)² + K² τ/3`` (IEEE Std 952, Annex C). Each
+    term is a *figure* only over the cluster times where the curve has its
+    slope (−½, 0, +½): the local slope over half a decade
+    (:func:`local_slopes`) must agree with it within ``CONFIDENCE`` times its
+    1σ from the number of clusters (:func:`allan_confidence`) and be told
+    apart from the neighbouring slopes with the same confidence. There
+
+    * ``N² = τ σ² − K² τ²/3`` (the random walk subtracted where it is a figure),
+    * ``K² = 3 (σ² − N²/τ) / τ`` (the white noise subtracted where it is a figure),
+    * ``B = √(σ² − N²/τ − K²τ/3) / 0.664`` at the minimum of the flat region, a
+      figure only when that floor exceeds the confidence of ``σ²`` (``4δσ²``),
+
+    each averaged over the region with weights ``1/δ²``. Elsewhere (and where B
+    or K would exceed its own bound) the figure
+    is NaN and only its upper bound holds, from every cluster time: each term
+    alone cannot exceed the whole curve, so with ``σ⁺ = σ (1 + 2δ)``
+    ``N ≤ min σ⁺ √τ``, ``B ≤ min σ⁺ / 0.664`` and ``K ≤ min σ⁺ √(3/τ)``.
+
+    Parameters
+    ----------
+    x : (N,) or (N, K) array_like
+        Rate samples at rest (any unit).
+    rate : float
+        Sampling rate [Hz].
+
+    Returns
+    -------
+    dict
+        Per column: ``white_noise_density`` N [unit·√s], ``bias_instability``
+        B [unit], ``random_walk`` K [unit/√s] (NaN where the curve does not
+        show the term), their ``*_bound`` (upper bounds, always finite),
+        ``white_noise_per_sample`` ``N √f_s`` [unit], ``resolution`` (the
+        smallest step between the values of a quantised column, whose values
+        repeat; NaN for continuous values and for a constant column)
+        and ``constant`` (True where every sample is the same: the noise is
+        below the resolution and every figure and bound is NaN).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    x = x[:, None] if x.ndim == 1 else x
+    n, k = x.shape
     taus, adev = allan_deviation(x, rate)
     adev = adev if adev.ndim == 2 else adev[:, None]
-    short = taus <= max(1.0, taus[min(3, taus.size - 1)])
-    white = np.sqrt(np.mean((adev[short] * np.sqrt(taus[short])[:, None]) ** 2, axis=0))  # σ√τ
-    bias = adev.min(axis=0) / 0.664
-    slope = np.diff(np.log(adev), axis=0) / np.diff(np.log(taus))[:, None]
-    k = np.full(adev.shape[1], np.nan)
-    for j in range(adev.shape[1]):
-        rising = np.nonzero(slope[:, j] > 0.3)[0]
-        if rising.size:
-            i = rising[-1] + 1
-            k[j] = adev[i, j] / np.sqrt(taus[i] / 3)
-    return {"white_noise_density": white, "bias_instability": bias, "random_walk": k,
-            "white_noise_per_sample": white * np.sqrt(rate)}
+    delta = allan_confidence(taus, rate, n)
+    end, slope, sigma = local_slopes(taus, adev, delta)
+    upper = adev * (1 + CONFIDENCE * delta)[:, None]
+    out = {name: np.full(k, np.nan) for name in _SLOPES}
+    out["white_noise_density_bound"] = np.min(upper * np.sqrt(taus)[:, None], axis=0)
+    out["bias_instability_bound"] = np.min(upper, axis=0) / FLOOR
+    out["random_walk_bound"] = np.min(upper * np.sqrt(3 / taus)[:, None], axis=0)
+    constant = np.ptp(x, axis=0) == 0
+    w = 1 / delta**2
+    for j in range(k):
+        if constant[j]:
+            continue
+        region = {}
+        for name, p in _SLOPES.items():
+            idx = np.nonzero(_shown(slope[:, j], sigma, p))[0]
+            pts = np.zeros(taus.size, dtype=bool)
+            for i in idx:  # every point of every half decade that shows the slope
+                pts[i : end[i] + 1] = True
+            region[name] = pts
+        s2 = adev[:, j] ** 2
+        # two passes: each term read with the other's share taken out once that one is known
+        for _ in range(2):
+            kk = out["random_walk"][j]
+            nn = out["white_noise_density"][j]
+            if region["white_noise_density"].any():
+                r = region["white_noise_density"]
+                n2 = taus[r] * s2[r] - (kk**2 * taus[r] ** 2 / 3 if np.isfinite(kk) else 0.0)
+                out["white_noise_density"][j] = np.sqrt(max(np.average(n2, weights=w[r]), 0.0))
+            if region["random_walk"].any():
+                r = region["random_walk"]
+                k2 = 3 * (s2[r] - (nn**2 / taus[r] if np.isfinite(nn) else 0.0)) / taus[r]
+                out["random_walk"][j] = np.sqrt(max(np.average(k2, weights=w[r]), 0.0))
+        if region["bias_instability"].any():
+            # the floor is a term of its own only where it stands out of the other two beyond its confidence
+            # (white noise meeting a random walk also has a flat minimum, of (2NK/√3)^½)
+            r = np.nonzero(region["bias_instability"])[0]
+            i = r[np.argmin(adev[r, j])]
+            nn, kk = (np.nan_to_num(out[key][j]) for key in ("white_noise_density", "random_walk"))
+            floor2 = s2[i] - nn**2 / taus[i] - kk**2 * taus[i] / 3
+            if floor2 > 2 * CONFIDENCE * delta[i] * s2[i]:  # the relative 1σ of σ² is 2δ
+                out["bias_instability"][j] = np.sqrt(floor2) / FLOOR
+    for name in _SLOPES:
+        out[name + "_bound"][constant] = np.nan
+    for name in ("bias_instability", "random_walk"):
+        # a figure above what every cluster time allows is not that term's: the curve only looked like it (the
+        # white noise's bound comes from the very cluster times its figure is read at, to their scatter)
+        out[name][out[name] > out[name + "_bound"]] = np.nan
+    out["white_noise_per_sample"] = out["white_noise_density"] * np.sqrt(rate)
+    out["resolution"] = np.array([_resolution(x[:, j]) for j in range(k)])
+    out["constant"] = constant
+    return out
+
+
+def _resolution(column: np.ndarray) -> float:
+    """The smallest step between distinct values of a quantised column (values repeat), else NaN."""
+    part = column[:200_000]
+    values = np.unique(part)
+    if values.size < 2 or values.size > part.size / 4:  # continuous values: no resolution to speak of
+        return float("nan")
+    return float(np.min(np.diff(values)))
 
 
 def random_walk_bound(x: np.ndarray, rate: float) -> np.ndarray:
-    """Upper bound of the rate random walk ``K`` per column when the record is too short to show it.
+    """Upper bound of the rate random walk ``K`` per column, from every cluster time.
 
-    A rate random walk adds ``K√(τ/3)`` to the Allan deviation, so the
-    deviation at the longest cluster time ``τ_max`` bounds it:
-    ``K ≤ σ(τ_max)·√(3/τ_max)``.
+    A rate random walk adds ``K²τ/3`` to the Allan variance and nothing
+    subtracts from it, so ``K ≤ σ(τ)·√(3/τ)`` at every ``τ``; with ``σ`` raised
+    by twice its relative error (:func:`allan_confidence`) the smallest of
+    these is the bound (:func:`noise_parameters`).
     """
-    taus, adev = allan_deviation(x, rate)
-    adev = adev if adev.ndim == 2 else adev[:, None]
-    return adev[-1] * np.sqrt(3.0 / taus[-1])
+    return noise_parameters(x, rate)["random_walk_bound"]
+
+
+#: the comment that marks a noise entry as an upper bound rather than a measured value (files read it back)
+BOUND_MARK = "upper bound, not measured"
+
+#: |a| at rest against gravity with physical units: the relative difference that warns, and that refuses
+REST_NORM_REL = (0.05, 0.15)
+#: above this rate [Hz] a time column read in microseconds is worth a second look (IMUs rarely record faster)
+HIGH_RATE_HZ = 2000.0
+
+
+def check_rest(recording: Recording, gravity: float = STANDARD_GRAVITY) -> list[str]:
+    """The checks ``calibrate`` makes of its input, for a rest whose noise is measured; warnings to show.
+
+    * the sampling rate must be one an IMU records at
+      (:func:`imucalib.verdict.check_rate`); above :data:`HIGH_RATE_HZ`, a
+      warning names the time-unit mix-up that would explain it (Arduino
+      ``millis()`` stamps read as microseconds make 62.5 Hz look like
+      62.5 kHz and every density √1000 too small);
+    * with the accelerometer in ``g`` or ``m/s^2``, ``|a|`` at rest must be
+      gravity: off by :data:`REST_NORM_REL` it warns, beyond the second limit it
+      refuses (the unit is wrong, and every figure with it).
+
+    Raises
+    ------
+    ValueError
+        At a rate no IMU records at, or an ``|a|`` at rest no unit mix-up short
+        of a wrong unit explains.
+    """
+    from .verdict import check_rate, time_unit_hint
+
+    check_rate(recording)
+    out = []
+    if recording.rate > HIGH_RATE_HZ and recording.metadata.get("time_unit") in ("us", "ns"):
+        out.append(f"the sampling rate is {recording.rate:.4g} Hz, high for an IMU: if it is not, "
+                   f"{time_unit_hint(recording)}; every noise density scales with it")
+    unit = recording.acc_unit
+    if unit in ("g", "m/s^2") and len(recording):
+        norm = float(np.linalg.norm(np.mean(recording.acc, axis=0))) * (gravity if unit == "g" else 1.0)
+        rel = abs(norm / gravity - 1)
+        if rel > REST_NORM_REL[0]:
+            other = norm / gravity if unit == "g" else norm * gravity
+            likely = " (the data look like m/s^2)" if unit == "g" and abs(other / gravity - 1) < REST_NORM_REL[0] \
+                else " (the data look like g)" if unit == "m/s^2" and abs(norm - 1) < REST_NORM_REL[0] else ""
+            text = (f"|a| at rest is {norm:.4g} m/s² read as {unit}, {100 * rel:.0f} % from gravity "
+                    f"{gravity:.5g} m/s²{likely}: check --acc-unit")
+            if rel > REST_NORM_REL[1]:
+                raise ValueError(text + "; the noise figures would be in the wrong unit")
+            out.append(text)
+    return out
 
 
 def noise_summary(recording: Recording) -> dict:
@@ -127,63 +331,114 @@ def noise_summary(recording: Recording) -> dict:
     dict
         ``{"seconds", "samples", "rate_hz", "accelerometer": {...},
         "gyroscope": {...}}``; each sensor's entry holds its ``unit``, the
-        :func:`noise_parameters` per axis and the :func:`random_walk_bound`,
-        as lists (JSON-ready; :func:`kalibr_yaml` takes them as they are).
+        :func:`noise_parameters` per axis (figures NaN where the curve does not
+        show them, their bounds beside), ``notes`` on constant and quantised
+        columns and ``bounds``, which terms are only bounds and why, as lists
+        (JSON-ready; :func:`kalibr_yaml` takes them as they are).
     """
     out = {"seconds": recording.duration, "samples": len(recording), "rate_hz": recording.rate}
     for name, x, unit in (("accelerometer", recording.acc, recording.acc_unit),
                           ("gyroscope", recording.gyro, recording.gyro_unit)):
         p = noise_parameters(x, recording.rate)
-        out[name] = {"unit": unit, **{k: v.tolist() for k, v in p.items()},
-                     "random_walk_bound": random_walk_bound(x, recording.rate).tolist()}
+        notes, bounds = _notes(name, p, unit)
+        out[name] = {"unit": unit, **{k: v.tolist() for k, v in p.items()}, "notes": notes, "bounds": bounds}
     return out
+
+
+def _notes(name: str, p: dict, unit: str) -> tuple[list[str], list[str]]:
+    """Notes on the columns (constant, at the resolution), and on the terms that are only bounds."""
+    notes, bounds = [], []
+    for j, axis in enumerate("xyz"[: p["constant"].size]):
+        if p["constant"][j]:
+            notes.append(f"{name} {axis} is constant over the rest: its noise is below the resolution (no figure)")
+    live = ~p["constant"]
+    for j, axis in enumerate("xyz"[: live.size]):
+        q = p["resolution"][j]
+        white = p["white_noise_per_sample"][j]
+        if live[j] and np.isfinite(q) and (not np.isfinite(white) or white < q):
+            notes.append(f"{name} {axis}: the noise per sample is below one step of the resolution ({q:.3g} {unit}): "
+                         "the figures describe the quantisation as much as the sensor")
+    terms = (("white_noise_density", "white noise", "−½", f"{unit}·√s"),
+             ("bias_instability", "bias instability", "flat", unit),
+             ("random_walk", "random walk", "+½", f"{unit}/√s"))
+    for key, what, slope, u in terms:
+        missing = [a for j, a in enumerate("xyz"[: live.size]) if live[j] and not np.isfinite(p[key][j])]
+        if missing:
+            bound = ", ".join(f"{p[key + '_bound'][j]:.3g}" for j, a in enumerate("xyz") if a in missing)
+            bounds.append(f"{name} {', '.join(missing)}: the Allan curve shows no {slope} slope of the {what} "
+                          f"within its confidence: only its upper bound {bound} {u}")
+    return notes, bounds
 
 
 def kalibr_noise(acc: dict, gyro: dict) -> tuple[dict[str, float], list[str]]:
     """The four noise entries of Kalibr's IMU model from SI noise parameters, and notes.
 
     ``acc`` and ``gyro`` hold ``white_noise_density`` and ``random_walk``
-    per axis (:func:`noise_parameters`, in m/s² and rad/s, optionally
-    ``random_walk_bound`` where the record was too short); each entry takes the
-    largest axis. Returns ``{"accelerometer_noise_density", "accelerometer_random_walk",
-    "gyroscope_noise_density", "gyroscope_random_walk"}`` and notes on what was
-    bounded rather than measured.
+    per axis (:func:`noise_parameters`, in m/s² and rad/s; NaN or None where the
+    Allan curve does not show the term) and optionally their upper bounds
+    ``white_noise_density_bound`` and ``random_walk_bound``; each entry takes the
+    largest axis, the bound where an axis has no figure. Returns
+    ``{"accelerometer_noise_density", "accelerometer_random_walk",
+    "gyroscope_noise_density", "gyroscope_random_walk", "bounded"}`` (``bounded``
+    lists the entries that are upper bounds) and notes on what was bounded
+    rather than measured.
+
+    Raises
+    ------
+    ValueError
+        When an axis has neither a figure nor a bound of an entry (every sample
+        the same: the noise is below the resolution).
     """
-    notes = []
+    notes, bounded = [], []
 
-    def pick(d, name):
-        n = float(np.max(d["white_noise_density"]))
-        k = np.asarray(d["random_walk"], dtype=float)
-        if np.all(np.isfinite(k)):
-            return n, float(np.max(k))
-        axes = ", ".join(a for a, v in zip("xyz", k, strict=True) if not np.isfinite(v))
-        notes.append(f"{name} {axes}: the record is too short to show the bias random walk; the file uses its "
-                     "upper bound from the longest cluster time (record a longer rest for the value)")
-        return n, float(np.max(np.where(np.isfinite(k), k, d["random_walk_bound"])))
+    def pick(d, name, key, what):
+        v = np.array([np.nan if a is None else a for a in d[key]], dtype=float)
+        if np.all(np.isfinite(v)):
+            return float(np.max(v))
+        bound = np.array([np.nan if a is None else a for a in d.get(key + "_bound", [None] * v.size)], dtype=float)
+        take = np.where(np.isfinite(v), v, bound)
+        missing = [a for a, f in zip("xyz", v, strict=True) if not np.isfinite(f)]
+        if not np.all(np.isfinite(take)):
+            raise ValueError(f"{name} {', '.join(missing)}: no {what} and no bound of it (a constant column: the "
+                             "noise is below the resolution); the file cannot hold a value")
+        notes.append(f"{name} {', '.join(missing)}: the Allan curve does not show the {what} (too short a rest, or "
+                     "another term dominates): the file takes its upper bound, not a measured value (record a "
+                     "longer rest for the value)")
+        bounded.append(f"{name}_{'noise_density' if key == 'white_noise_density' else 'random_walk'}")
+        return float(np.max(take))
 
-    na, ka = pick(acc, "accelerometer")
-    ng, kg = pick(gyro, "gyroscope")
+    na = pick(acc, "accelerometer", "white_noise_density", "white noise")
+    ka = pick(acc, "accelerometer", "random_walk", "bias random walk")
+    ng = pick(gyro, "gyroscope", "white_noise_density", "white noise")
+    kg = pick(gyro, "gyroscope", "random_walk", "bias random walk")
     return {"accelerometer_noise_density": na, "accelerometer_random_walk": ka,
-            "gyroscope_noise_density": ng, "gyroscope_random_walk": kg}, notes
+            "gyroscope_noise_density": ng, "gyroscope_random_walk": kg, "bounded": bounded}, notes
 
 
 def kalibr_yaml(acc: dict, gyro: dict, rate: float, *, topic: str = "/imu0") -> tuple[str, list[str]]:
     """The IMU noise file of Kalibr / OpenVINS / VINS (``imu.yaml``) from SI noise parameters.
 
     The entries of :func:`kalibr_noise` (largest axis of each), the topic and
-    the rate. Returns the text and notes on what was bounded rather than measured.
+    the rate; each entry that is an upper bound rather than a measured value
+    says so in a comment line. Returns the text and notes on what was bounded
+    rather than measured.
     """
     v, notes = kalibr_noise(acc, gyro)
+
+    def mark(key):
+        return f" {BOUND_MARK}" if key in v["bounded"] else ""
+
     text = "\n".join([
         "# IMU noise from the Allan deviation of a rest (imucalib noise), largest axis; Kalibr's format",
+        *[f"# {n}" for n in notes],
         f"accelerometer_noise_density: {v['accelerometer_noise_density']:.6e}   "
-        "# [ m / s^2 / sqrt(Hz) ]   ( accel \"white noise\" )",
+        f"# [ m / s^2 / sqrt(Hz) ]   ( accel \"white noise\" ){mark('accelerometer_noise_density')}",
         f"accelerometer_random_walk: {v['accelerometer_random_walk']:.6e}     "
-        "# [ m / s^3 / sqrt(Hz) ]   ( accel bias diffusion )",
+        f"# [ m / s^3 / sqrt(Hz) ]   ( accel bias diffusion ){mark('accelerometer_random_walk')}",
         f"gyroscope_noise_density: {v['gyroscope_noise_density']:.6e}       "
-        "# [ rad / s / sqrt(Hz) ]   ( gyro \"white noise\" )",
+        f"# [ rad / s / sqrt(Hz) ]   ( gyro \"white noise\" ){mark('gyroscope_noise_density')}",
         f"gyroscope_random_walk: {v['gyroscope_random_walk']:.6e}         "
-        "# [ rad / s^2 / sqrt(Hz) ] ( gyro bias diffusion )",
+        f"# [ rad / s^2 / sqrt(Hz) ] ( gyro bias diffusion ){mark('gyroscope_random_walk')}",
         f"rostopic: {topic}",
         f"update_rate: {rate:.6g}   # [ Hz ]",
         "",

@@ -144,9 +144,9 @@ def plot_allan(recording: Recording, path: str | Path) -> Path:
 
     Each panel shows the overlapping Allan deviation per axis
     (:func:`imucalib.noise.allan_deviation`), the white-noise line
-    ``N/√τ`` and, where reached, the random-walk line ``K√(τ/3)`` read by
-    :func:`imucalib.noise.noise_parameters`, and the bias-instability floor
-    ``0.664 B``.
+    ``N/√τ``, the bias-instability floor ``0.664 B`` and the random-walk line
+    ``K√(τ/3)`` where the curve shows them (:func:`imucalib.noise.noise_parameters`;
+    the legend gives '<bound' for the others).
     """
     from .noise import allan_deviation, noise_parameters
 
@@ -159,10 +159,12 @@ def plot_allan(recording: Recording, path: str | Path) -> Path:
         p = noise_parameters(x, recording.rate)
         for j, axis in enumerate("xyz"):
             c = colors[j]
-            ax.loglog(taus, adev[:, j], color=c, lw=1.4, label=f"{axis}: N {p['white_noise_density'][j]:.3g}, "
-                      f"B {p['bias_instability'][j]:.3g}")
-            ax.loglog(taus, p["white_noise_density"][j] / np.sqrt(taus), color=c, lw=0.7, ls="--")
-            ax.axhline(0.664 * p["bias_instability"][j], color=c, lw=0.7, ls=":")
+            ax.loglog(taus, adev[:, j], color=c, lw=1.4, label=f"{axis}: N {_figure(p, 'white_noise_density', j)}, "
+                      f"B {_figure(p, 'bias_instability', j)}")
+            if np.isfinite(p["white_noise_density"][j]):
+                ax.loglog(taus, p["white_noise_density"][j] / np.sqrt(taus), color=c, lw=0.7, ls="--")
+            if np.isfinite(p["bias_instability"][j]):
+                ax.axhline(0.664 * p["bias_instability"][j], color=c, lw=0.7, ls=":")
             if np.isfinite(p["random_walk"][j]):
                 ax.loglog(taus, p["random_walk"][j] * np.sqrt(taus / 3), color=c, lw=0.7, ls="-.")
         ax.set_xlabel("cluster time τ [s]")
@@ -174,6 +176,13 @@ def plot_allan(recording: Recording, path: str | Path) -> Path:
                  "dashed: white noise N/√τ, dotted: bias instability 0.664·B, dash-dot: random walk K√(τ/3)",
                  fontsize=10)
     return _save(fig, path, plt)
+
+
+def _figure(p: dict, key: str, j: int) -> str:
+    """A noise figure of :func:`imucalib.noise.noise_parameters`, '<bound' where the curve does not show it."""
+    v = p[key][j]
+    return f"{v:.3g}" if np.isfinite(v) else f"<{p[key + '_bound'][j]:.3g}" if np.isfinite(p[key + "_bound"][j]) \
+        else "const"
 
 
 def _unit_text(unit: str) -> str:

@@ -19,6 +19,8 @@ the fit did not minimise, or that it cannot change:
   (:func:`predicted_direction_error`);
 * **known turns** — each turn by a known angle re-integrated with the calibration;
 * **usefulness** — parameters whose 1σ is too large to be of use, or undetermined;
+  an accelerometer parameter whose 1σ costs more than its nominal value would
+  rejects the calibration;
 * **the magnetometer** — the calibrated field's norm and its dip to gravity must be
   the same in every pose, and its direction must turn as the gyroscope says.
 
@@ -45,7 +47,7 @@ from .metrics import gravity_direction_errors, interval_means, transition_bounds
 from .recording import Interval, Recording
 
 __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibility", "plausible",
-           "predicted_direction_error", "turn_speed", "with_verdict"]
+           "predicted_direction_error", "time_unit_hint", "turn_speed", "with_verdict"]
 
 LEVELS = ("accepted", "suspect", "rejected")
 
@@ -87,6 +89,10 @@ THRESHOLDS = {
     # 1 sigma of a scale factor, relative; of a misalignment term [deg]
     "scale_sigma_rel": 0.02,
     "misalignment_sigma_deg": 1.0,
+    # an accelerometer parameter whose 1σ moves the output at 1 g by more than this fraction of g, and by more
+    # than holding it at its nominal value would, makes the calibration worse than the nominal one: rejected
+    # (2 % of g: the scale limit above, in the output's terms, for every kind of parameter)
+    "parameter_effect_g": 0.02,
     # magnetometer: relative spread of the calibrated field's norm over the poses; spread of its dip [deg];
     # mean error of the field direction carried by the gyroscope from pose to pose [deg]. A good calibration
     # in a uniform field leaves ~0.1 % and ~0.05° (noise and the gyroscope's own error); a plain ellipsoid
@@ -149,8 +155,31 @@ def check_rate(recording: Recording) -> None:
     rate = recording.rate
     lo, hi = THRESHOLDS["rate_hz"]
     if not lo <= rate <= hi:
-        raise ValueError(f"the sampling rate is {rate:.4g} Hz, outside {lo:g}-{hi:g} Hz where IMUs record: the time "
-                         "column's unit is probably wrong (ms read as s, or s as ms; see --time-unit)")
+        raise ValueError(f"the sampling rate is {rate:.4g} Hz, outside {lo:g}-{hi:g} Hz where IMUs record: "
+                         f"{time_unit_hint(recording)}")
+
+
+#: the time units a time column can be read in, and their length [s]
+_TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+_TIME_NAMES = {"s": "seconds", "ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
+
+
+def time_unit_hint(recording: Recording) -> str:
+    """What a sampling rate outside an IMU's range most likely means: which time unit was read as which.
+
+    The time column was read in ``metadata["time_unit"]``; the other unit that
+    puts the rate at 10 Hz-2 kHz (where most IMUs record) is named, e.g.
+    "the timestamps look like milliseconds read as microseconds (62.5 Hz then)".
+    """
+    read_as = recording.metadata.get("time_unit")
+    if read_as not in _TIME_UNITS:
+        return "the time base is probably wrong (a time column in another unit, or a wrong --rate)"
+    for unit, length in _TIME_UNITS.items():
+        rate = recording.rate * _TIME_UNITS[read_as] / length  # the stamps were in unit, not read_as
+        if unit != read_as and 10 <= rate <= 2000:
+            return (f"the timestamps look like {_TIME_NAMES[unit]} read as {_TIME_NAMES[read_as]} ({rate:.4g} Hz "
+                    f"then): pass --time-unit {unit}")
+    return f"the time column (read in {_TIME_NAMES[read_as]}) is probably in another unit: see --time-unit"
 
 
 def turn_speed(calibration, recording: Recording, intervals: list[Interval]) -> float:
@@ -378,6 +407,54 @@ def _usefulness(calibration) -> list[Check]:
         elif ".misalignment." in name and np.degrees(s) > THRESHOLDS["misalignment_sigma_deg"]:
             out.append(Check(1, f"{name} has a 1σ of {np.degrees(s):.2g}° (limit "
                                 f"{THRESHOLDS['misalignment_sigma_deg']:g}°): too uncertain to be of use"))
+    return _worse_than_nominal(calibration, unc, params) + out
+
+
+def _worse_than_nominal(calibration, unc: dict, params: dict) -> list[Check]:
+    """Accelerometer parameters whose 1σ costs more than holding them at their nominal value would: reject.
+
+    Each parameter's effect on the calibrated output at 1 g on its axis
+    (raw reading ``x = g/|k1|``): a scale ``k1`` times ``x``, ``k2`` times
+    ``x²``, ``k3`` times ``x³``, a misalignment times ``g``, a bias times
+    ``|k1|``. Its 1σ's effect is what estimating it risks; its estimate's
+    departure from the nominal value (the declared unit's factor, or the mean
+    of the other two axes' for counts; zero for the other terms) is what
+    holding it there would cost. Where the first exceeds the second and
+    :data:`THRESHOLDS` ``["parameter_effect_g"]`` of gravity (a parameter too
+    uncertain to be of use), the calibration is worse than the nominal one:
+    rejected, naming the parameter.
+    """
+    acc = calibration.accelerometer
+    g = calibration.gravity
+    unit = calibration.units["accelerometer"]["raw"]
+    nominal = g if unit == "g" else _NOMINAL.get(unit) if unit == "m/s^2" else None
+    k1 = np.abs(acc.scale)
+    x = g / k1
+    floor = THRESHOLDS["parameter_effect_g"] * g
+    out = []
+    for name, s in unc.items():
+        parts = name.split(".")
+        if len(parts) != 3 or parts[0] != "accelerometer" or s is None or not np.isfinite(s) or name not in params:
+            continue
+        kind, axis, v = parts[1], parts[2], float(params[name])
+        i = "xyz".index(axis[0])
+        if kind == "scale":
+            ref = nominal if nominal is not None else float(np.mean(np.delete(k1, i))) * np.sign(v)
+            effect, cost = s * x[i], abs(v - ref) * x[i]
+        elif kind in ("scale_quadratic", "scale_cubic"):
+            power = 2 if kind == "scale_quadratic" else 3
+            effect, cost = s * x[i] ** power, abs(v) * x[i] ** power
+        elif kind == "misalignment":
+            effect, cost = s * g, abs(v) * g
+        elif kind == "bias":
+            effect, cost = s * k1[i], abs(v) * k1[i]
+        else:
+            continue
+        if effect > floor and effect > cost:
+            out.append(Check(2, f"{name}: its 1σ moves the output by {effect:.3g} m/s² at 1 g, more than holding it "
+                                f"at its nominal value would ({cost:.3g} m/s²): the poses do not determine it and the "
+                                f"calibration is worse than the nominal one (record poses with {axis[0]} up and "
+                                "down, or use a model without it)"))
     return out
 
 
@@ -401,6 +478,12 @@ def _magnetometer(calibration) -> list[Check]:
         level = _level(value, THRESHOLDS[limit])
         if level:
             out.append(Check(level, text.format(factor * value, factor * THRESHOLDS[limit][level - 1])))
+    drift = fit.get("magnetometer_hard_iron_drift_over_session")
+    if drift is not None:
+        level = int(drift > THRESHOLDS["mag_norm_spread"][0])
+        out.append(Check(level, f"the magnetometer's hard iron drifted by {100 * drift:.2g} % of the field over the "
+                                "poses (fitted: the calibration holds its value at the poses' mean time); used at "
+                                "another time it will be off by as much (let the sensor warm up, keep currents away)"))
     dip = fit.get("magnetometer_dip_deg")
     if dip is not None and abs(dip) < WEAK_DIP_DEG:
         out.append(Check(1, f"the field's dip is {dip:.1f}°, near the magnetic equator: whether the magnetometer's "

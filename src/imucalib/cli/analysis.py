@@ -17,15 +17,22 @@ __all__ = ["register"]
 # ------------------------------------------------------------------ commands
 def cmd_noise(args: argparse.Namespace) -> int:
     """``imucalib noise``: :func:`imucalib.noise.noise_summary` of the initial rest, optionally a Kalibr file."""
-    from ..noise import kalibr_yaml, noise_summary
+    from ..noise import check_rest, kalibr_yaml, noise_summary
     from ..segment import find_initial_rest
+    from ..verdict import check_rate
 
     refuse_overwriting_inputs([args.kalibr, args.plot], [*args.data, args.calibration])
     rec = read_recording(args, args.data)
+    check_rate(rec)  # before the rest is looked for: a wrong time base makes any window wrong
     if args.calibration:  # noise in SI units, through the calibration
         rec = Calibration.load(args.calibration).apply(rec)
     part = rec if args.whole else rec[find_initial_rest(rec)]
+    for text in check_rest(part):
+        show_warning(text, ImucalibWarning, "", 0)
     result = noise_summary(part)
+    for name in ("accelerometer", "gyroscope"):
+        for text in result[name]["notes"]:
+            show_warning(text, ImucalibWarning, "", 0)
     if args.kalibr:
         if (part.acc_unit, part.gyro_unit) != ("m/s^2", "rad/s"):
             raise CliError(f"the Kalibr file needs SI units; this recording is in {part.acc_unit} and "
@@ -37,6 +44,7 @@ def cmd_noise(args: argparse.Namespace) -> int:
         for n in notes:
             show_warning(n, ImucalibWarning, "", 0)
         result["kalibr"] = str(args.kalibr)
+        result["kalibr_bounds"] = notes
     if args.plot:
         from ..report import plot_allan
 
@@ -48,18 +56,30 @@ def cmd_noise(args: argparse.Namespace) -> int:
     if args.kalibr:
         print(f"Kalibr noise file written to {args.kalibr}")
     print(f"noise over {result['seconds']:.1f} s of rest ({result['samples']} samples, "
-          f"{result['rate_hz']:.4g} Hz), Allan deviation (IEEE 952 slopes):")
+          f"{result['rate_hz']:.4g} Hz), Allan deviation (IEEE 952 slopes; '<' an upper bound where the curve "
+          "does not show the term's slope, 'const' a column below the resolution):")
     for name in ("accelerometer", "gyroscope"):
         r = result[name]
         u = r["unit"]
-        print(f"  {name}: white noise {_triple(r['white_noise_density'])} {u}·√s "
-              f"({_triple(r['white_noise_per_sample'])} {u} per sample), bias instability "
-              f"{_triple(r['bias_instability'])} {u}, random walk {_triple(r['random_walk'])} {u}/√s")
+        print(f"  {name}: white noise {_triple(r, 'white_noise_density')} {u}·√s, bias instability "
+              f"{_triple(r, 'bias_instability')} {u}, random walk {_triple(r, 'random_walk')} {u}/√s")
     return 0
 
 
-def _triple(v) -> str:
-    return "[" + ", ".join("-" if not np.isfinite(x) else f"{x:.3g}" for x in v) + "]"
+def _triple(r: dict, key: str) -> str:
+    """The three axes of a figure: the value, '<bound' where only its bound holds, 'const' for a constant column."""
+    out = []
+    for j, v in enumerate(r[key]):
+        bound = r.get(f"{key}_bound", [None] * 3)[j]
+        if r.get("constant", [False] * 3)[j]:
+            out.append("const")
+        elif v is not None and np.isfinite(v):
+            out.append(f"{v:.3g}")
+        elif bound is not None and np.isfinite(bound):
+            out.append(f"<{bound:.3g}")
+        else:
+            out.append("-")
+    return "[" + ", ".join(out) + "]"
 
 
 def cmd_plan(args: argparse.Namespace) -> int:

@@ -236,8 +236,13 @@ def cmd_compare(args: argparse.Namespace) -> int:
                   + (f"   ({row['cv_folds_skipped']} folds could not run)" if row["cv_folds_skipped"] else ""))
         else:
             print(head + f"  cannot run: {row['reason']}")
-    print(f"best: {result['best']}" if result["best"] else
-          "best: none (every method was rejected or could not run)")
+    if result["best"]:
+        print(f"best: {result['best']}")
+    elif result.get("tied"):
+        print(f"best: a tie between {', '.join(result['tied'][:-1])} and {result['tied'][-1]} (the same verdict "
+              "and score: nothing here prefers one)")
+    else:
+        print("best: none (every method was rejected or could not run)")
     return 0
 
 

@@ -26,8 +26,9 @@ from ._common import (
 __all__ = ["HEADLINES", "register"]
 
 #: the first line of the text output, by verdict
-HEADLINES = {"accepted": "the calibration holds: ACCEPTED", "suspect": "the calibration holds: SUSPECT",
-             "rejected": "the calibration holds: REJECTED — it no longer holds"}
+HEADLINES = {"accepted": "verdict: ACCEPTED — the calibration holds on this recording",
+             "suspect": "verdict: SUSPECT — the calibration may not hold on this recording (reasons below)",
+             "rejected": "verdict: REJECTED — the calibration does not hold on this recording"}
 
 
 def cmd_validate(args: argparse.Namespace) -> int:

@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from ..calibration import Calibration
-from ..noise import kalibr_noise
+from ..noise import BOUND_MARK, kalibr_noise
 from .linear import ExportError, LinearForm, linear_form, rotation_times_triangular, triangular_times_rotation
 
 __all__ = ["NOISE_KEYS", "OPENVINS_MODELS", "read_noise", "to_kalibr", "to_openvins"]
@@ -86,7 +86,8 @@ def read_noise(path: str | Path) -> tuple[dict, list[str]]:
 
     Reads Kalibr's/OpenVINS's ``imu.yaml`` (flat, or one ``imu0`` entry) or
     the JSON of ``imucalib noise --json`` made in SI units (``--calibration``).
-    Returns the entries and notes.
+    Returns the entries (``bounded`` lists those the file marks as upper
+    bounds rather than measured values) and notes.
     """
     path = Path(path)
     try:
@@ -98,10 +99,13 @@ def read_noise(path: str | Path) -> tuple[dict, list[str]]:
     if text.lstrip().startswith("{"):
         return _noise_from_json(path, text)
     found: dict[str, list[str]] = {}
+    bounded = []
     for line in text.splitlines():
         m = re.match(r"\s*([A-Za-z_]+)\s*:\s*([^#]*?)\s*(#.*)?$", line)
         if m and m.group(1) in (*NOISE_KEYS, "rostopic", "update_rate") and m.group(2):
             found.setdefault(m.group(1), []).append(m.group(2).strip("'\""))
+            if BOUND_MARK in (m.group(3) or ""):
+                bounded.append(m.group(1))
     twice = [k for k, v in found.items() if len(v) > 1]
     if twice:
         raise ExportError(f"--noise {path}: {', '.join(twice)} given more than once (a file of several IMUs?); "
@@ -121,7 +125,9 @@ def read_noise(path: str | Path) -> tuple[dict, list[str]]:
                 raise ExportError(f"--noise {path}: {key} must be a positive number; got {found[key][0]}")
     if "rostopic" in found:
         out["rostopic"] = found["rostopic"][0]
-    return out, []
+    out["bounded"] = bounded
+    return out, [f"--noise {path}: {k} is an upper bound, not a measured value (a longer rest measures it)"
+                 for k in bounded]
 
 
 def _noise_from_json(path: Path, text: str) -> tuple[dict, list[str]]:
@@ -145,7 +151,9 @@ def _noise_lines(noise: dict | None, rostopic: str | None, indent: str, notes: l
     if noise:
         units = {"accelerometer_noise_density": "m/s^2/sqrt(Hz)", "accelerometer_random_walk": "m/s^3/sqrt(Hz)",
                  "gyroscope_noise_density": "rad/s/sqrt(Hz)", "gyroscope_random_walk": "rad/s^2/sqrt(Hz)"}
-        lines += [f"{indent}{k}: {_num(noise[k])}  # [{units[k]}]" for k in NOISE_KEYS]
+        bounded = noise.get("bounded", ())
+        lines += [f"{indent}{k}: {_num(noise[k])}  # [{units[k]}]{f' {BOUND_MARK}' if k in bounded else ''}"
+                  for k in NOISE_KEYS]
     else:
         notes.append(f"no --noise file: the noise entries ({', '.join(NOISE_KEYS)}) are left out; {what} needs "
                      "them (imucalib noise DATA --calibration CAL.json --kalibr imu.yaml measures them)")

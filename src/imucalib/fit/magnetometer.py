@@ -22,6 +22,14 @@ Särkkä et al. 2017 and the magnetometer-aided calibration reviewed in Ru 2022,
   pose ``k`` to ``k+1`` integrated from the calibrated gyroscope, exactly as the
   gravity direction is carried in Zhang 2021, eq. (14).                   (M4)
 
+The hard iron of a real die may drift while the session lasts (the die warms
+up; currents on the board change): ``b(t) = b + ḃ (t − t̄)`` with ``t̄`` the
+poses' mean time. Unmodelled, a drift of 3 µT over a few minutes in a 48 µT
+field spreads the calibrated field's norm by 1 % and its dip by 0.7° over the
+poses. The joint fit adds ``ḃ`` and keeps it only where the poses show it (its
+χ² against its own covariance beyond the 99.9 % point of χ²(3)); ``b`` is
+then the hard iron at ``t̄``.                                             (M5)
+
 (M2) alone is the usual ellipsoid fit: it leaves ``O`` free, so a magnetometer
 die whose axes are permuted and reflected relative to the accelerometer's (the
 MPU-9250's magnetometer has x and y swapped and z reversed) keeps a wandering
@@ -30,8 +38,11 @@ angle to gravity. (M3) and (M4) fix ``O``: first by a linear solve — (M4) and
 ``κ = −sin δ``, so the smallest right singular vector of the stacked equations
 gives ``L`` up to scale, and the nearest orthogonal matrix (polar
 decomposition, determinant +1 or −1) is ``O``; then all of ``b``, ``S``, ``O``,
-``δ`` together by Gauss–Newton (Levenberg–Marquardt) on (M2)–(M4), each group
-weighted by its own residual spread, which also gives the 1σ of every parameter.
+``δ`` (and ``ḃ``, M5) together by Gauss–Newton (Levenberg–Marquardt) on
+(M2)–(M4), each group weighted by its own residual spread (re-estimated three
+times, with the degrees of freedom the parameters take): the noise each
+group's equations have once the model fits. This also gives the 1σ of every
+parameter.
 
 The data cannot tell ``O`` from ``−O`` (a field reversed everywhere rotates the
 same way): the sign is chosen so that the field points below the horizontal in
@@ -66,6 +77,8 @@ __all__ = ["MIN_MAG_POSES", "MagnetometerFit", "alignment_from_rotations", "fit_
 MIN_MAG_POSES = 6
 #: below this |dip| [deg] the field's sign (hence det O) is weakly determined
 WEAK_DIP_DEG = 5.0
+#: the hard iron's drift (M5) is fitted only when its χ² exceeds this, the 99.9 % point of χ² with 3 degrees
+DRIFT_CHI2 = 16.27
 _SYM = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 
@@ -226,55 +239,81 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
     n0 /= np.linalg.norm(n0, axis=1, keepdims=True)
     dip0 = float(np.arcsin(np.clip(-np.mean(np.einsum("ij,ij->i", up, n0)), -1, 1)))
 
+    # pose and motion-sample times [min] from the poses' mean time: the hard iron may drift (M5)
+    t_pose = np.array([float(np.mean(recording.t[iv.start:iv.stop])) for iv in intervals])
+    t_ref = float(np.mean(t_pose))
+    min_pose, min_move = (t_pose - t_ref) / 60.0, (recording.t[mov] - t_ref) / 60.0
+
     def unpack(th):
-        return th[:3], _sym(th[3:9]), o0 @ _rotvec_matrix(th[9:12]), th[12]
+        drift = th[13:16] if th.size > 13 else np.zeros(3)
+        return th[:3], _sym(th[3:9]), o0 @ _rotvec_matrix(th[9:12]), th[12], drift
 
     def groups(th, up=up, rot=rot):
-        b, s, o, dip = unpack(th)
-        v = (mag_means - b) @ s
+        b, s, o, dip, drift = unpack(th)
+        v = (mag_means - b - np.outer(min_pose, drift)) @ s
         norm = np.linalg.norm(v, axis=1)
         n = v @ o.T / norm[:, None]
         r_norm = norm - 1.0
-        r_move = np.linalg.norm((mag_moving - b) @ s, axis=1) - 1.0
+        r_move = np.linalg.norm((mag_moving - b - np.outer(min_move, drift)) @ s, axis=1) - 1.0
         r_dip = np.einsum("ij,ij->i", up, n) + np.sin(dip)
         r_rot = (n[1:] - np.einsum("kji,kj->ki", rot, n[:-1]))[use].ravel()
         return r_norm, r_move, r_dip, r_rot
 
+    def solve(theta, scale, sigma, use):
+        p = theta.size
+        for _ in range(3):  # weights from each group's own residual spread, refitted
+            def fun(th, sig=sigma):
+                return np.concatenate([g / s for g, s in zip(groups(th), sig, strict=True)])
+
+            sol = least_squares(fun, theta, x_scale=scale, method="lm", xtol=1e-14, ftol=1e-14, max_nfev=2000)
+            theta = sol.x
+            res = groups(theta)
+            dof = np.array([r.size for r in res], dtype=float)
+            dof[3] *= 2.0 / 3.0  # a unit-vector difference has two degrees of freedom, not three
+            total = dof.sum()
+            sigma = np.array([np.sqrt(np.sum(r**2) / max(d * (1 - p / total), 1.0)) if r.size else 1.0
+                              for r, d in zip(res, dof, strict=True)])
+            sigma = np.maximum(sigma, 1e-12)
+            # a transition the gyroscope got wrong (a bump, a missed pose) is left out once: > 5σ and > 3°
+            err = np.linalg.norm(res[3].reshape(-1, 3), axis=1)
+            bad = np.zeros_like(use)
+            bad[np.nonzero(use)[0]] = (err > 5 * sigma[3]) & (err > np.radians(3.0))
+            if np.any(bad) and np.count_nonzero(use & ~bad) >= max(3, use.sum() * 4 // 5):
+                use[:] = use & ~bad
+        return theta, sigma
+
     theta = np.concatenate([b0, [s0[i, j] for i, j in _SYM], np.zeros(3), [dip0]])
     scale = np.concatenate([np.full(3, 1.0 / np.abs(s0).max()), np.full(6, np.abs(s0).max()), np.ones(4)])
     sigma = np.array([1e-3, 1e-2, 1e-2, 1e-2])
-    p = theta.size
-    for _ in range(3):  # weights from each group's own residual spread, refitted
-        def fun(th, sig=sigma):
-            return np.concatenate([g / s for g, s in zip(groups(th), sig, strict=True)])
+    theta, sigma = solve(theta, scale, sigma, use)
 
-        sol = least_squares(fun, theta, x_scale=scale, method="lm", xtol=1e-14, ftol=1e-14, max_nfev=2000)
-        theta = sol.x
-        res = groups(theta)
-        dof = np.array([r.size for r in res], dtype=float)
-        dof[3] *= 2.0 / 3.0  # a unit-vector difference has two degrees of freedom, not three
-        total = dof.sum()
-        sigma = np.array([np.sqrt(np.sum(r**2) / max(d * (1 - p / total), 1.0)) if r.size else 1.0
-                          for r, d in zip(res, dof, strict=True)])
-        sigma = np.maximum(sigma, 1e-12)
-        # a transition the gyroscope got wrong (a bump, a missed pose) is left out once: > 5σ and > 3°
-        err = np.linalg.norm(res[3].reshape(-1, 3), axis=1)
-        bad = np.zeros_like(use)
-        bad[np.nonzero(use)[0]] = (err > 5 * sigma[3]) & (err > np.radians(3.0))
-        if np.any(bad) and np.count_nonzero(use & ~bad) >= max(3, use.sum() * 4 // 5):
-            use = use & ~bad
+    def covariance(theta, sigma, scale):
+        def fun_final(th):
+            return np.concatenate([g / s for g, s in zip(groups(th), sigma, strict=True)])
 
-    def fun_final(th):
-        return np.concatenate([g / s for g, s in zip(groups(th), sigma, strict=True)])
+        jac = _central_jacobian(fun_final, theta, scale)
+        try:
+            cov = np.linalg.inv(jac.T @ jac)
+        except np.linalg.LinAlgError:
+            return np.full((theta.size, theta.size), np.nan)
+        return cov + _carried_covariance(calibration, references, groups, theta, sigma, jac, cov)
 
-    jac = _central_jacobian(fun_final, theta, scale)
-    try:
-        cov = np.linalg.inv(jac.T @ jac)
-    except np.linalg.LinAlgError:
-        cov = np.full((p, p), np.nan)
+    # (M5): the hard iron drifting linearly in time (a die warming up, currents nearby), kept only where the
+    # poses show it: the drift's χ² against its own covariance beyond the 99.9 % point of χ²(3)
+    use_static = use.copy()
+    th_d, sig_d = solve(np.concatenate([theta, np.zeros(3)]), np.concatenate([scale, np.full(3, scale[0])]),
+                        sigma, use)
+    scale_d = np.concatenate([scale, np.full(3, scale[0])])
+    cov_d = covariance(th_d, sig_d, scale_d)
+    drift_chi2 = float(th_d[13:] @ np.linalg.solve(cov_d[13:, 13:], th_d[13:])) if np.all(np.isfinite(cov_d)) \
+        else 0.0
+    if drift_chi2 > DRIFT_CHI2:
+        theta, sigma, cov, scale = th_d, sig_d, cov_d, scale_d
     else:
-        cov += _carried_covariance(calibration, references, groups, theta, sigma, jac, cov)
-    b, s, o, dip = unpack(theta)
+        use[:] = use_static
+        cov = covariance(theta, sigma, scale)
+    p = theta.size
+    b, s, o, dip, drift = unpack(theta)
     if np.linalg.det(s) <= 0 or np.any(np.linalg.eigvalsh(s) <= 0):
         raise ValueError("the magnetometer fit did not give a positive definite soft-iron matrix: the poses "
                          "do not spread the field over enough directions")
@@ -298,7 +337,7 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
         unc[f"magnetometer.alignment_angle.{a}"] = float(np.sqrt(max(cov_psi[i, i], 0.0)))
     unc["magnetometer.dip"] = float(sd[12])
 
-    fig = pose_figures(model, mag_means, up, rot)
+    fig = pose_figures(model, mag_means - np.outer(min_pose, drift), up, rot)
     err = fig["direction_errors_deg"][use]
     names, angle = model.axes()
     figures = {
@@ -314,6 +353,11 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
         "magnetometer_hemisphere": hemisphere,
         "magnetometer_field_norms": fig["norms"].tolist(),
         "magnetometer_dips_deg": fig["dips_deg"].tolist(),
+        # (M5): raw units per minute, None when the poses show no drift; the bias is the one at the poses' mean time
+        "magnetometer_hard_iron_drift_per_min": drift.tolist() if p > 13 else None,
+        "magnetometer_hard_iron_drift_sigma_per_min": sd[13:16].tolist() if p > 13 else None,
+        "magnetometer_hard_iron_drift_over_session": float(np.linalg.norm(s @ drift) * np.ptp(min_pose))
+        if p > 13 else None,
     }
     return MagnetometerFit(model=model, figures=figures, uncertainty=unc, covariance=cov)
 
