@@ -30,7 +30,7 @@ import numpy as np
 
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import accelerometer_covariance, accelerometer_errors, fit_gravity_norm
-from ..fit.gyroscope import errors_at, fit_gyroscope, static_gyro
+from ..fit.gyroscope import errors_at, fit_gyroscope, joint_errors_at, static_gyro
 from ..metrics import fit_summary, interval_means
 from ..recording import STANDARD_GRAVITY, Interval, Recording
 from ..segment import detect_intervals, unreliable_transitions
@@ -58,9 +58,11 @@ def uncertainty(recording: Recording, intervals: list[Interval], calibration: Ca
     out = accelerometer_errors(acc, interval_means(recording.acc, intervals), calibration.gravity)
     weights = np.ones(len(intervals) - 1)
     weights[[int(k) for k in fit.get("rotations_left_out", {})]] = 0.0
-    estimated = fit.get("gyroscope_bias_source") == "fit"
-    static = static_gyro(recording, intervals, acc, g_sensitivity=bool(np.any(gyro.g_sensitivity)))
     acc_cov = accelerometer_covariance(acc, interval_means(recording.acc, intervals), calibration.gravity)
+    if fit.get("gyroscope_bias_source") == "joint":
+        return out | joint_errors_at(recording, intervals, acc, gyro, fit, acc_cov=acc_cov)
+    estimated = fit.get("gyroscope_bias_source") == "fit"
+    static = static_gyro(recording, intervals, acc, g_sensitivity=bool(np.any(gyro.g_sensitivity)), drift=False)
     return (out | errors_at(recording, intervals, acc, gyro, estimated, weights=weights,
                             bias_cov=None if estimated else static.bias_cov, acc_cov=acc_cov,
                             bias_spread=static.spread) | static.errors)
