@@ -9,7 +9,10 @@ stored (a constant bias):
 * ``rest_rate_max``: the largest ``|pose mean|`` over the poses (white noise,
   tremor and drift included: compare with ``pose_se``, one pose mean's
   standard error from its samples);
-* ``initial_rest``: the mean calibrated rate over the initial rest;
+* ``initial_rest``: the mean calibrated rate over the initial rest, and
+  ``initial_rest_drift_corrected`` the same with the bias drift the fit found
+  (``b + d (t − t_ref)``; the stored bias is the poses' average, so a bias
+  that drifts reads ``d (t_rest − t_ref)`` at the rest with the stored one);
 * the gyroscope's gravity-direction error between poses (mean and max, deg)
   and, on simulations, the same of the true parameters on the same poses and
   the ratio fitted/true of the means.
@@ -17,10 +20,12 @@ stored (a constant bias):
 Sessions: the shared Xsens recording (``--reader imutk``, gravity 9.81744) and
 ``--runs`` hand-held simulations (``imucalib.scenarios.session("handheld")``,
 default knobs: bias drift 0.01 °/s/min, random walk, tremor 0.15 °/s; more
-with ``--scenario-knobs``). The summary per method: the worst ``|rest_rate_mean|``
-over axes and seeds, how many sessions exceed ``--limit`` (0.02 °/s), the median
-and max of the worst ``rest_rate_max``, the median fitted/true gyroscope error,
-the verdicts and the errors of methods that cannot run on a session.
+with ``--scenario-knobs``), and as many of its Ferraris procedure (six faces and
+turns) for the methods that need the faces (``--ferraris-methods``). The summary
+per method: the worst ``|rest_rate_mean|`` over axes and seeds, how many
+sessions exceed ``--limit`` (0.02 °/s), the median and max of the worst
+``rest_rate_max``, the median fitted/true gyroscope error, the verdicts and the
+errors of methods that cannot run on a session.
 """
 
 from __future__ import annotations
@@ -78,10 +83,16 @@ def one(rec, name: str, gravity: float, truth=None) -> dict:
            "gyro_error_mean_deg": fit.get("gyroscope_angle_error_mean_deg"),
            "gyro_error_max_deg": fit.get("gyroscope_angle_error_max_deg"),
            **rest_figures(cal, rec)}
-    if "gyroscope_bias_drift_per_s" in fit:
-        drift = np.asarray(fit["gyroscope_bias_drift_per_s"])
-        out["drift_deg_s_per_min"] = (np.degrees(cal.gyroscope.misalignment * cal.gyroscope.scale[None, :] @ drift)
-                                      * 60).tolist()
+    if "gyroscope_bias_drift_per_s" in fit:  # the rest as the fit's own bias model b + d (t − t_ref) sees it
+        g = cal.gyroscope
+        rate = np.degrees((g.misalignment * g.scale[None, :]) @ np.asarray(fit["gyroscope_bias_drift_per_s"]))
+        out["drift_deg_s_per_min"] = (60 * rate).tolist()
+        rest = Interval(*(int(v) for v in fit["intervals"][0]))
+        t_rest = float(np.mean(rec.t[rest.slice]))
+        out["initial_rest_drift_corrected"] = (np.asarray(out["initial_rest"])
+                                               + rate * (t_rest - fit["gyroscope_bias_time_s"])).tolist()
+    else:
+        out["initial_rest_drift_corrected"] = out["initial_rest"]
     if truth is not None:
         intervals = [Interval(int(a), int(b), "static") for a, b in fit["intervals"]]
         true_err = float(np.degrees(np.mean(gravity_direction_errors(truth, rec, intervals))))
@@ -111,6 +122,7 @@ def summarise(rows: list[dict], methods: list[str], limit: float) -> dict:
             continue
         worst_mean = [max(abs(v) for v in r["rest_rate_mean"]) for _, r in ok]
         worst_rest = [max(abs(v) for v in r["initial_rest"]) for _, r in ok]
+        worst_rest_d = [max(abs(v) for v in r["initial_rest_drift_corrected"]) for _, r in ok]
         worst_max = [max(r["rest_rate_max"]) for _, r in ok]
         ratios = [r["gyro_error_ratio"] for _, r in ok if r.get("gyro_error_ratio") is not None]
         out[m] = {
@@ -123,6 +135,9 @@ def summarise(rows: list[dict], methods: list[str], limit: float) -> dict:
             "worst_seed": int(ok[int(np.argmax(worst_mean))][0]),
             "initial_rest_worst_deg_s": _r(max(worst_rest)),
             "initial_rest_over_limit": sum(v > limit for v in worst_rest),
+            "initial_rest_drift_corrected_worst_deg_s": _r(max(worst_rest_d)),
+            "initial_rest_drift_corrected_over_limit": sum(v > limit for v in worst_rest_d),
+            "drift_found": sum("drift_deg_s_per_min" in r for _, r in ok),
             "rest_rate_max_median_deg_s": _r(statistics.median(worst_max)),
             "rest_rate_max_worst_deg_s": _r(max(worst_max)),
             "pose_se_median_deg_s": _r(statistics.median(max(r["pose_se_median"]) for _, r in ok)),
@@ -140,6 +155,8 @@ def main() -> None:
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--methods", default=",".join(METHODS))
+    parser.add_argument("--ferraris-methods", default="six_position,ferraris",
+                        help="methods also run on hand-held sessions of the Ferraris procedure (six faces, turns)")
     parser.add_argument("--scenario-knobs", default="{}", help="JSON object of handheld scenario knobs")
     parser.add_argument("--limit", type=float, default=0.02, help="the rest-rate limit [°/s] counted against")
     parser.add_argument("--per-run", action="store_true", help="also print every session's figures")
@@ -164,8 +181,19 @@ def main() -> None:
         rows = [job(s) for s in seeds]
     doc["handheld"] = {"runs": len(seeds), "seeds": [seeds[0], seeds[-1]] if seeds else [],
                        "methods": summarise(rows, methods, args.limit)}
+    fmethods = [m.strip() for m in args.ferraris_methods.split(",") if m.strip()]
+    frows = []
+    if fmethods:
+        job = partial(run_seed, methods=fmethods, knobs={**knobs, "procedure": "ferraris"})
+        if args.workers > 1 and len(seeds) > 1:
+            with ProcessPoolExecutor(args.workers) as ex:
+                frows = list(ex.map(job, seeds))
+        else:
+            frows = [job(s) for s in seeds]
+        doc["handheld_ferraris"] = {"runs": len(seeds), "methods": summarise(frows, fmethods, args.limit)}
     if args.per_run:
         doc["per_run"] = rows
+        doc["per_run_ferraris"] = frows
     doc["wall_s"] = round(time.perf_counter() - t0, 1)
     print(json.dumps(doc))
 

@@ -14,12 +14,17 @@ fragment, §2, and implemented by imu_tk):
    fitted so that ``‖a‖ = g`` at every static pose (Levenberg–Marquardt,
    analytic Jacobian, interval means). The initial values come from an
    algebraic ellipsoid fit (no sensor-specific guess).
-4. Gyroscope: ``ω = T_g K_g (u − b_g)`` with ``T_g`` unit-diagonal (6 terms),
-   ``b_g`` the mean of the initial rest (or estimated); the calibrated rates are
-   integrated (RK4) across each motion and the predicted gravity direction is
-   compared with the measured one at the next pose (Zhang 2021, eq. 14 is the
-   same residual). The initial scale comes from a scalar search started at
-   the ratio of the gravity-direction change to the integrated raw rate.
+4. Gyroscope: ``ω = T_g K_g (u − b_g)`` with ``T_g`` unit-diagonal (6 terms);
+   the calibrated rates are integrated (RK4) across each motion and the
+   predicted gravity direction is compared with the measured one at the next
+   pose (Zhang 2021, eq. 14 is the same residual). The paper takes ``b_g``
+   from the initial rest; here the bias (with a linear drift where the poses
+   show one) and the g-sensitivity come from every static pose's mean
+   (Zhang 2021, eq. 11) in the same cost as the rotations
+   (:func:`imucalib.fit.gyroscope.fit_gyroscope`), each over its own noise:
+   the rotations alone trade the bias against the scales. The initial scale
+   comes from a scalar search started at the ratio of the gravity-direction
+   change to the integrated raw rate.
 """
 
 from __future__ import annotations
@@ -97,10 +102,10 @@ def calibrate(
     window, min_interval : float
         Detector window and shortest static interval [s].
     estimate_gyro_bias : bool or "auto"
-        Estimate the gyroscope bias with the other parameters (True), take the
-        mean of the initial rest (False), or let the data decide ("auto",
-        :func:`imucalib.fit.gyroscope.fit_gyroscope`: estimated when that lowers
-        the information criterion of the rotations' residuals).
+        ``"auto"``: the bias from the static poses' means and the rotations in
+        one cost (:func:`imucalib.fit.gyroscope.fit_gyroscope`); False: from
+        the static poses alone; True: from the rotations alone (for a session
+        whose rests cannot be trusted).
     gyro_g_sensitivity : bool or "auto"
         Estimate the gyroscope's g-sensitivity from the static poses (True),
         leave it out as Tedaldi 2014 does (False), or keep it where the poses
