@@ -90,7 +90,7 @@ def one(rec, name: str, gravity: float, truth=None) -> dict:
         rest = Interval(*(int(v) for v in fit["intervals"][0]))
         t_rest = float(np.mean(rec.t[rest.slice]))
         out["initial_rest_drift_corrected"] = (np.asarray(out["initial_rest"])
-                                               + rate * (t_rest - fit["gyroscope_bias_time_s"])).tolist()
+                                               - rate * (t_rest - fit["gyroscope_bias_time_s"])).tolist()
     else:
         out["initial_rest_drift_corrected"] = out["initial_rest"]
     if truth is not None:
