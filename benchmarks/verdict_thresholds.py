@@ -7,7 +7,8 @@ this records
 
 * the verdict and its reasons;
 * every figure a verdict threshold (:data:`imucalib.verdict.THRESHOLDS`) acts on:
-  the gyroscope's gravity-direction error (mean, predicted, ratio), the
+  the gyroscope's gravity-direction error (mean, predicted, ratio), its rest
+  rate (the mean over the poses, largest axis) against the poses' scatter, the
   gravity-norm residual against the noise floor (and normalised for an over-fit),
   poses per accelerometer parameter, cross-axis terms, the relative 1σ of the
   scales and the 1σ of the misalignments, the turn speed between poses;
@@ -63,6 +64,8 @@ FIGURES = {
     "scale_sigma_rel_max": ("scale_sigma_rel", "high"),
     "misalignment_sigma_deg_max": ("misalignment_sigma_deg", "high"),
     "turn_speed_deg_s": ("turn_speed_deg_s", "both"),
+    "gyroscope_rest_rate_to_scatter": ("rest_rate_to_scatter", "high"),
+    "gyroscope_rest_rate_max_deg_s": ("rest_rate_floor_deg_s", "high"),
 }
 
 
@@ -146,6 +149,8 @@ def run_one(seed: int, methods: list[str], knobs: dict) -> dict:
             "gyroscope_angle_error_mean_deg": fitted_err,
             "gyroscope_angle_error_max_deg": fit.get("gyroscope_angle_error_max_deg", float("nan")),
             "gyroscope_angle_error_predicted_deg": fit.get("gyroscope_angle_error_predicted_deg", float("nan")),
+            "gyroscope_rest_rate_to_scatter": fit.get("gyroscope_rest_rate_to_scatter", float("nan")),
+            "gyroscope_rest_rate_max_deg_s": float(np.max(np.abs(fit.get("gyroscope_rest_rate_deg_s", np.nan)))),
             "accelerometer_residual_to_noise": ratio,
             "residual_to_noise_normalised": ratio / np.sqrt((m - p) / m) if m > p else float("nan"),
             "poses_per_parameter": m / p,

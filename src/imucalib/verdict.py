@@ -16,7 +16,13 @@ the fit did not minimise, or that it cannot change:
   too low for the poses' degrees of freedom (an over-fit);
 * **the gyroscope against the noise** — the gravity-direction error between
   poses against what the sensor noise alone predicts for these rotations
-  (:func:`predicted_direction_error`);
+  (:func:`predicted_direction_error`, from the white noise of the sensor at
+  rest: a shaken accelerometer or a trembling hand is not noise that excuses
+  the error);
+* **the gyroscope at rest** — the calibrated rate's mean over the static poses
+  against the standard error the poses' scatter allows (a bias the rest
+  contradicts), and enough rotations kept for the gyroscope's nine scale and
+  misalignment parameters;
 * **known turns** — each turn by a known angle re-integrated with the calibration;
 * **usefulness** — parameters whose 1σ is too large to be of use, or undetermined;
   an accelerometer parameter whose 1σ costs more than its nominal value would
@@ -27,8 +33,9 @@ the fit did not minimise, or that it cannot change:
 Thresholds (:data:`THRESHOLDS`) come from Monte Carlo on the hand-held
 scenario (``benchmarks/verdict_thresholds.py``, 30 sessions, tedaldi2014,
 zhang2021 and ellipsoid): none of its good sessions is suspect or rejected.
-The margins between the worst good session and the limit are 2.3× on the
-gyroscope's error against its noise, 3× on its error in degrees, 6× on the
+The margins between the worst good session and the limit are 2.1× on the
+gyroscope's error against its noise, 2.7× on its error in degrees, 3.3× on
+its rest rate against the poses' scatter (1.7× on the rate itself, zhang2021), 6× on the
 residual against the noise floor, 3.5× and 5× on the cross-axis terms,
 over 10× on the 1σ, 1.5× on the over-fit check and 1.3× (zhang2021's 15
 accelerometer parameters on 31 poses) on poses per parameter; the real Xsens
@@ -37,6 +44,7 @@ session is accepted by every method that models its sensor.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,7 +55,8 @@ from .metrics import gravity_direction_errors, interval_means, transition_bounds
 from .recording import Interval, Recording
 
 __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibility", "plausible",
-           "predicted_direction_error", "time_unit_hint", "turn_speed", "with_verdict"]
+           "predicted_direction_error", "rest_noise", "rest_rates", "time_unit_hint", "turn_speed",
+           "white_noise_variance", "with_verdict"]
 
 LEVELS = ("accepted", "suspect", "rejected")
 
@@ -83,6 +92,13 @@ THRESHOLDS = {
     # suspect, and below which it does not reject one: a model that leaves a fraction of a degree between
     # poses is worse than it could be, not wrong
     "gyro_error_floor_deg": (0.25, 2.0),
+    # calibrated gyroscope at rest: |mean rate over the poses| / its standard error from the poses' scatter,
+    # and the rate [deg/s] below which that is not a reason (0.02 deg/s: 1.2 deg of heading a minute)
+    "rest_rate_to_scatter": (6.0, 20.0),
+    "rest_rate_floor_deg_s": (0.02, 0.1),
+    # rotations kept in the gyroscope fit: direction components (two per rotation) per scale and
+    # misalignment parameter (nine)
+    "rotations_per_parameter": (2.0, 1.0),
     # known-angle turns: relative error of the angle (re-integrated with the calibration; measured with the
     # poses' rough gyroscope scale, good to a few per cent, only the rejecting limit applies)
     "turn_angle_rel": (0.03, 0.2),
@@ -103,6 +119,9 @@ THRESHOLDS = {
     "mag_direction_error_deg": (3.0, 10.0),
 }
 
+#: the gyroscope parameters the rotations between poses determine: three scales, six misalignment terms
+GYRO_ROTATION_PARAMETERS = 9
+
 #: raw-unit factors to SI of the physical units (``"g"`` uses the calibration's gravity)
 _NOMINAL = {"m/s^2": 1.0, "rad/s": 1.0, "deg/s": np.pi / 180}
 
@@ -113,6 +132,47 @@ class Check:
 
     level: int
     text: str
+
+
+def white_noise_variance(x: np.ndarray, order: int = 4) -> np.ndarray:
+    """Per-column variance of the white noise in ``x`` (N, K), blind to slow disturbances.
+
+    The ``order``-th difference of white noise of variance ``σ²`` has the
+    variance ``C(2·order, order) σ²``, while a disturbance at frequency ``f``
+    is scaled by ``(2 sin(π f Δt))^order``: a 5 Hz shake sampled at 100 Hz by
+    ``0.31⁴ ≈ 0.01``, hand sway and drift by far less. So the noise of a
+    sensor on a vibrating table, or held by a hand, is its own.
+    """
+    x = np.asarray(x, dtype=float)
+    if x.shape[0] <= order + 1:
+        return np.var(x, axis=0)
+    d = np.diff(x, n=order, axis=0)
+    return np.mean(d * d, axis=0) / math.comb(2 * order, order)
+
+
+def rest_noise(calibration, recording: Recording, intervals: list[Interval],
+               rest: Interval | None = None) -> tuple[float, float]:
+    """Per-sample white-noise variances (accelerometer [m²/s⁴], gyroscope [rad²/s²]) of the sensor at rest.
+
+    From the initial rest (``rest``, default the first interval), or the
+    static poses' median when that is lower (a rest that was disturbed), each
+    by :func:`white_noise_variance` of the calibrated readings, the mean over
+    the three axes: what the sensor's own noise is, not what a vibration or
+    a hand added to the poses.
+    """
+    rest = rest or intervals[0]
+
+    def variances(iv):
+        acc = calibration.accelerometer_si(recording.acc[iv.slice])
+        gyro = calibration.gyroscope_si(recording.gyro[iv.slice], recording.acc[iv.slice])
+        return float(np.mean(white_noise_variance(acc))), float(np.mean(white_noise_variance(gyro)))
+
+    s_a2, s_g2 = variances(rest)
+    poses = [variances(iv) for iv in intervals if iv is not rest and len(iv) > 20]
+    if poses:
+        s_a2 = min(s_a2, float(np.median([p[0] for p in poses])))
+        s_g2 = min(s_g2, float(np.median([p[1] for p in poses])))
+    return s_a2, s_g2
 
 
 def predicted_direction_error(calibration, recording: Recording, intervals: list[Interval],
@@ -126,16 +186,16 @@ def predicted_direction_error(calibration, recording: Recording, intervals: list
     ``+ σ_b² T_k²`` (the bias's error over the turn) ``+ (σ_a/g)² (1/n_k + 1/n_{k+1})``
     (the two poses' mean directions),
 
-    with ``σ_g``, ``σ_a`` the calibrated per-sample noise of the rest, ``Δt`` the
-    sampling interval and ``σ_b² = σ_g²/n_rest`` the noise of the rest's mean;
-    a 2-D Gaussian error of that variance has the mean norm ``√(π v / 2)``.
+    with ``σ_g``, ``σ_a`` the calibrated per-sample white noise of the sensor at
+    rest (:func:`rest_noise`: a vibration or tremor the poses carry is a
+    disturbance the calibration has to survive, not noise that excuses its
+    error), ``Δt`` the sampling interval and ``σ_b² = σ_g²/n_rest`` the noise
+    of the rest's mean; a 2-D Gaussian error of that variance has the mean
+    norm ``√(π v / 2)``.
     """
     rest = rest or intervals[0]
-    acc = calibration.accelerometer_si(recording.acc[rest.slice])
-    gyro = calibration.gyroscope_si(recording.gyro[rest.slice], recording.acc[rest.slice])
-    s_a2 = float(np.mean(np.var(acc, axis=0)))
-    s_g2 = float(np.mean(np.var(gyro, axis=0)))
-    s_b2 = s_g2 / max(len(gyro), 1)  # the rest's mean: noise only, whatever the fit made of the bias
+    s_a2, s_g2 = rest_noise(calibration, recording, intervals, rest)
+    s_b2 = s_g2 / max(len(rest), 1)  # the rest's mean: noise only, whatever the fit made of the bias
     starts, stops = transition_bounds(intervals)
     t = recording.t
     dur = t[stops] - t[starts]
@@ -144,6 +204,12 @@ def predicted_direction_error(calibration, recording: Recording, intervals: list
     g = calibration.gravity
     v = s_g2 * dur * dt + s_b2 * dur**2 + s_a2 / g**2 * (1 / n[:-1] + 1 / n[1:])
     return np.sqrt(np.pi * v / 2)
+
+
+def rest_rates(calibration, recording: Recording, intervals: list[Interval]) -> np.ndarray:
+    """The calibrated gyroscope's mean rate [rad/s] over each static pose (M, 3)."""
+    return np.array([calibration.gyroscope_si(recording.gyro[iv.slice], recording.acc[iv.slice]).mean(axis=0)
+                     for iv in intervals])
 
 
 def _level(value: float, limits: tuple[float, float]) -> int:
@@ -364,6 +430,56 @@ def _gyroscope(calibration, recording: Recording, intervals: list[Interval]) -> 
     return out, figures
 
 
+def _rest_rate(calibration, recording: Recording, intervals: list[Interval]) -> tuple[list[Check], dict]:
+    """The calibrated gyroscope at rest against what the poses' scatter allows.
+
+    Per axis, the mean calibrated rate over the static poses ``r̄`` (each pose
+    one weight) against its standard error ``s/√M`` from the scatter ``s`` of
+    the poses' means (noise, tremor, drift: whatever makes them differ): a
+    bias the poses support leaves ``|r̄| ≲ 3 s/√M``. A bias taken from the
+    rotations alone, or from a rest that was not still, reads tens of times
+    that. Below ``rest_rate_floor_deg_s`` the figure is not a reason.
+    """
+    if len(intervals) < 4:
+        return [], {}
+    w = np.degrees(rest_rates(calibration, recording, intervals))
+    m = w.shape[0]
+    mean = w.mean(axis=0)
+    se = w.std(axis=0, ddof=1) / np.sqrt(m)
+    z = np.divide(np.abs(mean), se, out=np.full(3, np.inf), where=se > 0)
+    z[(mean == 0)] = 0.0
+    figures = {"gyroscope_rest_rate_deg_s": [float(x) for x in mean],
+               "gyroscope_rest_rate_to_scatter": float(z.max())}
+    levels = [min(_level(float(z[j]), THRESHOLDS["rest_rate_to_scatter"]),
+                  _level(float(abs(mean[j])), THRESHOLDS["rest_rate_floor_deg_s"])) for j in range(3)]
+    j = int(np.argmax(levels))
+    if not levels[j]:
+        return [], figures
+    return [Check(levels[j], f"at rest the calibrated gyroscope reads {mean[j]:.3g} °/s about {'xyz'[j]} (mean over "
+                             f"the {m} static poses), {z[j]:.3g}× the {se[j]:.2g} °/s the poses' scatter allows "
+                             f"(limit {THRESHOLDS['rest_rate_to_scatter'][0]:g}×): the gyroscope bias is not what "
+                             "the sensor reads at rest")], figures
+
+
+def _rotations_used(calibration, intervals: list[Interval]) -> list[Check]:
+    """Enough rotations for the gyroscope's parameters: two direction components per rotation kept."""
+    fit = calibration.fit or {}
+    if "gyroscope_bias_source" not in fit or len(intervals) < 2:  # not a fit over the rotations between poses
+        return []
+    n = len(intervals) - 1
+    kept = n - len(fit.get("rotations_left_out") or {})
+    per = 2 * kept / GYRO_ROTATION_PARAMETERS
+    lim = THRESHOLDS["rotations_per_parameter"]
+    level = 2 if per <= lim[1] else 1 if per < lim[0] else 0
+    if not level:
+        return []
+    return [Check(level, f"the gyroscope rests on {kept} of the {n} rotations between poses ({2 * kept} direction "
+                         f"components for its {GYRO_ROTATION_PARAMETERS} scale and misalignment parameters, "
+                         f"{per:.2g} per parameter; at least {lim[0]:g} wanted): "
+                         + ("they cannot determine it" if level == 2 else "too few to determine it well")
+                         + "; record again without gaps, with more rotations")]
+
+
 def _known_turns(calibration, recording: Recording) -> list[Check]:
     fit = calibration.fit or {}
     turns = fit.get("turn_sections")
@@ -522,9 +638,14 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     checks += _redundancy(calibration, fitted)
     if fitted:
         checks += _usefulness(calibration)
+        checks += _rotations_used(calibration, intervals)
     if recording is not None:
         gyro_checks, figures = _gyroscope(calibration, recording, intervals)
         checks += gyro_checks
+        if fitted:
+            rest_checks, rest_figures = _rest_rate(calibration, recording, intervals)
+            checks += rest_checks
+            figures |= rest_figures
         checks += _known_turns(calibration, recording)
     checks += _magnetometer(calibration)
     level = max((c.level for c in checks), default=0)

@@ -30,8 +30,8 @@ from .accelerometer import full_from_sensitivity
 
 __all__ = ["MIN_POSES", "SIGNED_PERMUTATIONS", "GyroFit", "StaticGyro", "axes_disagreement", "errors_at",
            "fit_gravity_direction", "fit_gyroscope", "fit_known_turns", "fit_measured_rotations",
-           "gravity_direction_problem", "gyroscope_errors", "rotation_angles", "rough_scale", "static_gyro",
-           "transition_errors"]
+           "gravity_direction_problem", "gyroscope_errors", "joint_errors", "joint_errors_at", "joint_problem",
+           "rotation_angles", "rough_scale", "static_gyro", "transition_errors"]
 
 #: the fewest static poses a gravity-direction fit takes
 MIN_POSES = 4
@@ -265,25 +265,8 @@ def errors_at(recording: Recording, intervals: list[Interval], accelerometer: Tr
         extra += sens @ bias_cov @ sens.T
     undetermined = acc_cov is not None and not np.all(np.isfinite(np.diag(acc_cov)))
     if acc_cov is not None and not undetermined:
-        lay = AccelLayout("upper", 1)
-        base = lay.pack(accelerometer)
-        means = interval_means(recording.acc, intervals)
-        # r_k = d_{k+1} − R_kᵀ d_k is linear in the directions d: R_kᵀ from three evaluations, then the
-        # directions' derivatives by finite differences of the means alone
         w_eff = np.ones(len(res) // 3) if weights is None else np.asarray(weights, dtype=float)
-        rt = np.empty((len(res) // 3, 3, 3))
-        for j in range(3):
-            e = np.zeros_like(dirs)
-            e[:, j] = 1.0
-            rt[:, :, j] = e[1:] - fun(theta, e).reshape(-1, 3) / np.where(w_eff > 0, w_eff, 1.0)[:, None]
-        j_acc = np.empty((len(res), lay.size))
-        for i in range(lay.size):
-            h = 1e-6 * max(abs(base[i]), 1e-12) if base[i] else 1e-9
-            step = base.copy()
-            step[i] += h
-            d = lay.unpack(step, accelerometer).forward(means)
-            delta = (d / np.linalg.norm(d, axis=1, keepdims=True) - dirs) / h
-            j_acc[:, i] = ((delta[1:] - np.einsum("kij,kj->ki", rt, delta[:-1])) * w_eff[:, None]).ravel()
+        j_acc = _direction_acc_jacobian(recording, intervals, accelerometer, gyroscope) * np.repeat(w_eff, 3)[:, None]
         sens = -pinv @ j_acc
         extra += sens @ acc_cov @ sens.T
     use = layout if estimate_bias else GyroLayout(False)
@@ -306,61 +289,329 @@ def transition_errors(recording: Recording, intervals: list[Interval], accelerom
 
 @dataclass(frozen=True)
 class StaticGyro:
-    """The gyroscope's reading at rest over the static poses: ``ū_k = b + G a_k`` (Zhang 2021, eq. 11)."""
+    """The gyroscope at rest over the static poses: ``ū_k = b + d (t_k − t_ref) + G a_k`` (Zhang 2021, eq. 11).
+
+    ``variances`` (M, 3) are each pose mean's variance as the fit weights it:
+    the white noise of its samples over their number plus the scatter
+    between poses the noise does not explain (tremor, a random walk of the
+    bias), ``scatter`` per axis.
+    """
 
     bias: np.ndarray
     bias_cov: np.ndarray  # of the estimate: what it carries into the other parameters
     g_sensitivity: np.ndarray | None  # None when the poses do not support it
     errors: dict[str, float]
     spread: np.ndarray  # per axis, the scatter of one pose's mean about the fit: drift and turn-on changes
+    drift: np.ndarray | None = None  # the bias's linear drift [raw per s], None when the poses show none
+    t_ref: float = 0.0  # the time [s] at which ``bias`` holds: the mean of the poses' times
+    times: np.ndarray | None = None  # (M,) each pose's mean time [s]
+    means: np.ndarray | None = None  # (M, 3) each pose's mean reading [raw]
+    accel: np.ndarray | None = None  # (M, 3) each pose's calibrated specific force [m/s²]
+    variances: np.ndarray | None = None  # (M, 3) each pose mean's variance [raw²], scatter included
+    scatter: np.ndarray | None = None  # (3,) the scatter between poses beyond the white noise [raw]
+    drift_se: np.ndarray | None = None  # (3,) 1σ of ``drift``
+
+
+def _weighted_regression(x: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, float,
+                                                                                 np.ndarray]:
+    """One axis: least squares of ``u ≈ x c`` weighted by ``1/(v + τ²)``, ``τ²`` by Paule & Mandel.
+
+    ``τ²`` ≥ 0 is the between-pose variance that makes the weighted residuals'
+    χ² equal their degrees of freedom (Paule & Mandel 1982, the random-effects
+    estimator of meta-analysis); 0 when the white noise ``v`` already explains
+    the scatter. Returns the coefficients, their covariance, ``τ²`` and the
+    log-likelihood of the pose means.
+    """
+    m, p = x.shape
+    dof = max(m - p, 1)
+
+    def solve(tau2):
+        w = 1.0 / (v + tau2)
+        xw = x * w[:, None]
+        cov = np.linalg.pinv(x.T @ xw)
+        c = cov @ (xw.T @ u)
+        r = u - x @ c
+        return c, cov, float(np.sum(w * r * r)), r
+
+    c, cov, q, r = solve(0.0)
+    tau2 = 0.0
+    if q > dof:
+        lo, hi = 0.0, float(np.max(r * r)) * 10 + 1e-300
+        for _ in range(100):  # χ²(τ²) decreases with τ²: bisection on a log scale near the root
+            mid = 0.5 * (lo + hi)
+            if solve(mid)[2] > dof:
+                lo = mid
+            else:
+                hi = mid
+            if hi - lo <= 1e-10 * hi:
+                break
+        tau2 = hi
+        c, cov, q, r = solve(tau2)
+    var = v + tau2
+    loglik = -0.5 * float(np.sum(np.log(2 * np.pi * var) + r * r / var))
+    return c, cov, tau2, np.array([loglik])
 
 
 def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, *,
-                g_sensitivity: bool | str = "auto") -> StaticGyro:
-    """Bias (and g-sensitivity) of the gyroscope from its means at the static poses.
+                g_sensitivity: bool | str = "auto", drift: bool | str = "auto") -> StaticGyro:
+    """Bias, drift and g-sensitivity of the gyroscope from its means at the static poses.
 
     At rest the gyroscope reads ``ū_k = b + G a_k`` (Zhang 2021, eq. 11, with
-    the canonical sign): a linear regression over the poses with the calibrated
-    specific force ``a_k``. ``g_sensitivity="auto"`` keeps ``G`` when it
-    lowers the Bayesian information criterion ``n ln(RSS/n) + p ln n`` of the
-    pose means (``n = 3M``; ``p`` = 3 without ``G``, 12 with it); a turn-on
-    change or slow drift of the bias scatters the means without a pattern in
-    ``a`` and does not make ``G`` appear. The bias's covariance is the
-    regression's (its standard error over the poses, the scatter included);
-    the bias's own reported 1σ adds the scatter of one pose about the fit,
-    since a drifting bias is that far from the session's mean at any moment.
+    the canonical sign), with the bias free to drift linearly in time,
+    ``b + d (t_k − t_ref)`` (``t_k`` the pose's mean time, ``t_ref`` the mean of
+    them, so ``b`` is the bias the poses show on average): a linear regression
+    over the poses with the calibrated specific force ``a_k``, each pose
+    weighted by the variance of its mean, ``σ_k²/n_k + τ²`` (``σ_k²`` its
+    samples' variance, ``τ²`` the scatter between poses beyond that noise:
+    tremor, a random walk; :func:`_weighted_regression`).
+
+    ``g_sensitivity`` and ``drift`` ``"auto"``: each is kept when it lowers
+    the Bayesian information criterion ``−2 ln L + p ln n`` of the pose means
+    (``n = 3M``; ``p`` counts 3 per coefficient and the 3 ``τ²``); a turn-on
+    change or random walk scatters the means without a pattern in ``a`` or
+    ``t`` and makes neither appear. ``G`` needs more than 8 poses and the drift
+    more than 5. The bias's covariance is the regression's; its reported 1σ
+    adds the scatter of one pose about the fit, since a bias that wanders is
+    that far from the fit at any moment.
     """
     u = interval_means(recording.gyro, intervals)
     a = accelerometer.forward(interval_means(recording.acc, intervals))
     m = len(u)
-    x0 = np.ones((m, 1))
-    x1 = np.column_stack([np.ones(m), a])
+    times = np.array([float(np.mean(recording.t[iv.slice])) for iv in intervals])
+    t_ref = float(np.mean(times))
+    v = np.array([np.var(recording.gyro[iv.slice], axis=0) / max(len(iv) - 1, 1) for iv in intervals])
+    v = np.maximum(v, 1e-300)  # a quantised constant reading: no noise at all
+    opts_g = [False, True] if g_sensitivity == "auto" else [bool(g_sensitivity)]
+    opts_d = [False, True] if drift == "auto" else [bool(drift)]
     fits = {}
-    for with_g, x in ((False, x0), (True, x1)):
-        if with_g and (g_sensitivity is False or m <= 8):
+    for with_g in opts_g:
+        if with_g and m <= 8:
             continue
-        if not with_g and g_sensitivity is True and m > 8:
-            continue
-        coef, *_ = np.linalg.lstsq(x, u, rcond=None)
-        res = u - x @ coef
-        rss = float(np.sum(res**2))
-        n, p = 3 * m, 3 * x.shape[1]
-        bic = n * np.log(max(rss, 1e-300) / n) + p * np.log(n)
-        fits[with_g] = (bic, coef, res, x)
-    with_g = min(fits, key=lambda k: fits[k][0])
-    _, coef, res, x = fits[with_g]
+        for with_d in opts_d:
+            if with_d and m <= 5:
+                continue
+            cols = [np.ones(m)] + ([times - t_ref] if with_d else []) + ([*a.T] if with_g else [])
+            x = np.column_stack(cols)
+            per_axis = [_weighted_regression(x, u[:, j], v[:, j]) for j in range(3)]
+            loglik = sum(float(f[3][0]) for f in per_axis)
+            n, p = 3 * m, 3 * x.shape[1] + 3
+            fits[with_g, with_d] = (-2 * loglik + p * np.log(n), x, per_axis)
+    if not fits:  # too few poses for what was asked: the plain mean
+        x = np.ones((m, 1))
+        fits[False, False] = (0.0, x, [_weighted_regression(x, u[:, j], v[:, j]) for j in range(3)])
+    with_g, with_d = min(fits, key=lambda k: fits[k][0])
+    _, x, per_axis = fits[with_g, with_d]
+    coef = np.column_stack([f[0] for f in per_axis])  # (p, 3)
+    covs = [f[1] for f in per_axis]
+    tau2 = np.array([f[2] for f in per_axis])
+    res = u - x @ coef
     dof = max(m - x.shape[1], 1)
-    s2 = np.sum(res**2, axis=0) / dof  # per gyroscope axis
-    xtx = np.linalg.pinv(x.T @ x)
+    spread = np.sqrt(np.sum(res**2, axis=0) / dof)
     bias = coef[0]
-    bias_cov = np.diag(s2 * xtx[0, 0])
+    bias_cov = np.diag([c[0, 0] for c in covs])
     errors: dict[str, float] = {}
-    g = None
+    g = d = d_se = None
+    first_g = 2 if with_d else 1
+    if with_d:
+        d = coef[1].copy()
+        d_se = np.sqrt([c[1, 1] for c in covs])
     if with_g:
-        g = coef[1:].T  # row: gyroscope axis, column: accelerometer axis
-        se = np.sqrt(np.outer(s2, np.diag(xtx)[1:]))
+        g = coef[first_g:].T  # row: gyroscope axis, column: accelerometer axis
+        se = np.sqrt(np.array([np.diag(c)[first_g:] for c in covs]))
         errors = {f"gyroscope.g_sensitivity.{AXES[i]}{AXES[j]}": float(se[i, j]) for i in range(3) for j in range(3)}
-    return StaticGyro(bias, bias_cov, g, errors, np.sqrt(s2))
+    return StaticGyro(bias, bias_cov, g, errors, spread, d, t_ref, times, u, a, v + tau2[None, :],
+                      np.sqrt(tau2), d_se)
+
+
+def joint_problem(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, static: StaticGyro,
+                  weights: np.ndarray, sigma_rot: float):
+    """Residuals and Jacobian of the joint gyroscope cost: the rotations and the static poses together.
+
+    Parameters ``θ = [M (9), b (3), d (3, with a drift)]`` with ``M = T_g diag(k1)``;
+    the rates are ``ω = M (u − b − d (t − t_ref) − G a)`` (Zhang 2021, eq. 6,
+    with ``G`` of the static poses held). The residuals are
+
+    * each kept rotation's gravity-direction error (Zhang 2021, eq. 14) over
+      ``sigma_rot``, the rotations' own noise per component [rad];
+    * each pose's mean reading against ``b + d (t_k − t_ref) + G a_k``
+      (Zhang 2021, eq. 11) over its standard error ``√static.variances``.
+
+    Returns ``fun``, ``jac``, the pose directions and the number of parameters.
+    """
+    acc = static.accel if static.accel is not None else accelerometer.forward(interval_means(recording.acc, intervals))
+    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
+    starts, stops = transition_bounds(intervals)
+    integrator = IntervalIntegrator(recording.t, starts, stops)
+    raw = recording.gyro[integrator.samples]
+    g_sens = static.g_sensitivity
+    if g_sens is not None and np.any(g_sens):
+        raw = raw - accelerometer.forward(recording.acc[integrator.samples]) @ np.asarray(g_sens).T
+    tau = recording.t[integrator.samples] - static.t_ref
+    with_d = static.drift is not None
+    size = 15 if with_d else 12
+    d = np.zeros((raw.shape[0], 3, size))
+    w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
+    target = static.means - (0.0 if g_sens is None else static.accel @ np.asarray(g_sens).T)
+    se = np.sqrt(static.variances)
+    dt_pose = static.times - static.t_ref
+
+    def split(th):
+        return th[:9].reshape(3, 3), th[9:12], (th[12:15] if with_d else np.zeros(3))
+
+    def fun(th):
+        m, b, dr = split(th)
+        rates = (raw - b - tau[:, None] * dr) @ m.T
+        r_rot = gravity_direction_residuals(rates, integrator.from_samples, dirs) * w
+        r_st = (target - b - dt_pose[:, None] * dr) / se
+        return np.concatenate([r_rot, r_st.ravel()])
+
+    def jac(th):
+        m, b, dr = split(th)
+        v = raw - b - tau[:, None] * dr
+        for i in range(3):
+            d[:, i, 3 * i : 3 * i + 3] = v  # ∂(M v)_i / ∂M_ij = v_j
+        d[:, :, 9:12] = -m
+        if with_d:
+            d[:, :, 12:15] = -m[None] * tau[:, None, None]
+        j_rot = gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1] * w[:, None]
+        mm = len(static.means)
+        j_st = np.zeros((mm, 3, size))
+        for i in range(3):
+            j_st[:, i, 9 + i] = -1.0 / se[:, i]
+            if with_d:
+                j_st[:, i, 12 + i] = -dt_pose / se[:, i]
+        return np.vstack([j_rot, j_st.reshape(3 * mm, size)])
+
+    return fun, jac, dirs, size
+
+
+def _solve_joint(recording, intervals, accelerometer, static, weights, start: TriadModel):
+    """The joint fit (:func:`joint_problem`), twice: the rotations' noise re-estimated from the first.
+
+    Returns the model, θ, each transition's error norm [rad], ``sigma_rot`` and the final problem.
+    """
+    n_kept = int(np.count_nonzero(weights))
+    _, e0 = _transition_norms(recording, intervals, accelerometer, start, static, weights)
+    sigma = _rotation_sigma(e0, weights, 9)
+    theta = np.concatenate([GyroLayout(False).pack(start), static.bias,
+                            static.drift if static.drift is not None else np.zeros(0)])
+    for _ in range(2):
+        fun, jac, dirs, size = joint_problem(recording, intervals, accelerometer, static, weights, sigma)
+        sol = levenberg_marquardt(fun, jac, theta, xtol=1e-12, ftol=1e-12)
+        theta = sol.x
+        e = np.linalg.norm(sol.fun[: 3 * (len(intervals) - 1)].reshape(-1, 3), axis=1) * sigma
+        sigma = _rotation_sigma(e, weights, 9) if n_kept else sigma
+    model = GyroLayout(True).unpack(theta[:12], theta[9:12])
+    if static.g_sensitivity is not None:
+        model = model.with_(g_sensitivity=static.g_sensitivity)
+    fun, jac, _, _ = joint_problem(recording, intervals, accelerometer, static, weights, sigma)
+    return model, theta, e, sigma, (fun, jac)
+
+
+def _rotation_sigma(e: np.ndarray, weights: np.ndarray, p: int) -> float:
+    """Per-component noise [rad] of the kept rotations' direction errors ``e``: two components each, ``p`` fitted."""
+    kept = np.asarray(weights) > 0
+    dof = max(2 * int(np.count_nonzero(kept)) - p, 1)
+    s = float(np.sqrt(np.sum(e[kept] ** 2) / dof))
+    return s if s > 0 else 1e-12
+
+
+def _transition_norms(recording, intervals, accelerometer, model, static, weights):
+    """Each transition's direction error norm [rad] of ``model`` with the static bias (weights 0 → 0)."""
+    fun, _, layout, _, _ = gravity_direction_problem(recording, intervals, accelerometer, model.bias, False,
+                                                     None, static.g_sensitivity)
+    e = np.linalg.norm(fun(layout.pack(model)).reshape(-1, 3), axis=1)
+    return fun, e * (np.asarray(weights) > 0)
+
+
+def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res, weights, sigma_rot, static, *,
+                 acc_cov=None) -> dict[str, float]:
+    """1σ errors of the joint fit (:func:`joint_problem`) from its Jacobian, by name.
+
+    ``C = s² (JᵀJ)⁻¹`` with ``s² = ‖r‖²/dof`` (:func:`~imucalib.solve.standard_errors`;
+    ``s² ≈ 1`` since each residual is divided by its own noise; ``dof`` counts
+    two per kept rotation and three per pose, less the parameters), carried
+    to ``T_g`` and ``k1`` by the delta method. The accelerometer's covariance
+    ``acc_cov`` enters through the gravity directions to first order
+    (``∂θ̂/∂x = −J⁺ ∂r/∂x``, as in :func:`errors_at`). The bias's own error
+    adds the scatter of one pose about the fit (``static.spread``): a bias
+    that wanders is that far from the fit at any moment.
+    """
+    j = jac_fun(theta)
+    size = j.shape[1]
+    n_rot = 3 * (len(intervals) - 1)
+    dof = 2 * int(np.count_nonzero(weights)) + 3 * len(static.means) - size
+    undetermined = acc_cov is not None and not np.all(np.isfinite(np.diag(acc_cov)))
+    extra = None
+    if acc_cov is not None and not undetermined:
+        j_acc = np.zeros((j.shape[0], acc_cov.shape[0]))
+        w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
+        j_acc[:n_rot] = _direction_acc_jacobian(recording, intervals, accelerometer, model) * w[:, None]
+        sens = -np.linalg.pinv(j) @ j_acc
+        extra = sens @ acc_cov @ sens.T
+    m = theta[:9].reshape(3, 3)
+    off = [(i, k) for i in range(3) for k in range(3) if i != k]
+    names = [f"gyroscope.misalignment.{AXES[i]}{AXES[k]}" for i, k in off]
+    names += [f"gyroscope.scale.{ax}" for ax in AXES] + [f"gyroscope.bias.{ax}" for ax in AXES]
+    a = np.zeros((12, size))
+    for row, (i, k) in enumerate(off):  # T_ik = M_ik / M_kk
+        a[row, 3 * i + k] = 1.0 / m[k, k]
+        a[row, 4 * k] = -m[i, k] / m[k, k] ** 2
+    for k in range(3):  # k1_k = M_kk
+        a[6 + k, 4 * k] = 1.0
+    a[9:12, 9:12] = np.eye(3)
+    se = standard_errors(j, res, dof=dof, transform=a, extra_cov=extra)
+    if undetermined:  # the poses leave the gravity directions themselves undetermined
+        se = np.full_like(se, np.nan)
+    out = {k: float(v) for k, v in zip(names, se, strict=True)}
+    for i, ax in enumerate(AXES):
+        out[f"gyroscope.bias.{ax}"] = float(np.hypot(out[f"gyroscope.bias.{ax}"], static.spread[i]))
+    return out
+
+
+def joint_errors_at(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
+                    gyroscope: TriadModel, fit: dict, *, acc_cov: np.ndarray | None = None) -> dict[str, float]:
+    """The 1σ errors :func:`fit_gyroscope` gave a joint fit, again from a calibration's ``fit`` entries.
+
+    The static poses' regression is repeated with the choices the fit made
+    (g-sensitivity, drift), the rotations left out and their noise
+    (``gyroscope_rotation_sigma_rad``) are the fit's.
+    """
+    drift = fit.get("gyroscope_bias_drift_per_s")
+    static = static_gyro(recording, intervals, accelerometer, g_sensitivity=bool(np.any(gyroscope.g_sensitivity)),
+                         drift=drift is not None)
+    weights = np.ones(len(intervals) - 1)
+    weights[[int(k) for k in fit.get("rotations_left_out", {})]] = 0.0
+    sigma = float(fit["gyroscope_rotation_sigma_rad"])
+    theta = np.concatenate([GyroLayout(True).pack(gyroscope), np.asarray(drift if drift is not None else [])])
+    fun, jac, _, _ = joint_problem(recording, intervals, accelerometer, static, weights, sigma)
+    return joint_errors(recording, intervals, accelerometer, gyroscope, theta, jac, fun(theta), weights, sigma,
+                        static, acc_cov=acc_cov) | static.errors
+
+
+def _direction_acc_jacobian(recording, intervals, accelerometer, gyroscope) -> np.ndarray:
+    """∂r/∂(accelerometer parameters) of the eq. (14) residuals (``AccelLayout("upper", 1)`` order), unweighted."""
+    fun, _, layout, dirs, _ = gravity_direction_problem(recording, intervals, accelerometer, gyroscope.bias, True,
+                                                        None, gyroscope.g_sensitivity)
+    theta = layout.pack(gyroscope)
+    n_tr = len(intervals) - 1
+    lay = AccelLayout("upper", 1)
+    base = lay.pack(accelerometer)
+    means = interval_means(recording.acc, intervals)
+    rt = np.empty((n_tr, 3, 3))
+    for j in range(3):
+        e = np.zeros_like(dirs)
+        e[:, j] = 1.0
+        rt[:, :, j] = e[1:] - fun(theta, e).reshape(-1, 3)
+    j_acc = np.empty((3 * n_tr, lay.size))
+    for i in range(lay.size):
+        h = 1e-6 * max(abs(base[i]), 1e-12) if base[i] else 1e-9
+        step = base.copy()
+        step[i] += h
+        d = lay.unpack(step, accelerometer).forward(means)
+        delta = (d / np.linalg.norm(d, axis=1, keepdims=True) - dirs) / h
+        j_acc[:, i] = (delta[1:] - np.einsum("kij,kj->ki", rt, delta[:-1])).ravel()
+    return j_acc
 
 
 @dataclass
@@ -369,13 +620,23 @@ class GyroFit:
 
     model: TriadModel
     errors: dict[str, float]
-    bias_source: str  # "poses" (the static poses' means) or "fit" (estimated from the rotations)
+    bias_source: str  # "joint" (static poses and rotations), "poses" (the poses' means) or "fit" (the rotations)
     left_out: dict[int, str] = field(default_factory=dict)  # transition k (pose k → k+1) → why
+    drift: np.ndarray | None = None  # the bias's drift [raw per s] the static poses show, None without
+    drift_se: np.ndarray | None = None
+    t_ref: float = 0.0  # the time [s] at which ``model.bias`` holds (the mean of the poses' times)
+    rotation_sigma: float | None = None  # the rotations' direction noise per component [rad] (joint fit)
 
     def summary(self) -> dict:
         """The ``fit`` entries that say how the gyroscope was fitted."""
         out: dict = {"gyroscope_bias_source": self.bias_source,
                      "gyroscope_g_sensitivity": "estimated" if np.any(self.model.g_sensitivity) else "none"}
+        if self.drift is not None:
+            out["gyroscope_bias_drift_per_s"] = [float(x) for x in self.drift]
+            out["gyroscope_bias_drift_se_per_s"] = [float(x) for x in self.drift_se]
+            out["gyroscope_bias_time_s"] = float(self.t_ref)
+        if self.rotation_sigma is not None:
+            out["gyroscope_rotation_sigma_rad"] = float(self.rotation_sigma)
         if self.left_out:
             out["rotations_left_out"] = {str(k): why for k, why in sorted(self.left_out.items())}
         return out
@@ -389,59 +650,74 @@ def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer
                   estimate_bias: bool | str = "auto", g_sensitivity: bool | str = "auto",
                   exclude: dict[int, str] | None = None, robust: bool = True,
                   acc_cov: np.ndarray | None = None) -> GyroFit:
-    """The gyroscope by gravity-direction propagation (Zhang 2021, eq. 14), robust and with the bias chosen by the data.
+    """The gyroscope from the static poses and the rotations between them together.
 
-    * The static poses give the bias and, where they support it, the
-      g-sensitivity (:func:`static_gyro`, Zhang 2021 eq. 11).
+    * The static poses give the bias, its linear drift and the g-sensitivity
+      where they show them (:func:`static_gyro`, Zhang 2021 eq. 11).
+    * ``estimate_bias="auto"`` (the default) fits ``T_g``, ``k1``, the bias and
+      its drift to one cost holding both (:func:`joint_problem`): the
+      rotations' gravity-direction errors (Zhang 2021, eq. 14) over their own
+      noise and the poses' means (eq. 11) over their standard errors. The
+      poses pin the bias to what the gyroscope reads at rest; the rotations
+      move it only within that. ``False`` holds the bias at the poses'
+      estimate; ``True`` estimates it from the rotations alone (eq. 14 only:
+      for a rest that cannot be trusted).
     * Transitions in ``exclude`` (index ``k``: from pose ``k`` to ``k+1`` → the
       reason: saturated or spiking samples, a gap) are left out.
     * ``robust``: a transition whose error is more than :data:`OUTLIER_SIGMA`
       robust standard deviations (the median of the 2-D error norms is
       ``1.1774 σ``, Rayleigh) is left out and the fit repeated, at most a fifth
       of them; one bad rotation does not drag the rest.
-    * ``estimate_bias="auto"``: the bias is estimated with the other
-      parameters when that lowers the Bayesian information criterion of the
-      residuals (``n ln(RSS/n) + p ln n``, ``n`` = 2 per transition), else taken
-      from the static poses with its covariance.
     * ``acc_cov``: the accelerometer's parameter covariance, carried into the
-      gyroscope's errors (:func:`errors_at`).
+      gyroscope's errors.
     """
     left_out = dict(exclude or {})
     n_tr = len(intervals) - 1
-    static = static_gyro(recording, intervals, accelerometer, g_sensitivity=g_sensitivity)
-    options = [False, True] if estimate_bias == "auto" else [bool(estimate_bias)]
+    if len(intervals) < MIN_POSES:
+        raise ValueError(f"gyroscope calibration needs at least {MIN_POSES} static poses; got {len(intervals)}")
+    joint = estimate_bias == "auto"
+    static = static_gyro(recording, intervals, accelerometer, g_sensitivity=g_sensitivity,
+                         drift="auto" if joint else False)
     start = None
+    sigma = None
     for _ in range(3):
         weights = np.ones(n_tr)
         weights[list(left_out)] = 0.0
-        n = 2 * int(np.count_nonzero(weights))
-        fits = []
-        for est in options:
-            model, e = _solve_direction(recording, intervals, accelerometer, static.bias, est, weights,
-                                        static.g_sensitivity, start)
-            start = model  # the next candidate starts where this one ended
-            rss = float(np.sum((e * weights) ** 2))
-            bic = n * np.log(max(rss, 1e-300) / n) + (12 if est else 9) * np.log(n)
-            fits.append((bic, est, model, e))
-        bic, est, model, e = min(fits, key=lambda f: f[0])
-        errors = errors_at(recording, intervals, accelerometer, model, est, weights=weights,
-                           bias_cov=None if est else static.bias_cov, acc_cov=acc_cov, bias_spread=static.spread)
-        if est and not all(np.isfinite(errors.get(f"gyroscope.bias.{a}", np.nan)) for a in AXES):
-            bic, est, model, e = fits[0]  # the bias is not observable from these rotations
-            errors = errors_at(recording, intervals, accelerometer, model, False, weights=weights,
-                               bias_cov=static.bias_cov, acc_cov=acc_cov, bias_spread=static.spread)
+        est = bool(estimate_bias) and not joint
+        model, e = _solve_direction(recording, intervals, accelerometer, static.bias, est, weights,
+                                    static.g_sensitivity, start)
+        start = model
+        if joint and np.any(weights > 0):
+            model, theta, e, sigma, (fun, jac) = _solve_joint(recording, intervals, accelerometer, static, weights,
+                                                             model)
+            errors = joint_errors(recording, intervals, accelerometer, model, theta, jac, fun(theta), weights,
+                                  sigma, static, acc_cov=acc_cov)
+        else:
+            errors = errors_at(recording, intervals, accelerometer, model, est, weights=weights,
+                               bias_cov=None if est else static.bias_cov, acc_cov=acc_cov,
+                               bias_spread=static.spread)
+            if est and not all(np.isfinite(errors.get(f"gyroscope.bias.{a}", np.nan)) for a in AXES):
+                est = False  # the bias is not observable from these rotations
+                model, e = _solve_direction(recording, intervals, accelerometer, static.bias, False, weights,
+                                            static.g_sensitivity, start)
+                errors = errors_at(recording, intervals, accelerometer, model, False, weights=weights,
+                                   bias_cov=static.bias_cov, acc_cov=acc_cov, bias_spread=static.spread)
         if not robust:
             break
         kept = weights > 0
-        sigma = float(np.median(e[kept])) / 1.1774
-        worst = [int(k) for k in np.argsort(-e) if kept[k] and e[k] > OUTLIER_SIGMA * sigma]
+        if not np.any(kept):
+            break
+        sigma_r = float(np.median(e[kept])) / 1.1774
+        worst = [int(k) for k in np.argsort(-e) if kept[k] and e[k] > OUTLIER_SIGMA * sigma_r]
         room = n_tr // 5 - sum(1 for k in left_out if k not in (exclude or {}))
         if not worst or room <= 0:
             break
         for k in worst[:room]:
-            left_out[k] = (f"its gravity-direction error {np.degrees(e[k]):.2f}° is {e[k] / sigma:.0f}× the "
-                           f"others' robust σ ({np.degrees(sigma):.3f}°)")
-    return GyroFit(model, errors | static.errors, "fit" if est else "poses", left_out)
+            left_out[k] = (f"its gravity-direction error {np.degrees(e[k]):.2f}° is {e[k] / sigma_r:.0f}× the "
+                           f"others' robust σ ({np.degrees(sigma_r):.3f}°)")
+    source = "joint" if joint else ("fit" if est else "poses")
+    return GyroFit(model, errors | static.errors, source, left_out, static.drift if joint else None,
+                   static.drift_se if joint else None, static.t_ref, sigma)
 
 
 def gyroscope_errors(theta: np.ndarray, jac: np.ndarray, res: np.ndarray, layout: GyroLayout, *,

@@ -3,8 +3,9 @@
 Static readings ``u`` of an accelerometer with ``a = T·K·(u − b)`` and
 ``‖a‖ = g`` lie on the ellipsoid ``(u − b)ᵀ A (u − b) = g²`` with
 ``A = (T K)ᵀ (T K)``; :func:`imucalib.fit.accelerometer.fit_ellipsoid` fits it
-in closed form. The gyroscope comes from the rotations between the poses
-(:func:`imucalib.fit.gyroscope.fit_gravity_direction`, Zhang 2021 eq. 14).
+in closed form. The gyroscope comes from the static poses and the rotations
+between them together (:func:`imucalib.fit.gyroscope.fit_gyroscope`: Zhang
+2021 eqs. 11 and 14 in one cost).
 """
 
 from __future__ import annotations
@@ -24,7 +25,8 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
 
     The static means of ≥ 9 poses give ``T_a``, ``k1`` and ``b_a`` in closed
     form, optionally refined by Levenberg–Marquardt on the gravity-norm
-    residuals. The gyroscope bias is the mean of the initial rest.
+    residuals. The gyroscope (bias, drift, g-sensitivity, scales and misalignment) by
+    :func:`imucalib.fit.gyroscope.fit_gyroscope` over the poses and the rotations.
     """
     intervals = static_poses(recording, gravity, intervals, init_static=init_static)
     means = interval_means(recording.acc, intervals)

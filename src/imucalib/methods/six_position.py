@@ -15,10 +15,11 @@ hold that face and the method says which faces are missing. A face a few
 degrees off its axis is corrected for its tilt (measured by the
 directions the calibration gives, to a fixed point;
 :func:`imucalib.fit.accelerometer.six_position`), which eq. 9 as
-printed is not; ``fit["faces_tilt_deg"]`` says by how much. The gyroscope bias
-is the mean of the initial rest; its scale and misalignment come from the
-rotations between poses as in Tedaldi 2014 (the review calibrates gyroscopes on
-a rate table, which free-hand data does not have).
+printed is not; ``fit["faces_tilt_deg"]`` says by how much. The gyroscope
+comes from the static poses and the rotations between them together
+(:func:`imucalib.fit.gyroscope.fit_gyroscope`: the poses' means fix the bias,
+the rotations' gravity directions the scales and misalignment; the review
+calibrates gyroscopes on a rate table, which free-hand data does not have).
 """
 
 from __future__ import annotations

@@ -14,12 +14,17 @@ fragment, §2, and implemented by imu_tk):
    fitted so that ``‖a‖ = g`` at every static pose (Levenberg–Marquardt,
    analytic Jacobian, interval means). The initial values come from an
    algebraic ellipsoid fit (no sensor-specific guess).
-4. Gyroscope: ``ω = T_g K_g (u − b_g)`` with ``T_g`` unit-diagonal (6 terms),
-   ``b_g`` the mean of the initial rest (or estimated); the calibrated rates are
-   integrated (RK4) across each motion and the predicted gravity direction is
-   compared with the measured one at the next pose (Zhang 2021, eq. 14 is the
-   same residual). The initial scale comes from a scalar search started at
-   the ratio of the gravity-direction change to the integrated raw rate.
+4. Gyroscope: ``ω = T_g K_g (u − b_g)`` with ``T_g`` unit-diagonal (6 terms);
+   the calibrated rates are integrated (RK4) across each motion and the
+   predicted gravity direction is compared with the measured one at the next
+   pose (Zhang 2021, eq. 14 is the same residual). The paper takes ``b_g``
+   from the initial rest; here the bias (with a linear drift where the poses
+   show one) and the g-sensitivity come from every static pose's mean
+   (Zhang 2021, eq. 11) in the same cost as the rotations
+   (:func:`imucalib.fit.gyroscope.fit_gyroscope`), each over its own noise:
+   the rotations alone trade the bias against the scales. The initial scale
+   comes from a scalar search started at the ratio of the gravity-direction
+   change to the integrated raw rate.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ import numpy as np
 
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import accelerometer_covariance, accelerometer_errors, fit_gravity_norm
-from ..fit.gyroscope import errors_at, fit_gyroscope, static_gyro
+from ..fit.gyroscope import errors_at, fit_gyroscope, joint_errors_at, static_gyro
 from ..metrics import fit_summary, interval_means
 from ..recording import STANDARD_GRAVITY, Interval, Recording
 from ..segment import detect_intervals, unreliable_transitions
@@ -58,9 +63,11 @@ def uncertainty(recording: Recording, intervals: list[Interval], calibration: Ca
     out = accelerometer_errors(acc, interval_means(recording.acc, intervals), calibration.gravity)
     weights = np.ones(len(intervals) - 1)
     weights[[int(k) for k in fit.get("rotations_left_out", {})]] = 0.0
-    estimated = fit.get("gyroscope_bias_source") == "fit"
-    static = static_gyro(recording, intervals, acc, g_sensitivity=bool(np.any(gyro.g_sensitivity)))
     acc_cov = accelerometer_covariance(acc, interval_means(recording.acc, intervals), calibration.gravity)
+    if fit.get("gyroscope_bias_source") == "joint":
+        return out | joint_errors_at(recording, intervals, acc, gyro, fit, acc_cov=acc_cov)
+    estimated = fit.get("gyroscope_bias_source") == "fit"
+    static = static_gyro(recording, intervals, acc, g_sensitivity=bool(np.any(gyro.g_sensitivity)), drift=False)
     return (out | errors_at(recording, intervals, acc, gyro, estimated, weights=weights,
                             bias_cov=None if estimated else static.bias_cov, acc_cov=acc_cov,
                             bias_spread=static.spread) | static.errors)
@@ -95,10 +102,10 @@ def calibrate(
     window, min_interval : float
         Detector window and shortest static interval [s].
     estimate_gyro_bias : bool or "auto"
-        Estimate the gyroscope bias with the other parameters (True), take the
-        mean of the initial rest (False), or let the data decide ("auto",
-        :func:`imucalib.fit.gyroscope.fit_gyroscope`: estimated when that lowers
-        the information criterion of the rotations' residuals).
+        ``"auto"``: the bias from the static poses' means and the rotations in
+        one cost (:func:`imucalib.fit.gyroscope.fit_gyroscope`); False: from
+        the static poses alone; True: from the rotations alone (for a session
+        whose rests cannot be trusted).
     gyro_g_sensitivity : bool or "auto"
         Estimate the gyroscope's g-sensitivity from the static poses (True),
         leave it out as Tedaldi 2014 does (False), or keep it where the poses

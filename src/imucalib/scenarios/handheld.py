@@ -618,7 +618,7 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
              gyro_rw: float = 1e-4, acc_drift: float = 0.0, quantise: bool = True, full_scale: int | None = 32768,
              face_dwell=(5.0, 7.0), quarter=(0.3, 0.8), quarter_pause=(0.2, 0.4),
              nudge_deg: float = 0.0, magnetometer: bool | dict | None = None, temperature: float | None = None,
-             ramp: tuple | None = None, thermal: dict | None = None) -> dict:
+             ramp: tuple | None = None, thermal: dict | None = None, vibration: tuple | None = None) -> dict:
     """Simulate a hand-held calibration session of a consumer IMU (see the module docstring).
 
     Parameters
@@ -708,6 +708,11 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
     thermal : dict, optional
         Thermal coefficients ``{"gyroscope.bias.x": [c1, c2], …}`` (raw units per °C, per °C²) around
         25 °C (default: drawn by :func:`datasheet_thermal` when ``temperature`` or ``ramp`` is given).
+    vibration : (frequency, amplitude), optional
+        A vibrating table: the accelerometer's readings alone are shaken along the world vertical by
+        ``amplitude · sin(2π · frequency · t)`` [Hz, m/s² peak] for the whole session; the gyroscope
+        (its g-sensitivity included) and the attitude are untouched. None: no vibration, and the
+        session is the same as without this option (it draws no random number).
 
     Returns
     -------
@@ -807,9 +812,19 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
     # f = Rᵀ(g ẑ + p̈) + ω̇ × ρ + ω × (ω × ρ)   (rigid body; Zhang 2021, eqs. 17–18 with ρ = −r)
     f = np.einsum("nji,nj->ni", r, g * _UP + p_acc) + np.cross(wd, rho) + np.cross(w, np.cross(w, rho))
     hand = np.linalg.norm(f - np.einsum("nji,j->ni", r, g * _UP), axis=1)
+    shake = None
+    if vibration is not None:
+        freq, amp = (float(v) for v in vibration)
+        if not (freq > 0 and amp >= 0 and np.isfinite(freq) and np.isfinite(amp)):
+            raise ValueError(f"vibration is (frequency [Hz] > 0, amplitude [m/s²] ≥ 0); got {vibration!r}")
+        k["vibration"] = [freq, amp]
+        shake = np.einsum("nji,j->ni", r, _UP) * (amp * np.sin(2 * np.pi * freq * t))[:, None]
 
     # ---- readings: the canonical model inverted (Zhang 2021, eqs. 31–32), noise, drift, counts
     acc, gyro = distort(truth_s.with_(thermal=None), f, w, rng, noise, None, None)
+    if shake is not None:  # the accelerometer's readings only: not the gyroscope's g-sensitivity
+        model = truth_s.accelerometer
+        acc = acc + model.inverse(f + shake) - model.inverse(f)
     if "temperature" in k:
         temp_profile = np.full(n, k["temperature"])
     elif "ramp" in k:
