@@ -76,9 +76,6 @@ BAD = [  # (arguments, words the error holds); {csv} etc. are the fixture's file
     (["calibrate", "{csv}", "--columns", "t,ax,ay,az,gx"], "--columns needs 7 entries"),
     (["calibrate", "{csv}", "--columns", "t,ax,ay,az,ax,gy,gz"], "for both ax and gx"),
     (["calibrate", "{csv}", "--columns", "t,ax,ay,az,nope,gy,gz"], "no such column"),
-    (["calibrate", "{csv}", "--acc-unit", "g"], "--acc-unit g contradicts the header"),
-    (["calibrate", "{csv}", "--gyro-unit", "deg/s"], "--gyro-unit deg/s contradicts the header"),
-    (["calibrate", "{csv}", "--time-unit", "ms"], "--time-unit ms contradicts the header"),
     (["calibrate", "{csv}", "--rate", "100"], "has a time column"),
     (["calibrate", "{serial}"], "no time column found; pass --rate HZ"),
     (["calibrate", "{csv}", "--topic", "/imu"], "topic applies to ROS bags"),
@@ -217,5 +214,6 @@ def test_apply_takes_a_phone_pair(files, cal_si, tmp_path, capsys):
     out = read(tmp_path / "o.csv")
     np.testing.assert_allclose(out.extra["acc_x_cal [m/s^2]"], si.acc[:, 0], rtol=1e-9)
     code, _, err = run(capsys, "apply", cal_si, tmp_path / "acc.csv", tmp_path / "gyr.csv", "--acc-unit", "g",
-                       "-o", tmp_path / "p.csv")
-    assert code == 2 and "--acc-unit g contradicts the header" in err, err
+                       "-o", tmp_path / "p.csv")  # the option wins over the header, with a warning saying who is right
+    assert code == 2 and "--acc-unit g overrides the header" in err and "the header looks right" in err, err
+    assert "maps accelerometer readings in 'm/s^2'" in err, err

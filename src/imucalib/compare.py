@@ -91,6 +91,7 @@ def compare(
     intervals: Sequence[Interval] | None = None,
     folds: int | None = 12,
     progress: Callable[[str], None] | None = None,
+    init_static: float | None = None,
 ) -> dict:
     """Calibrate with each method and cross-validate it.
 
@@ -108,6 +109,9 @@ def compare(
         Number of held-out poses, spread evenly (None: every pose).
     progress : callable, optional
         Called with a message per method.
+    init_static : float, optional
+        Length of the initial rest [s] (found automatically by default,
+        :func:`imucalib.segment.initial_rest`).
 
     Returns
     -------
@@ -121,7 +125,7 @@ def compare(
 
     say = progress or (lambda msg: None)
     if intervals is None:
-        intervals = detect_intervals(recording, gravity)[0]
+        intervals = detect_intervals(recording, gravity, init_static=init_static)[0]
     intervals = list(intervals)
     chosen = list(methods) if methods is not None else method_names()
     fold_list = even_folds(len(intervals), folds)

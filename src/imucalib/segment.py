@@ -19,6 +19,7 @@ given.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -27,7 +28,7 @@ import numpy as np
 from .fit.accelerometer import fit_gravity_norm, fit_sphere
 from .metrics import interval_means, transition_bounds
 from .models import TriadModel
-from .recording import Interval, Recording
+from .recording import ImucalibWarning, Interval, Recording
 
 __all__ = [
     "moving_variance",
@@ -149,12 +150,19 @@ def variance_norm(acc: np.ndarray, window: int) -> np.ndarray:
     return out
 
 
+#: the initial rest the detector would like [s]: its noise level is the median statistic over this much rest
+PREFERRED_REST = 2.0
+#: the shortest initial rest found automatically [s]; a rest between this and :data:`PREFERRED_REST` gets a note
+SHORTEST_REST = 1.0
+
+
 def find_initial_rest(
     recording: Recording,
     *,
     window_seconds: float = 1.0,
     factor: float = 30.0,
-    min_seconds: float = 2.0,
+    min_seconds: float = PREFERRED_REST,
+    shortest: float = SHORTEST_REST,
 ) -> Interval:
     """Locate the initial rest period that starts a calibration recording.
 
@@ -163,12 +171,22 @@ def find_initial_rest(
     ``min_seconds``; the rest ends where either statistic first exceeds
     ``factor`` times its level (the first movement: the gyroscope catches a
     turn about the vertical, which leaves the accelerometer still), less half
-    a window.
+    a window. A recording with no gyroscope is judged by its accelerometer.
+
+    A short rest fools that level (its first ``min_seconds`` hold motion), so
+    the start is first looked at with a window of ``shortest / 2`` seconds and
+    the level over its first ``shortest / 4`` seconds: when that finds the
+    first movement (plus half its window) before ``min_seconds``, the rest is
+    that long; at least ``shortest`` seconds of it are taken (less half the
+    short window) with an :class:`ImucalibWarning` saying that its noise level
+    rests on fewer samples than the detector would like, and anything shorter
+    is an error. The short look also gives the rest where the first look
+    leaves less than ``min_seconds`` after its margin of a full window.
 
     Raises
     ------
     ValueError
-        If the recording does not start with at least ``min_seconds`` of rest.
+        If the recording does not start with at least ``shortest`` seconds of rest.
     """
     rate = recording.rate
     win = max(int(round(window_seconds * rate)) | 1, 3)
@@ -178,21 +196,45 @@ def find_initial_rest(
             f"the recording is {recording.duration:.3g} s long: too short for an initial "
             f"rest of {min_seconds} s"
         )
-    first_motion = len(recording)
+    short_win = max(int(round(0.5 * shortest * rate)) | 1, 3)
+    head = recording[: min(n0 + win + short_win, len(recording))]  # the short look reads the start only
+    short_end = _first_motion(head, short_win, short_win // 2 + 1, factor)
+    short_end = len(recording) if short_end == len(head) else short_end
+    moves = (short_end + short_win // 2) / rate  # where the short look sees the first movement [s]
+    if moves < min_seconds and shortest < min_seconds:
+        if moves < shortest:
+            raise ValueError(_no_rest(moves, shortest))
+        warnings.warn(f"the initial rest is about {moves:.2g} s, shorter than the {min_seconds:g} s the detector "
+                      f"would like: the noise level that sets its threshold rests on the first "
+                      f"{short_end / rate:.2g} s (record a longer rest at the start, or give its length with "
+                      "--init-static SECONDS)", ImucalibWarning, stacklevel=2)
+        return Interval(0, short_end, "static")
+    first_motion = _first_motion(recording, win, max(n0, win), factor)
+    end = max(first_motion - win // 2, 0) if first_motion < len(recording) else len(recording)
+    if end >= n0:
+        return Interval(0, end, "static")
+    if shortest < min_seconds and short_end < len(recording):
+        return Interval(0, short_end, "static")
+    raise ValueError(_no_rest(end / rate, min_seconds))
+
+
+def _first_motion(recording: Recording, win: int, n_level: int, factor: float) -> int:
+    """The first sample whose statistic (window ``win``) exceeds ``factor`` × its median over ``n_level`` samples."""
+    first = len(recording)
     for signal in (recording.acc, recording.gyro):
+        if signal is None:
+            continue
         stat = variance_norm(signal, win)
-        level = float(np.median(stat[: max(n0, win)]))
+        level = float(np.median(stat[:n_level]))
         moving = np.nonzero(stat > factor * max(level, np.finfo(float).tiny))[0]
         if moving.size:
-            first_motion = min(first_motion, int(moving[0]))
-    end = max(first_motion - win // 2, 0) if first_motion < len(recording) else len(recording)
-    if end < n0:
-        raise ValueError(
-            f"no initial rest found: the sensor moves {end / rate:.3g} s after the start; "
-            f"a recording must begin with at least {min_seconds} s at rest (or pass "
-            "--init-static SECONDS)"
-        )
-    return Interval(0, end, "static")
+            first = min(first, int(moving[0]))
+    return first
+
+
+def _no_rest(moves: float, seconds: float) -> str:
+    return (f"no initial rest found: the sensor moves {moves:.3g} s after the start; a recording must begin with "
+            f"at least {seconds:g} s at rest (or pass --init-static SECONDS)")
 
 
 def detect_static(

@@ -9,7 +9,15 @@ import numpy as np
 from ..calibration import Calibration
 from ..io.atomic import atomic_write, refuse_overwriting_inputs
 from ..recording import ImucalibWarning
-from ._common import CliError, add_reader_options, positive_float, print_json, read_recording, show_warning
+from ._common import (
+    CliError,
+    add_init_static_option,
+    add_reader_options,
+    positive_float,
+    print_json,
+    read_recording,
+    show_warning,
+)
 
 __all__ = ["register"]
 
@@ -18,13 +26,13 @@ __all__ = ["register"]
 def cmd_noise(args: argparse.Namespace) -> int:
     """``imucalib noise``: :func:`imucalib.noise.noise_summary` of the initial rest, optionally a Kalibr file."""
     from ..noise import kalibr_yaml, noise_summary
-    from ..segment import find_initial_rest
+    from ..segment import initial_rest
 
     refuse_overwriting_inputs([args.kalibr, args.plot], [*args.data, args.calibration])
     rec = read_recording(args, args.data)
     if args.calibration:  # noise in SI units, through the calibration
         rec = Calibration.load(args.calibration).apply(rec)
-    part = rec if args.whole else rec[find_initial_rest(rec)]
+    part = rec if args.whole else rec[initial_rest(rec, args.init_static)]
     result = noise_summary(part)
     if args.kalibr:
         if (part.acc_unit, part.gyro_unit) != ("m/s^2", "rad/s"):
@@ -118,6 +126,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "sensors from the Allan deviation of the recording's initial rest.")
     p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
     p.add_argument("--whole", action="store_true", help="use the whole recording (it must be at rest)")
+    add_init_static_option(p)
     p.add_argument("--plot", metavar="FILE", help="also draw the Allan deviation (PNG/SVG/PDF; plot extra)")
     p.add_argument("--calibration", metavar="CALIBRATION.json",
                    help="apply this calibration first: the noise in m/s^2 and rad/s")

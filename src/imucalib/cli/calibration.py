@@ -217,7 +217,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     say = progress(not args.json and sys.stderr.isatty())
     rec = read_recording(args, args.data)
     result = compare(rec, gravity=args.gravity, methods=args.methods.split(",") if args.methods else None,
-                     folds=None if args.folds == 0 else args.folds, progress=say)
+                     folds=None if args.folds == 0 else args.folds, progress=say, init_static=args.init_static)
     if args.json:
         return print_json(result)
     print(f"{result['static_intervals']} static intervals; leave-one-pose-out over "
@@ -311,6 +311,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "gyroscope angle errors; methods that cannot run say why.")
     p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
     add_gravity_option(p)
+    add_init_static_option(p)
     p.add_argument("--methods", help="comma-separated methods (default: all)")
     p.add_argument("--folds", type=int, default=12,
                    help="held-out poses, spread evenly (0: every pose; default 12)")

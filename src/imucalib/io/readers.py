@@ -80,8 +80,9 @@ def read(
     Xsens MT Manager text exports (``//`` comment lines, then ``PacketCounter
     SampleTimeFine … Acc_X … Gyr_Z``) are recognised from their header:
     ``SampleTimeFine`` counts 100 µs ticks, the readings are in m/s² and rad/s.
-    A unit option that contradicts a unit written in the header is an error;
-    with no unit given or written, readings that look like m/s², g, rad/s or
+    A unit option that contradicts a unit written in the header wins over it,
+    with a warning saying which of the two the accelerometer's magnitude
+    supports; with no unit given or written, readings that look like m/s², g, rad/s or
     deg/s are still taken as counts, with a note saying so.
     """
     if _is_frame(paths):
@@ -142,6 +143,7 @@ def read(
         rec = inputs.read_xsens(paths[0], xsens, acc_unit, gyro_unit, rate, time_unit, read_csv=_read_csv)
     else:
         rec = _read_csv(paths[0], columns, acc_unit, gyro_unit, rate, time_unit)
+    acc_unit, gyro_unit, time_unit = _flags_over_header(paths, reader, rec, acc_unit, gyro_unit, time_unit)
     inputs.check_against_header(paths, reader, rec, acc_unit, gyro_unit, time_unit, unit_in=_unit_in,
                                 phone_specs=_phone_specs)
     inputs.check_magnitudes(paths, rec)
@@ -152,6 +154,52 @@ def read(
     rec.metadata.setdefault("source", [str(p) for p in paths])
     rec.metadata["reader"] = reader
     return rec
+
+
+def _written_units(paths: Sequence[Path], reader: str, rec: Recording) -> dict[str, tuple[str, str]]:
+    """Field (``ax``, ``gx``, ``t``) → (where, unit) for each unit the file's header writes."""
+    written: dict[str, tuple[str, str]] = {}
+    if reader == "csv" and rec.metadata.get("header"):
+        for field, name in (rec.metadata.get("columns") or {}).items():
+            if field in ("ax", "gx", "t") and name is not None and _unit_in(name) is not None:
+                written[field] = (name, _unit_in(name))
+    elif reader == "phone":
+        for spec in _phone_specs(paths) or []:
+            if spec.unit is not None:
+                field = "ax" if spec.sensor == "acc" else "gx"
+                written[field] = (f"{spec.app} {'accelerometer' if field == 'ax' else 'gyroscope'} file", spec.unit)
+    return written
+
+
+def _flags_over_header(paths: Sequence[Path], reader: str, rec: Recording, acc_unit, gyro_unit, time_unit):
+    """A unit option that contradicts the header wins, with a warning; the options left to check against it.
+
+    The readers already read the data in the option's unit. For the accelerometer the warning says which
+    of the two units the readings' magnitude supports: the median norm of the static-ish samples is g in
+    either unit, so about 9.8 in m/s² and about 1 in g.
+    """
+    given = {"ax": ("--acc-unit", acc_unit), "gx": ("--gyro-unit", gyro_unit), "t": ("--time-unit", time_unit)}
+    where_file = ", ".join(map(str, paths)) if reader == "phone" else str(paths[0])
+    overridden = set()
+    for field, (where, unit) in _written_units(paths, reader, rec).items():
+        flag, value = given[field]
+        if value is None or value == unit:
+            continue
+        overridden.add(field)
+        told = ""
+        if field == "ax" and rec.acc is not None and len(rec):
+            norm = float(np.median(np.linalg.norm(rec.acc, axis=1)))
+            looks = {"m/s^2": 9.0 <= norm <= 10.6, "g": 0.9 <= norm <= 1.1}
+            if looks.get(value):
+                told = f"; the readings' median norm, {norm:.3g}, is gravity in {value}: the option is right"
+            elif looks.get(unit):
+                told = (f"; but the readings' median norm, {norm:.3g}, is gravity in {unit}: the header looks "
+                        f"right, drop {flag}")
+            elif value in looks:
+                told = f"; the readings' median norm, {norm:.3g}, is gravity in neither unit: check the column"
+        warnings.warn(f"{where_file}: {flag} {value} overrides the header ({where!r} says {unit}): the readings are "
+                      f"taken in {value}{told}", ImucalibWarning, stacklevel=3)
+    return tuple(None if f in overridden else given[f][1] for f in ("ax", "gx", "t"))
 
 
 def guess_reader(paths: Sequence[Path]) -> str:
