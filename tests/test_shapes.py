@@ -83,3 +83,31 @@ def test_noise_and_compare_take_init_static(capsys, tmp_path, short_rest):
                          "--folds", "2", "--json")
     assert code == 0, err
     assert json.loads(out)["methods"][0]["ok"]
+
+
+# ---------------------------------------------------------------- a header that disagrees with the data
+def _si_csv(path, rec, acc_name):
+    """``rec`` (m/s², rad/s) as a CSV file whose accelerometer columns are named ``acc_name.format(axis)``."""
+    header = ",".join(["t [s]", *(acc_name.format(a) for a in "XYZ"), *(f"g{a} [rad/s]" for a in "xyz")])
+    np.savetxt(path, np.column_stack([rec.t, rec.acc, rec.gyro]), fmt="%.10g", delimiter=",", header=header,
+               comments="")
+
+
+def test_a_unit_option_wins_over_a_mislabelled_header(capsys, tmp_path):
+    sim = session("handheld", rng=3, n_poses=16, rest=5.0)
+    truth = sim.truth
+    si = truth.apply(sim.recording)  # the same session in m/s^2 and rad/s
+    _si_csv(tmp_path / "plain.csv", si, "a{} (m/s^2)")
+    _si_csv(tmp_path / "wrong.csv", si, "a{} (g)")  # the header says g over values in m/s^2
+    code, out, err = run(capsys, "calibrate", tmp_path / "plain.csv", "--method", "ellipsoid", "--json")
+    assert code in (0, 3), err
+    plain = json.loads(out)
+    code, out, err = run(capsys, "calibrate", tmp_path / "wrong.csv", "--method", "ellipsoid", "--acc-unit", "m/s^2",
+                         "--json")
+    assert code in (0, 3), err
+    assert "--acc-unit m/s^2 overrides the header" in err and "the option is right" in err, err
+    assert json.loads(out)["accelerometer"] == plain["accelerometer"]
+    code, out, err = run(capsys, "calibrate", tmp_path / "wrong.csv", "--method", "ellipsoid", "--json")
+    assert "raw |a| at rest is" in json.dumps(json.loads(out)["fit"]["verdict_reasons"])  # read as g: told
+    code, out, err = run(capsys, "calibrate", tmp_path / "plain.csv", "--method", "ellipsoid", "--acc-unit", "g")
+    assert "the header looks right, drop --acc-unit" in err, err

@@ -12,7 +12,9 @@ The methods are ranked (:func:`rank`) by, in turn:
    accepted, then suspect (or none), then rejected;
 3. the cross-validated score ``r/r_best + θ/θ_best``: the held-out gravity
    residual RMS ``r`` and mean gyroscope angle error ``θ``, each relative to the
-   best value any method reached on this recording (a method best on both scores 2).
+   best value any method reached on this recording (a method best on both scores 2);
+   ``r/r_best`` alone for an accelerometer-only recording, which compares the
+   methods that take one.
 
 The best method is the first one that ran and was not rejected (none when
 every method was rejected or could not run). Where a method selects
@@ -60,6 +62,7 @@ def rank(rows: Sequence[dict]) -> tuple[list[dict], str | None]:
     for key in ("cv_accelerometer_residual_rms", "cv_gyroscope_angle_error_mean_deg"):
         values = [v for v in (figure(r, key) for r in rows) if v is not None]
         best[key] = max(min(values), 1e-300) if values else None
+    best = {k: v for k, v in best.items() if v is not None}  # no angle without a gyroscope: the residual alone
     out = []
     for row in rows:
         parts = [figure(row, key) for key in best]
@@ -128,6 +131,10 @@ def compare(
         intervals = detect_intervals(recording, gravity, init_static=init_static)[0]
     intervals = list(intervals)
     chosen = list(methods) if methods is not None else method_names()
+    if recording.gyro is None and methods is None:  # an accelerometer-only recording: the methods that take it
+        from .methods import ACCELEROMETER_ONLY
+
+        chosen = [m for m in chosen if m in ACCELEROMETER_ONLY]
     fold_list = even_folds(len(intervals), folds)
     rows = []
     for name in chosen:

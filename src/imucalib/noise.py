@@ -126,13 +126,16 @@ def noise_summary(recording: Recording) -> dict:
     -------
     dict
         ``{"seconds", "samples", "rate_hz", "accelerometer": {...},
-        "gyroscope": {...}}``; each sensor's entry holds its ``unit``, the
+        "gyroscope": {...}}`` (no ``"gyroscope"`` for an accelerometer-only
+        recording); each sensor's entry holds its ``unit``, the
         :func:`noise_parameters` per axis and the :func:`random_walk_bound`,
         as lists (JSON-ready; :func:`kalibr_yaml` takes them as they are).
     """
     out = {"seconds": recording.duration, "samples": len(recording), "rate_hz": recording.rate}
     for name, x, unit in (("accelerometer", recording.acc, recording.acc_unit),
                           ("gyroscope", recording.gyro, recording.gyro_unit)):
+        if x is None:
+            continue
         p = noise_parameters(x, recording.rate)
         out[name] = {"unit": unit, **{k: v.tolist() for k, v in p.items()},
                      "random_walk_bound": random_walk_bound(x, recording.rate).tolist()}

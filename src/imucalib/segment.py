@@ -424,7 +424,7 @@ def detect_intervals(
     multipliers = list(multipliers)
     detector = _detector(recording, rest, window, min_interval)
     intervals, mult, model = _scan(detector, gravity, recording, multipliers, min_interval, None)
-    if gyro_gate:
+    if gyro_gate and recording.gyro is not None:  # an accelerometer-only recording has no gate
         from .fit.gyroscope import rough_scale
 
         scale = rough_scale(recording, intervals, model, recording.gyro[rest.slice].mean(axis=0))

@@ -222,6 +222,8 @@ def plausibility(calibration) -> list[Check]:
     if fit.get("converged") is False:
         out.append(Check(2, "the solver did not converge: these parameters are not a minimum of the fit"))
     for sensor, model in (("accelerometer", calibration.accelerometer), ("gyroscope", calibration.gyroscope)):
+        if model is None:  # an accelerometer-only calibration
+            continue
         unit = calibration.units[sensor]["raw"]
         nominal = calibration.gravity if unit == "g" else _NOMINAL.get(unit)
         if nominal is not None:
@@ -426,7 +428,9 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     checks += _redundancy(calibration, fitted)
     if fitted:
         checks += _usefulness(calibration)
-    if recording is not None:
+    if calibration.gyroscope is None:
+        checks.append(Check(0, "no gyroscope (an accelerometer-only recording): the gyroscope checks are skipped"))
+    elif recording is not None:
         gyro_checks, figures = _gyroscope(calibration, recording, intervals)
         checks += gyro_checks
         checks += _known_turns(calibration, recording)

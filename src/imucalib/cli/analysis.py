@@ -35,6 +35,8 @@ def cmd_noise(args: argparse.Namespace) -> int:
     part = rec if args.whole else rec[initial_rest(rec, args.init_static)]
     result = noise_summary(part)
     if args.kalibr:
+        if part.gyro is None:
+            raise CliError("the Kalibr noise file needs a gyroscope's noise; this recording is accelerometer-only")
         if (part.acc_unit, part.gyro_unit) != ("m/s^2", "rad/s"):
             raise CliError(f"the Kalibr file needs SI units; this recording is in {part.acc_unit} and "
                            f"{part.gyro_unit}: pass --calibration CALIBRATION.json (or read data in m/s^2, rad/s)")
@@ -58,6 +60,9 @@ def cmd_noise(args: argparse.Namespace) -> int:
     print(f"noise over {result['seconds']:.1f} s of rest ({result['samples']} samples, "
           f"{result['rate_hz']:.4g} Hz), Allan deviation (IEEE 952 slopes):")
     for name in ("accelerometer", "gyroscope"):
+        if name not in result:
+            print(f"  {name}: none in this recording (accelerometer-only)")
+            continue
         r = result[name]
         u = r["unit"]
         print(f"  {name}: white noise {_triple(r['white_noise_density'])} {u}·√s "

@@ -562,8 +562,10 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     rows = plan.rows if plan is not None else len(frame)
     if rows == 0:
         raise ReaderError(f"{path}: no data rows after the header")
-    acc, gyro = np.empty((rows, 3)), np.empty((rows, 3))
-    targets = {f: (acc if f[0] == "a" else gyro)[:, "xyz".index(f[1])] for f in FIELDS[1:]}
+    has_gyro = mapping["gx"] is not None
+    acc, gyro = np.empty((rows, 3)), (np.empty((rows, 3)) if has_gyro else None)
+    targets = {f: (acc if f[0] == "a" else gyro)[:, "xyz".index(f[1])] for f in FIELDS[1:]
+               if mapping[f] is not None}
     out: dict[int, np.ndarray] = {}
     for f, view in targets.items():
         out.setdefault(mapping[f], view)
@@ -605,7 +607,7 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
             meta["t0"] = offset
             meta["time_relative"] = True
     au = acc_unit or (_unit_in(names[mapping["ax"]]) if has_header else None) or "counts"
-    gu = gyro_unit or (_unit_in(names[mapping["gx"]]) if has_header else None) or "counts"
+    gu = gyro_unit or (_unit_in(names[mapping["gx"]]) if has_header and has_gyro else None) or "counts"
     if au not in ACC_UNITS:
         au = "counts"
     if gu not in GYRO_UNITS:
@@ -715,17 +717,34 @@ def _not_number(cell: str) -> bool:
 
 
 def _map_columns(path: Path, names: list[str], columns, has_header: bool) -> dict:
-    """Column index of each of t, ax…gz (None for a missing time column)."""
+    """Column index of each of t, ax…gz (None for a missing time column; gx, gy, gz None when there is no gyroscope).
+
+    ``columns`` has 7 entries (``t,ax,ay,az,gx,gy,gz``; ``-`` for ``t`` when there is no time column, ``-`` for
+    gx, gy and gz when there is no gyroscope) or 4 (``t,ax,ay,az``: an accelerometer-only log). Without it, a header
+    that names accelerometer columns and no gyroscope column is an accelerometer-only log (with a note), and a file
+    without a header is read by its width: 7 or 6 columns with a gyroscope, 4 or 3 without (with a note).
+    """
     if columns is not None:
         columns = [c.strip() for c in columns]
-        if len(columns) != 7:
+        if len(columns) not in (4, 7):
             raise ReaderError(
-                f"--columns needs 7 entries in the order {','.join(FIELDS)}; got {len(columns)}"
+                f"--columns needs 7 entries in the order {','.join(FIELDS)} (or 4, {','.join(FIELDS[:4])}, for an "
+                f"accelerometer-only log); got {len(columns)}"
             )
+        if len(columns) == 4:
+            columns += ["-", "-", "-"]
+        absent = [f for f, c in zip(FIELDS, columns, strict=True) if c == "-"]
+        if any(f.startswith("a") for f in absent):
+            raise ReaderError(f"--columns: the accelerometer's columns are needed ('-' given for "
+                              f"{', '.join(f for f in absent if f.startswith('a'))}); '-' stands for an absent time "
+                              "column or an absent gyroscope")
+        if 0 < sum(f.startswith("g") for f in absent) < 3:
+            raise ReaderError("--columns: give all three gyroscope columns, or '-' for each of gx, gy, gz when "
+                              "there is no gyroscope")
         out = {}
         lower = [n.lower() for n in names]
         for field, c in zip(FIELDS, columns, strict=True):
-            if c == "-" and field == "t":
+            if c == "-":
                 out[field] = None
             elif c.isdigit():
                 j = int(c)
@@ -740,19 +759,22 @@ def _map_columns(path: Path, names: list[str], columns, has_header: bool) -> dic
                                   f"columns are {', '.join(names)}")
         return out
     if not has_header:
-        if len(names) == 7:
-            warnings.warn(f"{path}: no header: the columns were taken as "
-                          f"{','.join(FIELDS)} (pass --columns to say otherwise)",
-                          ImucalibWarning, stacklevel=4)
-            return dict(zip(FIELDS, range(7), strict=True))
-        if len(names) == 6:
-            warnings.warn(f"{path}: no header and 6 columns: they were taken as {','.join(FIELDS[1:])}, "
-                          "with no time column (pass --columns to say otherwise)",
-                          ImucalibWarning, stacklevel=4)
-            return {"t": None, **dict(zip(FIELDS[1:], range(6), strict=True))}
-        raise ReaderError(f"{path}: no header and {len(names)} columns: pass --columns with 7 "
+        width = len(names)
+        if width in (7, 4):
+            fields = FIELDS[:width]
+            warnings.warn(f"{path}: no header: the columns were taken as {','.join(fields)}"
+                          + (" (an accelerometer-only log)" if width == 4 else "")
+                          + " (pass --columns to say otherwise)", ImucalibWarning, stacklevel=4)
+            return {**dict.fromkeys(FIELDS), **dict(zip(fields, range(width), strict=True))}
+        if width in (6, 3):
+            fields = FIELDS[1:width + 1]
+            warnings.warn(f"{path}: no header and {width} columns: they were taken as {','.join(fields)}, "
+                          "with no time column" + (" (an accelerometer-only log)" if width == 3 else "")
+                          + " (pass --columns to say otherwise)", ImucalibWarning, stacklevel=4)
+            return {**dict.fromkeys(FIELDS), **dict(zip(fields, range(width), strict=True))}
+        raise ReaderError(f"{path}: no header and {width} columns: pass --columns with 7 "
                           f"0-based indices in the order {','.join(FIELDS)} ('-' for t when there is "
-                          "no time column)")
+                          f"no time column), or 4 ({','.join(FIELDS[:4])}) for an accelerometer-only log")
     out: dict = {"t": None}
     for j, name in enumerate(names):
         if out["t"] is None and _TIME.match(name):
@@ -764,6 +786,10 @@ def _map_columns(path: Path, names: list[str], columns, has_header: bool) -> dic
                 key = ("a" if kind == "acc" else "g") + m.group(1).lower()
                 out.setdefault(key, j)
     missing = [f for f in FIELDS[1:] if f not in out]
+    if missing == ["gx", "gy", "gz"]:
+        warnings.warn(f"{path}: no gyroscope columns (found {', '.join(names)}): read as an accelerometer-only log",
+                      ImucalibWarning, stacklevel=4)
+        return {**out, **dict.fromkeys(missing)}
     if missing:
         raise ReaderError(
             f"{path}: missing columns {', '.join(missing)} (found {', '.join(names)}); pass "
@@ -881,6 +907,10 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
         cands = [k for k, v in found.items()
                  if isinstance(v, np.ndarray) and v.ndim == 2 and v.dtype.kind in "fiu"
                  and v.shape[1] >= 7]
+        if not cands:  # an accelerometer-only matrix: 3 or 4 columns beside a magnetometer or temperature
+            cands = [k for k, v in found.items()
+                     if isinstance(v, np.ndarray) and v.ndim == 2 and v.dtype.kind in "fiu"
+                     and min(v.shape) in (3, 4) and max(v.shape) > 4 and not _MAT_MAG.match(k)]
         if len(cands) != 1:
             raise ReaderError(f"{path}: pass --variable NAME; variables present: "
                               f"{', '.join(found) or 'none'}")
@@ -893,13 +923,16 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
         raise ReaderError(f"{path}: variable {variable!r} must be a numeric matrix; got shape "
                           f"{m.shape} of {m.dtype}")
     m = m.astype(np.float64)
-    if m.shape[1] < 6 and m.shape[0] >= 6:
+    if m.shape[1] < 6 and m.shape[0] >= 6 and m.shape[1] not in (3, 4):
+        m = m.T
+    elif m.shape[0] in (3, 4) and m.shape[1] > m.shape[0]:  # an accelerometer-only matrix stored as rows
         m = m.T
     names = [str(j) for j in range(m.shape[1])]
     if columns is None:
         if m.shape[1] < 7:
             raise ReaderError(f"{path}: variable {variable!r} has {m.shape[1]} columns; pass "
-                              "--columns (use '-' for t with --rate when there is no time)")
+                              "--columns (use '-' for t with --rate when there is no time; 4 entries "
+                              "t,ax,ay,az for an accelerometer-only log)")
         columns = [str(j) for j in range(7)]
     mapping = _map_columns(path, names, columns, True)
     bad = ~np.isfinite(m[:, [j for j in mapping.values() if j is not None]])
@@ -918,8 +951,59 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
         raw_t = m[:, mapping["t"]]
         _check_time(path, raw_t, 1, "time (row)")
         t = _to_seconds(raw_t, time_unit or _infer_time_unit(raw_t), meta)
+    extra, temperature = _mat_others(path, found, variable, m, mapping)
     return Recording(
         t=t, acc=m[:, [mapping["ax"], mapping["ay"], mapping["az"]]],
-        gyro=m[:, [mapping["gx"], mapping["gy"], mapping["gz"]]],
+        gyro=None if mapping["gx"] is None else m[:, [mapping["gx"], mapping["gy"], mapping["gz"]]],
         acc_unit=acc_unit or "counts", gyro_unit=gyro_unit or "counts", metadata=meta,
+        extra=extra, temperature=temperature,
     )
+
+
+_MAT_MAG = re.compile(r"^(?:m|mag|magn|magnetometer|magneticfield|magnetic_field|compass)$", re.I)
+_MAT_TEMP = re.compile(r"^(?:temp|temperature|t_?deg|thermometer)(?:_?c)?$", re.I)
+
+
+def _mat_others(path: Path, found: dict, variable: str, m: np.ndarray, mapping: dict):
+    """A MATLAB file's other data: a magnetometer or temperature variable used, the rest named in a note.
+
+    A variable named like a magnetometer (``mag``, ``magnetometer`` …) with 3 columns and the matrix's rows
+    becomes the extra columns ``mag_x``, ``mag_y``, ``mag_z`` (which :mod:`.magnetometer` takes as the
+    recording's magnetometer); one named like a temperature (``temp``, ``temperature``) with one column the
+    temperature [°C]. The matrix's columns no field reads, and the variables left unused, are named in an
+    :class:`ImucalibWarning`: a matrix names no columns, so its extra columns cannot be told apart.
+    """
+    n = m.shape[0]
+    extra: dict[str, np.ndarray] = {}
+    temperature = None
+    unused = []
+    for name, value in found.items():
+        if name == variable:
+            continue
+        arr = np.asarray(value) if isinstance(value, np.ndarray) else None
+        if arr is None or arr.dtype.kind not in "fiu" or arr.size == 0:
+            unused.append(name)
+            continue
+        arr = arr.astype(np.float64)
+        if arr.ndim == 2 and arr.shape[0] != n and arr.shape[1] == n:
+            arr = arr.T
+        if _MAT_MAG.match(name) and arr.shape == (n, 3) and np.all(np.isfinite(arr)):
+            extra.update({f"mag_{a}": arr[:, i] for i, a in enumerate("xyz")})
+        elif _MAT_TEMP.match(name) and arr.reshape(-1).shape == (n,) and temperature is None:
+            temperature = arr.reshape(-1)
+            extra[name] = temperature
+        else:
+            unused.append(name)
+    used = {j for j in mapping.values() if j is not None}
+    spare = [j for j in range(m.shape[1]) if j not in used]
+    parts = []
+    if spare:
+        parts.append(f"column{'s' if len(spare) > 1 else ''} {', '.join(str(j) for j in spare)} (0-based) of "
+                     f"{variable!r}, which name{'s' if len(spare) == 1 else ''} no field (a matrix has no header: a "
+                     "magnetometer or temperature kept as a variable of its own, 'mag' (N x 3) or 'temperature' "
+                     "(N x 1), is used)")
+    if unused:
+        parts.append(f"the variable{'s' if len(unused) > 1 else ''} {', '.join(map(repr, unused))}")
+    if parts:
+        warnings.warn(f"{path}: not used: {'; and '.join(parts)}", ImucalibWarning, stacklevel=4)
+    return extra, temperature

@@ -31,13 +31,15 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     acc = fit_ellipsoid(means, gravity)
     if refine:
         acc, _ = fit_gravity_norm(means, gravity, initial=acc)
-    gyro_fit = fit_gyroscope(recording, intervals, acc, exclude=unreliable_transitions(recording, intervals),
-                             acc_cov=accelerometer_covariance(acc, means, gravity))
-    gyro, gyro_errors = gyro_fit.model, gyro_fit.errors
+    gyro_fit = None if recording.gyro is None else fit_gyroscope(  # none for an accelerometer-only recording
+        recording, intervals, acc, exclude=unreliable_transitions(recording, intervals),
+        acc_cov=accelerometer_covariance(acc, means, gravity))
+    gyro, gyro_errors = (gyro_fit.model, gyro_fit.errors) if gyro_fit is not None else (None, {})
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="ellipsoid",
                       model="linear", units=units_of(recording))
     fit = fit_summary(cal, recording, intervals, gravity)
-    fit |= gyro_fit.summary()
+    if gyro_fit is not None:
+        fit |= gyro_fit.summary()
     # first-order errors of the gravity-norm fit at this solution (the algebraic fit is close to it)
     fit["uncertainty"] = accelerometer_errors(acc, means, gravity) | gyro_errors
     return cal.with_(fit=fit)

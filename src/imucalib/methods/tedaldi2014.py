@@ -128,12 +128,14 @@ def calibrate(
             raise ValueError(f"at least {MIN_INTERVALS} static intervals are needed; got {len(intervals)}")
         mult, rest = float("nan"), intervals[0]
         acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
-    say("calibrating the gyroscope")
-    acc_cov = accelerometer_covariance(acc_model, interval_means(recording.acc, intervals), gravity)
-    gyro = fit_gyroscope(recording, intervals, acc_model, estimate_bias=estimate_gyro_bias,
-                         g_sensitivity=gyro_g_sensitivity, acc_cov=acc_cov,
-                         exclude=unreliable_transitions(recording, intervals))
-    gyro_model, gyro_errors = gyro.model, gyro.errors
+    gyro = None
+    if recording.gyro is not None:  # an accelerometer-only recording: the accelerometer part alone
+        say("calibrating the gyroscope")
+        acc_cov = accelerometer_covariance(acc_model, interval_means(recording.acc, intervals), gravity)
+        gyro = fit_gyroscope(recording, intervals, acc_model, estimate_bias=estimate_gyro_bias,
+                             g_sensitivity=gyro_g_sensitivity, acc_cov=acc_cov,
+                             exclude=unreliable_transitions(recording, intervals))
+    gyro_model, gyro_errors = (gyro.model, gyro.errors) if gyro is not None else (None, {})
     cal = Calibration(
         accelerometer=acc_model,
         gyroscope=gyro_model,
@@ -144,7 +146,8 @@ def calibrate(
     )
     fit = fit_summary(cal, recording, intervals, gravity)
     fit["threshold_multiplier"] = mult
-    fit |= gyro.summary()
+    if gyro is not None:
+        fit |= gyro.summary()
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
     means = interval_means(recording.acc, intervals)
     fit["uncertainty"] = accelerometer_errors(acc_model, means, gravity) | gyro_errors
