@@ -111,3 +111,100 @@ def test_a_unit_option_wins_over_a_mislabelled_header(capsys, tmp_path):
     assert "raw |a| at rest is" in json.dumps(json.loads(out)["fit"]["verdict_reasons"])  # read as g: told
     code, out, err = run(capsys, "calibrate", tmp_path / "plain.csv", "--method", "ellipsoid", "--acc-unit", "g")
     assert "the header looks right, drop --acc-unit" in err, err
+
+
+# ---------------------------------------------------------------- accelerometer-only logs
+@pytest.fixture(scope="module")
+def acc_only(tmp_path_factory):
+    """A hand-held session as the plain file (with the gyroscope) and as accelerometer-only logs."""
+    d = tmp_path_factory.mktemp("acc_only")
+    sim = session("handheld", rng=3, n_poses=20, rest=5.0)
+    rec = sim.recording
+    write_csv(d / "plain.csv", rec)
+    np.savetxt(d / "acc_t.csv", np.column_stack([rec.t, rec.acc]), fmt="%.10g", delimiter=",",
+               header="t,ax,ay,az", comments="")
+    np.savetxt(d / "acc.txt", rec.acc, fmt="%.10g")  # no header, no time: 100 Hz
+    return d, sim
+
+
+def _calibrate_json(capsys, *args):
+    code, out, err = run(capsys, "calibrate", *args, "--json")
+    assert code in (0, 3), err
+    return json.loads(out), err
+
+
+@pytest.mark.parametrize("method", ["ellipsoid", "tedaldi2014"])
+def test_accelerometer_only_calibrates_as_the_plain_file(capsys, acc_only, method):
+    d, sim = acc_only
+    plain, _ = _calibrate_json(capsys, d / "plain.csv", "--method", method)
+    timed, err = _calibrate_json(capsys, d / "acc_t.csv", "--method", method)
+    assert "no gyroscope columns" in err and "accelerometer-only" in err
+    untimed, _ = _calibrate_json(capsys, d / "acc.txt", "--columns", "-,0,1,2", "--rate", "100", "--method", method)
+    truth = sim.truth.accelerometer.scale
+    for doc in (timed, untimed):
+        assert doc["gyroscope"] is None and "gyroscope" not in doc["units"]
+        assert doc["fit"]["verdict"] == "accepted", doc["fit"]["verdict_reasons"]
+        assert any("no gyroscope" in n for n in doc["fit"]["verdict_notes"])
+        # the same poses as the plain file's, less the gyroscope's gate: scales agree to 0.01 %
+        np.testing.assert_allclose(doc["accelerometer"]["scale"], plain["accelerometer"]["scale"], rtol=1e-4)
+        np.testing.assert_allclose(doc["accelerometer"]["bias"], plain["accelerometer"]["bias"], atol=1.0)  # counts
+        np.testing.assert_allclose(doc["accelerometer"]["scale"], truth, rtol=1e-3)
+    assert plain["gyroscope"] is not None
+
+
+def test_accelerometer_only_six_position_matches_the_plain_file():
+    sim = session("handheld", rng=4, procedure="ferraris")
+    rec = sim.recording
+    from imucalib.recording import Recording
+
+    acc = Recording(t=rec.t, acc=rec.acc, gyro=None, acc_unit=rec.acc_unit)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        plain = calibrate(rec, method="six_position")
+        alone = calibrate(acc, method="six_position")
+    assert alone.gyroscope is None and plain.gyroscope is not None
+    np.testing.assert_allclose(alone.accelerometer.scale, plain.accelerometer.scale, rtol=1e-4)
+    np.testing.assert_allclose(alone.accelerometer.scale, sim.truth.accelerometer.scale, rtol=5e-3)
+
+
+def test_accelerometer_only_commands(capsys, acc_only, tmp_path):
+    d, sim = acc_only
+    code, out, err = run(capsys, "calibrate", d / "acc_t.csv", "--method", "ellipsoid", "-o", tmp_path / "a.json")
+    assert code == 0, err
+    assert "gyroscope: none (an accelerometer-only recording)" in out
+    from imucalib.calibration import Calibration
+
+    cal = Calibration.load(tmp_path / "a.json")  # the file format reads it back
+    assert cal.gyroscope is None
+    code, out, err = run(capsys, "apply", tmp_path / "a.json", d / "acc_t.csv", "-o", tmp_path / "out.csv")
+    assert code == 0, err
+    out_csv = np.genfromtxt(tmp_path / "out.csv", delimiter=",", names=True)
+    np.testing.assert_allclose(np.column_stack([out_csv[f"acc_{a}_cal_ms2"] for a in "xyz"]),
+                               cal.accelerometer_si(sim.recording.acc), rtol=1e-9)
+    assert "gyro" not in "".join(out_csv.dtype.names)
+    code, out, err = run(capsys, "apply", tmp_path / "a.json", d / "acc.txt", "--columns", "-,0,1,2", "--rate", "100",
+                         "-o", tmp_path / "out2.csv")
+    assert code == 0, err
+    code, out, err = run(capsys, "export", tmp_path / "a.json", "-o", tmp_path / "a.h")
+    assert code == 0 and "the gyroscope part of the C99 header is the identity" in err, err
+    code, out, err = run(capsys, "noise", d / "acc_t.csv", "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    assert "gyroscope" not in doc and len(doc["accelerometer"]["white_noise_density"]) == 3
+    code, out, err = run(capsys, "compare", d / "acc_t.csv", "--folds", "2", "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    ran = {r["method"] for r in doc["methods"] if r["ok"]}
+    assert ran == {"ellipsoid", "tedaldi2014"} and doc["best"] in ran  # six_position: no faces in these poses
+    assert all(r["cv_gyroscope_angle_error_mean_deg"] is None for r in doc["methods"])
+    code, out, err = run(capsys, "calibrate", d / "acc_t.csv", "--method", "zhang2021")
+    assert code == 2 and "accelerometer-only; the methods that take it are ellipsoid, six_position, tedaldi2014" \
+        in err, err
+
+
+def test_columns_for_an_accelerometer_only_log_are_checked(capsys, acc_only):
+    d, _ = acc_only
+    for columns, words in (("t,ax,ay", "--columns needs 7 entries"), ("t,ax,-,az", "the accelerometer's columns"),
+                           ("t,ax,ay,az,gx,-,-", "give all three gyroscope columns")):
+        code, out, err = run(capsys, "calibrate", d / "plain.csv", "--columns", columns)
+        assert code == 2 and words in err, err
