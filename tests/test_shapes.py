@@ -208,3 +208,91 @@ def test_columns_for_an_accelerometer_only_log_are_checked(capsys, acc_only):
                            ("t,ax,ay,az,gx,-,-", "give all three gyroscope columns")):
         code, out, err = run(capsys, "calibrate", d / "plain.csv", "--columns", columns)
         assert code == 2 and words in err, err
+
+
+# ---------------------------------------------------------------- pose blocks: prompt lines, one file per face
+FACES = ("x_p", "x_a", "y_p", "y_a", "z_p", "z_a")  # x up, x down, … as MATLAB's accelcal(XUP, XDOWN, …) takes them
+
+
+@pytest.fixture(scope="module")
+def faces(tmp_path_factory):
+    """The six faces of a hand-held session as six files, as one file of prompt-separated blocks, and the plain
+    result: six_position on the same samples given as intervals of the whole recording."""
+    from imucalib.recording import Interval
+
+    d = tmp_path_factory.mktemp("faces")
+    sim = session("handheld", rng=4, procedure="ferraris")
+    rec = sim.recording
+    ivs = [Interval(*sim.options["sections"][k]) for k in FACES]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        plain = calibrate(rec, method="six_position", intervals=sorted(ivs, key=lambda iv: iv.start))
+    files = []
+    with open(d / "prompts.csv", "w") as log:
+        log.write("t,ax,ay,az,gx,gy,gz\n")
+        for k, iv in zip(FACES, ivs, strict=True):
+            part = rec[iv]
+            files.append(d / f"{k}.csv")  # each face's file with its own time base, from 0
+            np.savetxt(files[-1], np.column_stack([part.t - part.t[0], part.acc]), fmt="%.10g", delimiter=",",
+                       header="t,ax,ay,az", comments="")
+            log.write(f">>> Place the board with {k} and press a key. Gathering data for 5 seconds...\n")
+            np.savetxt(log, np.column_stack([part.t - part.t[0], part.acc, part.gyro]), fmt="%.10g", delimiter=",")
+            log.write("--- done ---\n")
+    return d, sim, ivs, plain, files
+
+
+def test_six_face_files_are_six_poses(capsys, faces):
+    d, sim, ivs, plain, files = faces
+    code, out, err = run(capsys, "calibrate", *files, "--method", "six_position", "--json")
+    assert code == 0, err
+    assert "read 6 files as blocks of one recording, one pose each" in err
+    doc = json.loads(out)
+    assert doc["fit"]["static_intervals"] == 6 and doc["gyroscope"] is None
+    assert [b - a for a, b in doc["fit"]["intervals"]] == [len(iv) for iv in ivs]  # each file is one pose, whole
+    # the same samples as the plain recording's faces: the same means, the same calibration
+    np.testing.assert_allclose(doc["accelerometer"]["scale"], plain.accelerometer.scale, rtol=1e-12)
+    np.testing.assert_allclose(doc["accelerometer"]["bias"], plain.accelerometer.bias, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(doc["accelerometer"]["scale"], sim.truth.accelerometer.scale, rtol=5e-3)
+
+
+def test_prompt_lines_cut_blocks(capsys, faces, tmp_path):
+    d, sim, ivs, plain, _ = faces
+    code, out, err = run(capsys, "calibrate", d / "prompts.csv", "--method", "six_position", "--json",
+                         "-o", tmp_path / "c.json")
+    assert code == 0, err
+    assert "12 lines with no number inside the data (a logger's prompts) cut the rows into 6 blocks" in err
+    assert "the time restarts in 5 of the 6 blocks" in err
+    doc = json.loads(out)
+    assert doc["fit"]["static_intervals"] == 6
+    np.testing.assert_allclose(doc["accelerometer"]["scale"], plain.accelerometer.scale, rtol=1e-12)
+    # no rotations were recorded between the blocks: the gyroscope is left out, and the verdict says why
+    assert doc["gyroscope"] is None
+    assert any("separate blocks" in n for n in doc["fit"]["verdict_notes"])
+    code, out, err = run(capsys, "apply", tmp_path / "c.json", d / "prompts.csv", "-o", tmp_path / "out.csv")
+    assert code == 0 and "gyroscope columns are copied uncalibrated" in err, err
+    written = np.loadtxt(tmp_path / "out.csv", delimiter=",", skiprows=1)
+    rows = np.concatenate([sim.recording[iv].acc for iv in ivs])
+    np.testing.assert_array_equal(written[:, 1:4], rows)  # every row, in the file's order
+    np.testing.assert_allclose(written[:len(ivs[0]), 0], sim.recording[ivs[0]].t - sim.recording[ivs[0]].t[0],
+                               atol=1e-9)  # the file's own times, not the shifted ones
+
+
+@pytest.mark.parametrize("method", ["ellipsoid", "tedaldi2014"])
+def test_fewer_poses_than_the_model_needs_reduce_it(faces, method):
+    """Six faces determine a scale and a bias per axis, not the misalignment: the model the poses determine."""
+    from imucalib.io import read
+
+    d, sim, ivs, plain, files = faces
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        cal = calibrate(read(files), method=method)
+    assert cal.fit["accelerometer_model"] == "scale and bias per axis"
+    assert cal.fit["verdict"] == "suspect"
+    assert any("reduced to scale and bias per axis" in r for r in cal.fit["verdict_reasons"])
+    np.testing.assert_array_equal(cal.accelerometer.misalignment, np.eye(3))
+    # six faces determine it exactly: the same numbers as six_position's eqs. 8-9 with their tilt correction
+    np.testing.assert_allclose(cal.accelerometer.scale, plain.accelerometer.scale, rtol=1e-9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        with pytest.raises(ValueError, match="no accelerometer model is determined by these 3 static poses"):
+            calibrate(read(files[:3]), method=method)

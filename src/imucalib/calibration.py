@@ -119,6 +119,7 @@ class Calibration:
         """The recording with calibrated accelerometer [m/s²] and gyroscope [rad/s].
 
         The recording must be in the raw units this calibration was made for.
+        A calibration without a gyroscope gives a recording without one.
 
         A pandas DataFrame is read as :func:`imucalib.io.read` reads it (its
         column names as a CSV header; ``read_options`` are that function's:
@@ -179,12 +180,8 @@ class Calibration:
 
     def check_units(self, recording: Recording) -> None:
         """Raise ValueError unless the recording is in the raw units this calibration maps."""
-        if recording.gyro is not None and self.gyroscope is None:
-            raise ValueError("this calibration has no gyroscope (it was made from an accelerometer-only recording) "
-                             "and the recording has one: calibrate the gyroscope from a recording that has it, "
-                             "or read only the accelerometer (--columns t,ax,ay,az)")
         pairs = [("accelerometer", recording.acc_unit)]
-        if recording.gyro is not None:
+        if recording.gyro is not None and self.gyroscope is not None:
             pairs.append(("gyroscope", recording.gyro_unit))
         if self.magnetometer is not None and recording.mag is not None and "magnetometer" in self.units:
             pairs.append(("magnetometer", recording.mag_unit))

@@ -226,7 +226,7 @@ class Recording:
             gyro_unit=self.gyro_unit,
             temperature=None if self.temperature is None else self.temperature[index],
             extra={k: v[index] for k, v in self.extra.items()},
-            metadata=dict(self.metadata),
+            metadata={k: v for k, v in self.metadata.items() if k not in ("blocks", "time_original")},  # the whole's
             mag=None if self.mag is None else self.mag[index],
             mag_unit=self.mag_unit,
         )

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fit.accelerometer import fit_gravity_norm, fit_sphere
+from .fit.accelerometer import fit_determined, fit_gravity_norm, fit_sphere
 from .metrics import interval_means, transition_bounds
 from .models import TriadModel
 from .recording import ImucalibWarning, Interval, Recording
@@ -35,6 +35,7 @@ __all__ = [
     "runs",
     "variance_norm",
     "find_initial_rest",
+    "pose_blocks",
     "gyro_norm_variance",
     "detect_static",
     "detect_static_gyro",
@@ -317,8 +318,28 @@ def detect_static_gyro(
     return runs(zeta < multiplier * zeta_init, max(int(round(min_interval * rate)), 2))
 
 
+def pose_blocks(recording: Recording) -> list[Interval] | None:
+    """The blocks of a recording whose poses were recorded apart (``metadata["blocks"]``), one pose each; else None.
+
+    A logger that pauses between poses writes its rows in blocks separated by prompt lines, or one file per
+    pose (:func:`imucalib.io.read`): no motion was recorded between the blocks, so each block is a static pose
+    and nothing needs detecting.
+    """
+    blocks = recording.metadata.get("blocks")
+    if not blocks:
+        return None
+    out = [Interval(int(a), int(b), "static") for a, b in blocks if int(b) - int(a) >= 2]
+    if not out or out[-1].stop > len(recording):
+        return None
+    return out
+
+
 def initial_rest(recording: Recording, init_static: float | None = None) -> Interval:
-    """The initial rest: ``init_static`` seconds when given, else found by :func:`find_initial_rest`."""
+    """The initial rest: ``init_static`` seconds when given, else the first block of a recording in blocks
+    (:func:`pose_blocks`), else found by :func:`find_initial_rest`."""
+    blocks = pose_blocks(recording) if init_static is None else None
+    if blocks:
+        return blocks[0]
     if init_static is None:
         return find_initial_rest(recording)
     n = int(round(init_static * recording.rate))
@@ -417,9 +438,18 @@ def detect_intervals(
     detector statistic and the scan runs again, so a turn about the vertical or
     a slow settle after a flip is never averaged into a pose.
 
+    A recording in blocks (:func:`pose_blocks`) needs no detecting: its blocks
+    are the intervals, the first one the rest, and the multiplier NaN. When no
+    threshold gives :data:`MIN_INTERVALS` intervals, the scan takes the one
+    that gives the most for which an accelerometer model is determined
+    (:func:`imucalib.fit.accelerometer.fit_determined`).
+
     Returns the intervals, the chosen multiplier, the initial rest and the
     accelerometer model calibrated on those intervals.
     """
+    blocks = pose_blocks(recording) if init_static is None else None
+    if blocks:
+        return blocks, float("nan"), blocks[0], fit_determined(interval_means(recording.acc, blocks), gravity)[0]
     rest = initial_rest(recording, init_static)
     multipliers = list(multipliers)
     detector = _detector(recording, rest, window, min_interval)
@@ -481,12 +511,19 @@ def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: It
         score = float(res @ res) / len(res)  # per residual
         if best is None or score < best[0]:
             best = (score, mult, intervals, model)
-    if best is None:
+    if best is None:  # fewer intervals than the full model wants at every threshold: the most that determine one
+        for mult, _ in sorted(tried, key=lambda mc: -mc[1]):
+            intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
+            try:
+                model = fit_determined(interval_means(recording.acc, intervals), gravity)[0]
+            except ValueError:
+                continue
+            return intervals, float(mult), model
         counts = ", ".join(f"×{m}: {c}" for m, c in tried)
         raise ValueError(
             "too few static intervals for a calibration at every detector threshold "
-            f"({counts}; at least {MIN_INTERVALS} are needed): hold the sensor still "
-            f"for at least {min_interval} s in each of many poses"
+            f"({counts}; at least 4 in spread directions determine a model, {MIN_INTERVALS} the full one): hold "
+            f"the sensor still for at least {min_interval} s in each of many poses"
         )
     _, mult, intervals, model = best
     return intervals, float(mult), model
@@ -494,7 +531,8 @@ def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: It
 
 def static_poses(recording: Recording, gravity: float, intervals: list[Interval] | None = None, *,
                  init_static: float | None = None) -> list[Interval]:
-    """The static intervals given, or those :func:`detect_intervals` finds; the first is the initial rest."""
+    """The static intervals given, or those :func:`detect_intervals` finds (a recording's blocks,
+    :func:`pose_blocks`); the first is the initial rest."""
     if intervals is None:
         intervals = detect_intervals(recording, gravity, init_static=init_static)[0]
     return [iv for iv in intervals if iv.kind == "static"]

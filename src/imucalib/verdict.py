@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fit.accelerometer import fit_sphere
+from .fit.accelerometer import REDUCED_MODELS, fit_sphere
 from .fit.magnetometer import WEAK_DIP_DEG
 from .metrics import gravity_direction_errors, interval_means, transition_bounds
 from .recording import Interval, Recording
@@ -249,6 +249,10 @@ def plausibility(calibration) -> list[Check]:
 
 
 def _accelerometer_parameters(calibration) -> int:
+    reduced = {name: p for name, _, p, _ in REDUCED_MODELS if name != "linear"}
+    name = (calibration.fit or {}).get("accelerometer_model")
+    if name in reduced:  # a model reduced to what the poses determine (fit.accelerometer.fit_determined)
+        return reduced[name]
     acc = calibration.accelerometer
     n = 6 + {"upper": 3, "lower": 3, "full": 6, "diagonal": 0}.get(acc.shape, 3)
     n += 3 * int(np.any(acc.scale_quadratic)) + 3 * int(np.any(acc.scale_cubic))
@@ -428,8 +432,12 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     checks += _redundancy(calibration, fitted)
     if fitted:
         checks += _usefulness(calibration)
+    if fit.get("accelerometer_model_reduced"):
+        checks.append(Check(1, f"{fit['accelerometer_model_reduced']}: record more poses, in directions spread over "
+                               "the sphere, for the full model"))
     if calibration.gyroscope is None:
-        checks.append(Check(0, "no gyroscope (an accelerometer-only recording): the gyroscope checks are skipped"))
+        why = fit.get("gyroscope_not_calibrated") or "no gyroscope (an accelerometer-only recording)"
+        checks.append(Check(0, f"{why}; the calibration has no gyroscope, and the gyroscope checks are skipped"))
     elif recording is not None:
         gyro_checks, figures = _gyroscope(calibration, recording, intervals)
         checks += gyro_checks

@@ -109,6 +109,8 @@ def read(
         reader = guess_reader(paths)
     if reader not in READERS:
         raise ReaderError(f"unknown reader {reader!r}; use one of {', '.join(READERS)}")
+    if reader in ("csv", "mat") and len(paths) > 1:  # one file per pose (per face): blocks of one recording
+        return _read_file_blocks(paths, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic)
     expected = 2 if reader in ("imutk", "phone") else 1
     if len(paths) != expected:
         what = ("two files: the accelerometer file, then the gyroscope file" if expected == 2
@@ -207,7 +209,8 @@ def guess_reader(paths: Sequence[Path]) -> str:
 
     ``"rosbag"`` for ROS bags, ``"mat"`` for MATLAB files; for two files,
     ``"phone"`` when both headers are a phone app's (phyphox, Sensor Logger:
-    :mod:`.phone`), else ``"imutk"``; for one file ``"csv"``.
+    :mod:`.phone`), ``"imutk"`` unless both have headers naming sensor
+    columns; else ``"csv"`` (several files are then blocks of one recording).
     """
     if is_rosbag(paths[0]):
         return "rosbag"
@@ -215,9 +218,72 @@ def guess_reader(paths: Sequence[Path]) -> str:
         head = f.read(128)
     if head.startswith(b"MATLAB") or (head[:4] in (b"\x00\x00\x00\x00",) and paths[0].suffix == ".mat"):
         return "mat"
-    if len(paths) == 2:
-        return "phone" if _phone_specs(paths) is not None else "imutk"
+    if len(paths) == 2 and _phone_specs(paths) is not None:
+        return "phone"
+    if len(paths) == 2 and not all(_names_sensor_columns(_head_names(p) or []) for p in paths):
+        return "imutk"  # two files without headers naming the sensors: imu_tk's accelerometer and gyroscope
     return "csv"
+
+
+def _read_file_blocks(paths: Sequence[Path], reader: str, columns, acc_unit, gyro_unit, rate, variable, time_unit,
+                      topic) -> Recording:
+    """Several files of the same sensor, one per pose (MATLAB's ``accelcal(XUP, XDOWN, …)``), as one recording.
+
+    Each file is read as one file is, with its own time base; the blocks follow each other in the order given,
+    each :data:`BLOCK_GAP_STEPS` median sampling steps after the one before, and ``metadata["blocks"]`` holds
+    their rows ``[start, stop)``. They must have the same sensors, units and columns. A note repeated by every
+    file is shown once.
+    """
+    if topic is not None:
+        raise ReaderError(f"topic applies to ROS bags; the {reader} reader has none")
+    recs = []
+    seen: set[str] = set()
+    for i, p in enumerate(paths):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ImucalibWarning)
+            recs.append(read(p, reader=reader, columns=columns, acc_unit=acc_unit, gyro_unit=gyro_unit, rate=rate,
+                             variable=variable, time_unit=time_unit))
+        for w in caught:
+            key = str(w.message).replace(str(p), "")
+            if key not in seen:
+                seen.add(key)
+                warnings.warn(w.message if i == 0 else f"{w.message} (and in the files after it)", w.category,
+                              stacklevel=3)
+    first = recs[0]
+    for p, rec in zip(paths[1:], recs[1:], strict=True):
+        for what, a, b in (("a gyroscope", first.gyro is not None, rec.gyro is not None),
+                           ("accelerometer unit", first.acc_unit, rec.acc_unit),
+                           ("gyroscope unit", first.gyro_unit, rec.gyro_unit),
+                           ("columns", first.metadata.get("columns"), rec.metadata.get("columns"))):
+            if a != b:
+                raise ReaderError(f"{p}: several files are read as blocks (one pose each) of one recording, so they "
+                                  f"must match; its {what} ({b}) differs from {paths[0]}'s ({a})")
+    steps = np.concatenate([np.diff(r.t) for r in recs])
+    gap = BLOCK_GAP_STEPS * (float(np.median(steps)) if steps.size else 1.0)
+    times, start, blocks, row = [], 0.0, [], 0
+    for r in recs:
+        times.append(r.t - r.t[0] + start)
+        start = float(times[-1][-1]) + gap
+        blocks.append([row, row + len(r)])
+        row += len(r)
+    keys = [k for k in first.extra if all(k in r.extra for r in recs)]
+    left = sorted({k for r in recs for k in r.extra} - set(keys))
+    if left:
+        warnings.warn(f"the column(s) {', '.join(left)} are not in every file: left out", ImucalibWarning,
+                      stacklevel=3)
+    temps = [r.temperature for r in recs]
+    meta = {**first.metadata, "source": [str(p) for p in paths], "reader": reader, "blocks": blocks,
+            "block_files": len(paths)}
+    meta.pop("source_layout", None)
+    warnings.warn(f"read {len(paths)} files as blocks of one recording, one pose each, in the order given (each "
+                  "with its own time base)", ImucalibWarning, stacklevel=3)
+    return Recording(
+        t=np.concatenate(times), acc=np.concatenate([r.acc for r in recs]),
+        gyro=None if first.gyro is None else np.concatenate([r.gyro for r in recs]),
+        acc_unit=first.acc_unit, gyro_unit=first.gyro_unit,
+        temperature=None if any(x is None for x in temps) else np.concatenate(temps),
+        extra={k: np.concatenate([r.extra[k] for r in recs]) for k in keys}, metadata=meta,
+    )
 
 
 # ------------------------------------------------------------------ numbers
@@ -470,6 +536,7 @@ class _Table:
     first_row: list[str]
     skipped: int = 0
     rate: float | None = None
+    prompts: bool = False  # lines with no number inside the rows (a logger's prompts): block boundaries
 
     @property
     def names(self) -> list[str]:
@@ -511,7 +578,9 @@ def _split_table(path: Path) -> _Table:
         hdr = (head.offsets[start], hdr_end)
     layout = csvparse.Layout(path, hdr, (head.offsets[row0], head.end), first_line, sep, decimal_comma, ncols,
                              head.size, head.mtime_ns)
-    table = _Table(header, first_line, sep, ncols, layout, first_row, skipped=start, rate=_preamble_rate(preamble))
+    table = _Table(header, first_line, sep, ncols, layout, first_row, skipped=start, rate=_preamble_rate(preamble),
+                   prompts=any(_is_prompt(ln, sep) for ln in head.lines[row0:] + ([] if head.complete else
+                                                                                  [head.last])))
     if start:
         what = "" if table.rate is None else f" (they give a sampling rate of {table.rate:g} Hz)"
         warnings.warn(f"{path}: skipped {start} line{'s' if start > 1 else ''} before the "
@@ -520,6 +589,84 @@ def _split_table(path: Path) -> _Table:
 
 
 _DECIMAL_COMMA = re.compile(r'^"?[+-]?\d*,\d+(?:[eE][+-]?\d+)?"?$')
+
+
+def _is_prompt(line: str, sep: str | None) -> bool:
+    """A line inside the rows with no number in it: a logger's prompt (``>>> Gathering data…``, ``--- pose 2 ---``)
+    or a repeated header; a comment (``#``) and a blank line are not prompts."""
+    text = line.strip()
+    if not text or text.startswith("#"):
+        return False
+    return all(_not_number(c.strip('"\'').replace(",", ".")) for c in _cells(text, sep) if c)
+
+
+def _prompt_blocks(path: Path, table: _Table) -> tuple[np.ndarray, list[list[int]]]:
+    """The rows of a file whose rows are cut into blocks by prompt lines, and each block's rows ``[start, stop)``.
+
+    A logger that pauses between poses ("place the sensor, press a key") writes a prompt before each block:
+    every block is a pose. Blank lines beside the prompts are part of the boundary; comments are skipped as
+    elsewhere. The rows are parsed line by line (such logs are short) and checked as every row is.
+    """
+    start, end = table.layout.body
+    with path.open("rb") as f:
+        f.seek(start)
+        text = f.read(end - start).decode("utf-8", errors="replace")
+    lines = text.splitlines()
+    blocks: list[list[int]] = []
+    parts: list[np.ndarray] = []
+    run: list[str] = []
+    run_line = table.first_line
+    prompts = 0
+    rows = 0
+
+    def close() -> None:
+        nonlocal rows
+        if run:
+            body = [ln.replace(",", ".") for ln in run] if table.layout.decimal_comma else run
+            parts.append(_parse_block(path, body, run_line, table.ncols, table.sep, table.names))
+            blocks.append([rows, rows + len(run)])
+            rows += len(run)
+
+    for i, line in enumerate(lines):
+        if _is_prompt(line, table.sep) or not line.strip():
+            prompts += bool(line.strip())
+            close()
+            run = []
+            continue
+        if line.lstrip().startswith("#"):
+            continue
+        if not run:
+            run_line = table.first_line + i
+        run.append(line)
+    close()
+    if not parts:
+        raise ReaderError(f"{path}: no data rows between the prompt lines")
+    warnings.warn(f"{path}: {prompts} line{'s' if prompts > 1 else ''} with no number inside the data (a logger's "
+                  f"prompts) cut the rows into {len(blocks)} blocks: each block is read as one pose",
+                  ImucalibWarning, stacklevel=5)
+    return np.concatenate(parts), blocks
+
+
+#: the gap put between blocks whose times restart [median sampling steps]: a gap the integration never crosses
+BLOCK_GAP_STEPS = 100
+
+
+def _block_times(path: Path, t: np.ndarray, blocks: list[list[int]]) -> np.ndarray:
+    """The time column of blocks, each block after one whose time it does not follow moved to start
+    :data:`BLOCK_GAP_STEPS` median steps after it (each block keeps its own steps); with a note."""
+    t = np.array(t, dtype=np.float64)
+    steps = np.concatenate([np.diff(t[a:b]) for a, b in blocks])
+    step = float(np.median(steps)) if steps.size else 1.0
+    moved = 0
+    for (_, prev_stop), (a, b) in zip(blocks[:-1], blocks[1:], strict=True):
+        if t[a] <= t[prev_stop - 1]:
+            t[a:b] += t[prev_stop - 1] + BLOCK_GAP_STEPS * step - t[a]
+            moved += 1
+    if moved:
+        warnings.warn(f"{path}: the time restarts in {moved} of the {len(blocks)} blocks: each such block was put "
+                      f"{BLOCK_GAP_STEPS} sampling steps after the one before (each keeps its own time base)",
+                      ImucalibWarning, stacklevel=5)
+    return t
 
 
 def _parse_table(path: Path, table: _Table, required: Sequence[int], *, others: bool = True,
@@ -558,8 +705,9 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     mapping = _map_columns(path, names, columns, has_header)
     numeric_cols = sorted({j for j in mapping.values() if j is not None})
     # the samples go straight into the recording's arrays: no copy of the whole table
-    plan = csvparse.plan(table.layout) if frame is None else None
-    rows = plan.rows if plan is not None else len(frame)
+    blocks = _prompt_blocks(path, table) if frame is None and table.prompts else None
+    plan = csvparse.plan(table.layout) if frame is None and blocks is None else None
+    rows = plan.rows if plan is not None else len(frame) if frame is not None else blocks[0].shape[0]
     if rows == 0:
         raise ReaderError(f"{path}: no data rows after the header")
     has_gyro = mapping["gx"] is not None
@@ -569,7 +717,9 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     out: dict[int, np.ndarray] = {}
     for f, view in targets.items():
         out.setdefault(mapping[f], view)
-    if frame is None:
+    if blocks is not None:
+        cols = {j: blocks[0][:, j] for j in range(table.ncols)}
+    elif frame is None:
         cols = _parse_table(path, table, numeric_cols, out=out, plan=plan)
     else:
         cols, stamps = _frame_columns(path, frame, numeric_cols, out)
@@ -583,6 +733,13 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     if table.skipped:
         meta["preamble_lines"] = table.skipped
     tcol = mapping["t"]
+    if blocks is not None:
+        meta["blocks"] = blocks[1]
+        if tcol is not None:
+            shifted = _block_times(path, cols[tcol], blocks[1])
+            if not np.array_equal(shifted, cols[tcol]):
+                meta["time_original"] = cols[tcol]  # what a writer writes back (imucalib.io.writers)
+            cols[tcol] = shifted
     if tcol is None:
         if rate is None and table.rate is not None:
             rate = table.rate
@@ -625,7 +782,7 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
         extra[name if name not in extra else f"{name} (column {j + 1})"] = col
     rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
                     extra=extra, metadata=meta)
-    if table.layout is not None:  # what apply needs to copy the file's own text (imucalib.io.writers)
+    if table.layout is not None and blocks is None:  # what apply needs to copy the file's own text (io.writers)
         meta["source_layout"] = {**table.layout.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec)}
     return rec
 

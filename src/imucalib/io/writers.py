@@ -163,6 +163,9 @@ def _copy_source(path: str | Path, rec: Recording, layout: csvparse.Layout, adde
 
 # ------------------------------------------------------------ from the values
 def _original_time(rec: Recording) -> np.ndarray:
+    kept = rec.metadata.get("time_original")  # blocks whose times restart: the file's own times, as they were
+    if kept is not None and len(kept) == len(rec):
+        return np.asarray(kept)
     unit = rec.metadata.get("time_unit")
     if not unit:
         return rec.t
