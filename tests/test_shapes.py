@@ -296,3 +296,81 @@ def test_fewer_poses_than_the_model_needs_reduce_it(faces, method):
         warnings.simplefilter("ignore", ImucalibWarning)
         with pytest.raises(ValueError, match="no accelerometer model is determined by these 3 static poses"):
             calibrate(read(files[:3]), method=method)
+
+
+# ---------------------------------------------------------------- a thin hand-held session whose poses wobble
+@pytest.fixture(scope="module")
+def wobbly(tmp_path_factory):
+    """10 hand-held poses held with 1 °/s of tremor, in raw counts; as a logger's file with 4 preamble rows."""
+    d = tmp_path_factory.mktemp("wobbly")
+    sim = session("handheld", rng=1, n_poses=10, tremor=1.0, rest=5.0)
+    rec = sim.recording
+    write_csv(d / "plain.csv", rec)
+    text = (d / "plain.csv").read_text()
+    (d / "mpu6050.csv").write_text("MPU-6050 logger\nFs,100\naccel range,2g\ngyro range,250dps\n" + text)
+    return d, sim
+
+
+def test_the_gate_drops_wobbly_poses(wobbly):
+    """What the calibration has to cope with: the gyroscope's gate alone leaves too few poses."""
+    from imucalib.segment import _detector, _scan, detect_intervals, gyro_still
+
+    _, sim = wobbly
+    rec = sim.recording
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        intervals, _, rest, model = detect_intervals(rec, G)
+    assert len(intervals) >= 10  # every hand-held pose and the rest, kept for the accelerometer
+    from imucalib.fit.gyroscope import rough_scale
+
+    scale = rough_scale(rec, intervals, model, rec.gyro[rest.slice].mean(axis=0))
+    still = gyro_still(rec, rest, scale, intervals)
+    with pytest.raises(ValueError, match="too few static intervals"):
+        _scan(_detector(rec, rest, 1.0, 1.0), G, rec, range(2, 11), 1.0, still, reduce=False)
+
+
+@pytest.mark.parametrize("method", ["tedaldi2014", "ellipsoid"])
+def test_wobbly_poses_are_kept_for_the_accelerometer(capsys, wobbly, method):
+    d, sim = wobbly
+    code, out, err = run(capsys, "calibrate", d / "mpu6050.csv", "--method", method, "--json")
+    assert code == 0, err  # calibrated, not refused
+    assert "skipped 4 lines before the header" in err
+    doc = json.loads(out)
+    plain, _ = _calibrate_json(capsys, d / "plain.csv", "--method", method)
+    assert doc["accelerometer"] == plain["accelerometer"] and doc["gyroscope"] == plain["gyroscope"]
+    assert doc["fit"]["static_intervals"] >= 10
+    np.testing.assert_allclose(doc["accelerometer"]["scale"], sim.truth.accelerometer.scale, rtol=5e-3)
+    np.testing.assert_allclose(doc["gyroscope"]["scale"], sim.truth.gyroscope.scale, rtol=2e-2)
+    # a thin session is not trusted blindly: the verdict says why
+    assert doc["fit"]["verdict"] == "suspect"
+    assert any("static poses for 9 accelerometer parameters" in r for r in doc["fit"]["verdict_reasons"])
+
+
+def test_pose_weights_follow_the_scatter(wobbly):
+    from imucalib.segment import pose_scatter
+
+    _, sim = wobbly
+    rec = sim.recording
+    static = [s for s in sim.segments if s.kind == "static"]
+    sigma = pose_scatter(rec.acc, static)
+    # independent: the standard error of each pose's mean, axis by axis
+    for iv, s in zip(static, sigma, strict=True):
+        se = rec.acc[iv.slice].std(axis=0) / np.sqrt(len(iv))
+        assert s == pytest.approx(float(np.linalg.norm(se)), rel=1e-9)
+    assert sigma[1:].min() > sigma[0]  # the tremor of the hand-held poses, not on the table at rest
+
+
+def test_an_edge_that_creeps_is_left_out_of_the_gyroscope_only():
+    """A pose whose start settles by about 1° biases the rotations that touch it, not its mean."""
+    from imucalib.segment import unreliable_transitions, unsteady_poses
+
+    sim = session("handheld", rng=2, n_poses=12, creep=3, tremor=0.15, rest=5.0)
+    rec = sim.recording
+    static = [s for s in sim.segments if s.kind == "static"]
+    found = unsteady_poses(rec, static)
+    creeping = {c["static"] for c in sim.options["creep_sections"]}  # indices of the static segments
+    assert all(static[c["static"]].start == c["range"][0] for c in sim.options["creep_sections"])
+    assert len(creeping) == 3 and set(found) == creeping  # and no pose held without creeping
+    ex = unreliable_transitions(rec, static)
+    for k in creeping:
+        assert k - 1 in ex and (k in ex or k == len(static) - 1)

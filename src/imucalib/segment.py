@@ -28,7 +28,7 @@ import numpy as np
 from .fit.accelerometer import fit_determined, fit_gravity_norm, fit_sphere
 from .metrics import interval_means, transition_bounds
 from .models import TriadModel
-from .recording import ImucalibWarning, Interval, Recording
+from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 
 __all__ = [
     "moving_variance",
@@ -46,6 +46,8 @@ __all__ = [
     "saturated",
     "spikes",
     "unreliable_transitions",
+    "unsteady_poses",
+    "pose_scatter",
     "initial_rest",
     "motion_between",
     "static_poses",
@@ -438,6 +440,13 @@ def detect_intervals(
     detector statistic and the scan runs again, so a turn about the vertical or
     a slow settle after a flip is never averaged into a pose.
 
+    When the gate leaves fewer than :data:`MIN_INTERVALS` poses at every
+    threshold (hand-held poses that wobble), the intervals before the gate are
+    kept for the accelerometer, its model fitted with each pose weighted by
+    ``1/σ_k`` (:func:`pose_scatter`); :func:`unreliable_transitions` leaves the
+    rotations into and out of the poses the gyroscope finds unsteady out of the
+    gyroscope's fit.
+
     A recording in blocks (:func:`pose_blocks`) needs no detecting: its blocks
     are the intervals, the first one the rest, and the multiplier NaN. When no
     threshold gives :data:`MIN_INTERVALS` intervals, the scan takes the one
@@ -462,7 +471,15 @@ def detect_intervals(
         widest = detect_static(None, max(multipliers) * base, window=win, min_length=min_len, statistic=stat)
         still = gyro_still(recording, rest, scale, widest)
         if not all(np.all(still[iv.slice]) for iv in widest):  # else the scan would find the same again
-            intervals, mult, model = _scan(detector, gravity, recording, multipliers, min_interval, still)
+            try:
+                gated = _scan(detector, gravity, recording, multipliers, min_interval, still, reduce=False)
+            except ValueError:
+                # the gate leaves too few poses (hand-held poses that wobble): they are kept for the accelerometer,
+                # weighted by their scatter, and unreliable_transitions leaves their rotations out of the gyroscope
+                weights = 1.0 / pose_scatter(recording.acc, intervals)
+                model = fit_determined(interval_means(recording.acc, intervals), gravity, weights=weights)[0]
+            else:
+                intervals, mult, model = gated
     return intervals, mult, rest, model
 
 
@@ -491,8 +508,10 @@ def _detector(recording: Recording, rest: Interval, window: float, min_interval:
 
 
 def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: Iterable[float], min_interval: float,
-          still: np.ndarray | None) -> tuple[list[Interval], float, TriadModel]:
-    """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded)."""
+          still: np.ndarray | None, *, reduce: bool = True) -> tuple[list[Interval], float, TriadModel]:
+    """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded);
+    with ``reduce``, fewer than :data:`MIN_INTERVALS` intervals at every threshold give the most that determine
+    a model (:func:`imucalib.fit.accelerometer.fit_determined`), else an error."""
     base, win, min_len, stat = detector
     if still is not None:
         stat = np.where(still, stat, np.inf)
@@ -511,8 +530,9 @@ def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: It
         score = float(res @ res) / len(res)  # per residual
         if best is None or score < best[0]:
             best = (score, mult, intervals, model)
-    if best is None:  # fewer intervals than the full model wants at every threshold: the most that determine one
-        for mult, _ in sorted(tried, key=lambda mc: -mc[1]):
+    if best is None:
+        # fewer intervals than the full model wants at every threshold: the most that determine a model
+        for mult, _ in sorted(tried, key=lambda mc: -mc[1]) if reduce else []:
             intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
             try:
                 model = fit_determined(interval_means(recording.acc, intervals), gravity)[0]
@@ -690,6 +710,69 @@ def spikes(x: np.ndarray, *, factor: float = 20.0, isolation: float = 4.0) -> np
     return out
 
 
+def pose_scatter(acc: np.ndarray, intervals: list[Interval]) -> np.ndarray:
+    """The standard error of each pose's mean accelerometer reading (M,), in its raw unit.
+
+    ``σ_k = sqrt(tr Cov(u) / n_k)`` over the pose's ``n_k`` samples: the noise,
+    and the hand's tremor where it holds the sensor, that its mean keeps; the
+    weight ``1/σ_k`` of a pose in the gravity-norm fit. A pose whose samples do
+    not vary at all (quantised, noise below one count) is given the smallest
+    non-zero scatter of the others (or 1).
+    """
+    acc = np.asarray(acc, dtype=np.float64)
+    s = np.array([np.sqrt(np.sum(np.var(acc[iv.slice], axis=0)) / len(iv)) for iv in intervals])
+    floor = s[s > 0].min() if np.any(s > 0) else 1.0
+    return np.maximum(s, floor)
+
+
+#: a pose's edges may tilt this far [deg] from its mean direction before its rotations are left out: twice the
+#: verdict's acceptable gravity-direction error of the gyroscope (a hand's tremor tilts a pose's edges by 0.1-0.4°,
+#: a settling hand by about 1°)
+EDGE_TILT_DEG = 0.5
+
+
+def unsteady_poses(recording: Recording, intervals: list[Interval], *, edge: float = STILL_WINDOW, n_sigma: float = 4.0
+                   ) -> dict[int, str]:
+    """Poses whose first or last ``edge`` seconds tilt away from the pose's mean direction: ``{k: why}``.
+
+    The gyroscope's fit (Zhang 2021, eq. 14) compares the gravity direction a
+    rotation ends at with the mean direction of the pose that follows, and
+    starts the next rotation from that same mean: a hand that creeps or
+    settles while it holds a pose makes its edges differ from its mean and
+    biases every rotation that touches it. A hand's tremor scatters the
+    samples about the mean but leaves the edges' means on it. So a pose is
+    unsteady when the angle between the mean of its first or last ``edge``
+    seconds and its mean, in the directions of the accelerometer model the
+    poses determine (:func:`imucalib.fit.accelerometer.fit_determined`),
+    exceeds :data:`EDGE_TILT_DEG` and ``n_sigma`` times that edge mean's own
+    scatter (the pose's samples, tremor included, over √n). Its mean is
+    still good for the accelerometer. Empty without a gyroscope or with fewer
+    than 4 poses.
+    """
+    if recording.gyro is None or len(intervals) < 4:
+        return {}
+    try:
+        model = fit_determined(interval_means(recording.acc, intervals), STANDARD_GRAVITY)[0]
+    except ValueError:
+        return {}
+    n_edge = max(int(round(edge * recording.rate)), 2)
+    out = {}
+    for k, iv in enumerate(intervals[1:], 1):
+        if len(iv) < 3 * n_edge:
+            continue
+        a = model.forward(recording.acc[iv.slice])
+        mean = a.mean(axis=0)
+        sigma = np.sqrt(np.sum(np.var(a, axis=0)) / n_edge) / np.linalg.norm(mean)  # [rad], the edge mean's scatter
+        limit = max(np.radians(EDGE_TILT_DEG), n_sigma * sigma)
+        tilts = [float(np.arccos(np.clip(e @ mean / (np.linalg.norm(e) * np.linalg.norm(mean)), -1, 1)))
+                 for e in (a[:n_edge].mean(axis=0), a[-n_edge:].mean(axis=0))]
+        if max(tilts) > limit:
+            where = "start" if tilts[0] > tilts[1] else "end"
+            out[k] = (f"pose {k + 1} tilts {np.degrees(max(tilts)):.2g}° at its {where} from its mean (limit "
+                      f"{np.degrees(limit):.2g}°: the hand moved while holding it)")
+    return out
+
+
 def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
                            gap_factor: float = 2.5) -> dict[int, str]:
     """Rotations between consecutive poses whose integration cannot be trusted: ``{k: why}``.
@@ -699,9 +782,11 @@ def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
     full scale is lost), spikes (:func:`spikes`) or a sampling gap longer than
     ``gap_factor`` × the median step (the attitude is integrated sample to
     sample, Zhang 2021 eq. 23; across a gap the rate is only interpolated).
-    Such rotations are left out of the gyroscope fit, not fitted.
+    Such rotations are left out of the gyroscope fit, not fitted; so are the
+    rotations into and out of a pose the gyroscope finds unsteady
+    (:func:`unsteady_poses`): its accelerometer mean is kept, not its edges.
     """
-    if len(intervals) < 2:
+    if len(intervals) < 2 or recording.gyro is None:
         return {}
     starts, stops = transition_bounds(intervals)
     sat = np.nonzero(saturated(recording.gyro))[0]
@@ -722,4 +807,8 @@ def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
             why.append(f"{inside.size} sampling gap(s), the longest {dt[inside].max():.3g} s")
         if why:
             out[k] = " and ".join(why)
+    for k, why in unsteady_poses(recording, intervals).items():  # rotation k−1 ends at pose k, rotation k leaves it
+        for j in (k - 1, k):
+            if 0 <= j < len(starts):
+                out[j] = f"{out[j]} and {why}" if j in out else why
     return out

@@ -264,10 +264,18 @@ def accelerometer_covariance(acc: TriadModel, means: np.ndarray, gravity: float,
     """
     lay = AccelLayout("upper", 1)
     r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
-    expand = _expand(next(row[1] for row in REDUCED_MODELS if row[0] == which[0])) if which else np.eye(9)
+    if which is None:
+        cov, bad = covariance(j, r)
+        cov[bad, bad] = np.inf
+        return cov
+    expand = _expand(next(row[1] for row in REDUCED_MODELS if row[0] == which[0]))
     cov, bad = covariance(j @ expand, r)
-    cov[bad, bad] = np.inf
-    return expand @ cov @ expand.T
+    cov[bad, :] = 0.0
+    cov[:, bad] = 0.0
+    out = expand @ cov @ expand.T
+    undetermined = np.any(expand[:, bad] != 0, axis=1)
+    out[undetermined, undetermined] = np.inf
+    return out
 
 
 def accelerometer_errors(acc: TriadModel, means: np.ndarray, gravity: float) -> dict[str, float]:

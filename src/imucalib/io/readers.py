@@ -236,6 +236,10 @@ def _read_file_blocks(paths: Sequence[Path], reader: str, columns, acc_unit, gyr
     """
     if topic is not None:
         raise ReaderError(f"topic applies to ROS bags; the {reader} reader has none")
+    twice = [p for i, p in enumerate(paths) if p.resolve() in {q.resolve() for q in paths[:i]}]
+    if twice:
+        raise ReaderError(f"{twice[0]} is given twice; several files are read as blocks of one recording (one pose "
+                          "each), each file once")
     recs = []
     seen: set[str] = set()
     for i, p in enumerate(paths):
@@ -251,13 +255,16 @@ def _read_file_blocks(paths: Sequence[Path], reader: str, columns, acc_unit, gyr
                               stacklevel=3)
     first = recs[0]
     for p, rec in zip(paths[1:], recs[1:], strict=True):
-        for what, a, b in (("a gyroscope", first.gyro is not None, rec.gyro is not None),
-                           ("accelerometer unit", first.acc_unit, rec.acc_unit),
-                           ("gyroscope unit", first.gyro_unit, rec.gyro_unit),
-                           ("columns", first.metadata.get("columns"), rec.metadata.get("columns"))):
+        has = ("a gyroscope" if first.gyro is not None else "no gyroscope",
+               "a gyroscope" if rec.gyro is not None else "no gyroscope")
+        for what, a, b in (("has", *has), ("has its accelerometer in", first.acc_unit, rec.acc_unit),
+                           ("has its gyroscope in", first.gyro_unit if first.gyro is not None else None,
+                            rec.gyro_unit if rec.gyro is not None else None),
+                           ("has the columns", first.metadata.get("column_names"), rec.metadata.get("column_names"))):
             if a != b:
-                raise ReaderError(f"{p}: several files are read as blocks (one pose each) of one recording, so they "
-                                  f"must match; its {what} ({b}) differs from {paths[0]}'s ({a})")
+                a, b = (", ".join(v) if isinstance(v, list) else str(v) for v in (a, b))
+                raise ReaderError(f"several files are read as blocks (one pose each) of one recording, so they must "
+                                  f"match: {p} {what} {b}, {paths[0]} {what} {a}")
     steps = np.concatenate([np.diff(r.t) for r in recs])
     gap = BLOCK_GAP_STEPS * (float(np.median(steps)) if steps.size else 1.0)
     times, start, blocks, row = [], 0.0, [], 0
