@@ -374,3 +374,37 @@ def test_an_edge_that_creeps_is_left_out_of_the_gyroscope_only():
     ex = unreliable_transitions(rec, static)
     for k in creeping:
         assert k - 1 in ex and (k in ex or k == len(static) - 1)
+
+
+def test_a_mat_file_uses_its_magnetometer_and_temperature_and_names_what_it_leaves(tmp_path):
+    from scipy.io import savemat
+
+    from imucalib.io import read
+    from imucalib.io.data import read_data
+
+    sim = session("handheld", rng=6, n_poses=3, rest=3.0, magnetometer=True)
+    rec = sim.recording
+    temp = 25.0 + 0.01 * np.arange(len(rec))
+    imu = np.column_stack([rec.t, rec.acc, rec.gyro, rec.acc[:, :2]])  # two columns no field reads
+    savemat(tmp_path / "s.mat", {"imu": imu, "mag": rec.mag, "temperature": temp[:, None], "note": "bench 3"})
+    with pytest.warns(ImucalibWarning, match=r"not used: columns 7, 8 \(0-based\) of 'imu'.*the variable 'note'"):
+        got = read_data(tmp_path / "s.mat", variable="imu")
+    np.testing.assert_array_equal(got.mag, rec.mag)  # the plain form: the same samples as the recording's
+    np.testing.assert_array_equal(got.temperature, temp)
+    np.testing.assert_array_equal(got.acc, rec.acc)
+    savemat(tmp_path / "acc.mat", {"acc": np.column_stack([rec.t, rec.acc])})  # an accelerometer-only matrix
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        alone = read(tmp_path / "acc.mat", columns=["0", "1", "2", "3"])
+    assert alone.gyro is None
+    np.testing.assert_array_equal(alone.acc, rec.acc)
+
+
+def test_validate_takes_an_accelerometer_only_calibration(capsys, acc_only, tmp_path):
+    d, _ = acc_only
+    code, out, err = run(capsys, "calibrate", d / "acc_t.csv", "--method", "ellipsoid", "-o", tmp_path / "a.json")
+    assert code == 0, err
+    code, out, err = run(capsys, "validate", tmp_path / "a.json", d / "acc_t.csv", "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    assert doc["verdict"] == "accepted"
