@@ -137,15 +137,14 @@ def calibrate(
     which = None
     if len(intervals) < MIN_INTERVALS:  # few poses: the model they determine (the full one from 9 spread poses)
         acc_model, _, which = fit_determined(means, gravity)
-    gyro = None
-    blocks = pose_blocks(recording) is not None
-    if recording.gyro is not None and not blocks:  # accelerometer-only, or no rotations: the accelerometer alone
-        say("calibrating the gyroscope")
-        acc_cov = accelerometer_covariance(acc_model, means, gravity, which=which)
-        gyro = fit_gyroscope(recording, intervals, acc_model, estimate_bias=estimate_gyro_bias,
-                             g_sensitivity=gyro_g_sensitivity, acc_cov=acc_cov,
-                             exclude=unreliable_transitions(recording, intervals))
-    gyro_model, gyro_errors = (gyro.model, gyro.errors) if gyro is not None else (None, {})
+    if recording.gyro is None or pose_blocks(recording) is not None:  # no gyroscope, or no rotations recorded
+        return _accelerometer_alone(recording, intervals, acc_model, which, gravity, mult, rest)
+    say("calibrating the gyroscope")
+    acc_cov = accelerometer_covariance(acc_model, means, gravity, which=which)
+    gyro = fit_gyroscope(recording, intervals, acc_model, estimate_bias=estimate_gyro_bias,
+                         g_sensitivity=gyro_g_sensitivity, acc_cov=acc_cov,
+                         exclude=unreliable_transitions(recording, intervals))
+    gyro_model, gyro_errors = gyro.model, gyro.errors
     cal = Calibration(
         accelerometer=acc_model,
         gyroscope=gyro_model,
@@ -156,15 +155,31 @@ def calibrate(
     )
     fit = fit_summary(cal, recording, intervals, gravity)
     fit["threshold_multiplier"] = mult
-    if gyro is not None:
-        fit |= gyro.summary()
+    fit |= gyro.summary()
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
-    if blocks and recording.gyro is not None:
-        fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
-                                           "the rotations that calibrate the gyroscope were not recorded")
     if which is None:
         fit["uncertainty"] = accelerometer_errors(acc_model, means, gravity) | gyro_errors
     else:
         fit |= determined_figures(acc_model, means, gravity, which)
         fit["uncertainty"] = fit["uncertainty"] | gyro_errors
+    return cal.with_(fit=fit)
+
+
+def _accelerometer_alone(recording: Recording, intervals: list[Interval], acc_model, which, gravity: float,
+                         mult: float, rest: Interval) -> Calibration:
+    """The accelerometer part of the method: a calibration with no gyroscope, for an accelerometer-only
+    recording or one whose poses were recorded as separate blocks (no rotations between them)."""
+    means = interval_means(recording.acc, intervals)
+    cal = Calibration(accelerometer=acc_model, gyroscope=None, gravity=gravity, method="tedaldi2014", model="linear",
+                      units=units_of(recording))
+    fit = fit_summary(cal, recording, intervals, gravity)
+    fit["threshold_multiplier"] = mult
+    fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
+    if recording.gyro is not None:
+        fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
+                                           "the rotations that calibrate the gyroscope were not recorded")
+    if which is None:
+        fit["uncertainty"] = accelerometer_errors(acc_model, means, gravity)
+    else:
+        fit |= determined_figures(acc_model, means, gravity, which)
     return cal.with_(fit=fit)
