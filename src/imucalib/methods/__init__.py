@@ -183,6 +183,10 @@ def with_magnetometer(calibration: Calibration, recording: Recording, *, field: 
         raise ValueError(f"the local field magnitude is a number of µT (25-65 on Earth's surface); got {field!r}")
     fit = dict(calibration.fit or {})
     intervals = [Interval(int(a), int(b)) for a, b in fit.get("intervals") or []]
+    if calibration.gyroscope is None or recording.gyro is None:
+        fit["magnetometer_error"] = ("its reference directions are carried from pose to pose by the gyroscope, and "
+                                     "this calibration has none")
+        return calibration.with_(fit=fit)
     try:
         mag = fit_magnetometer(recording, intervals, calibration, hemisphere=hemisphere, field=field)
     except ValueError as exc:
