@@ -177,7 +177,7 @@ def test_bad_options(tmp_path):
         read(path, gyro_unit="rpm")
     with pytest.raises(ReaderError, match="has a time column .* and --rate was given"):
         read(path, rate=100.0)
-    with pytest.raises(ReaderError, match="the csv reader takes one file; got 2"):
+    with pytest.raises(ReaderError, match="is given twice; several files are read as blocks"):
         read([path, path], reader="csv")
     with pytest.raises(ReaderError, match="the imutk reader takes two files"):
         read([path], reader="imutk")

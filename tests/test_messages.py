@@ -76,13 +76,10 @@ BAD = [  # (arguments, words the error holds); {csv} etc. are the fixture's file
     (["calibrate", "{csv}", "--columns", "t,ax,ay,az,gx"], "--columns needs 7 entries"),
     (["calibrate", "{csv}", "--columns", "t,ax,ay,az,ax,gy,gz"], "for both ax and gx"),
     (["calibrate", "{csv}", "--columns", "t,ax,ay,az,nope,gy,gz"], "no such column"),
-    (["calibrate", "{csv}", "--acc-unit", "g"], "--acc-unit g contradicts the header"),
-    (["calibrate", "{csv}", "--gyro-unit", "deg/s"], "--gyro-unit deg/s contradicts the header"),
-    (["calibrate", "{csv}", "--time-unit", "ms"], "--time-unit ms contradicts the header"),
     (["calibrate", "{csv}", "--rate", "100"], "has a time column"),
     (["calibrate", "{serial}"], "no time column found; pass --rate HZ"),
     (["calibrate", "{csv}", "--topic", "/imu"], "topic applies to ROS bags"),
-    (["calibrate", "{acc}", "{gyro}", "{csv}"], "takes one file"),
+    (["calibrate", "{acc}", "{gyro}", "{csv}"], "several files are read as blocks"),
     (["calibrate", "{csv}", "--reader", "imutk"], "takes two files"),
     (["calibrate", "{csv}", "--gravity", "-3"], "expected a positive number"),
     (["calibrate", "{csv}", "--gravity", "abc"], "expected a number"),
@@ -90,7 +87,7 @@ BAD = [  # (arguments, words the error holds); {csv} etc. are the fixture's file
     (["calibrate", "{xsens}", "--rate", "100"], "carries its own time"),
     (["apply", "{cal}", "{csv}", "-o", "{csv}"], "destroy the input"),
     (["apply", "{cal}", "{missing}", "-o", "{out}"], "file not found"),
-    (["apply", "{cal}", "{acc}", "{gyro}", "{csv}", "-o", "{out}"], "takes one file"),
+    (["apply", "{cal}", "{acc}", "{gyro}", "{csv}", "-o", "{out}"], "several files are read as blocks"),
     (["apply", "{missing}", "{csv}", "-o", "{out}"], "calibration file not found"),
     (["apply", "{csv}", "{csv}", "-o", "{out}"], "not valid JSON"),
     (["apply", "{cal}", "{csv}", "-o", "{out}", "--columns", "0,1,2,3,1,5,6"], "for both ax and gx"),
@@ -217,5 +214,6 @@ def test_apply_takes_a_phone_pair(files, cal_si, tmp_path, capsys):
     out = read(tmp_path / "o.csv")
     np.testing.assert_allclose(out.extra["acc_x_cal [m/s^2]"], si.acc[:, 0], rtol=1e-9)
     code, _, err = run(capsys, "apply", cal_si, tmp_path / "acc.csv", tmp_path / "gyr.csv", "--acc-unit", "g",
-                       "-o", tmp_path / "p.csv")
-    assert code == 2 and "--acc-unit g contradicts the header" in err, err
+                       "-o", tmp_path / "p.csv")  # the option wins over the header, with a warning saying who is right
+    assert code == 2 and "--acc-unit g overrides the header" in err and "the header looks right" in err, err
+    assert "maps accelerometer readings in 'm/s^2'" in err, err

@@ -45,6 +45,10 @@ def test_ellipsoid_exact_with_misalignment():
         np.testing.assert_allclose(cal.accelerometer.misalignment, truth.accelerometer.misalignment,
                                    atol=1e-8)
         np.testing.assert_allclose(cal.accelerometer.bias, truth.accelerometer.bias, rtol=1e-6)
+    # fewer poses than the ellipsoid's 9 parameters: the model they determine, and the verdict says so
     rec, truth, iv = tedaldi_session(seed=3, poses=5)
-    with pytest.raises(ValueError, match="at least 9 static poses"):
+    cal = calibrate(rec, method="ellipsoid", gravity=truth.gravity, intervals=iv)
+    assert cal.fit["accelerometer_model"] == "scale and bias per axis" and cal.fit["verdict"] != "accepted"
+    rec, truth, iv = tedaldi_session(seed=3, poses=2)  # 3 poses determine no model: refused
+    with pytest.raises(ValueError, match="no accelerometer model is determined by these 3 static poses"):
         calibrate(rec, method="ellipsoid", gravity=truth.gravity, intervals=iv)

@@ -21,8 +21,11 @@ from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
 from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, Recording
 from .thermal import ThermalModel
 
-__all__ = ["Calibration", "CalibrationFileError", "FORMAT", "FORMAT_VERSION", "check_document"]
+__all__ = ["ACCELEROMETER_ONLY_METHODS", "Calibration", "CalibrationFileError", "FORMAT", "FORMAT_VERSION",
+           "check_document"]
 
+#: the methods that calibrate an accelerometer-only recording (the calibration then has no gyroscope)
+ACCELEROMETER_ONLY_METHODS = ("ellipsoid", "six_position", "tedaldi2014")
 FORMAT = "imucalib.calibration"
 FORMAT_VERSION = 1
 _BLOCK = 1 << 16  # samples calibrated at a time by apply
@@ -47,7 +50,9 @@ class Calibration:
     Attributes
     ----------
     accelerometer, gyroscope : TriadModel
-        ``a = T_a f_a(u_a − b_a)``, ``ω = T_g f_g(u_g − b_g − G a)``.
+        ``a = T_a f_a(u_a − b_a)``, ``ω = T_g f_g(u_g − b_g − G a)``. ``gyroscope`` is None for a
+        calibration made from an accelerometer-only recording: it has no gyroscope section (the file
+        writes ``"gyroscope": null`` and ``units`` has no gyroscope entry).
     lever_arm : (3,) ndarray or None
         Accelerometer origin → rotation centre [m] (Zhang 2021, eqs. 16–18).
     gravity : float
@@ -64,7 +69,7 @@ class Calibration:
     """
 
     accelerometer: TriadModel = field(default_factory=_default_acc)
-    gyroscope: TriadModel = field(default_factory=_default_gyro)
+    gyroscope: TriadModel | None = field(default_factory=_default_gyro)
     lever_arm: np.ndarray | None = None
     gravity: float = STANDARD_GRAVITY
     method: str = "none"
@@ -101,6 +106,8 @@ class Calibration:
 
     def gyroscope_si(self, raw_gyro: np.ndarray, raw_acc: np.ndarray | None = None) -> np.ndarray:
         """Calibrated angular rate (N, 3) [rad/s]; ``raw_acc`` is needed when G ≠ 0."""
+        if self.gyroscope is None:
+            raise ValueError("this calibration has no gyroscope (it was made from an accelerometer-only recording)")
         a = None
         if np.any(self.gyroscope.g_sensitivity):
             if raw_acc is None:
@@ -112,6 +119,7 @@ class Calibration:
         """The recording with calibrated accelerometer [m/s²] and gyroscope [rad/s].
 
         The recording must be in the raw units this calibration was made for.
+        A calibration without a gyroscope gives a recording without one.
 
         A pandas DataFrame is read as :func:`imucalib.io.read` reads it (its
         column names as a CSV header; ``read_options`` are that function's:
@@ -131,11 +139,13 @@ class Calibration:
             base, compensated = compensate(self, recording)
             return base.apply(compensated)
         n = len(recording)
-        acc, gyro = np.empty((n, 3)), np.empty((n, 3))
+        has_gyro = recording.gyro is not None and self.gyroscope is not None
+        acc, gyro = np.empty((n, 3)), (np.empty((n, 3)) if has_gyro else None)
         for a in range(0, n, _BLOCK):  # the models' temporaries stay the size of a block
             b = min(a + _BLOCK, n)
             acc[a:b] = self.accelerometer_si(recording.acc[a:b])
-            gyro[a:b] = self.gyroscope.forward(recording.gyro[a:b], acc[a:b])
+            if has_gyro:
+                gyro[a:b] = self.gyroscope.forward(recording.gyro[a:b], acc[a:b])
         mag, mag_unit = recording.mag, recording.mag_unit
         if mag is not None and self.magnetometer is not None:
             mag, mag_unit = self.magnetometer.forward(mag), self.magnetometer.unit
@@ -170,7 +180,9 @@ class Calibration:
 
     def check_units(self, recording: Recording) -> None:
         """Raise ValueError unless the recording is in the raw units this calibration maps."""
-        pairs = [("accelerometer", recording.acc_unit), ("gyroscope", recording.gyro_unit)]
+        pairs = [("accelerometer", recording.acc_unit)]
+        if recording.gyro is not None and self.gyroscope is not None:
+            pairs.append(("gyroscope", recording.gyro_unit))
         if self.magnetometer is not None and recording.mag is not None and "magnetometer" in self.units:
             pairs.append(("magnetometer", recording.mag_unit))
         for sensor, unit in pairs:
@@ -187,7 +199,8 @@ class Calibration:
         """Every named parameter (``accelerometer.scale.x`` …) → value."""
         out = self.accelerometer.parameters("accelerometer")
         out = {k: v for k, v in out.items() if ".g_sensitivity." not in k}
-        out.update(self.gyroscope.parameters("gyroscope"))
+        if self.gyroscope is not None:
+            out.update(self.gyroscope.parameters("gyroscope"))
         if self.lever_arm is not None:
             for i, axis in enumerate(AXES):
                 out[f"lever_arm.{axis}"] = float(self.lever_arm[i])
@@ -213,7 +226,7 @@ class Calibration:
         return replace(
             self,
             accelerometer=self.accelerometer.with_parameters("accelerometer", values),
-            gyroscope=self.gyroscope.with_parameters("gyroscope", values),
+            gyroscope=None if self.gyroscope is None else self.gyroscope.with_parameters("gyroscope", values),
             lever_arm=lever,
         )
 
@@ -231,7 +244,7 @@ class Calibration:
             "units": self.units,
             "gravity": self.gravity,
             "accelerometer": self.accelerometer.to_dict(gyroscope=False),
-            "gyroscope": self.gyroscope.to_dict(gyroscope=True),
+            "gyroscope": None if self.gyroscope is None else self.gyroscope.to_dict(gyroscope=True),
             "lever_arm": None if self.lever_arm is None else self.lever_arm.tolist(),
             "fit": jsonable(self.fit),
         }
@@ -251,7 +264,7 @@ class Calibration:
         units = d.get("units")
         return cls(
             accelerometer=TriadModel.from_dict(d["accelerometer"], default_shape="upper"),
-            gyroscope=TriadModel.from_dict(d["gyroscope"], default_shape="full"),
+            gyroscope=None if d["gyroscope"] is None else TriadModel.from_dict(d["gyroscope"], default_shape="full"),
             lever_arm=d.get("lever_arm"),
             gravity=float(d.get("gravity", STANDARD_GRAVITY)),
             method=d.get("method", "unknown"),
@@ -388,7 +401,8 @@ def check_document(d) -> None:
     if missing:
         raise CalibrationFileError(f"calibration lacks the {' and '.join(missing)} section(s)")
     _check_triad(d["accelerometer"], "accelerometer", "upper")
-    _check_triad(d["gyroscope"], "gyroscope", "full")
+    if d["gyroscope"] is not None:  # null: an accelerometer-only calibration
+        _check_triad(d["gyroscope"], "gyroscope", "full")
     units = d.get("units")
     if units is not None:
         if not isinstance(units, dict):
@@ -396,6 +410,8 @@ def check_document(d) -> None:
                                        f"got {_kind(units)}")
         for sensor, allowed in (("accelerometer", ACC_UNITS), ("gyroscope", GYRO_UNITS)):
             entry = units.get(sensor)
+            if sensor == "gyroscope" and d["gyroscope"] is None and entry is None:
+                continue
             if not isinstance(entry, dict):
                 raise CalibrationFileError(f"'units' has no '{sensor}' entry (an object with 'raw', one of "
                                            f"{', '.join(allowed)})" if entry is None else
@@ -440,6 +456,9 @@ def check_document(d) -> None:
 
 
 def units_of(recording: Recording) -> dict:
-    """The ``units`` entry of a calibration made from ``recording`` (raw in, SI out)."""
-    return {"accelerometer": {"raw": recording.acc_unit, "calibrated": "m/s^2"},
-            "gyroscope": {"raw": recording.gyro_unit, "calibrated": "rad/s"}}
+    """The ``units`` entry of a calibration made from ``recording`` (raw in, SI out); no gyroscope entry
+    for an accelerometer-only recording."""
+    out = {"accelerometer": {"raw": recording.acc_unit, "calibrated": "m/s^2"}}
+    if recording.gyro is not None:
+        out["gyroscope"] = {"raw": recording.gyro_unit, "calibrated": "rad/s"}
+    return out

@@ -12,7 +12,9 @@ The methods are ranked (:func:`rank`) by, in turn:
    accepted, then suspect (or none), then rejected;
 3. the cross-validated score ``r/r_best + θ/θ_best``: the held-out gravity
    residual RMS ``r`` and mean gyroscope angle error ``θ``, each relative to the
-   best value any method reached on this recording (a method best on both scores 2).
+   best value any method reached on this recording (a method best on both scores 2);
+   ``r/r_best`` alone for an accelerometer-only recording, which compares the
+   methods that take one.
 
 The best method is the first one that ran and was not rejected (none when
 every method was rejected or could not run, or when two or more share the
@@ -64,6 +66,7 @@ def rank(rows: Sequence[dict]) -> tuple[list[dict], str | None]:
     for key in ("cv_accelerometer_residual_rms", "cv_gyroscope_angle_error_mean_deg"):
         values = [v for v in (figure(r, key) for r in rows) if v is not None]
         best[key] = max(min(values), 1e-300) if values else None
+    best = {k: v for k, v in best.items() if v is not None}  # no angle without a gyroscope: the residual alone
     out = []
     for row in rows:
         parts = [figure(row, key) for key in best]
@@ -111,6 +114,7 @@ def compare(
     intervals: Sequence[Interval] | None = None,
     folds: int | None = 12,
     progress: Callable[[str], None] | None = None,
+    init_static: float | None = None,
 ) -> dict:
     """Calibrate with each method and cross-validate it.
 
@@ -128,6 +132,9 @@ def compare(
         Number of held-out poses, spread evenly (None: every pose).
     progress : callable, optional
         Called with a message per method.
+    init_static : float, optional
+        Length of the initial rest [s] (found automatically by default,
+        :func:`imucalib.segment.initial_rest`).
 
     Returns
     -------
@@ -142,9 +149,13 @@ def compare(
 
     say = progress or (lambda msg: None)
     if intervals is None:
-        intervals = detect_intervals(recording, gravity)[0]
+        intervals = detect_intervals(recording, gravity, init_static=init_static)[0]
     intervals = list(intervals)
     chosen = list(methods) if methods is not None else method_names()
+    if recording.gyro is None and methods is None:  # an accelerometer-only recording: the methods that take it
+        from .methods import ACCELEROMETER_ONLY
+
+        chosen = [m for m in chosen if m in ACCELEROMETER_ONLY]
     fold_list = even_folds(len(intervals), folds)
     rows = []
     for name in chosen:

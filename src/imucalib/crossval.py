@@ -55,7 +55,7 @@ def leave_one_pose_out(
     -------
     dict
         ``cv_accelerometer_residual_rms`` [m/s²],
-        ``cv_gyroscope_angle_error_mean_deg``, ``folds`` (folds that ran),
+        ``cv_gyroscope_angle_error_mean_deg`` (None without a gyroscope), ``folds`` (folds that ran),
         ``folds_skipped`` (folds where the method could not be fitted without the
         held-out pose, with the reason) and the per-fold values
         ``accelerometer_residuals`` and ``gyroscope_angle_errors_deg``.
@@ -78,12 +78,13 @@ def leave_one_pose_out(
             continue
         a = cal.accelerometer_si(raw_means[[k - 1, k]])
         acc_res.append(float(np.linalg.norm(a[1]) - gravity))
-        integ = IntervalIntegrator(recording.t, np.array([intervals[k - 1].stop - 1]),
-                                   np.array([intervals[k].start]))
-        rates = cal.gyroscope_si(recording.gyro[integ.samples], recording.acc[integ.samples])
-        rot = quat_to_matrix(integ.from_samples(rates))[0]
-        u = a / np.linalg.norm(a, axis=1, keepdims=True)
-        angles.append(float(np.degrees(angle_between(u[1], rot.T @ u[0]))))
+        if recording.gyro is not None and cal.gyroscope is not None:  # none in an accelerometer-only recording
+            integ = IntervalIntegrator(recording.t, np.array([intervals[k - 1].stop - 1]),
+                                       np.array([intervals[k].start]))
+            rates = cal.gyroscope_si(recording.gyro[integ.samples], recording.acc[integ.samples])
+            rot = quat_to_matrix(integ.from_samples(rates))[0]
+            u = a / np.linalg.norm(a, axis=1, keepdims=True)
+            angles.append(float(np.degrees(angle_between(u[1], rot.T @ u[0]))))
         if progress is not None:
             progress(i + 1, len(folds))
     if not acc_res:
@@ -92,7 +93,7 @@ def leave_one_pose_out(
     acc_res_a = np.array(acc_res)
     return {
         "cv_accelerometer_residual_rms": float(np.sqrt(np.mean(acc_res_a**2))),
-        "cv_gyroscope_angle_error_mean_deg": float(np.mean(angles)),
+        "cv_gyroscope_angle_error_mean_deg": float(np.mean(angles)) if angles else None,
         "folds": len(acc_res),
         "folds_skipped": skipped,
         "accelerometer_residuals": acc_res,

@@ -106,7 +106,7 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
         "accelerometer_residual_rms": float(np.sqrt(np.mean(res**2))),
         "intervals": [[int(iv.start), int(iv.stop)] for iv in intervals],  # sample indices [start, stop)
     }
-    if len(intervals) >= 2:
+    if len(intervals) >= 2 and recording.gyro is not None and calibration.gyroscope is not None:
         ang = np.degrees(gravity_direction_errors(calibration, recording, intervals))
         out["gyroscope_angle_error_mean_deg"] = float(np.mean(ang))
         out["gyroscope_angle_error_max_deg"] = float(np.max(ang))

@@ -330,7 +330,8 @@ def noise_summary(recording: Recording) -> dict:
     -------
     dict
         ``{"seconds", "samples", "rate_hz", "accelerometer": {...},
-        "gyroscope": {...}}``; each sensor's entry holds its ``unit``, the
+        "gyroscope": {...}}`` (no ``"gyroscope"`` for an accelerometer-only
+        recording); each sensor's entry holds its ``unit``, the
         :func:`noise_parameters` per axis (figures NaN where the curve does not
         show them, their bounds beside), ``notes`` on constant and quantised
         columns and ``bounds``, which terms are only bounds and why, as lists
@@ -339,6 +340,8 @@ def noise_summary(recording: Recording) -> dict:
     out = {"seconds": recording.duration, "samples": len(recording), "rate_hz": recording.rate}
     for name, x, unit in (("accelerometer", recording.acc, recording.acc_unit),
                           ("gyroscope", recording.gyro, recording.gyro_unit)):
+        if x is None:
+            continue
         p = noise_parameters(x, recording.rate)
         notes, bounds = _notes(name, p, unit)
         out[name] = {"unit": unit, **{k: v.tolist() for k, v in p.items()}, "notes": notes, "bounds": bounds}

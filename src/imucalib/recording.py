@@ -52,6 +52,8 @@ def dataframe_columns(recording: Recording) -> dict[str, np.ndarray]:
     """Name → column of :meth:`Recording.to_dataframe`."""
     cols: dict[str, np.ndarray] = {"t [s]": recording.t}
     for sensor, values, unit in (("a", recording.acc, recording.acc_unit), ("g", recording.gyro, recording.gyro_unit)):
+        if values is None:  # an accelerometer-only recording has no gyroscope columns
+            continue
         for i, axis in enumerate("xyz"):
             cols[f"{sensor}{axis} [{unit}]"] = values[:, i]
     if recording.temperature is not None:
@@ -108,7 +110,9 @@ class Recording:
     t : (N,) array_like
         Sample times [s], strictly increasing.
     acc, gyro : (N, 3) array_like
-        Accelerometer and gyroscope samples in ``acc_unit`` and ``gyro_unit``.
+        Accelerometer and gyroscope samples in ``acc_unit`` and ``gyro_unit``;
+        ``gyro`` is None for an accelerometer-only recording (a logger or board
+        with no gyroscope: :attr:`has_gyroscope` is False).
     acc_unit : {"counts", "g", "m/s^2"}
     gyro_unit : {"counts", "deg/s", "rad/s"}
     temperature : (N,) array_like, optional
@@ -124,7 +128,7 @@ class Recording:
 
     t: np.ndarray
     acc: np.ndarray
-    gyro: np.ndarray
+    gyro: np.ndarray | None
     acc_unit: str = "counts"
     gyro_unit: str = "counts"
     temperature: np.ndarray | None = None
@@ -136,11 +140,12 @@ class Recording:
     def __post_init__(self) -> None:
         self.t = np.asarray(self.t, dtype=np.float64)
         self.acc = np.asarray(self.acc, dtype=np.float64)
-        self.gyro = np.asarray(self.gyro, dtype=np.float64)
+        if self.gyro is not None:
+            self.gyro = np.asarray(self.gyro, dtype=np.float64)
         if self.t.ndim != 1:
             raise ValueError(f"t must have shape (N,); got {self.t.shape}")
         n = self.t.shape[0]
-        for name in ("acc", "gyro"):
+        for name in ("acc", "gyro") if self.gyro is not None else ("acc",):
             arr = getattr(self, name)
             if arr.shape != (n, 3):
                 raise ValueError(f"{name} must have shape ({n}, 3) to match t; got {arr.shape}")
@@ -185,6 +190,11 @@ class Recording:
         return self.t.shape[0]
 
     @property
+    def has_gyroscope(self) -> bool:
+        """False for an accelerometer-only recording (``gyro`` is None)."""
+        return self.gyro is not None
+
+    @property
     def duration(self) -> float:
         """Time from the first to the last sample [s]."""
         return float(self.t[-1] - self.t[0])
@@ -211,12 +221,12 @@ class Recording:
         return Recording(
             t=self.t[index],
             acc=self.acc[index],
-            gyro=self.gyro[index],
+            gyro=None if self.gyro is None else self.gyro[index],
             acc_unit=self.acc_unit,
             gyro_unit=self.gyro_unit,
             temperature=None if self.temperature is None else self.temperature[index],
             extra={k: v[index] for k, v in self.extra.items()},
-            metadata=dict(self.metadata),
+            metadata={k: v for k, v in self.metadata.items() if k not in ("blocks", "time_original")},  # the whole's
             mag=None if self.mag is None else self.mag[index],
             mag_unit=self.mag_unit,
         )
@@ -243,7 +253,7 @@ class Recording:
     def in_si(self, gravity: float = STANDARD_GRAVITY) -> Recording:
         """Convert g → m/s² and deg/s → rad/s; raw counts are left as they are."""
         acc = self.acc * gravity if self.acc_unit == "g" else self.acc
-        gyro = np.deg2rad(self.gyro) if self.gyro_unit == "deg/s" else self.gyro
+        gyro = np.deg2rad(self.gyro) if self.gyro_unit == "deg/s" and self.gyro is not None else self.gyro
         return Recording(
             t=self.t,
             acc=acc,

@@ -81,7 +81,8 @@ def fit_figure(calibration: Calibration, recording: Recording, intervals: Sequen
     g = calibration.gravity
     t = recording.t - recording.t[0]
     res = gravity_residuals(calibration, recording, intervals) * 1e3
-    ang = np.degrees(gravity_direction_errors(calibration, recording, intervals)) if len(intervals) > 1 \
+    ang = np.degrees(gravity_direction_errors(calibration, recording, intervals)) \
+        if len(intervals) > 1 and calibration.gyroscope is not None and recording.gyro is not None \
         else np.array([])
     fig, axes = plt.subplots(3, 1, figsize=(10, 8.5), constrained_layout=True)
     ax = axes[0]
@@ -155,6 +156,10 @@ def plot_allan(recording: Recording, path: str | Path) -> Path:
     colors = ("tab:red", "tab:green", "tab:blue")
     for ax, name, x, unit in ((axes[0], "accelerometer", recording.acc, recording.acc_unit),
                               (axes[1], "gyroscope", recording.gyro, recording.gyro_unit)):
+        if x is None:  # an accelerometer-only recording
+            ax.set_title(f"{name}: none in this recording")
+            ax.axis("off")
+            continue
         taus, adev = allan_deviation(x, recording.rate)
         p = noise_parameters(x, recording.rate)
         for j, axis in enumerate("xyz"):
@@ -332,8 +337,9 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
                  f"<tr><td>gravity</td><td>{cal.gravity:.6g} m/s²</td></tr>"
                  f"<tr><td>accelerometer units</td><td>{esc(units['accelerometer']['raw'])} → "
                  f"{esc(units['accelerometer']['calibrated'])}</td></tr>"
-                 f"<tr><td>gyroscope units</td><td>{esc(units['gyroscope']['raw'])} → "
-                 f"{esc(units['gyroscope']['calibrated'])}</td></tr>")
+                 + (f"<tr><td>gyroscope units</td><td>{esc(units['gyroscope']['raw'])} → "
+                    f"{esc(units['gyroscope']['calibrated'])}</td></tr>" if "gyroscope" in units else
+                    "<tr><td>gyroscope</td><td>none (an accelerometer-only recording)</td></tr>"))
     if recording is not None:
         src = recording.metadata.get("source")
         parts.append(f"<tr><td>recording</td><td>{esc(', '.join(src) if isinstance(src, list) else str(src or '-'))}"

@@ -19,21 +19,23 @@ given.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 
-from .fit.accelerometer import fit_gravity_norm, fit_sphere
+from .fit.accelerometer import fit_determined, fit_gravity_norm, fit_sphere
 from .metrics import interval_means, transition_bounds
 from .models import TriadModel
-from .recording import Interval, Recording
+from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 
 __all__ = [
     "moving_variance",
     "runs",
     "variance_norm",
     "find_initial_rest",
+    "pose_blocks",
     "gyro_norm_variance",
     "detect_static",
     "detect_static_gyro",
@@ -44,6 +46,8 @@ __all__ = [
     "saturated",
     "spikes",
     "unreliable_transitions",
+    "unsteady_poses",
+    "pose_scatter",
     "initial_rest",
     "motion_between",
     "static_poses",
@@ -149,12 +153,19 @@ def variance_norm(acc: np.ndarray, window: int) -> np.ndarray:
     return out
 
 
+#: the initial rest the detector would like [s]: its noise level is the median statistic over this much rest
+PREFERRED_REST = 2.0
+#: the shortest initial rest found automatically [s]; a rest between this and :data:`PREFERRED_REST` gets a note
+SHORTEST_REST = 1.0
+
+
 def find_initial_rest(
     recording: Recording,
     *,
     window_seconds: float = 1.0,
     factor: float = 30.0,
-    min_seconds: float = 2.0,
+    min_seconds: float = PREFERRED_REST,
+    shortest: float = SHORTEST_REST,
 ) -> Interval:
     """Locate the initial rest period that starts a calibration recording.
 
@@ -163,12 +174,22 @@ def find_initial_rest(
     ``min_seconds``; the rest ends where either statistic first exceeds
     ``factor`` times its level (the first movement: the gyroscope catches a
     turn about the vertical, which leaves the accelerometer still), less half
-    a window.
+    a window. A recording with no gyroscope is judged by its accelerometer.
+
+    A short rest fools that level (its first ``min_seconds`` hold motion), so
+    the start is first looked at with a window of ``shortest / 2`` seconds and
+    the level over its first ``shortest / 4`` seconds: when that finds the
+    first movement (plus half its window) before ``min_seconds``, the rest is
+    that long; at least ``shortest`` seconds of it are taken (less half the
+    short window) with an :class:`ImucalibWarning` saying that its noise level
+    rests on fewer samples than the detector would like, and anything shorter
+    is an error. The short look also gives the rest where the first look
+    leaves less than ``min_seconds`` after its margin of a full window.
 
     Raises
     ------
     ValueError
-        If the recording does not start with at least ``min_seconds`` of rest.
+        If the recording does not start with at least ``shortest`` seconds of rest.
     """
     rate = recording.rate
     win = max(int(round(window_seconds * rate)) | 1, 3)
@@ -178,21 +199,45 @@ def find_initial_rest(
             f"the recording is {recording.duration:.3g} s long: too short for an initial "
             f"rest of {min_seconds} s"
         )
-    first_motion = len(recording)
+    short_win = max(int(round(0.5 * shortest * rate)) | 1, 3)
+    head = recording[: min(n0 + win + short_win, len(recording))]  # the short look reads the start only
+    short_end = _first_motion(head, short_win, short_win // 2 + 1, factor)
+    short_end = len(recording) if short_end == len(head) else short_end
+    moves = (short_end + short_win // 2) / rate  # where the short look sees the first movement [s]
+    if moves < min_seconds and shortest < min_seconds:
+        if moves < shortest:
+            raise ValueError(_no_rest(moves, shortest))
+        warnings.warn(f"the initial rest is about {moves:.2g} s, shorter than the {min_seconds:g} s the detector "
+                      f"would like: the noise level that sets its threshold rests on the first "
+                      f"{short_end / rate:.2g} s (record a longer rest at the start, or give its length with "
+                      "--init-static SECONDS)", ImucalibWarning, stacklevel=2)
+        return Interval(0, short_end, "static")
+    first_motion = _first_motion(recording, win, max(n0, win), factor)
+    end = max(first_motion - win // 2, 0) if first_motion < len(recording) else len(recording)
+    if end >= n0:
+        return Interval(0, end, "static")
+    if shortest < min_seconds and short_end < len(recording):
+        return Interval(0, short_end, "static")
+    raise ValueError(_no_rest(end / rate, min_seconds))
+
+
+def _first_motion(recording: Recording, win: int, n_level: int, factor: float) -> int:
+    """The first sample whose statistic (window ``win``) exceeds ``factor`` × its median over ``n_level`` samples."""
+    first = len(recording)
     for signal in (recording.acc, recording.gyro):
+        if signal is None:
+            continue
         stat = variance_norm(signal, win)
-        level = float(np.median(stat[: max(n0, win)]))
+        level = float(np.median(stat[:n_level]))
         moving = np.nonzero(stat > factor * max(level, np.finfo(float).tiny))[0]
         if moving.size:
-            first_motion = min(first_motion, int(moving[0]))
-    end = max(first_motion - win // 2, 0) if first_motion < len(recording) else len(recording)
-    if end < n0:
-        raise ValueError(
-            f"no initial rest found: the sensor moves {end / rate:.3g} s after the start; "
-            f"a recording must begin with at least {min_seconds} s at rest (or pass "
-            "--init-static SECONDS)"
-        )
-    return Interval(0, end, "static")
+            first = min(first, int(moving[0]))
+    return first
+
+
+def _no_rest(moves: float, seconds: float) -> str:
+    return (f"no initial rest found: the sensor moves {moves:.3g} s after the start; a recording must begin with "
+            f"at least {seconds:g} s at rest (or pass --init-static SECONDS)")
 
 
 def detect_static(
@@ -275,8 +320,28 @@ def detect_static_gyro(
     return runs(zeta < multiplier * zeta_init, max(int(round(min_interval * rate)), 2))
 
 
+def pose_blocks(recording: Recording) -> list[Interval] | None:
+    """The blocks of a recording whose poses were recorded apart (``metadata["blocks"]``), one pose each; else None.
+
+    A logger that pauses between poses writes its rows in blocks separated by prompt lines, or one file per
+    pose (:func:`imucalib.io.read`): no motion was recorded between the blocks, so each block is a static pose
+    and nothing needs detecting.
+    """
+    blocks = recording.metadata.get("blocks")
+    if not blocks:
+        return None
+    out = [Interval(int(a), int(b), "static") for a, b in blocks if int(b) - int(a) >= 2]
+    if not out or out[-1].stop > len(recording):
+        return None
+    return out
+
+
 def initial_rest(recording: Recording, init_static: float | None = None) -> Interval:
-    """The initial rest: ``init_static`` seconds when given, else found by :func:`find_initial_rest`."""
+    """The initial rest: ``init_static`` seconds when given, else the first block of a recording in blocks
+    (:func:`pose_blocks`), else found by :func:`find_initial_rest`."""
+    blocks = pose_blocks(recording) if init_static is None else None
+    if blocks:
+        return blocks[0]
     if init_static is None:
         return find_initial_rest(recording)
     n = int(round(init_static * recording.rate))
@@ -375,24 +440,35 @@ def detect_intervals(
     detector statistic and the scan runs again, so a turn about the vertical or
     a slow settle after a flip is never averaged into a pose.
 
+    When the gate leaves fewer than :data:`MIN_INTERVALS` poses at every
+    threshold (hand-held poses that wobble), the intervals before the gate are
+    kept for the accelerometer, its model fitted with each pose weighted by
+    ``1/σ_k`` (:func:`pose_scatter`); :func:`unreliable_transitions` leaves the
+    rotations into and out of the poses the gyroscope finds unsteady out of the
+    gyroscope's fit.
+
+    A recording in blocks (:func:`pose_blocks`) needs no detecting: its blocks
+    are the intervals, the first one the rest, and the multiplier NaN. When no
+    threshold gives :data:`MIN_INTERVALS` intervals, the scan takes the one
+    that gives the most for which an accelerometer model is determined
+    (:func:`imucalib.fit.accelerometer.fit_determined`).
+
     Returns the intervals, the chosen multiplier, the initial rest and the
     accelerometer model calibrated on those intervals.
     """
+    blocks = pose_blocks(recording) if init_static is None else None
+    if blocks:
+        return blocks, float("nan"), blocks[0], fit_determined(interval_means(recording.acc, blocks), gravity)[0]
     rest = initial_rest(recording, init_static)
     multipliers = list(multipliers)
     detector = _detector(recording, rest, window, min_interval)
     intervals, mult, model = _scan(detector, gravity, recording, multipliers, min_interval, None)
-    if gyro_gate:
+    if gyro_gate and recording.gyro is not None:  # an accelerometer-only recording has no gate
         from .fit.gyroscope import axes_disagreement, rough_scale
 
         bias = recording.gyro[rest.slice].mean(axis=0)
         try:
             scale = rough_scale(recording, intervals, model, bias)
-            base, win, min_len, stat = detector
-            widest = detect_static(None, max(multipliers) * base, window=win, min_length=min_len, statistic=stat)
-            still = gyro_still(recording, rest, scale, widest)
-            if not all(np.all(still[iv.slice]) for iv in widest):  # else the scan would find the same again
-                intervals, mult, model = _scan(detector, gravity, recording, multipliers, min_interval, still)
         except ValueError:
             # the accelerometer found the poses but the gyroscope does not confirm them: say why when its
             # rotations disagree with the accelerometer's (axes swapped or reversed on one sensor)
@@ -400,6 +476,22 @@ def detect_intervals(
             if hint is not None:
                 raise ValueError(hint) from None
             raise
+        base, win, min_len, stat = detector
+        widest = detect_static(None, max(multipliers) * base, window=win, min_length=min_len, statistic=stat)
+        still = gyro_still(recording, rest, scale, widest)
+        if not all(np.all(still[iv.slice]) for iv in widest):  # else the scan would find the same again
+            try:
+                gated = _scan(detector, gravity, recording, multipliers, min_interval, still, reduce=False)
+            except ValueError:
+                hint = axes_disagreement(recording, intervals, model, bias)
+                if hint is not None:
+                    raise ValueError(hint) from None
+                # the gate leaves too few poses (hand-held poses that wobble): they are kept for the accelerometer,
+                # weighted by their scatter, and unreliable_transitions leaves their rotations out of the gyroscope
+                weights = 1.0 / pose_scatter(recording.acc, intervals)
+                model = fit_determined(interval_means(recording.acc, intervals), gravity, weights=weights)[0]
+            else:
+                intervals, mult, model = gated
     return intervals, mult, rest, model
 
 
@@ -428,8 +520,10 @@ def _detector(recording: Recording, rest: Interval, window: float, min_interval:
 
 
 def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: Iterable[float], min_interval: float,
-          still: np.ndarray | None) -> tuple[list[Interval], float, TriadModel]:
-    """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded)."""
+          still: np.ndarray | None, *, reduce: bool = True) -> tuple[list[Interval], float, TriadModel]:
+    """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded);
+    with ``reduce``, fewer than :data:`MIN_INTERVALS` intervals at every threshold give the most that determine
+    a model (:func:`imucalib.fit.accelerometer.fit_determined`), else an error."""
     base, win, min_len, stat = detector
     if still is not None:
         stat = np.where(still, stat, np.inf)
@@ -449,11 +543,19 @@ def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: It
         if best is None or score < best[0]:
             best = (score, mult, intervals, model)
     if best is None:
+        # fewer intervals than the full model wants at every threshold: the most that determine a model
+        for mult, _ in sorted(tried, key=lambda mc: -mc[1]) if reduce else []:
+            intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
+            try:
+                model = fit_determined(interval_means(recording.acc, intervals), gravity)[0]
+            except ValueError:
+                continue
+            return intervals, float(mult), model
         counts = ", ".join(f"×{m}: {c}" for m, c in tried)
         raise ValueError(
             "too few static intervals for a calibration at every detector threshold "
-            f"({counts}; at least {MIN_INTERVALS} are needed): hold the sensor still "
-            f"for at least {min_interval} s in each of many poses"
+            f"({counts}; at least 4 in spread directions determine a model, {MIN_INTERVALS} the full one): hold "
+            f"the sensor still for at least {min_interval} s in each of many poses"
         )
     _, mult, intervals, model = best
     return intervals, float(mult), model
@@ -461,7 +563,8 @@ def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: It
 
 def static_poses(recording: Recording, gravity: float, intervals: list[Interval] | None = None, *,
                  init_static: float | None = None) -> list[Interval]:
-    """The static intervals given, or those :func:`detect_intervals` finds; the first is the initial rest."""
+    """The static intervals given, or those :func:`detect_intervals` finds (a recording's blocks,
+    :func:`pose_blocks`); the first is the initial rest."""
     if intervals is None:
         intervals = detect_intervals(recording, gravity, init_static=init_static)[0]
     return [iv for iv in intervals if iv.kind == "static"]
@@ -619,6 +722,69 @@ def spikes(x: np.ndarray, *, factor: float = 20.0, isolation: float = 4.0) -> np
     return out
 
 
+def pose_scatter(acc: np.ndarray, intervals: list[Interval]) -> np.ndarray:
+    """The standard error of each pose's mean accelerometer reading (M,), in its raw unit.
+
+    ``σ_k = sqrt(tr Cov(u) / n_k)`` over the pose's ``n_k`` samples: the noise,
+    and the hand's tremor where it holds the sensor, that its mean keeps; the
+    weight ``1/σ_k`` of a pose in the gravity-norm fit. A pose whose samples do
+    not vary at all (quantised, noise below one count) is given the smallest
+    non-zero scatter of the others (or 1).
+    """
+    acc = np.asarray(acc, dtype=np.float64)
+    s = np.array([np.sqrt(np.sum(np.var(acc[iv.slice], axis=0)) / len(iv)) for iv in intervals])
+    floor = s[s > 0].min() if np.any(s > 0) else 1.0
+    return np.maximum(s, floor)
+
+
+#: a pose's edges may tilt this far [deg] from its mean direction before its rotations are left out: twice the
+#: verdict's acceptable gravity-direction error of the gyroscope (a hand's tremor tilts a pose's edges by 0.1-0.4°,
+#: a settling hand by about 1°)
+EDGE_TILT_DEG = 0.5
+
+
+def unsteady_poses(recording: Recording, intervals: list[Interval], *, edge: float = STILL_WINDOW, n_sigma: float = 4.0
+                   ) -> dict[int, str]:
+    """Poses whose first or last ``edge`` seconds tilt away from the pose's mean direction: ``{k: why}``.
+
+    The gyroscope's fit (Zhang 2021, eq. 14) compares the gravity direction a
+    rotation ends at with the mean direction of the pose that follows, and
+    starts the next rotation from that same mean: a hand that creeps or
+    settles while it holds a pose makes its edges differ from its mean and
+    biases every rotation that touches it. A hand's tremor scatters the
+    samples about the mean but leaves the edges' means on it. So a pose is
+    unsteady when the angle between the mean of its first or last ``edge``
+    seconds and its mean, in the directions of the accelerometer model the
+    poses determine (:func:`imucalib.fit.accelerometer.fit_determined`),
+    exceeds :data:`EDGE_TILT_DEG` and ``n_sigma`` times that edge mean's own
+    scatter (the pose's samples, tremor included, over √n). Its mean is
+    still good for the accelerometer. Empty without a gyroscope or with fewer
+    than 4 poses.
+    """
+    if recording.gyro is None or len(intervals) < 4:
+        return {}
+    try:
+        model = fit_determined(interval_means(recording.acc, intervals), STANDARD_GRAVITY)[0]
+    except ValueError:
+        return {}
+    n_edge = max(int(round(edge * recording.rate)), 2)
+    out = {}
+    for k, iv in enumerate(intervals[1:], 1):
+        if len(iv) < 3 * n_edge:
+            continue
+        a = model.forward(recording.acc[iv.slice])
+        mean = a.mean(axis=0)
+        sigma = np.sqrt(np.sum(np.var(a, axis=0)) / n_edge) / np.linalg.norm(mean)  # [rad], the edge mean's scatter
+        limit = max(np.radians(EDGE_TILT_DEG), n_sigma * sigma)
+        tilts = [float(np.arccos(np.clip(e @ mean / (np.linalg.norm(e) * np.linalg.norm(mean)), -1, 1)))
+                 for e in (a[:n_edge].mean(axis=0), a[-n_edge:].mean(axis=0))]
+        if max(tilts) > limit:
+            where = "start" if tilts[0] > tilts[1] else "end"
+            out[k] = (f"pose {k + 1} tilts {np.degrees(max(tilts)):.2g}° at its {where} from its mean (limit "
+                      f"{np.degrees(limit):.2g}°: the hand moved while holding it)")
+    return out
+
+
 def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
                            gap_factor: float = 2.5) -> dict[int, str]:
     """Rotations between consecutive poses whose integration cannot be trusted: ``{k: why}``.
@@ -628,9 +794,11 @@ def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
     full scale is lost), spikes (:func:`spikes`) or a sampling gap longer than
     ``gap_factor`` × the median step (the attitude is integrated sample to
     sample, Zhang 2021 eq. 23; across a gap the rate is only interpolated).
-    Such rotations are left out of the gyroscope fit, not fitted.
+    Such rotations are left out of the gyroscope fit, not fitted; so are the
+    rotations into and out of a pose the gyroscope finds unsteady
+    (:func:`unsteady_poses`): its accelerometer mean is kept, not its edges.
     """
-    if len(intervals) < 2:
+    if len(intervals) < 2 or recording.gyro is None:
         return {}
     starts, stops = transition_bounds(intervals)
     sat = np.nonzero(saturated(recording.gyro))[0]
@@ -651,4 +819,8 @@ def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
             why.append(f"{inside.size} sampling gap(s), the longest {dt[inside].max():.3g} s")
         if why:
             out[k] = " and ".join(why)
+    for k, why in unsteady_poses(recording, intervals).items():  # rotation k−1 ends at pose k, rotation k leaves it
+        for j in (k - 1, k):
+            if 0 <= j < len(starts):
+                out[j] = f"{out[j]} and {why}" if j in out else why
     return out

@@ -66,6 +66,8 @@ def find_poses(calibration: Calibration, recording: Recording, *, init_static: f
     rest = initial_rest(recording, init_static)
     # the detector at one threshold, without the scan's fits
     candidates = static_at(recording, rest, THRESHOLD_MULTIPLIER, window=_WINDOW, min_interval=_MIN_POSE)
+    if recording.gyro is None or calibration.gyroscope is None:  # accelerometer-only: the detector's poses
+        return candidates
     scale = float(np.mean(np.abs(calibration.gyroscope.scale)))
     still = gyro_still(recording, rest, scale, candidates)
     return still_intervals(candidates, still, max(int(round(_MIN_POSE * recording.rate)), 2))

@@ -49,7 +49,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fit.accelerometer import fit_sphere
+from .fit.accelerometer import REDUCED_MODELS, fit_sphere
 from .fit.magnetometer import WEAK_DIP_DEG
 from .metrics import gravity_direction_errors, interval_means, transition_bounds
 from .recording import Interval, Recording
@@ -330,6 +330,8 @@ def plausibility(calibration) -> list[Check]:
     if fit.get("converged") is False:
         out.append(Check(2, "the solver did not converge: these parameters are not a minimum of the fit"))
     for sensor, model in (("accelerometer", calibration.accelerometer), ("gyroscope", calibration.gyroscope)):
+        if model is None:  # an accelerometer-only calibration
+            continue
         unit = calibration.units[sensor]["raw"]
         nominal = calibration.gravity if unit == "g" else _NOMINAL.get(unit)
         if nominal is not None:
@@ -355,6 +357,10 @@ def plausibility(calibration) -> list[Check]:
 
 
 def _accelerometer_parameters(calibration) -> int:
+    reduced = {name: p for name, _, p, _ in REDUCED_MODELS if name != "linear"}
+    name = (calibration.fit or {}).get("accelerometer_model")
+    if name in reduced:  # a model reduced to what the poses determine (fit.accelerometer.fit_determined)
+        return reduced[name]
     acc = calibration.accelerometer
     n = 6 + {"upper": 3, "lower": 3, "full": 6, "diagonal": 0}.get(acc.shape, 3)
     n += 3 * int(np.any(acc.scale_quadratic)) + 3 * int(np.any(acc.scale_cubic))
@@ -638,8 +644,15 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     checks += _redundancy(calibration, fitted)
     if fitted:
         checks += _usefulness(calibration)
-        checks += _rotations_used(calibration, intervals)
-    if recording is not None:
+        if calibration.gyroscope is not None:
+            checks += _rotations_used(calibration, intervals)
+    if fit.get("accelerometer_model_reduced"):
+        checks.append(Check(1, f"{fit['accelerometer_model_reduced']}: record more poses, in directions spread over "
+                               "the sphere, for the full model"))
+    if calibration.gyroscope is None:
+        why = fit.get("gyroscope_not_calibrated") or "no gyroscope (an accelerometer-only recording)"
+        checks.append(Check(0, f"{why}; the calibration has no gyroscope, and the gyroscope checks are skipped"))
+    elif recording is not None:
         gyro_checks, figures = _gyroscope(calibration, recording, intervals)
         checks += gyro_checks
         if fitted:

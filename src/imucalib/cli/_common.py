@@ -82,7 +82,8 @@ def add_reader_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--mag-topic", help="ROS bags: a sensor_msgs/MagneticField topic to calibrate beside the IMU")
     g.add_argument("--columns", metavar="T,AX,AY,AZ,GX,GY,GZ",
                    help="comma-separated column names or 0-based indices in the order t,ax,ay,az,gx,gy,gz, "
-                   "'-' for t when there is no time column (with --rate), e.g. --columns -,0,1,2,3,4,5")
+                   "'-' for t when there is no time column (with --rate), e.g. --columns -,0,1,2,3,4,5; 4 entries "
+                   "t,ax,ay,az (or '-' for gx,gy,gz) for an accelerometer-only log, e.g. --columns -,0,1,2")
     g.add_argument("--acc-unit", choices=("counts", "g", "m/s^2"),
                    help="accelerometer unit of the input (default: from the header, else counts)")
     g.add_argument("--gyro-unit", choices=("counts", "deg/s", "rad/s"),

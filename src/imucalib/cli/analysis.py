@@ -9,7 +9,15 @@ import numpy as np
 from ..calibration import Calibration
 from ..io.atomic import atomic_write, refuse_overwriting_inputs
 from ..recording import ImucalibWarning
-from ._common import CliError, add_reader_options, positive_float, print_json, read_recording, show_warning
+from ._common import (
+    CliError,
+    add_init_static_option,
+    add_reader_options,
+    positive_float,
+    print_json,
+    read_recording,
+    show_warning,
+)
 
 __all__ = ["register"]
 
@@ -18,7 +26,7 @@ __all__ = ["register"]
 def cmd_noise(args: argparse.Namespace) -> int:
     """``imucalib noise``: :func:`imucalib.noise.noise_summary` of the initial rest, optionally a Kalibr file."""
     from ..noise import check_rest, kalibr_yaml, noise_summary
-    from ..segment import find_initial_rest
+    from ..segment import initial_rest
     from ..verdict import check_rate
 
     refuse_overwriting_inputs([args.kalibr, args.plot], [*args.data, args.calibration])
@@ -26,7 +34,7 @@ def cmd_noise(args: argparse.Namespace) -> int:
     check_rate(rec)  # before the rest is looked for: a wrong time base makes any window wrong
     if args.calibration:  # noise in SI units, through the calibration
         rec = Calibration.load(args.calibration).apply(rec)
-    part = rec if args.whole else rec[find_initial_rest(rec)]
+    part = rec if args.whole else rec[initial_rest(rec, args.init_static)]
     for text in check_rest(part):
         show_warning(text, ImucalibWarning, "", 0)
     result = noise_summary(part)
@@ -34,6 +42,8 @@ def cmd_noise(args: argparse.Namespace) -> int:
         for text in result[name]["notes"]:
             show_warning(text, ImucalibWarning, "", 0)
     if args.kalibr:
+        if part.gyro is None:
+            raise CliError("the Kalibr noise file needs a gyroscope's noise; this recording is accelerometer-only")
         if (part.acc_unit, part.gyro_unit) != ("m/s^2", "rad/s"):
             raise CliError(f"the Kalibr file needs SI units; this recording is in {part.acc_unit} and "
                            f"{part.gyro_unit}: pass --calibration CALIBRATION.json (or read data in m/s^2, rad/s)")
@@ -59,6 +69,9 @@ def cmd_noise(args: argparse.Namespace) -> int:
           f"{result['rate_hz']:.4g} Hz), Allan deviation (IEEE 952 slopes; '<' an upper bound where the curve "
           "does not show the term's slope, 'const' a column below the resolution):")
     for name in ("accelerometer", "gyroscope"):
+        if name not in result:
+            print(f"  {name}: none in this recording (accelerometer-only)")
+            continue
         r = result[name]
         u = r["unit"]
         print(f"  {name}: white noise {_triple(r, 'white_noise_density')} {u}·√s, bias instability "
@@ -138,6 +151,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "sensors from the Allan deviation of the recording's initial rest.")
     p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
     p.add_argument("--whole", action="store_true", help="use the whole recording (it must be at rest)")
+    add_init_static_option(p)
     p.add_argument("--plot", metavar="FILE", help="also draw the Allan deviation (PNG/SVG/PDF; plot extra)")
     p.add_argument("--calibration", metavar="CALIBRATION.json",
                    help="apply this calibration first: the noise in m/s^2 and rad/s")

@@ -57,6 +57,9 @@ def cmd_apply(args: argparse.Namespace) -> int:
         return 0
     rec = read_recording(args, args.data)
     out = cal.apply(rec)
+    if cal.gyroscope is None and rec.gyro is not None:
+        show_warning("the calibration has no gyroscope (its recording had none, or no rotations between poses): "
+                     "the gyroscope columns are copied uncalibrated")
     mag = None
     if cal.magnetometer is not None and rec.mag is not None:
         mag = out.mag

@@ -57,13 +57,16 @@ def print_calibration(cal: Calibration) -> None:
         return "\n".join("    [" + "  ".join(c.ljust(width) for c in row) + "]" for row in cells)
 
     a, g = cal.accelerometer, cal.gyroscope
-    ua, ug = cal.units["accelerometer"]["raw"], cal.units["gyroscope"]["raw"]
+    ua, ug = cal.units["accelerometer"]["raw"], (cal.units.get("gyroscope") or {}).get("raw")
     print(f"method: {cal.method}   model: {cal.model}   gravity: {cal.gravity} m/s^2")
     if unc:
         print("(± : 1σ standard error of the fit)")
     for prefix, t, unit, cal_unit, formula in (
             ("accelerometer", a, ua, "m/s^2", "a = T_a · f(u − b)"),
             ("gyroscope", g, ug, "rad/s", "ω = T_g · f(u − b − G·a)")):
+        if t is None:
+            print(f"{prefix}: none (an accelerometer-only recording)")
+            continue
         print(f"{prefix}  {formula}")
         print(f"  misalignment T:\n{matrix(prefix, 'misalignment', t.misalignment)}")
         print(f"  scale k1 [{cal_unit} per {unit}]: {vec(prefix, 'scale', t.scale)}")
@@ -217,7 +220,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     say = progress(not args.json and sys.stderr.isatty())
     rec = read_recording(args, args.data)
     result = compare(rec, gravity=args.gravity, methods=args.methods.split(",") if args.methods else None,
-                     folds=None if args.folds == 0 else args.folds, progress=say)
+                     folds=None if args.folds == 0 else args.folds, progress=say, init_static=args.init_static)
     if args.json:
         return print_json(result)
     print(f"{result['static_intervals']} static intervals; leave-one-pose-out over "
@@ -230,8 +233,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
             model = f"{model}->{row['model_selected']}"
         head = f"{row['rank']:>2} {row['method']:<14}{model:<18}{row.get('verdict') or '-':<10}"
         if row["ok"]:
+            angle = row["cv_gyroscope_angle_error_mean_deg"]
             print(head + f"{row['cv_accelerometer_residual_rms']:>22.5f}"
-                  f"{row['cv_gyroscope_angle_error_mean_deg']:>22.4f}"
+                  + (f"{angle:>22.4f}" if angle is not None else f"{'- (no gyroscope)':>22}")
                   + (f"{row['score']:>8.2f}" if row["score"] is not None else f"{'-':>8}")
                   + (f"   ({row['cv_folds_skipped']} folds could not run)" if row["cv_folds_skipped"] else ""))
         else:
@@ -316,6 +320,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "gyroscope angle errors; methods that cannot run say why.")
     p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
     add_gravity_option(p)
+    add_init_static_option(p)
     p.add_argument("--methods", help="comma-separated methods (default: all)")
     p.add_argument("--folds", type=int, default=12,
                    help="held-out poses, spread evenly (0: every pose; default 12)")

@@ -78,6 +78,13 @@ def cmd_export(args: argparse.Namespace) -> int:
     elif cal.thermal is not None and fmt != "c":
         raise CliError(f"{args.calibration} follows temperature, which --format {fmt} has no place for: pass "
                        "--temperature C to write it at one temperature (the C header follows it)")
+    if cal.gyroscope is None:  # an accelerometer-only calibration: every format has a gyroscope part
+        from ..models import TriadModel
+
+        cal = cal.with_(gyroscope=TriadModel(scale=[1.0, 1.0, 1.0], shape="full"),
+                        units={**cal.units, "gyroscope": {"raw": "rad/s", "calibrated": "rad/s"}})
+        notes.append(f"the calibration has no gyroscope (it was made from an accelerometer-only recording): the "
+                     f"gyroscope part of the {_WHAT[fmt]} is the identity, which passes rates through unchanged")
     if cal.magnetometer is not None and fmt != "c":
         notes.append(f"the magnetometer calibration has no place in the {_WHAT[fmt]}: it is left out (the JSON "
                      "and the C header hold it)")

@@ -7,6 +7,8 @@ and returns the canonical model ``a = T_a f(u − b)`` (``DESIGN.md``):
   (Ru 2022, §3.2, the ellipsoid/norm methods);
 * :func:`fit_gravity_norm` — ``‖a_k‖ = g`` by Levenberg–Marquardt (Tedaldi 2014;
   Zhang 2021, eq. 10), linear or polynomial, with :func:`accelerometer_errors`;
+* :func:`fit_determined` — the same residuals for the richest linear model the
+  poses determine (few poses: scale and bias per axis, or a sphere);
 * :func:`six_position` — each axis up and down (Ru 2022, eqs. 8–9);
 * :func:`faces_full` — the six faces with full misalignment (Ferraris 1995);
 * :func:`qureshi_cost`, :func:`newton_backtracking` — Qureshi 2017, eqs. 11–12.
@@ -20,8 +22,9 @@ from ..models import TriadModel
 from ..residuals import AccelLayout, gravity_norm_residuals
 from ..solve import covariance, levenberg_marquardt, standard_errors
 
-__all__ = ["accelerometer_covariance", "accelerometer_errors", "faces_full", "fit_ellipsoid", "fit_gravity_norm",
-           "fit_sphere", "full_from_sensitivity", "newton_backtracking", "qureshi_cost", "six_position"]
+__all__ = ["REDUCED_MODELS", "accelerometer_covariance", "accelerometer_errors", "determined_figures", "faces_full",
+           "fit_determined", "fit_ellipsoid", "fit_gravity_norm", "fit_sphere", "full_from_sensitivity",
+           "newton_backtracking", "qureshi_cost", "six_position"]
 
 
 def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:
@@ -131,16 +134,148 @@ def fit_gravity_norm(
     return layout.unpack(sol.x, initial), sol.fun
 
 
-def accelerometer_covariance(acc: TriadModel, means: np.ndarray, gravity: float) -> np.ndarray:
+#: the linear accelerometer models from the richest down: (name, misalignment shape or None for one common scale,
+#: parameters, what it leaves out)
+REDUCED_MODELS = (
+    ("linear", "upper", 9, ""),
+    ("scale and bias per axis", "diagonal", 6, "the misalignment (taken as none)"),
+    ("sphere", None, 4, "the misalignment and the differences between the axes' scale factors (one common scale)"),
+)
+#: a model is determined when its column-normalised Jacobian's smallest singular value is at least this × the largest
+DETERMINED = 1e-6
+
+
+def fit_determined(raw_means: np.ndarray, gravity: float, *, weights: np.ndarray | None = None
+                   ) -> tuple[TriadModel, np.ndarray, tuple[str, int, str]]:
+    """The richest linear model of :data:`REDUCED_MODELS` the poses determine, fitted to ``‖a_k‖ = g``.
+
+    The gravity-norm residuals ``r_k = ‖T_a K (u_k − b)‖ − g`` (Tedaldi 2014;
+    Zhang 2021, eq. 10), each multiplied by ``weights[k]`` (``1/σ_k``, the
+    pose's scatter; all 1 by default), are minimised by Levenberg–Marquardt for
+    the full linear model (9 parameters, upper-triangular ``T_a``), else for a
+    scale and a bias per axis (6, ``T_a = I``), else for a sphere (4: one
+    scale and the bias, :func:`fit_sphere` refined). A model is taken when
+    there are at least as many poses as parameters and the Jacobian at the
+    solution, its columns normalised, has a smallest singular value of at least
+    :data:`DETERMINED` × its largest (the poses' directions determine every
+    parameter).
+
+    Returns
+    -------
+    model : TriadModel
+    residuals : (M,) ndarray
+        ``‖a_k‖ − g`` [m/s²], unweighted.
+    which : (name, parameters, left out)
+        The row of :data:`REDUCED_MODELS` used.
+
+    Raises
+    ------
+    ValueError
+        When not even the sphere is determined (fewer than 4 poses, or poses in too few directions).
+    """
+    raw_means = np.asarray(raw_means, dtype=np.float64)
+    m = raw_means.shape[0]
+    w = np.ones(m) if weights is None else np.asarray(weights, dtype=np.float64)
+    try:
+        start = fit_sphere(raw_means, gravity)
+    except ValueError:
+        start = None
+    layout = AccelLayout("upper", 1)  # θ = (T_xy, T_xz, T_yz, k, b); a reduced model is θ = E·φ
+    for row in REDUCED_MODELS:
+        name, shape, p, _ = row
+        if m < p or start is None:
+            continue
+        expand = _expand(shape)
+
+        def fun(phi, expand=expand):
+            return w * gravity_norm_residuals(expand @ phi, layout, raw_means, gravity)
+
+        def jac(phi, expand=expand):
+            return w[:, None] * gravity_norm_residuals(expand @ phi, layout, raw_means, gravity,
+                                                       jacobian=True)[1] @ expand
+
+        phi0 = np.linalg.lstsq(expand, layout.pack(start), rcond=None)[0]  # the sphere's: T = I, one scale
+        sol = levenberg_marquardt(fun, jac, phi0, xtol=1e-14, ftol=1e-14)
+        j = jac(sol.x)
+        norms = np.linalg.norm(j, axis=0)
+        if np.any(norms == 0) or not np.all(np.isfinite(j)):
+            continue
+        sv = np.linalg.svd(j / norms, compute_uv=False)
+        if sv[-1] < DETERMINED * sv[0]:
+            continue
+        model = layout.unpack(expand @ sol.x, start)
+        return model, np.linalg.norm(model.forward(raw_means), axis=1) - gravity, (name, p, row[3])
+    raise ValueError(f"no accelerometer model is determined by these {m} static poses: at least 4 poses in "
+                     "directions spread over the sphere are needed (six faces determine a scale and a bias per axis, "
+                     "nine spread poses the misalignment too)")
+
+
+def _expand(shape: str | None) -> np.ndarray:
+    """E (9, P): the parameters ``θ = (T_xy, T_xz, T_yz, k, b)`` of the upper layout from a reduced model's ``φ``."""
+    if shape == "upper":
+        return np.eye(9)
+    if shape == "diagonal":  # no misalignment: φ = (k, b)
+        expand = np.zeros((9, 6))
+        expand[3:, :] = np.eye(6)
+        return expand
+    expand = np.zeros((9, 4))  # one common scale: φ = (k, b)
+    expand[3:6, 0] = 1.0
+    expand[6:, 1:] = np.eye(3)
+    return expand
+
+
+def determined_figures(acc: TriadModel, means: np.ndarray, gravity: float, which: tuple[str, int, str], *,
+                       weights: np.ndarray | None = None) -> dict:
+    """The ``fit`` entries of a model from :func:`fit_determined`: which model, what it leaves out, its 1σ errors.
+
+    ``accelerometer_model`` names the model; for a reduced one ``accelerometer_model_reduced`` says what the
+    poses do not determine. ``uncertainty`` holds the 1σ errors of the parameters fitted (the delta method
+    through ``E``, :func:`imucalib.solve.standard_errors`), or, when the poses determine them exactly,
+    ``uncertainty_unavailable`` says so.
+    """
+    name, p, left = which
+    m = means.shape[0]
+    row = next(r for r in REDUCED_MODELS if r[0] == name)
+    out: dict = {"accelerometer_model": name}
+    if name != "linear":
+        out["accelerometer_model_reduced"] = (f"{m} static poses determine {p} accelerometer parameters: the model is "
+                                              f"reduced to {name}, leaving out {left}")
+    if m <= p:
+        out["uncertainty_unavailable"] = (f"accelerometer: the {m} poses determine its {p} parameters exactly, which "
+                                          "leaves no residual to estimate the noise from")
+        out["uncertainty"] = {}
+        return out
+    lay = AccelLayout("upper", 1)
+    expand = _expand(row[1])
+    w = np.ones(m) if weights is None else np.asarray(weights, dtype=np.float64)
+    r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
+    se = standard_errors(w[:, None] * j @ expand, w * r, transform=expand)
+    fitted = np.any(expand != 0, axis=1)
+    out["uncertainty"] = {k: float(v) for k, v, f in zip(lay.names("accelerometer"), se, fitted, strict=True) if f}
+    return out
+
+
+def accelerometer_covariance(acc: TriadModel, means: np.ndarray, gravity: float, *,
+                             which: tuple[str, int, str] | None = None) -> np.ndarray:
     """Covariance of a linear upper-triangular accelerometer model's parameters (``AccelLayout("upper", 1)`` order).
 
-    Infinite on the diagonal of a parameter the poses do not determine.
+    Infinite on the diagonal of a parameter the poses do not determine. For a reduced model of
+    :func:`fit_determined` (``which``), ``E C_φ Eᵀ``: the parameters it holds fixed have none.
     """
     lay = AccelLayout("upper", 1)
     r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
-    cov, bad = covariance(j, r)
-    cov[bad, bad] = np.inf
-    return cov
+    if which is None:
+        cov, bad = covariance(j, r)
+        cov[bad, bad] = np.inf
+        return cov
+    expand = _expand(next(row[1] for row in REDUCED_MODELS if row[0] == which[0]))
+    cov, bad = covariance(j @ expand, r)
+    cov[bad, :] = 0.0
+    cov[:, bad] = 0.0
+    out = expand @ cov @ expand.T
+    undetermined = np.any(expand[:, bad] != 0, axis=1)
+    out[undetermined, undetermined] = np.inf
+    return out
 
 
 def accelerometer_errors(acc: TriadModel, means: np.ndarray, gravity: float) -> dict[str, float]:

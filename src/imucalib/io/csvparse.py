@@ -528,7 +528,8 @@ def fingerprint(recording) -> int:
     About 0.06 s for 3.6 M samples.
     """
     crc = 0
-    arrays = [recording.t, recording.acc, recording.gyro, *recording.extra.values()]
+    arrays = [recording.t, recording.acc, *([] if recording.gyro is None else [recording.gyro]),
+              *recording.extra.values()]
     if recording.temperature is not None:
         arrays.append(recording.temperature)
     for a in arrays:

@@ -163,6 +163,8 @@ def check_against_header(paths: Sequence[Path], reader: str, rec: Recording, acc
 
 def check_magnitudes(paths: Sequence[Path], rec: Recording) -> None:
     for name, arr in (("accelerometer", rec.acc), ("angular rate", rec.gyro)):
+        if arr is None:  # an accelerometer-only recording
+            continue
         big = np.abs(arr) > LARGEST_READING
         if np.any(big):
             i = int(np.nonzero(big.any(axis=1))[0][0])
@@ -180,7 +182,7 @@ def note_physical_units(paths: Sequence[Path], rec: Recording) -> None:
         return
     flags = [f"--acc-unit {acc}"]
     looks = [f"the accelerometer like {acc} (median norm {norm:.3g})"]
-    if rec.gyro_unit == "counts":
+    if rec.gyro is not None and rec.gyro_unit == "counts":
         rate = float(np.percentile(np.abs(rec.gyro), 99))
         gyro = "rad/s" if rate <= 35.0 else "deg/s" if rate <= 2500.0 else None
         if gyro is not None:

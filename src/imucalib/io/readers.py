@@ -80,8 +80,9 @@ def read(
     Xsens MT Manager text exports (``//`` comment lines, then ``PacketCounter
     SampleTimeFine … Acc_X … Gyr_Z``) are recognised from their header:
     ``SampleTimeFine`` counts 100 µs ticks, the readings are in m/s² and rad/s.
-    A unit option that contradicts a unit written in the header is an error;
-    with no unit given or written, readings that look like m/s², g, rad/s or
+    A unit option that contradicts a unit written in the header wins over it,
+    with a warning saying which of the two the accelerometer's magnitude
+    supports; with no unit given or written, readings that look like m/s², g, rad/s or
     deg/s are still taken as counts, with a note saying so.
     """
     if _is_frame(paths):
@@ -107,6 +108,8 @@ def read(
         reader = guess_reader(paths)
     if reader not in READERS:
         raise ReaderError(f"unknown reader {reader!r}; use one of {', '.join(READERS)}")
+    if reader in ("csv", "mat") and len(paths) > 1:  # one file per pose (per face): blocks of one recording
+        return _read_file_blocks(paths, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic)
     expected = 2 if reader in ("imutk", "phone") else 1
     if len(paths) != expected:
         what = ("two files: the accelerometer file, then the gyroscope file" if expected == 2
@@ -141,6 +144,7 @@ def read(
         rec = inputs.read_xsens(paths[0], xsens, acc_unit, gyro_unit, rate, time_unit, read_csv=_read_csv)
     else:
         rec = _read_csv(paths[0], columns, acc_unit, gyro_unit, rate, time_unit)
+    acc_unit, gyro_unit, time_unit = _flags_over_header(paths, reader, rec, acc_unit, gyro_unit, time_unit)
     inputs.check_against_header(paths, reader, rec, acc_unit, gyro_unit, time_unit, unit_in=_unit_in,
                                 phone_specs=_phone_specs)
     inputs.check_magnitudes(paths, rec)
@@ -153,12 +157,59 @@ def read(
     return rec
 
 
+def _written_units(paths: Sequence[Path], reader: str, rec: Recording) -> dict[str, tuple[str, str]]:
+    """Field (``ax``, ``gx``, ``t``) → (where, unit) for each unit the file's header writes."""
+    written: dict[str, tuple[str, str]] = {}
+    if reader == "csv" and rec.metadata.get("header"):
+        for field, name in (rec.metadata.get("columns") or {}).items():
+            if field in ("ax", "gx", "t") and name is not None and _unit_in(name) is not None:
+                written[field] = (name, _unit_in(name))
+    elif reader == "phone":
+        for spec in _phone_specs(paths) or []:
+            if spec.unit is not None:
+                field = "ax" if spec.sensor == "acc" else "gx"
+                written[field] = (f"{spec.app} {'accelerometer' if field == 'ax' else 'gyroscope'} file", spec.unit)
+    return written
+
+
+def _flags_over_header(paths: Sequence[Path], reader: str, rec: Recording, acc_unit, gyro_unit, time_unit):
+    """A unit option that contradicts the header wins, with a warning; the options left to check against it.
+
+    The readers already read the data in the option's unit. For the accelerometer the warning says which
+    of the two units the readings' magnitude supports: the median norm of the static-ish samples is g in
+    either unit, so about 9.8 in m/s² and about 1 in g.
+    """
+    given = {"ax": ("--acc-unit", acc_unit), "gx": ("--gyro-unit", gyro_unit), "t": ("--time-unit", time_unit)}
+    where_file = ", ".join(map(str, paths)) if reader == "phone" else str(paths[0])
+    overridden = set()
+    for field, (where, unit) in _written_units(paths, reader, rec).items():
+        flag, value = given[field]
+        if value is None or value == unit:
+            continue
+        overridden.add(field)
+        told = ""
+        if field == "ax" and rec.acc is not None and len(rec):
+            norm = float(np.median(np.linalg.norm(rec.acc, axis=1)))
+            looks = {"m/s^2": 9.0 <= norm <= 10.6, "g": 0.9 <= norm <= 1.1}
+            if looks.get(value):
+                told = f"; the readings' median norm, {norm:.3g}, is gravity in {value}: the option is right"
+            elif looks.get(unit):
+                told = (f"; but the readings' median norm, {norm:.3g}, is gravity in {unit}: the header looks "
+                        f"right, drop {flag}")
+            elif value in looks:
+                told = f"; the readings' median norm, {norm:.3g}, is gravity in neither unit: check the column"
+        warnings.warn(f"{where_file}: {flag} {value} overrides the header ({where!r} says {unit}): the readings are "
+                      f"taken in {value}{told}", ImucalibWarning, stacklevel=3)
+    return tuple(None if f in overridden else given[f][1] for f in ("ax", "gx", "t"))
+
+
 def guess_reader(paths: Sequence[Path]) -> str:
     """The reader for ``paths``, from their content.
 
     ``"rosbag"`` for ROS bags, ``"mat"`` for MATLAB files; for two files,
     ``"phone"`` when both headers are a phone app's (phyphox, Sensor Logger:
-    :mod:`.phone`), else ``"imutk"``; for one file ``"csv"``.
+    :mod:`.phone`), ``"imutk"`` unless both have headers naming sensor
+    columns; else ``"csv"`` (several files are then blocks of one recording).
     """
     if is_rosbag(paths[0]):
         return "rosbag"
@@ -166,9 +217,79 @@ def guess_reader(paths: Sequence[Path]) -> str:
         head = f.read(128)
     if head.startswith(b"MATLAB") or (head[:4] in (b"\x00\x00\x00\x00",) and paths[0].suffix == ".mat"):
         return "mat"
-    if len(paths) == 2:
-        return "phone" if _phone_specs(paths) is not None else "imutk"
+    if len(paths) == 2 and _phone_specs(paths) is not None:
+        return "phone"
+    if len(paths) == 2 and not all(_names_sensor_columns(_head_names(p) or []) for p in paths):
+        return "imutk"  # two files without headers naming the sensors: imu_tk's accelerometer and gyroscope
     return "csv"
+
+
+def _read_file_blocks(paths: Sequence[Path], reader: str, columns, acc_unit, gyro_unit, rate, variable, time_unit,
+                      topic) -> Recording:
+    """Several files of the same sensor, one per pose (MATLAB's ``accelcal(XUP, XDOWN, …)``), as one recording.
+
+    Each file is read as one file is, with its own time base; the blocks follow each other in the order given,
+    each :data:`BLOCK_GAP_STEPS` median sampling steps after the one before, and ``metadata["blocks"]`` holds
+    their rows ``[start, stop)``. They must have the same sensors, units and columns. A note repeated by every
+    file is shown once.
+    """
+    if topic is not None:
+        raise ReaderError(f"topic applies to ROS bags; the {reader} reader has none")
+    twice = [p for i, p in enumerate(paths) if p.resolve() in {q.resolve() for q in paths[:i]}]
+    if twice:
+        raise ReaderError(f"{twice[0]} is given twice; several files are read as blocks of one recording (one pose "
+                          "each), each file once")
+    recs = []
+    seen: set[str] = set()
+    for i, p in enumerate(paths):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ImucalibWarning)
+            recs.append(read(p, reader=reader, columns=columns, acc_unit=acc_unit, gyro_unit=gyro_unit, rate=rate,
+                             variable=variable, time_unit=time_unit))
+        for w in caught:
+            key = str(w.message).replace(str(p), "")
+            if key not in seen:
+                seen.add(key)
+                warnings.warn(w.message if i == 0 else f"{w.message} (and in the files after it)", w.category,
+                              stacklevel=3)
+    first = recs[0]
+    for p, rec in zip(paths[1:], recs[1:], strict=True):
+        has = ("a gyroscope" if first.gyro is not None else "no gyroscope",
+               "a gyroscope" if rec.gyro is not None else "no gyroscope")
+        for what, a, b in (("has", *has), ("has its accelerometer in", first.acc_unit, rec.acc_unit),
+                           ("has its gyroscope in", first.gyro_unit if first.gyro is not None else None,
+                            rec.gyro_unit if rec.gyro is not None else None),
+                           ("has the columns", first.metadata.get("column_names"), rec.metadata.get("column_names"))):
+            if a != b:
+                a, b = (", ".join(v) if isinstance(v, list) else str(v) for v in (a, b))
+                raise ReaderError(f"several files are read as blocks (one pose each) of one recording, so they must "
+                                  f"match: {p} {what} {b}, {paths[0]} {what} {a}")
+    steps = np.concatenate([np.diff(r.t) for r in recs])
+    gap = BLOCK_GAP_STEPS * (float(np.median(steps)) if steps.size else 1.0)
+    times, start, blocks, row = [], 0.0, [], 0
+    for r in recs:
+        times.append(r.t - r.t[0] + start)
+        start = float(times[-1][-1]) + gap
+        blocks.append([row, row + len(r)])
+        row += len(r)
+    keys = [k for k in first.extra if all(k in r.extra for r in recs)]
+    left = sorted({k for r in recs for k in r.extra} - set(keys))
+    if left:
+        warnings.warn(f"the column(s) {', '.join(left)} are not in every file: left out", ImucalibWarning,
+                      stacklevel=3)
+    temps = [r.temperature for r in recs]
+    meta = {**first.metadata, "source": [str(p) for p in paths], "reader": reader, "blocks": blocks,
+            "block_files": len(paths)}
+    meta.pop("source_layout", None)
+    warnings.warn(f"read {len(paths)} files as blocks of one recording, one pose each, in the order given (each "
+                  "with its own time base)", ImucalibWarning, stacklevel=3)
+    return Recording(
+        t=np.concatenate(times), acc=np.concatenate([r.acc for r in recs]),
+        gyro=None if first.gyro is None else np.concatenate([r.gyro for r in recs]),
+        acc_unit=first.acc_unit, gyro_unit=first.gyro_unit,
+        temperature=None if any(x is None for x in temps) else np.concatenate(temps),
+        extra={k: np.concatenate([r.extra[k] for r in recs]) for k in keys}, metadata=meta,
+    )
 
 
 # ------------------------------------------------------------------ numbers
@@ -421,6 +542,7 @@ class _Table:
     first_row: list[str]
     skipped: int = 0
     rate: float | None = None
+    prompts: bool = False  # lines with no number inside the rows (a logger's prompts): block boundaries
 
     @property
     def names(self) -> list[str]:
@@ -462,7 +584,9 @@ def _split_table(path: Path) -> _Table:
         hdr = (head.offsets[start], hdr_end)
     layout = csvparse.Layout(path, hdr, (head.offsets[row0], head.end), first_line, sep, decimal_comma, ncols,
                              head.size, head.mtime_ns)
-    table = _Table(header, first_line, sep, ncols, layout, first_row, skipped=start, rate=_preamble_rate(preamble))
+    table = _Table(header, first_line, sep, ncols, layout, first_row, skipped=start, rate=_preamble_rate(preamble),
+                   prompts=any(_is_prompt(ln, sep) for ln in head.lines[row0:] + ([] if head.complete else
+                                                                                  [head.last])))
     if start:
         what = "" if table.rate is None else f" (they give a sampling rate of {table.rate:g} Hz)"
         warnings.warn(f"{path}: skipped {start} line{'s' if start > 1 else ''} before the "
@@ -471,6 +595,84 @@ def _split_table(path: Path) -> _Table:
 
 
 _DECIMAL_COMMA = re.compile(r'^"?[+-]?\d*,\d+(?:[eE][+-]?\d+)?"?$')
+
+
+def _is_prompt(line: str, sep: str | None) -> bool:
+    """A line inside the rows with no number in it: a logger's prompt (``>>> Gathering data…``, ``--- pose 2 ---``)
+    or a repeated header; a comment (``#``) and a blank line are not prompts."""
+    text = line.strip()
+    if not text or text.startswith("#"):
+        return False
+    return all(_not_number(c.strip('"\'').replace(",", ".")) for c in _cells(text, sep) if c)
+
+
+def _prompt_blocks(path: Path, table: _Table) -> tuple[np.ndarray, list[list[int]]]:
+    """The rows of a file whose rows are cut into blocks by prompt lines, and each block's rows ``[start, stop)``.
+
+    A logger that pauses between poses ("place the sensor, press a key") writes a prompt before each block:
+    every block is a pose. Blank lines beside the prompts are part of the boundary; comments are skipped as
+    elsewhere. The rows are parsed line by line (such logs are short) and checked as every row is.
+    """
+    start, end = table.layout.body
+    with path.open("rb") as f:
+        f.seek(start)
+        text = f.read(end - start).decode("utf-8", errors="replace")
+    lines = text.splitlines()
+    blocks: list[list[int]] = []
+    parts: list[np.ndarray] = []
+    run: list[str] = []
+    run_line = table.first_line
+    prompts = 0
+    rows = 0
+
+    def close() -> None:
+        nonlocal rows
+        if run:
+            body = [ln.replace(",", ".") for ln in run] if table.layout.decimal_comma else run
+            parts.append(_parse_block(path, body, run_line, table.ncols, table.sep, table.names))
+            blocks.append([rows, rows + len(run)])
+            rows += len(run)
+
+    for i, line in enumerate(lines):
+        if _is_prompt(line, table.sep) or not line.strip():
+            prompts += bool(line.strip())
+            close()
+            run = []
+            continue
+        if line.lstrip().startswith("#"):
+            continue
+        if not run:
+            run_line = table.first_line + i
+        run.append(line)
+    close()
+    if not parts:
+        raise ReaderError(f"{path}: no data rows between the prompt lines")
+    warnings.warn(f"{path}: {prompts} line{'s' if prompts > 1 else ''} with no number inside the data (a logger's "
+                  f"prompts) cut the rows into {len(blocks)} blocks: each block is read as one pose",
+                  ImucalibWarning, stacklevel=5)
+    return np.concatenate(parts), blocks
+
+
+#: the gap put between blocks whose times restart [median sampling steps]: a gap the integration never crosses
+BLOCK_GAP_STEPS = 100
+
+
+def _block_times(path: Path, t: np.ndarray, blocks: list[list[int]]) -> np.ndarray:
+    """The time column of blocks, each block after one whose time it does not follow moved to start
+    :data:`BLOCK_GAP_STEPS` median steps after it (each block keeps its own steps); with a note."""
+    t = np.array(t, dtype=np.float64)
+    steps = np.concatenate([np.diff(t[a:b]) for a, b in blocks])
+    step = float(np.median(steps)) if steps.size else 1.0
+    moved = 0
+    for (_, prev_stop), (a, b) in zip(blocks[:-1], blocks[1:], strict=True):
+        if t[a] <= t[prev_stop - 1]:
+            t[a:b] += t[prev_stop - 1] + BLOCK_GAP_STEPS * step - t[a]
+            moved += 1
+    if moved:
+        warnings.warn(f"{path}: the time restarts in {moved} of the {len(blocks)} blocks: each such block was put "
+                      f"{BLOCK_GAP_STEPS} sampling steps after the one before (each keeps its own time base)",
+                      ImucalibWarning, stacklevel=5)
+    return t
 
 
 def _parse_table(path: Path, table: _Table, required: Sequence[int], *, others: bool = True,
@@ -509,16 +711,21 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     mapping = _map_columns(path, names, columns, has_header)
     numeric_cols = sorted({j for j in mapping.values() if j is not None})
     # the samples go straight into the recording's arrays: no copy of the whole table
-    plan = csvparse.plan(table.layout) if frame is None else None
-    rows = plan.rows if plan is not None else len(frame)
+    blocks = _prompt_blocks(path, table) if frame is None and table.prompts else None
+    plan = csvparse.plan(table.layout) if frame is None and blocks is None else None
+    rows = plan.rows if plan is not None else len(frame) if frame is not None else blocks[0].shape[0]
     if rows == 0:
         raise ReaderError(f"{path}: no data rows after the header")
-    acc, gyro = np.empty((rows, 3)), np.empty((rows, 3))
-    targets = {f: (acc if f[0] == "a" else gyro)[:, "xyz".index(f[1])] for f in FIELDS[1:]}
+    has_gyro = mapping["gx"] is not None
+    acc, gyro = np.empty((rows, 3)), (np.empty((rows, 3)) if has_gyro else None)
+    targets = {f: (acc if f[0] == "a" else gyro)[:, "xyz".index(f[1])] for f in FIELDS[1:]
+               if mapping[f] is not None}
     out: dict[int, np.ndarray] = {}
     for f, view in targets.items():
         out.setdefault(mapping[f], view)
-    if frame is None:
+    if blocks is not None:
+        cols = {j: blocks[0][:, j] for j in range(table.ncols)}
+    elif frame is None:
         cols = _parse_table(path, table, numeric_cols, out=out, plan=plan)
     else:
         cols, stamps = _frame_columns(path, frame, numeric_cols, out)
@@ -532,6 +739,13 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     if table.skipped:
         meta["preamble_lines"] = table.skipped
     tcol = mapping["t"]
+    if blocks is not None:
+        meta["blocks"] = blocks[1]
+        if tcol is not None:
+            shifted = _block_times(path, cols[tcol], blocks[1])
+            if not np.array_equal(shifted, cols[tcol]):
+                meta["time_original"] = cols[tcol]  # what a writer writes back (imucalib.io.writers)
+            cols[tcol] = shifted
     if tcol is None:
         if rate is None and table.rate is not None:
             rate = table.rate
@@ -556,7 +770,7 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
             meta["t0"] = offset
             meta["time_relative"] = True
     au = acc_unit or (_unit_in(names[mapping["ax"]]) if has_header else None) or "counts"
-    gu = gyro_unit or (_unit_in(names[mapping["gx"]]) if has_header else None) or "counts"
+    gu = gyro_unit or (_unit_in(names[mapping["gx"]]) if has_header and has_gyro else None) or "counts"
     if au not in ACC_UNITS:
         au = "counts"
     if gu not in GYRO_UNITS:
@@ -574,7 +788,7 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
         extra[name if name not in extra else f"{name} (column {j + 1})"] = col
     rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
                     extra=extra, metadata=meta)
-    if table.layout is not None:  # what apply needs to copy the file's own text (imucalib.io.writers)
+    if table.layout is not None and blocks is None:  # what apply needs to copy the file's own text (io.writers)
         meta["source_layout"] = {**table.layout.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec)}
     return rec
 
@@ -666,17 +880,34 @@ def _not_number(cell: str) -> bool:
 
 
 def _map_columns(path: Path, names: list[str], columns, has_header: bool) -> dict:
-    """Column index of each of t, ax…gz (None for a missing time column)."""
+    """Column index of each of t, ax…gz (None for a missing time column; gx, gy, gz None when there is no gyroscope).
+
+    ``columns`` has 7 entries (``t,ax,ay,az,gx,gy,gz``; ``-`` for ``t`` when there is no time column, ``-`` for
+    gx, gy and gz when there is no gyroscope) or 4 (``t,ax,ay,az``: an accelerometer-only log). Without it, a header
+    that names accelerometer columns and no gyroscope column is an accelerometer-only log (with a note), and a file
+    without a header is read by its width: 7 or 6 columns with a gyroscope, 4 or 3 without (with a note).
+    """
     if columns is not None:
         columns = [c.strip() for c in columns]
-        if len(columns) != 7:
+        if len(columns) not in (4, 7):
             raise ReaderError(
-                f"--columns needs 7 entries in the order {','.join(FIELDS)}; got {len(columns)}"
+                f"--columns needs 7 entries in the order {','.join(FIELDS)} (or 4, {','.join(FIELDS[:4])}, for an "
+                f"accelerometer-only log); got {len(columns)}"
             )
+        if len(columns) == 4:
+            columns += ["-", "-", "-"]
+        absent = [f for f, c in zip(FIELDS, columns, strict=True) if c == "-"]
+        if any(f.startswith("a") for f in absent):
+            raise ReaderError(f"--columns: the accelerometer's columns are needed ('-' given for "
+                              f"{', '.join(f for f in absent if f.startswith('a'))}); '-' stands for an absent time "
+                              "column or an absent gyroscope")
+        if 0 < sum(f.startswith("g") for f in absent) < 3:
+            raise ReaderError("--columns: give all three gyroscope columns, or '-' for each of gx, gy, gz when "
+                              "there is no gyroscope")
         out = {}
         lower = [n.lower() for n in names]
         for field, c in zip(FIELDS, columns, strict=True):
-            if c == "-" and field == "t":
+            if c == "-":
                 out[field] = None
             elif c.isdigit():
                 j = int(c)
@@ -691,19 +922,22 @@ def _map_columns(path: Path, names: list[str], columns, has_header: bool) -> dic
                                   f"columns are {', '.join(names)}")
         return out
     if not has_header:
-        if len(names) == 7:
-            warnings.warn(f"{path}: no header: the columns were taken as "
-                          f"{','.join(FIELDS)} (pass --columns to say otherwise)",
-                          ImucalibWarning, stacklevel=4)
-            return dict(zip(FIELDS, range(7), strict=True))
-        if len(names) == 6:
-            warnings.warn(f"{path}: no header and 6 columns: they were taken as {','.join(FIELDS[1:])}, "
-                          "with no time column (pass --columns to say otherwise)",
-                          ImucalibWarning, stacklevel=4)
-            return {"t": None, **dict(zip(FIELDS[1:], range(6), strict=True))}
-        raise ReaderError(f"{path}: no header and {len(names)} columns: pass --columns with 7 "
+        width = len(names)
+        if width in (7, 4):
+            fields = FIELDS[:width]
+            warnings.warn(f"{path}: no header: the columns were taken as {','.join(fields)}"
+                          + (" (an accelerometer-only log)" if width == 4 else "")
+                          + " (pass --columns to say otherwise)", ImucalibWarning, stacklevel=4)
+            return {**dict.fromkeys(FIELDS), **dict(zip(fields, range(width), strict=True))}
+        if width in (6, 3):
+            fields = FIELDS[1:width + 1]
+            warnings.warn(f"{path}: no header and {width} columns: they were taken as {','.join(fields)}, "
+                          "with no time column" + (" (an accelerometer-only log)" if width == 3 else "")
+                          + " (pass --columns to say otherwise)", ImucalibWarning, stacklevel=4)
+            return {**dict.fromkeys(FIELDS), **dict(zip(fields, range(width), strict=True))}
+        raise ReaderError(f"{path}: no header and {width} columns: pass --columns with 7 "
                           f"0-based indices in the order {','.join(FIELDS)} ('-' for t when there is "
-                          "no time column)")
+                          f"no time column), or 4 ({','.join(FIELDS[:4])}) for an accelerometer-only log")
     out: dict = {"t": None}
     for j, name in enumerate(names):
         if out["t"] is None and _TIME.match(name):
@@ -715,6 +949,10 @@ def _map_columns(path: Path, names: list[str], columns, has_header: bool) -> dic
                 key = ("a" if kind == "acc" else "g") + m.group(1).lower()
                 out.setdefault(key, j)
     missing = [f for f in FIELDS[1:] if f not in out]
+    if missing == ["gx", "gy", "gz"]:
+        warnings.warn(f"{path}: no gyroscope columns (found {', '.join(names)}): read as an accelerometer-only log",
+                      ImucalibWarning, stacklevel=4)
+        return {**out, **dict.fromkeys(missing)}
     if missing:
         raise ReaderError(
             f"{path}: missing columns {', '.join(missing)} (found {', '.join(names)}); pass "
@@ -832,6 +1070,10 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
         cands = [k for k, v in found.items()
                  if isinstance(v, np.ndarray) and v.ndim == 2 and v.dtype.kind in "fiu"
                  and v.shape[1] >= 7]
+        if not cands:  # an accelerometer-only matrix: 3 or 4 columns beside a magnetometer or temperature
+            cands = [k for k, v in found.items()
+                     if isinstance(v, np.ndarray) and v.ndim == 2 and v.dtype.kind in "fiu"
+                     and min(v.shape) in (3, 4) and max(v.shape) > 4 and not _MAT_MAG.match(k)]
         if len(cands) != 1:
             raise ReaderError(f"{path}: pass --variable NAME; variables present: "
                               f"{', '.join(found) or 'none'}")
@@ -844,13 +1086,16 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
         raise ReaderError(f"{path}: variable {variable!r} must be a numeric matrix; got shape "
                           f"{m.shape} of {m.dtype}")
     m = m.astype(np.float64)
-    if m.shape[1] < 6 and m.shape[0] >= 6:
+    if m.shape[1] < 6 and m.shape[0] >= 6 and m.shape[1] not in (3, 4):
+        m = m.T
+    elif m.shape[0] in (3, 4) and m.shape[1] > m.shape[0]:  # an accelerometer-only matrix stored as rows
         m = m.T
     names = [str(j) for j in range(m.shape[1])]
     if columns is None:
         if m.shape[1] < 7:
             raise ReaderError(f"{path}: variable {variable!r} has {m.shape[1]} columns; pass "
-                              "--columns (use '-' for t with --rate when there is no time)")
+                              "--columns (use '-' for t with --rate when there is no time; 4 entries "
+                              "t,ax,ay,az for an accelerometer-only log)")
         columns = [str(j) for j in range(7)]
     mapping = _map_columns(path, names, columns, True)
     bad = ~np.isfinite(m[:, [j for j in mapping.values() if j is not None]])
@@ -869,8 +1114,59 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
         raw_t = m[:, mapping["t"]]
         _check_time(path, raw_t, 1, "time (row)")
         t = _to_seconds(raw_t, time_unit or _infer_time_unit(raw_t), meta)
+    extra, temperature = _mat_others(path, found, variable, m, mapping)
     return Recording(
         t=t, acc=m[:, [mapping["ax"], mapping["ay"], mapping["az"]]],
-        gyro=m[:, [mapping["gx"], mapping["gy"], mapping["gz"]]],
+        gyro=None if mapping["gx"] is None else m[:, [mapping["gx"], mapping["gy"], mapping["gz"]]],
         acc_unit=acc_unit or "counts", gyro_unit=gyro_unit or "counts", metadata=meta,
+        extra=extra, temperature=temperature,
     )
+
+
+_MAT_MAG = re.compile(r"^(?:m|mag|magn|magnetometer|magneticfield|magnetic_field|compass)$", re.I)
+_MAT_TEMP = re.compile(r"^(?:temp|temperature|t_?deg|thermometer)(?:_?c)?$", re.I)
+
+
+def _mat_others(path: Path, found: dict, variable: str, m: np.ndarray, mapping: dict):
+    """A MATLAB file's other data: a magnetometer or temperature variable used, the rest named in a note.
+
+    A variable named like a magnetometer (``mag``, ``magnetometer`` …) with 3 columns and the matrix's rows
+    becomes the extra columns ``mag_x``, ``mag_y``, ``mag_z`` (which :mod:`.magnetometer` takes as the
+    recording's magnetometer); one named like a temperature (``temp``, ``temperature``) with one column the
+    temperature [°C]. The matrix's columns no field reads, and the variables left unused, are named in an
+    :class:`ImucalibWarning`: a matrix names no columns, so its extra columns cannot be told apart.
+    """
+    n = m.shape[0]
+    extra: dict[str, np.ndarray] = {}
+    temperature = None
+    unused = []
+    for name, value in found.items():
+        if name == variable:
+            continue
+        arr = np.asarray(value) if isinstance(value, np.ndarray) else None
+        if arr is None or arr.dtype.kind not in "fiu" or arr.size == 0:
+            unused.append(name)
+            continue
+        arr = arr.astype(np.float64)
+        if arr.ndim == 2 and arr.shape[0] != n and arr.shape[1] == n:
+            arr = arr.T
+        if _MAT_MAG.match(name) and arr.shape == (n, 3) and np.all(np.isfinite(arr)):
+            extra.update({f"mag_{a}": arr[:, i] for i, a in enumerate("xyz")})
+        elif _MAT_TEMP.match(name) and arr.reshape(-1).shape == (n,) and temperature is None:
+            temperature = arr.reshape(-1)
+            extra[name] = temperature
+        else:
+            unused.append(name)
+    used = {j for j in mapping.values() if j is not None}
+    spare = [j for j in range(m.shape[1]) if j not in used]
+    parts = []
+    if spare:
+        parts.append(f"column{'s' if len(spare) > 1 else ''} {', '.join(str(j) for j in spare)} (0-based) of "
+                     f"{variable!r}, which name{'s' if len(spare) == 1 else ''} no field (a matrix has no header: a "
+                     "magnetometer or temperature kept as a variable of its own, 'mag' (N x 3) or 'temperature' "
+                     "(N x 1), is used)")
+    if unused:
+        parts.append(f"the variable{'s' if len(unused) > 1 else ''} {', '.join(map(repr, unused))}")
+    if parts:
+        warnings.warn(f"{path}: not used: {'; and '.join(parts)}", ImucalibWarning, stacklevel=4)
+    return extra, temperature

@@ -163,6 +163,9 @@ def _copy_source(path: str | Path, rec: Recording, layout: csvparse.Layout, adde
 
 # ------------------------------------------------------------ from the values
 def _original_time(rec: Recording) -> np.ndarray:
+    kept = rec.metadata.get("time_original")  # blocks whose times restart: the file's own times, as they were
+    if kept is not None and len(kept) == len(rec):
+        return np.asarray(kept)
     unit = rec.metadata.get("time_unit")
     if not unit:
         return rec.t
@@ -181,9 +184,9 @@ def _columns(rec: Recording) -> dict[str, np.ndarray]:
     mapping = rec.metadata.get("columns") or {}
     extra = dict(rec.extra)
     if names and mapping:
-        source = {"t": _original_time(rec), "ax": rec.acc[:, 0], "ay": rec.acc[:, 1],
-                  "az": rec.acc[:, 2], "gx": rec.gyro[:, 0], "gy": rec.gyro[:, 1],
-                  "gz": rec.gyro[:, 2]}
+        source = {"t": _original_time(rec), "ax": rec.acc[:, 0], "ay": rec.acc[:, 1], "az": rec.acc[:, 2]}
+        if rec.gyro is not None:
+            source |= {"gx": rec.gyro[:, 0], "gy": rec.gyro[:, 1], "gz": rec.gyro[:, 2]}
         mapped = {names.index(v): k for k, v in mapping.items() if v is not None and v in names}
         seen: set[str] = set()
         for j, name in enumerate(names):  # the file's columns in its order, as the reader keyed them
@@ -199,7 +202,7 @@ def _columns(rec: Recording) -> dict[str, np.ndarray]:
         cols[f"t [{unit}]"] = _original_time(rec)
         for i, a in enumerate("xyz"):  # the unit in the name, so that reading the file back keeps it
             cols[f"a{a} [{rec.acc_unit}]"] = rec.acc[:, i]
-        for i, a in enumerate("xyz"):
+        for i, a in enumerate("xyz" if rec.gyro is not None else ""):  # none for an accelerometer-only log
             cols[f"g{a} [{rec.gyro_unit}]"] = rec.gyro[:, i]
         if rec.temperature is not None:
             cols["temperature [C]"] = rec.temperature

@@ -13,12 +13,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..calibration import Calibration
+from ..calibration import ACCELEROMETER_ONLY_METHODS, Calibration
 from ..recording import STANDARD_GRAVITY, Recording
 from ..thermal import calibrate_ramp, compensate
 from ..verdict import check_rate, with_verdict
 
-__all__ = ["METHODS", "calibrate", "method_names", "with_magnetometer"]
+__all__ = ["ACCELEROMETER_ONLY", "METHODS", "calibrate", "method_names", "with_magnetometer"]
 
 
 def _zhang2021(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
@@ -62,6 +62,10 @@ METHODS: dict[str, Callable[..., Calibration]] = {
     "qureshi2017": _linear_only("qureshi2017"),
     "ferraris": _linear_only("ferraris"),
 }
+
+
+#: the methods that calibrate an accelerometer-only recording (no gyroscope section in the calibration)
+ACCELEROMETER_ONLY = ACCELEROMETER_ONLY_METHODS
 
 
 def method_names() -> list[str]:
@@ -130,6 +134,10 @@ def calibrate(
         raise ValueError(
             f"unknown method {method!r}; choose one of {', '.join(method_names())}"
         ) from None
+    rec = data if isinstance(data, Recording) else getattr(data, "recording", None)
+    if isinstance(rec, Recording) and rec.gyro is None and method not in ACCELEROMETER_ONLY:
+        raise ValueError(f"{method} needs a gyroscope and this recording is accelerometer-only; the methods that "
+                         f"take it are {', '.join(ACCELEROMETER_ONLY)}")
     session_options = getattr(data, "method_options", None)
     if not isinstance(data, Recording) and callable(session_options):
         options = {**session_options(method), **options}
@@ -175,6 +183,10 @@ def with_magnetometer(calibration: Calibration, recording: Recording, *, field: 
         raise ValueError(f"the local field magnitude is a number of µT (25-65 on Earth's surface); got {field!r}")
     fit = dict(calibration.fit or {})
     intervals = [Interval(int(a), int(b)) for a, b in fit.get("intervals") or []]
+    if calibration.gyroscope is None or recording.gyro is None:
+        fit["magnetometer_error"] = ("its reference directions are carried from pose to pose by the gyroscope, and "
+                                     "this calibration has none")
+        return calibration.with_(fit=fit)
     try:
         mag = fit_magnetometer(recording, intervals, calibration, hemisphere=hemisphere, field=field)
     except ValueError as exc:

@@ -11,10 +11,17 @@ between them together (:func:`imucalib.fit.gyroscope.fit_gyroscope`: Zhang
 from __future__ import annotations
 
 from ..calibration import Calibration, units_of
-from ..fit.accelerometer import accelerometer_covariance, accelerometer_errors, fit_ellipsoid, fit_gravity_norm
+from ..fit.accelerometer import (
+    accelerometer_covariance,
+    accelerometer_errors,
+    determined_figures,
+    fit_determined,
+    fit_ellipsoid,
+    fit_gravity_norm,
+)
 from ..fit.gyroscope import fit_gyroscope
 from ..metrics import fit_summary, interval_means
-from ..segment import static_poses, unreliable_transitions
+from ..segment import pose_blocks, static_poses, unreliable_transitions
 
 __all__ = ["calibrate"]
 
@@ -25,21 +32,39 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
 
     The static means of ≥ 9 poses give ``T_a``, ``k1`` and ``b_a`` in closed
     form, optionally refined by Levenberg–Marquardt on the gravity-norm
-    residuals. The gyroscope (bias, drift, g-sensitivity, scales and misalignment) by
-    :func:`imucalib.fit.gyroscope.fit_gyroscope` over the poses and the rotations.
+    residuals; fewer poses give the model they determine
+    (:func:`~imucalib.fit.accelerometer.fit_determined`, ``fit`` says which).
+    The gyroscope (bias, drift, g-sensitivity, scales and misalignment) by
+    :func:`imucalib.fit.gyroscope.fit_gyroscope` over the poses and the rotations;
+    a recording in blocks (no motion recorded between its poses) leaves the
+    gyroscope uncalibrated.
     """
     intervals = static_poses(recording, gravity, intervals, init_static=init_static)
     means = interval_means(recording.acc, intervals)
-    acc = fit_ellipsoid(means, gravity)
-    if refine:
-        acc, _ = fit_gravity_norm(means, gravity, initial=acc)
-    gyro_fit = fit_gyroscope(recording, intervals, acc, exclude=unreliable_transitions(recording, intervals),
-                             acc_cov=accelerometer_covariance(acc, means, gravity))
-    gyro, gyro_errors = gyro_fit.model, gyro_fit.errors
+    which = None
+    if len(means) >= 9:
+        acc = fit_ellipsoid(means, gravity)
+        if refine:
+            acc, _ = fit_gravity_norm(means, gravity, initial=acc)
+    else:  # fewer poses than the ellipsoid's 9 parameters: the model they determine
+        acc, _, which = fit_determined(means, gravity)
+    blocks = pose_blocks(recording) is not None
+    gyro_fit = None if recording.gyro is None or blocks else fit_gyroscope(  # none without rotations recorded
+        recording, intervals, acc, exclude=unreliable_transitions(recording, intervals),
+        acc_cov=accelerometer_covariance(acc, means, gravity, which=which))
+    gyro, gyro_errors = (gyro_fit.model, gyro_fit.errors) if gyro_fit is not None else (None, {})
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="ellipsoid",
                       model="linear", units=units_of(recording))
     fit = fit_summary(cal, recording, intervals, gravity)
-    fit |= gyro_fit.summary()
+    if gyro_fit is not None:
+        fit |= gyro_fit.summary()
     # first-order errors of the gravity-norm fit at this solution (the algebraic fit is close to it)
-    fit["uncertainty"] = accelerometer_errors(acc, means, gravity) | gyro_errors
+    if blocks and recording.gyro is not None:
+        fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
+                                           "the rotations that calibrate the gyroscope were not recorded")
+    if which is None:
+        fit["uncertainty"] = accelerometer_errors(acc, means, gravity) | gyro_errors
+    else:
+        fit |= determined_figures(acc, means, gravity, which)
+        fit["uncertainty"] = fit["uncertainty"] | gyro_errors
     return cal.with_(fit=fit)

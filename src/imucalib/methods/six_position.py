@@ -30,7 +30,7 @@ from ..calibration import Calibration, units_of
 from ..fit.accelerometer import six_position
 from ..fit.gyroscope import fit_gyroscope
 from ..metrics import fit_summary, interval_means
-from ..segment import FACE_NAMES, find_faces, static_poses, unreliable_transitions
+from ..segment import FACE_NAMES, find_faces, pose_blocks, static_poses, unreliable_transitions
 
 __all__ = ["calibrate"]
 
@@ -48,13 +48,18 @@ def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         cos_up, cos_down = d[faces[:3], np.arange(3)], -d[faces[3:], np.arange(3)]
         acc = six_position(up, down, gravity, cos_up=cos_up, cos_down=cos_down)
-    gyro_fit = fit_gyroscope(recording, intervals, acc,
-                             exclude=unreliable_transitions(recording, intervals))
-    gyro, gyro_errors = gyro_fit.model, gyro_fit.errors
+    blocks = pose_blocks(recording) is not None
+    gyro_fit = None if recording.gyro is None or blocks else fit_gyroscope(  # none without rotations recorded
+        recording, intervals, acc, exclude=unreliable_transitions(recording, intervals))
+    gyro, gyro_errors = (gyro_fit.model, gyro_fit.errors) if gyro_fit is not None else (None, {})
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="six_position",
                       model="linear", units=units_of(recording))
     fit = fit_summary(cal, recording, intervals, gravity)
-    fit |= gyro_fit.summary()
+    if gyro_fit is not None:
+        fit |= gyro_fit.summary()
+    if blocks and recording.gyro is not None:
+        fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
+                                           "the rotations that calibrate the gyroscope were not recorded")
     fit["faces"] = {name: int(i) for name, i in zip(FACE_NAMES, faces, strict=True)}
     fit["faces_tilt_deg"] = {name: float(np.degrees(np.arccos(np.clip(c, -1, 1))))
                              for name, c in zip(FACE_NAMES, np.concatenate([cos_up, cos_down]), strict=True)}

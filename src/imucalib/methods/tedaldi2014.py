@@ -34,11 +34,17 @@ from collections.abc import Callable, Iterable
 import numpy as np
 
 from ..calibration import Calibration, units_of
-from ..fit.accelerometer import accelerometer_covariance, accelerometer_errors, fit_gravity_norm
+from ..fit.accelerometer import (
+    accelerometer_covariance,
+    accelerometer_errors,
+    determined_figures,
+    fit_determined,
+    fit_gravity_norm,
+)
 from ..fit.gyroscope import errors_at, fit_gyroscope, joint_errors_at, static_gyro
 from ..metrics import fit_summary, interval_means
 from ..recording import STANDARD_GRAVITY, Interval, Recording
-from ..segment import detect_intervals, unreliable_transitions
+from ..segment import detect_intervals, pose_blocks, unreliable_transitions
 
 __all__ = ["calibrate", "uncertainty"]
 
@@ -131,12 +137,17 @@ def calibrate(
         )
     else:
         intervals = [iv for iv in intervals if iv.kind == "static"]
-        if len(intervals) < MIN_INTERVALS:
-            raise ValueError(f"at least {MIN_INTERVALS} static intervals are needed; got {len(intervals)}")
         mult, rest = float("nan"), intervals[0]
-        acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
+        if len(intervals) >= MIN_INTERVALS:
+            acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
+    means = interval_means(recording.acc, intervals)
+    which = None
+    if len(intervals) < MIN_INTERVALS:  # few poses: the model they determine (the full one from 9 spread poses)
+        acc_model, _, which = fit_determined(means, gravity)
+    if recording.gyro is None or pose_blocks(recording) is not None:  # no gyroscope, or no rotations recorded
+        return _accelerometer_alone(recording, intervals, acc_model, which, gravity, mult, rest)
     say("calibrating the gyroscope")
-    acc_cov = accelerometer_covariance(acc_model, interval_means(recording.acc, intervals), gravity)
+    acc_cov = accelerometer_covariance(acc_model, means, gravity, which=which)
     gyro = fit_gyroscope(recording, intervals, acc_model, estimate_bias=estimate_gyro_bias,
                          g_sensitivity=gyro_g_sensitivity, acc_cov=acc_cov,
                          exclude=unreliable_transitions(recording, intervals))
@@ -153,6 +164,29 @@ def calibrate(
     fit["threshold_multiplier"] = mult
     fit |= gyro.summary()
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
+    if which is None:
+        fit["uncertainty"] = accelerometer_errors(acc_model, means, gravity) | gyro_errors
+    else:
+        fit |= determined_figures(acc_model, means, gravity, which)
+        fit["uncertainty"] = fit["uncertainty"] | gyro_errors
+    return cal.with_(fit=fit)
+
+
+def _accelerometer_alone(recording: Recording, intervals: list[Interval], acc_model, which, gravity: float,
+                         mult: float, rest: Interval) -> Calibration:
+    """The accelerometer part of the method: a calibration with no gyroscope, for an accelerometer-only
+    recording or one whose poses were recorded as separate blocks (no rotations between them)."""
     means = interval_means(recording.acc, intervals)
-    fit["uncertainty"] = accelerometer_errors(acc_model, means, gravity) | gyro_errors
+    cal = Calibration(accelerometer=acc_model, gyroscope=None, gravity=gravity, method="tedaldi2014", model="linear",
+                      units=units_of(recording))
+    fit = fit_summary(cal, recording, intervals, gravity)
+    fit["threshold_multiplier"] = mult
+    fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
+    if recording.gyro is not None:
+        fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
+                                           "the rotations that calibrate the gyroscope were not recorded")
+    if which is None:
+        fit["uncertainty"] = accelerometer_errors(acc_model, means, gravity)
+    else:
+        fit |= determined_figures(acc_model, means, gravity, which)
     return cal.with_(fit=fit)

@@ -558,6 +558,11 @@ def calibrate(
     progress : callable, optional
         Called with a message at each stage.
     """
+    if recording.gyro is None:
+        from ..calibration import ACCELEROMETER_ONLY_METHODS
+
+        raise ValueError("zhang2021 calibrates the gyroscope with the accelerometer and this recording is "
+                         f"accelerometer-only; the methods that take it are {', '.join(ACCELEROMETER_ONLY_METHODS)}")
     say = progress or (lambda msg: None)
     layout = ZhangLayout.of(model)
     if initial not in ("step1", "identity"):
