@@ -198,3 +198,19 @@ def test_a_huge_or_endless_calibration_file_is_refused_in_bounded_memory(tmp_pat
     assert codes == "[2, 2", run_.stderr
     assert "larger than 16 MB" in run_.stderr and "Traceback" not in run_.stderr
     assert int(rss_kb) < 400_000  # kB, the child's peak: the interpreter and numpy, plus at most 16 MB read
+
+
+@pytest.mark.parametrize("noise", ["deep", "/dev/zero"])
+def test_a_hostile_noise_file_is_a_plain_error(capsys, cal_file, tmp_path, noise):
+    if noise == "deep":
+        noise = tmp_path / "noise.json"
+        noise.write_text('{"accelerometer": ' + "[" * 10_000 + "]" * 10_000 + "}", encoding="utf-8")
+    code, out, err = run(capsys, "export", cal_file, "--format", "kalibr", "--raw-scale", "1,1", "--noise", noise)
+    assert code == 2 and out == "" and "Traceback" not in err and "--noise" in err
+
+
+@pytest.fixture
+def cal_file(tmp_path):
+    path = tmp_path / "c.json"
+    linear_truth().save(path)
+    return path

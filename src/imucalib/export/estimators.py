@@ -48,7 +48,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..calibration import Calibration
+from ..calibration import MAX_FILE_BYTES, Calibration
+from ..io.jsontext import loads
 from ..noise import kalibr_noise
 from .linear import ExportError, LinearForm, linear_form, rotation_times_triangular, triangular_times_rotation
 from .text import comment_text, yaml_scalar
@@ -94,11 +95,15 @@ def read_noise(path: str | Path) -> tuple[dict, list[str]]:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_FILE_BYTES + 1)  # bounded: a noise file is a few lines
+        text = raw.decode("utf-8")
     except FileNotFoundError:
         raise ExportError(f"--noise {path}: file not found") from None
     except UnicodeDecodeError:
         raise ExportError(f"--noise {path}: not a text file") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise ExportError(f"--noise {path}: larger than {MAX_FILE_BYTES >> 20} MB, not a noise file")
     if text.lstrip().startswith("{"):
         return _noise_from_json(path, text)
     found: dict[str, list[str]] = {}
@@ -130,12 +135,12 @@ def read_noise(path: str | Path) -> tuple[dict, list[str]]:
 
 def _noise_from_json(path: Path, text: str) -> tuple[dict, list[str]]:
     try:
-        doc = json.loads(text)
+        doc = loads(text)
         acc, gyro, rate = doc["accelerometer"], doc["gyroscope"], doc["rate_hz"]
-    except (json.JSONDecodeError, KeyError, TypeError):
+        units = (acc.get("unit"), gyro.get("unit"))
+    except (ValueError, KeyError, TypeError, AttributeError):  # not JSON, nested without end, not this JSON
         raise ExportError(f"--noise {path}: not the JSON of imucalib noise --json (it needs accelerometer, "
                           "gyroscope and rate_hz)") from None
-    units = (acc.get("unit"), gyro.get("unit"))
     if units != ("m/s^2", "rad/s"):
         raise ExportError(f"--noise {path}: the noise is in {units[0]} and {units[1]}; the file needs m/s^2 and "
                           "rad/s: run imucalib noise with --calibration CALIBRATION.json")
