@@ -188,3 +188,13 @@ def test_simulate_refuses_a_folder_holding_its_files_unless_forced(capsys, tmp_p
     (tmp_path / "file").write_text("x")
     code, _, err = run(capsys, "simulate", "-o", tmp_path / "file")
     assert code == 2 and "is a file; a session is written into a folder" in err
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full") or not _char_device("/dev/full"), reason="no /dev/full device")
+def test_a_full_device_is_a_plain_error_naming_it(capsys, cal, tmp_path):
+    link = tmp_path / "full.h"
+    link.symlink_to("/dev/full")
+    assert atomic._target(link) == (Path("/dev/full"), True)  # the guard: written into, never replaced
+    code, out, err = run(capsys, "export", cal, "-o", link)
+    assert code == 2 and "/dev/full: No space left on device" in err and "Traceback" not in err
+    assert _char_device("/dev/full") and os.readlink(link) == "/dev/full"

@@ -187,8 +187,17 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
     target, stream = _target(path)
     text = {"encoding": encoding, "newline": newline} if mode == "w" else {}
     if stream:  # a device or FIFO: written into, as the shell's > writes into it
-        with _stream(target, mode, text) as fh:
+        fh = _stream(target, mode, text)
+        try:
             yield fh
+        except BaseException:
+            with contextlib.suppress(OSError):
+                fh.close()
+            raise
+        try:
+            fh.close()
+        except OSError as exc:  # /dev/full: the device named
+            raise OSError(exc.errno, f"{target}: {exc.strerror}") from None
         return
     fd, name = _temporary(target, make=tempfile.mkstemp, suffix=".tmp")
     try:
