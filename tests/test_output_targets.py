@@ -198,3 +198,21 @@ def test_a_full_device_is_a_plain_error_naming_it(capsys, cal, tmp_path):
     code, out, err = run(capsys, "export", cal, "-o", link)
     assert code == 2 and "/dev/full: No space left on device" in err and "Traceback" not in err
     assert _char_device("/dev/full") and os.readlink(link) == "/dev/full"
+
+
+def test_a_failed_write_sends_nothing_into_a_fifo(tmp_path):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    reader = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        with pytest.raises(RuntimeError, match="half-way"):
+            with atomic_write(fifo) as fh:
+                fh.write("first half\n")
+                raise RuntimeError("half-way")
+        assert os.read(reader, 1 << 16) == b""  # no writer ever opened it: nothing, not half a file
+        with atomic_write(fifo) as fh:
+            fh.write("whole\n")
+        assert os.read(reader, 1 << 16) == b"whole\n"
+    finally:
+        os.close(reader)
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)

@@ -179,25 +179,17 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
         file is flushed, synced to the disk and moved onto ``path``; when it
         raises (any exception, KeyboardInterrupt included) the temporary file
         is removed and ``path`` is left as it was. A character device or FIFO
-        at ``path`` is opened and written into instead (a stream: what was
-        written before a failure has been read).
+        at ``path`` is written into instead, once the block has ended normally
+        (nothing when it raises), from a temporary file in the system's
+        temporary folder.
     """
     if mode not in ("w", "wb"):
         raise ValueError(f"mode must be 'w' or 'wb'; got {mode!r}")
     target, stream = _target(path)
     text = {"encoding": encoding, "newline": newline} if mode == "w" else {}
-    if stream:  # a device or FIFO: written into, as the shell's > writes into it
-        fh = _stream(target, mode, text)
-        try:
+    if stream:  # a device or FIFO: written in the temporary folder, then into it as the shell's > writes
+        with atomic_path(target) as tmp, tmp.open(mode, **text) as fh:
             yield fh
-        except BaseException:
-            with contextlib.suppress(OSError):
-                fh.close()
-            raise
-        try:
-            fh.close()
-        except OSError as exc:  # /dev/full: the device named
-            raise OSError(exc.errno, f"{target}: {exc.strerror}") from None
         return
     fd, name = _temporary(target, make=tempfile.mkstemp, suffix=".tmp")
     try:
@@ -237,8 +229,15 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     try:
         yield tmp
         if stream:
-            with tmp.open("rb") as src, _stream(target, "wb", {}) as dst:
-                shutil.copyfileobj(src, dst)
+            with tmp.open("rb") as src:
+                dst = _stream(target, "wb", {})
+                try:
+                    shutil.copyfileobj(src, dst)
+                finally:
+                    try:
+                        dst.close()
+                    except OSError as exc:  # /dev/full: the device named
+                        raise OSError(exc.errno, f"{target}: {exc.strerror}") from None
             _remove(tmp)
             return
         fd = os.open(tmp, os.O_RDONLY)
