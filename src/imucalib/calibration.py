@@ -391,7 +391,9 @@ _UNIT = re.compile(r"[A-Za-z0-9_.^/]{1,16}")
 _VERDICTS = ("accepted", "suspect", "rejected")
 
 
-def _identifier(value: str, where: str, pattern: re.Pattern = _IDENTIFIER) -> None:
+def _identifier(value, where: str, pattern: re.Pattern = _IDENTIFIER) -> None:
+    if not isinstance(value, str):
+        raise CalibrationFileError(f"{where}: expected a string; got {_kind(value)}")
     if not pattern.fullmatch(value):
         allowed = "letters, digits and _ . ^ /" if pattern is _UNIT else "letters, digits and _ . : + - >"
         raise CalibrationFileError(f"{where}: {json.dumps(value)[:80]} is not a name imucalib writes (1 to "
@@ -408,7 +410,12 @@ def check_document(d) -> None:
     """Check a calibration document (the parsed JSON of the file) entry by entry.
 
     Raises :class:`CalibrationFileError` naming the first entry that is
-    missing, of the wrong kind or shape, or not a finite number.
+    missing, of the wrong kind or shape, or not a finite number, and the
+    first text outside what it may hold: names (method, model, created,
+    units, thermal.source) 1 to 64 letters, digits and ``_ . : + - >``
+    (16 of ``_ . ^ /`` for units), so that no comment, YAML scalar or HTML
+    element can be left (the exports escape them again, :mod:`imucalib.export.text`);
+    the device and the verdict's reasons and notes one line of printable text.
     """
     if not isinstance(d, dict):
         raise CalibrationFileError(f"expected a JSON object (an imucalib calibration); got {_kind(d)}")

@@ -178,7 +178,7 @@ def write_session(sim: Session | WangSession, directory: str | Path, *, overwrit
     there = [name for name in session_files(sim) if (d / name).exists() or (d / name).is_symlink()]
     if there and not overwrite:
         raise FileExistsError(f"{d} holds {', '.join(there[:4])}{' …' if len(there) > 4 else ''}, which this session "
-                              "would overwrite: give a new folder, or --force to overwrite them")
+                              "would overwrite: give a new folder, or overwrite them (simulate --force)")
     d.mkdir(parents=True, exist_ok=True)
     (d / "session.json").unlink(missing_ok=True)
     if isinstance(sim, WangSession):
