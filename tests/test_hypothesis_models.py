@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, assume, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 from hypothesis.extra import numpy as hnp  # noqa: E402
 
-from imucalib.calibration import Calibration  # noqa: E402
+from imucalib.calibration import Calibration, CalibrationFileError  # noqa: E402
 from imucalib.models import MISALIGNMENT_SHAPES, NotInvertibleError, TriadModel  # noqa: E402
 from imucalib.recording import Recording  # noqa: E402
 
@@ -81,6 +81,16 @@ def test_a_saved_calibration_reads_back(tmp_path, acc, gyro, gravity, lever):
     acc = acc.with_(shape="upper", misalignment=np.triu(acc.misalignment))
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, lever_arm=lever, method="m")
     cal.save(tmp_path / "c.json")
+    # counts span what k1 maps to 16 g and 2000 deg/s; nonlinear terms beyond 1000 g / 1000 rad/s there are
+    # refused on loading (calibration.check_magnitudes), and only they
+    beyond = [f"{name}.{key}" for name, m, top, full in (("accelerometer", acc, 16 * 9.80665, 1e4),
+                                                         ("gyroscope", gyro, np.radians(2000), 1e3))
+              for key, k, p in (("scale_quadratic", m.scale_quadratic, 2), ("scale_cubic", m.scale_cubic, 3))
+              if np.any(np.abs(k) * (top / np.abs(m.scale)) ** p > full)]
+    if beyond:
+        with pytest.raises(CalibrationFileError, match=f"'({'|'.join(beyond)})'"):
+            Calibration.load(tmp_path / "c.json")
+        return
     back = Calibration.load(tmp_path / "c.json")
     assert back.parameters() == cal.parameters()
     assert back.gravity == cal.gravity

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -16,19 +17,21 @@ from typing import Any
 import numpy as np
 
 from .io.atomic import atomic_write
-from .io.jsontext import dumps, jsonable
+from .io.jsontext import JsonTextError, dumps, jsonable, loads
 from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
 from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, Recording
 from .thermal import ThermalModel
 
-__all__ = ["ACCELEROMETER_ONLY_METHODS", "Calibration", "CalibrationFileError", "FORMAT", "FORMAT_VERSION",
-           "check_document"]
+__all__ = ["ACCELEROMETER_ONLY_METHODS", "FULL_SCALE", "Calibration", "CalibrationFileError", "FORMAT",
+           "FORMAT_VERSION", "GRAVITY_LIMITS", "check_document", "check_magnitudes"]
 
 #: the methods that calibrate an accelerometer-only recording (the calibration then has no gyroscope)
 ACCELEROMETER_ONLY_METHODS = ("ellipsoid", "six_position", "tedaldi2014")
 FORMAT = "imucalib.calibration"
 FORMAT_VERSION = 1
 _BLOCK = 1 << 16  # samples calibrated at a time by apply
+#: the largest calibration file read (one is a few kilobytes; its fit figures a few hundred at most)
+MAX_FILE_BYTES = 16 << 20
 
 
 def _default_acc() -> TriadModel:
@@ -262,7 +265,7 @@ class Calibration:
         """
         check_document(d)
         units = d.get("units")
-        return cls(
+        calibration = cls(
             accelerometer=TriadModel.from_dict(d["accelerometer"], default_shape="upper"),
             gyroscope=None if d["gyroscope"] is None else TriadModel.from_dict(d["gyroscope"], default_shape="full"),
             lever_arm=d.get("lever_arm"),
@@ -277,6 +280,8 @@ class Calibration:
             magnetometer=None if d.get("magnetometer") is None else MagnetometerModel.from_dict(d["magnetometer"]),
             thermal=None if d.get("thermal") is None else ThermalModel.from_dict(d["thermal"]),
         )
+        check_magnitudes(calibration)
+        return calibration
 
     def to_json(self) -> str:
         """The calibration file's text: strict JSON (a number that is not available is ``null``)."""
@@ -298,15 +303,23 @@ class Calibration:
         if path.is_dir():
             raise CalibrationFileError(f"{path}: is a directory, not a calibration file (JSON)")
         try:
-            data = json.loads(path.read_bytes().decode("utf-8-sig"))
+            with path.open("rb") as fh:
+                raw = fh.read(MAX_FILE_BYTES + 1)  # bounded: /dev/zero or a huge file is refused, not read whole
         except FileNotFoundError:
             raise CalibrationFileError(f"{path}: calibration file not found") from None
+        if len(raw) > MAX_FILE_BYTES:
+            raise CalibrationFileError(f"{path}: larger than {MAX_FILE_BYTES >> 20} MB, not a calibration file "
+                                       "(one is a few kilobytes of JSON)")
+        try:
+            data = loads(raw.decode("utf-8-sig"))
         except UnicodeDecodeError:
             raise CalibrationFileError(f"{path}: not a text file; a calibration file is JSON, as "
                                        "'imucalib calibrate -o FILE.json' writes it") from None
         except json.JSONDecodeError as exc:
             raise CalibrationFileError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno}, column "
                                        f"{exc.colno})") from None
+        except JsonTextError as exc:
+            raise CalibrationFileError(f"{path}: not a calibration file: {exc}") from None
         try:
             return cls.from_dict(data)
         except ValueError as exc:
@@ -382,11 +395,39 @@ def _check_triad(d, name: str, default_shape: str) -> None:
         raise CalibrationFileError(f"'{name}.scale': every scale factor must be non-zero")
 
 
+#: what an identifier (method, model, created, thermal.source) may hold: it reaches C comments, YAML
+#: comments and reports, so no blank, quote, ``*``, ``/``, ``#``, ``<``, ``&`` or line break
+_IDENTIFIER = re.compile(r"[A-Za-z0-9_.:+\->]{1,64}")
+#: what a unit name may hold (``m/s^2``, ``rad/s``, ``uT``)
+_UNIT = re.compile(r"[A-Za-z0-9_.^/]{1,16}")
+_VERDICTS = ("accepted", "suspect", "rejected")
+
+
+def _identifier(value, where: str, pattern: re.Pattern = _IDENTIFIER) -> None:
+    if not isinstance(value, str):
+        raise CalibrationFileError(f"{where}: expected a string; got {_kind(value)}")
+    if not pattern.fullmatch(value):
+        allowed = "letters, digits and _ . ^ /" if pattern is _UNIT else "letters, digits and _ . : + - >"
+        raise CalibrationFileError(f"{where}: {json.dumps(value)[:80]} is not a name imucalib writes (1 to "
+                                   f"{pattern.pattern.rsplit(',', 1)[1][:-1]} of {allowed})")
+
+
+def _printable(value: str, where: str, longest: int) -> None:
+    if len(value) > longest or not value.isprintable():
+        raise CalibrationFileError(f"{where}: {json.dumps(value)[:80]} is not one line of printable text of at "
+                                   f"most {longest} characters")
+
+
 def check_document(d) -> None:
     """Check a calibration document (the parsed JSON of the file) entry by entry.
 
     Raises :class:`CalibrationFileError` naming the first entry that is
-    missing, of the wrong kind or shape, or not a finite number.
+    missing, of the wrong kind or shape, or not a finite number, and the
+    first text outside what it may hold: names (method, model, created,
+    units, thermal.source) 1 to 64 letters, digits and ``_ . : + - >``
+    (16 of ``_ . ^ /`` for units), so that no comment, YAML scalar or HTML
+    element can be left (the exports escape them again, :mod:`imucalib.export.text`);
+    the device and the verdict's reasons and notes one line of printable text.
     """
     if not isinstance(d, dict):
         raise CalibrationFileError(f"expected a JSON object (an imucalib calibration); got {_kind(d)}")
@@ -427,9 +468,21 @@ def check_document(d) -> None:
     for key in ("method", "model"):
         if key in d and not isinstance(d[key], str):
             raise CalibrationFileError(f"'{key}': expected a string; got {_kind(d[key])}")
+        if key in d:
+            _identifier(d[key], f"'{key}'")
     for key in ("device", "created"):
         if d.get(key) is not None and not isinstance(d[key], str):
             raise CalibrationFileError(f"'{key}': expected a string or null; got {_kind(d[key])}")
+    if d.get("created") is not None:
+        _identifier(d["created"], "'created'")
+    if d.get("device") is not None:
+        _printable(d["device"], "'device'", 256)
+    for sensor, entry in (units or {}).items() if isinstance(units, dict) else ():
+        if isinstance(entry, dict):
+            for key, value in entry.items():
+                if not isinstance(value, str):
+                    raise CalibrationFileError(f"'units.{sensor}.{key}': expected a string; got {_kind(value)}")
+                _identifier(value, f"'units.{sensor}.{key}'", _UNIT)
     mag = d.get("magnetometer")
     if mag is not None:
         if not isinstance(mag, dict):
@@ -437,22 +490,149 @@ def check_document(d) -> None:
                                        f"{_kind(mag)}")
         for key, shape in (("bias", (3,)), ("soft_iron", (3, 3)), ("alignment", (3, 3))):
             _numbers(mag.get(key), shape, f"'magnetometer.{key}'")
+        if mag.get("unit") is not None and mag["unit"] not in ("uT", "normalised"):
+            raise CalibrationFileError(f"'magnetometer.unit': expected uT or normalised; got "
+                                       f"{json.dumps(mag['unit'])[:40]}")
         raw = ((units or {}).get("magnetometer") or {}).get("raw")
         if raw not in MAG_UNITS:
             raise CalibrationFileError(f"'units.magnetometer.raw': expected one of {', '.join(MAG_UNITS)}; got "
                                        f"{json.dumps(raw)}")
-    if d.get("thermal") is not None and not isinstance(d["thermal"], dict):
+    thermal = d.get("thermal")
+    if thermal is not None and not isinstance(thermal, dict):
         raise CalibrationFileError(f"'thermal': expected an object (reference_c, range_c, parameters); got "
                                    f"{_kind(d['thermal'])}")
+    if isinstance(thermal, dict):
+        if thermal.get("source") is not None:
+            _identifier(thermal["source"], "'thermal.source'")
+        ref = thermal.get("reference_c", 25.0)
+        span = thermal.get("range_c", [ref, ref])
+        temps = [ref, *span] if isinstance(span, list) else [ref, span]
+        if not all(_is_number(t) and _finite(t) and TEMPERATURE_LIMITS[0] <= t <= TEMPERATURE_LIMITS[1]
+                   for t in temps):
+            raise CalibrationFileError(f"'thermal': reference_c and range_c must be temperatures in "
+                                       f"{TEMPERATURE_LIMITS[0]:g}..{TEMPERATURE_LIMITS[1]:g} degC; got "
+                                       f"{json.dumps([ref, span])[:80]}")
     fit = d.get("fit")
     if fit is not None and not isinstance(fit, dict):
         raise CalibrationFileError(f"'fit': expected an object (the fit figures); got {_kind(fit)}")
     if isinstance(fit, dict):
-        reasons = fit.get("verdict_reasons")
-        if fit.get("verdict") is not None and not isinstance(fit["verdict"], str):
-            raise CalibrationFileError(f"'fit.verdict': expected a string; got {_kind(fit['verdict'])}")
-        if reasons is not None and not (isinstance(reasons, list) and all(isinstance(r, str) for r in reasons)):
-            raise CalibrationFileError("'fit.verdict_reasons': expected a list of strings")
+        if fit.get("verdict") is not None and fit["verdict"] not in _VERDICTS:
+            raise CalibrationFileError(f"'fit.verdict': expected one of {', '.join(_VERDICTS)}; got "
+                                       f"{json.dumps(fit['verdict'])[:40]}")
+        for key in ("verdict_reasons", "verdict_notes"):
+            texts = fit.get(key)
+            if texts is not None and not (isinstance(texts, list) and all(isinstance(r, str) for r in texts)):
+                raise CalibrationFileError(f"'fit.{key}': expected a list of strings")
+            for text in texts or []:
+                _printable(text, f"'fit.{key}'", 2000)
+
+
+#: the largest reading, in calibrated units, any MEMS sensor gives: 1000 g [m/s²] and 1000 rad/s (57 000 °/s)
+FULL_SCALE = {"accelerometer": 1e4, "gyroscope": 1e3}
+#: the widest common ranges, 16 g and 2000 °/s: where the nonlinear scale terms are evaluated
+_COMMON_RANGE = {"accelerometer": 16 * STANDARD_GRAVITY, "gyroscope": math.radians(2000)}
+#: gravity [m/s²] a calibration file may declare (the verdict judges whether it is the Earth's)
+GRAVITY_LIMITS = (0.1, 100.0)
+#: temperatures [°C] a thermal model may name
+TEMPERATURE_LIMITS = (-273.15, 1000.0)
+#: the finest raw count: full scale over 2⁴⁸ (no converter resolves more bits)
+_FINEST_COUNT = 2.0**-48
+#: the largest physical raw unit's scale factor against its nominal one, and the smallest
+_NOMINAL_SPAN = (1e-2, 1e2)
+#: the largest misalignment term (84°), g-sensitivity [rad/s per m/s²] and lever arm [m]
+_MAX_MISALIGNMENT, _MAX_G_SENSITIVITY, _MAX_LEVER_ARM = 10.0, 1.0, 10.0
+#: the largest magnetometer value in calibrated units (µT, or the normalised field)
+_MAG_FULL_SCALE = 1e6
+
+
+def _nominal(unit: str) -> float | None:
+    return {"m/s^2": 1.0, "g": STANDARD_GRAVITY, "rad/s": 1.0, "deg/s": math.pi / 180}.get(unit)
+
+
+def check_magnitudes(calibration: Calibration) -> None:
+    """Refuse a calibration whose parameters are absurd for their units (a file's numbers, not a fit's).
+
+    Each bound is orders of magnitude beyond any MEMS sensor, in the
+    calibrated units (:data:`FULL_SCALE`, the model ``a = T (k1 x + k2 x² + k3 x³
+    + d)``, ``x = u − b``, ``DESIGN.md``): one raw count between full scale/2⁴⁸
+    and full scale (a physical unit's k1 within 10⁻² to 10² of its nominal
+    factor); the bias ``k1 b`` and output bias ``d`` within full scale; at the
+    raw reading ``k1`` maps to 16 g or 2000 °/s, ``k2 x²`` and ``k3 x³`` within
+    full scale; misalignment terms within 10 (84°); the g-sensitivity ``k1 G`` within
+    1 rad/s per m/s²; the lever arm within 10 m; gravity within
+    :data:`GRAVITY_LIMITS`. A thermal model is checked at its range ± 100 °C.
+    Within them no reading of a raw unit's range overflows; whether the values
+    are *good* is the verdict's question.
+
+    Raises
+    ------
+    CalibrationFileError
+        Naming the first parameter out of bounds.
+    """
+    lo, hi = GRAVITY_LIMITS
+    if not lo <= calibration.gravity <= hi:
+        raise CalibrationFileError(f"'gravity': {calibration.gravity:g} m/s^2 is not a gravity (expected "
+                                   f"{lo:g}-{hi:g} m/s^2; the Earth's is 9.78-9.83)")
+    cals = [("", calibration)]
+    if calibration.thermal is not None:
+        from .thermal import evaluate
+
+        t0, t1 = calibration.thermal.range_c
+        with np.errstate(all="ignore"):
+            cals += [(f" at {t:g} degC (its thermal model)", evaluate(calibration, t)) for t in (t0 - 100, t1 + 100)]
+    for at, cal in cals:
+        for sensor in ("accelerometer", "gyroscope"):
+            if getattr(cal, sensor) is not None:  # no gyroscope: an accelerometer-only calibration
+                _check_triad_magnitudes(getattr(cal, sensor), sensor, cal.units[sensor]["raw"], at)
+    if calibration.lever_arm is not None and np.max(np.abs(calibration.lever_arm)) > _MAX_LEVER_ARM:
+        raise CalibrationFileError(f"'lever_arm': beyond {_MAX_LEVER_ARM:g} m; got "
+                                   f"{np.array2string(calibration.lever_arm, precision=3)}")
+    mag = calibration.magnetometer
+    if mag is not None:
+        with np.errstate(all="ignore"):
+            m = np.max(np.abs(mag.matrix))
+            worst = m * max(float(np.max(np.abs(mag.bias))), 1.0)
+        if not (np.isfinite(worst) and worst <= _MAG_FULL_SCALE):
+            raise CalibrationFileError(f"'magnetometer': its matrix and bias reach {worst:.3g} {mag.unit} (beyond "
+                                       f"{_MAG_FULL_SCALE:g}); not a magnetometer calibration")
+
+
+def _check_triad_magnitudes(m: TriadModel, sensor: str, unit: str, at: str) -> None:
+    full = FULL_SCALE[sensor]
+    out = "m/s^2" if sensor == "accelerometer" else "rad/s"
+
+    article = "an" if sensor == "accelerometer" else "a"
+
+    def refuse(key: str, what: str) -> None:
+        raise CalibrationFileError(f"'{sensor}.{key}'{at}: {what}; not a calibration of {article} {sensor} in {unit}")
+
+    with np.errstate(all="ignore"):
+        k1 = np.abs(m.scale)
+        nominal = _nominal(unit)
+        if nominal is None:
+            if not np.all((k1 >= full * _FINEST_COUNT) & (k1 <= full)):
+                refuse("scale", f"one count is {_worst(k1)} {out}, outside {full * _FINEST_COUNT:.3g}-{full:g}")
+        elif not np.all((k1 >= nominal * _NOMINAL_SPAN[0]) & (k1 <= nominal * _NOMINAL_SPAN[1])):
+            refuse("scale", f"{_worst(k1 / nominal)} times the unit's factor to {out} (expected "
+                            f"{_NOMINAL_SPAN[0]:g}-{_NOMINAL_SPAN[1]:g})")
+        x = _COMMON_RANGE[sensor] / k1  # the raw reading the linear term maps to the widest common range
+        for key, values in (("bias", k1 * np.abs(m.bias)), ("output_bias", np.abs(m.output_bias)),
+                            ("scale_quadratic", np.abs(m.scale_quadratic) * x**2),
+                            ("scale_cubic", np.abs(m.scale_cubic) * x**3)):
+            if not np.all(values <= full):
+                refuse(key, f"worth {_worst(values)} {out}, beyond {full:g} {out}")
+        off = np.abs(m.misalignment - np.eye(3))
+        if not np.all(off <= _MAX_MISALIGNMENT):
+            refuse("misalignment", f"a term of {_worst(off)}, beyond {_MAX_MISALIGNMENT:g} (84 deg)")
+        g = np.abs(m.g_sensitivity) * k1[:, None]
+        if not np.all(g <= _MAX_G_SENSITIVITY):
+            refuse("g_sensitivity", f"{_worst(g)} rad/s per m/s^2, beyond {_MAX_G_SENSITIVITY:g}")
+
+
+def _worst(values: np.ndarray) -> str:
+    v = np.asarray(values, dtype=float).reshape(-1)
+    bad = v[~np.isfinite(v)]
+    return "not finite" if bad.size else f"{np.max(v):.3g}"
 
 
 def units_of(recording: Recording) -> dict:

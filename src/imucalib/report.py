@@ -364,7 +364,7 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
                     ("magnetometer: direction error between poses, mean [deg]",
                      fit.get("magnetometer_direction_error_mean_deg"), "{:.3g}"),
                     ("magnetometer axes (accelerometer x, y, z =)", " ".join(cal.magnetometer.axes()[0]), "{}")]
-    rows = "".join(f"<tr><td>{esc(k)}</td><td>{f.format(v)}</td></tr>" for k, v, f in quality if v is not None)
+    rows = "".join(f"<tr><td>{esc(k)}</td><td>{esc(f.format(v))}</td></tr>" for k, v, f in quality if v is not None)
     if rows:
         parts.append(f"<h2>Fit</h2><table><tr><th>figure</th><th>value</th></tr>{rows}</table>")
     coverage = fit.get("pose_coverage")

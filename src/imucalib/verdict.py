@@ -28,7 +28,8 @@ the fit did not minimise, or that it cannot change:
   an accelerometer parameter whose 1σ costs more than its nominal value would
   rejects the calibration;
 * **the magnetometer** — the calibrated field's norm and its dip to gravity must be
-  the same in every pose, and its direction must turn as the gyroscope says.
+  the same in every pose, and its direction must turn as the gyroscope says;
+* **finite numbers** — a NaN or infinite parameter or figure rejects: no limit trips on NaN.
 
 Thresholds (:data:`THRESHOLDS`) come from Monte Carlo on the hand-held
 scenario (``benchmarks/verdict_thresholds.py``, 30 sessions, tedaldi2014,
@@ -613,6 +614,26 @@ def _magnetometer(calibration) -> list[Check]:
     return out
 
 
+def _non_finite(calibration, figures: dict) -> list[Check]:
+    """A rejection when a parameter or a figure that should be a number is NaN or infinite.
+
+    A comparison with NaN is false, so no other limit trips on one: a scale of
+    1e308 makes every figure NaN and every check pass. Figures are the ``fit``
+    entries and ``figures`` holding numbers (or flat lists of them); ``None``
+    (not available) is not a number and passes.
+    """
+    bad = [name for name, v in calibration.parameters().items() if not np.isfinite(v)]
+    for name, value in {**(calibration.fit or {}), **figures}.items():
+        values = value if isinstance(value, list | tuple) else [value]
+        numbers = [v for v in values if isinstance(v, float | int | np.number) and not isinstance(v, bool)]
+        if numbers and not np.all(np.isfinite(np.asarray(numbers, dtype=float))):
+            bad.append(name)
+    if not bad:
+        return []
+    return [Check(2, f"{', '.join(bad[:6])}{' …' if len(bad) > 6 else ''} {'is' if len(bad) == 1 else 'are'} not a "
+                     "finite number (NaN or infinite): the calibration's numbers overflowed or are undefined")]
+
+
 def assess(calibration, recording: Recording | None = None, intervals: list[Interval] | None = None, *,
            purpose: str = "calibrate") -> dict:
     """Every check on ``calibration`` (with the recording it was made from, when there is one).
@@ -661,6 +682,7 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
             figures |= rest_figures
         checks += _known_turns(calibration, recording)
     checks += _magnetometer(calibration)
+    checks += _non_finite(calibration, figures)
     level = max((c.level for c in checks), default=0)
     return {"verdict": LEVELS[level],
             "verdict_reasons": [c.text for c in sorted(checks, key=lambda c: -c.level) if c.level > 0],

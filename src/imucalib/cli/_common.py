@@ -48,8 +48,13 @@ GRAVITY_RANGE = (9.7, 9.9)
 
 
 def gravity_value(text: str) -> float:
-    """An argparse type: a positive number; a warning naming it when it is not a gravity found on the Earth."""
+    """An argparse type: a gravity in :data:`imucalib.calibration.GRAVITY_LIMITS` (a warning when not the Earth's)."""
+    from ..calibration import GRAVITY_LIMITS
+
     g = positive_float(text)
+    if not GRAVITY_LIMITS[0] <= g <= GRAVITY_LIMITS[1]:
+        raise argparse.ArgumentTypeError(f"{text} m/s^2 is not a gravity (expected {GRAVITY_LIMITS[0]:g}-"
+                                         f"{GRAVITY_LIMITS[1]:g} m/s^2; the Earth's is 9.78-9.83)")
     lo, hi = GRAVITY_RANGE
     if not lo <= g <= hi:
         show_warning(f"--gravity {text}: {g:g} m/s^2 is outside {lo}-{hi} m/s^2, the gravity on the Earth's "

@@ -58,7 +58,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
         sim = wang_session(args.seed, turntable_error=args.turntable_error, noise=_noise_options(args),
                            dwell_s=args.dwell)
-        out = write_session(sim, args.output)
+        out = write_session(sim, args.output, overwrite=args.force)
         summary = {"scenario": "wang2019", "seed": args.seed, "directory": str(out),
                    "positions": len(sim.positions_acc), "turn_pairs": len(sim.turn_sum)}
         if args.json:
@@ -67,7 +67,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
               f"positions, {summary['turn_pairs']} turn pairs")
         return 0
     sim = session(args.scenario, rng=args.seed, noise=_noise_options(args), **_handheld_options(args))
-    out = write_session(sim, args.output)
+    out = write_session(sim, args.output, overwrite=args.force)
     summary = {"scenario": args.scenario, "seed": args.seed, "directory": str(out),
                "samples": len(sim.recording), "static": sum(s.kind == "static" for s in sim.segments),
                "weightless": len(sim.weightless), "tests": len(sim.tests), "noise": sim.noise}
@@ -229,6 +229,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--ramp", type=_ramp, metavar="START,END,TAU", help="handheld: a warm-up from START to END °C "
                    "with time constant TAU seconds instead")
     p.add_argument("-o", "--output", required=True, help="output directory")
+    p.add_argument("--force", action="store_true", help="overwrite the session's files in an existing folder (by "
+                   "default a folder holding any of them is refused)")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
     p.set_defaults(func=cmd_simulate)
 

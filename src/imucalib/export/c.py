@@ -18,6 +18,10 @@ temperature as ``c₀ + c₁ ΔT + c₂ ΔT²`` (``ΔT = T − T₀``, thermal.p
 the ``_C1``/``_C2`` arrays, zero where a term does not follow temperature).
 A calibrated magnetometer gets ``<prefix>_apply_mag(mag_raw, mag)``:
 ``m = M (u − b)`` with ``M = F O S`` (models.py).
+
+The calibration's text (method, model, creation time, units) appears only
+inside the header's comments, escaped (:func:`.text.c_comment`): whatever a
+calibration file holds, the code is the same.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ import re
 import numpy as np
 
 from ..calibration import Calibration
+from .text import c_comment
 
 __all__ = ["to_c"]
 
@@ -57,8 +62,10 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
     units = cal.units
     thermal = cal.thermal
     lines = [
-        f"/* imucalib calibration: method {cal.method}, model {cal.model}, created {cal.created or '-'}",
-        f" * raw units: accelerometer {units['accelerometer']['raw']}, gyroscope {units['gyroscope']['raw']}",
+        f"/* imucalib calibration: method {c_comment(cal.method)}, model {c_comment(cal.model)}, created "
+        f"{c_comment(cal.created or '-')}",
+        f" * raw units: accelerometer {c_comment(units['accelerometer']['raw'])}, gyroscope "
+        f"{c_comment(units['gyroscope']['raw'])}",
         " * a = T_a (f_a(u_a - b_a) + d_a) [m/s^2];  w = T_g (f_g(u_g - b_g - G a) + d_g) [rad/s]",
         " * f(x)_i = k1_i x_i + k2_i x_i^2 + k3_i x_i^3 */",
         f"#ifndef {up}_CALIBRATION_H",
@@ -101,8 +108,8 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
     if cal.magnetometer is not None:
         mag = cal.magnetometer
         lines += [
-            f"/* magnetometer: m = M (u - b), raw {units.get('magnetometer', {}).get('raw', 'counts')}, "
-            f"calibrated {mag.unit}, in the accelerometer's frame */",
+            f"/* magnetometer: m = M (u - b), raw {c_comment(units.get('magnetometer', {}).get('raw', 'counts'))}, "
+            f"calibrated {c_comment(mag.unit)}, in the accelerometer's frame */",
             f"static const {ctype} {up}_MAG_M[3][3] = {_array(mag.matrix, num)};",
             f"static const {ctype} {up}_MAG_B[3] = {_array(mag.bias, num)};",
             "",

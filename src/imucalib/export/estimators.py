@@ -48,15 +48,20 @@ from pathlib import Path
 
 import numpy as np
 
-from ..calibration import Calibration
+from ..calibration import MAX_FILE_BYTES, Calibration
+from ..io.jsontext import loads
 from ..noise import BOUND_MARK, kalibr_noise
 from .linear import ExportError, LinearForm, linear_form, rotation_times_triangular, triangular_times_rotation
+from .text import comment_text, yaml_scalar
 
 __all__ = ["NOISE_KEYS", "OPENVINS_MODELS", "read_noise", "to_kalibr", "to_openvins"]
 
 #: the noise entries of Kalibr's and OpenVINS's IMU files [SI units, per √Hz]
 NOISE_KEYS = ("accelerometer_noise_density", "accelerometer_random_walk", "gyroscope_noise_density",
               "gyroscope_random_walk")
+
+#: a ROS graph resource name (wiki.ros.org/Names): a topic
+_ROS_NAME = re.compile(r"[~/]?[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*")
 
 #: OpenVINS's IMU models and whether their D matrices are lower triangular
 OPENVINS_MODELS = {"kalibr": True, "rpng": False}
@@ -91,11 +96,15 @@ def read_noise(path: str | Path) -> tuple[dict, list[str]]:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_FILE_BYTES + 1)  # bounded: a noise file is a few lines
+        text = raw.decode("utf-8")
     except FileNotFoundError:
         raise ExportError(f"--noise {path}: file not found") from None
     except UnicodeDecodeError:
         raise ExportError(f"--noise {path}: not a text file") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise ExportError(f"--noise {path}: larger than {MAX_FILE_BYTES >> 20} MB, not a noise file")
     if text.lstrip().startswith("{"):
         return _noise_from_json(path, text)
     found: dict[str, list[str]] = {}
@@ -132,12 +141,12 @@ def read_noise(path: str | Path) -> tuple[dict, list[str]]:
 
 def _noise_from_json(path: Path, text: str) -> tuple[dict, list[str]]:
     try:
-        doc = json.loads(text)
+        doc = loads(text)
         acc, gyro, rate = doc["accelerometer"], doc["gyroscope"], doc["rate_hz"]
-    except (json.JSONDecodeError, KeyError, TypeError):
+        units = (acc.get("unit"), gyro.get("unit"))
+    except (ValueError, KeyError, TypeError, AttributeError):  # not JSON, nested without end, not this JSON
         raise ExportError(f"--noise {path}: not the JSON of imucalib noise --json (it needs accelerometer, "
                           "gyroscope and rate_hz)") from None
-    units = (acc.get("unit"), gyro.get("unit"))
     if units != ("m/s^2", "rad/s"):
         raise ExportError(f"--noise {path}: the noise is in {units[0]} and {units[1]}; the file needs m/s^2 and "
                           "rad/s: run imucalib noise with --calibration CALIBRATION.json")
@@ -158,8 +167,11 @@ def _noise_lines(noise: dict | None, rostopic: str | None, indent: str, notes: l
         notes.append(f"no --noise file: the noise entries ({', '.join(NOISE_KEYS)}) are left out; {what} needs "
                      "them (imucalib noise DATA --calibration CAL.json --kalibr imu.yaml measures them)")
     topic = rostopic or (noise or {}).get("rostopic")
+    if topic and not _ROS_NAME.fullmatch(topic):
+        raise ExportError(f"the topic {json.dumps(topic)[:80]} is not a ROS name (letters, digits, _ and /, not "
+                          "starting with a digit)")
     if topic:
-        lines.append(f"{indent}rostopic: {topic}")
+        lines.append(f"{indent}rostopic: {yaml_scalar(topic)}")
     else:
         notes.append("no topic given (--rostopic, or a --noise file with one): rostopic is left out")
     if (noise or {}).get("update_rate"):
@@ -192,13 +204,14 @@ def _bias_note(form: LinearForm, target: str, notes: list[str]) -> None:
 
 def _header(cal: Calibration, form: LinearForm, target: str) -> list[str]:
     u = cal.units
-    lines = [f"# imucalib calibration as {target}: method {cal.method}, model {cal.model}, "
-             f"created {cal.created or '-'}"]
+    lines = [f"# imucalib calibration as {target}: method {comment_text(cal.method)}, model "
+             f"{comment_text(cal.model)}, created {comment_text(cal.created or '-')}"]
     if u["accelerometer"]["raw"] == "counts" or u["gyroscope"]["raw"] == "counts":
         lines.append(f"# raw counts read as published: {form.acc_scale!r} m/s^2 and {form.gyro_scale!r} rad/s "
                      "per count (--raw-scale); the matrices below take the published values")
     else:
-        lines.append(f"# raw units {u['accelerometer']['raw']}, {u['gyroscope']['raw']} read as m/s^2, rad/s")
+        lines.append(f"# raw units {comment_text(u['accelerometer']['raw'])}, {comment_text(u['gyroscope']['raw'])} "
+                     "read as m/s^2, rad/s")
     lines.append(f"# calibrated with gravity {cal.gravity:.6g} m/s^2")
     lines.append(f"# biases at calibration time (estimated online, no entry): accelerometer "
                  f"{_vector(form.acc_bias)} m/s^2, gyroscope {_vector(form.gyro_bias)} rad/s")

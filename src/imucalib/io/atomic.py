@@ -9,6 +9,15 @@ its temporary file and leaves the target as it was. A process killed outright
 (SIGKILL, power loss) can leave a hidden ``.NAME.….tmp`` behind, but never a
 half-written target, and such a leftover never blocks a later run.
 
+What is at the target is never destroyed: a symbolic link is followed (the
+file it names is replaced, the link stays, as the shell's ``>`` does); a
+character device or FIFO (``/dev/null``, a named pipe) is written into as a
+stream, never replaced by a regular file; a block device, a socket, ``-`` and
+an existing file the user may not write (read-only for a non-root user) are
+refused before anything is written. A replaced file keeps its permissions
+and, where the system allows, its owner. Hard links to a replaced file keep
+the previous contents (the name gets a new file).
+
 Three forms, by what the writer needs:
 
 * :func:`atomic_write` yields an open file object (text or binary);
@@ -30,6 +39,7 @@ an output path that names one of the inputs (or another output).
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import shutil
 import stat
@@ -51,13 +61,61 @@ def temporary_prefix(path: str | Path) -> str:
     return f".{Path(path).name}."
 
 
-def _target(path: str | Path) -> Path:
+def _target(path: str | Path) -> tuple[Path, bool]:
+    """The file to write for ``path`` and whether it is a stream (a character device or FIFO) written into.
+
+    A symbolic link is followed, as the shell's ``>`` follows it: the file it
+    names is replaced and the link stays. Refused, with the reason: ``-``
+    (standard output is not a file name here), a directory, a block device
+    or socket, and an existing file the user may not write (``os.access``: a
+    read-only file of a non-root user, as the shell refuses it).
+    """
+    if str(path) == "-":
+        raise ValueError("-o -: standard output is not a file name here; give a file name (or /dev/stdout)")
     path = Path(path)
     if not path.name:
         raise ValueError(f"{str(path)!r}: not a file name")
-    if path.is_dir():
+    if path.is_symlink():
+        real = Path(os.path.realpath(path))
+        if real.is_symlink():  # realpath stops at a loop
+            raise OSError(errno.ELOOP, f"{path}: a loop of symbolic links; give a file name")
+        path = real
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        return path, False
+    if stat.S_ISDIR(st.st_mode):
         raise IsADirectoryError(f"{path}: is a directory; give a file name")
-    return path
+    if stat.S_ISCHR(st.st_mode) or stat.S_ISFIFO(st.st_mode):
+        return path, True
+    if not stat.S_ISREG(st.st_mode):
+        kind = "a block device" if stat.S_ISBLK(st.st_mode) else "a socket" if stat.S_ISSOCK(st.st_mode) else \
+            "not a regular file"
+        raise ValueError(f"{path}: is {kind}; it is never written to or replaced: give a file name")
+    if not os.access(path, os.W_OK):
+        raise PermissionError(errno.EACCES, f"{path}: the file is read-only for you; it is not replaced (make it "
+                                            "writable, or give another name)")
+    return path, False
+
+
+def _stream(target: Path, mode: str, text: dict) -> IO:
+    """``target`` (a character device or FIFO) opened for writing into: never created, truncated or replaced."""
+    fd = os.open(target, os.O_WRONLY | getattr(os, "O_NOCTTY", 0))
+    try:
+        return os.fdopen(fd, mode, **text)
+    except BaseException:
+        os.close(fd)
+        raise
+
+
+def _temporary(target: Path, **kw):
+    """``tempfile``'s ``mkstemp`` or ``mkdtemp`` next to ``target``; a folder that cannot be written in, named."""
+    make = kw.pop("make")
+    try:
+        return make(dir=target.parent, prefix=temporary_prefix(target), **kw)
+    except PermissionError:
+        raise PermissionError(errno.EACCES, f"{target.parent or '.'}: you cannot write in this folder (its "
+                                            f"permissions); {target.name} is not written") from None
 
 
 def _file_mode(target: Path) -> int:
@@ -90,6 +148,10 @@ def _remove(path: Path) -> None:
 
 def _move_into_place(tmp: Path, target: Path) -> None:
     os.chmod(tmp, _file_mode(target))
+    with contextlib.suppress(OSError):  # the owner kept (root replacing a user's file), as the shell's > keeps it
+        st = target.stat()
+        if (st.st_uid, st.st_gid) != (os.getuid(), os.getgid()):
+            os.chown(tmp, st.st_uid, st.st_gid)
     os.replace(tmp, target)
     _fsync_directory(target.parent)
 
@@ -116,15 +178,27 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
         Write to it inside the ``with`` block. When the block ends normally the
         file is flushed, synced to the disk and moved onto ``path``; when it
         raises (any exception, KeyboardInterrupt included) the temporary file
-        is removed and ``path`` is left as it was.
+        is removed and ``path`` is left as it was. A character device or FIFO
+        at ``path`` is written into instead, once the block has ended normally
+        (nothing when it raises), from a temporary file in the system's
+        temporary folder.
     """
     if mode not in ("w", "wb"):
         raise ValueError(f"mode must be 'w' or 'wb'; got {mode!r}")
-    target = _target(path)
+    target, stream = _target(path)
     text = {"encoding": encoding, "newline": newline} if mode == "w" else {}
-    fh = tempfile.NamedTemporaryFile(mode, dir=target.parent, prefix=temporary_prefix(target), suffix=".tmp",
-                                     delete=False, **text)
-    tmp = Path(fh.name)
+    if stream:  # a device or FIFO: written in the temporary folder, then into it as the shell's > writes
+        with atomic_path(target) as tmp, tmp.open(mode, **text) as fh:
+            yield fh
+        return
+    fd, name = _temporary(target, make=tempfile.mkstemp, suffix=".tmp")
+    try:
+        fh = os.fdopen(fd, mode, **text)
+    except BaseException:
+        os.close(fd)
+        _remove(Path(name))
+        raise
+    tmp = Path(name)
     try:
         with fh:
             yield fh
@@ -145,12 +219,27 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     the format by the suffix chooses the target's. Failure and success as in
     :func:`atomic_write`.
     """
-    target = _target(path)
-    fd, name = tempfile.mkstemp(dir=target.parent, prefix=temporary_prefix(target), suffix=".tmp" + target.suffix)
+    target, stream = _target(path)
+    if stream:  # a device or FIFO: the file is written in the temporary folder, then copied into it
+        fd, name = tempfile.mkstemp(prefix=temporary_prefix(target), suffix=".tmp" + target.suffix)
+    else:
+        fd, name = _temporary(target, make=tempfile.mkstemp, suffix=".tmp" + target.suffix)
     os.close(fd)
     tmp = Path(name)
     try:
         yield tmp
+        if stream:
+            with tmp.open("rb") as src:
+                dst = _stream(target, "wb", {})
+                try:
+                    shutil.copyfileobj(src, dst)
+                finally:
+                    try:
+                        dst.close()
+                    except OSError as exc:  # /dev/full: the device named
+                        raise OSError(exc.errno, f"{target}: {exc.strerror}") from None
+            _remove(tmp)
+            return
         fd = os.open(tmp, os.O_RDONLY)
         try:
             os.fsync(fd)
@@ -183,7 +272,7 @@ def atomic_create(path: str | Path) -> Iterator[Path]:
         raise ValueError(f"{str(path)!r}: not a file name")
     if target.exists() or target.is_symlink():
         raise FileExistsError(f"{target}: exists; choose a new name (it is never overwritten)")
-    holder = Path(tempfile.mkdtemp(dir=target.parent, prefix=temporary_prefix(target), suffix=".tmp"))
+    holder = Path(_temporary(target, make=tempfile.mkdtemp, suffix=".tmp"))
     inner = holder / target.name
     try:
         yield inner
@@ -205,7 +294,7 @@ def _same(a: Path, b: Path) -> bool:
             return os.path.samefile(a, b)
         except OSError:
             pass
-    return a.resolve() == b.resolve()
+    return os.path.realpath(a) == os.path.realpath(b)  # realpath stops at a symbolic link loop, never raises
 
 
 def refuse_overwriting_inputs(outputs: Iterable[str | Path | None], inputs: Iterable[str | Path | None]) -> None:

@@ -11,11 +11,15 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
 
-__all__ = ["dumps", "jsonable"]
+__all__ = ["MAX_DEPTH", "JsonTextError", "dumps", "jsonable", "loads"]
+
+#: nesting a document read with :func:`loads` may have (a calibration file has 5 levels)
+MAX_DEPTH = 64
 
 
 def jsonable(x: Any) -> Any:
@@ -40,3 +44,53 @@ def jsonable(x: Any) -> Any:
 def dumps(obj: Any, *, indent: int | None = None) -> str:
     """``obj`` as strict JSON text (:func:`jsonable` first; ``NaN``/``Infinity`` can never appear)."""
     return json.dumps(jsonable(obj), indent=indent, allow_nan=False)
+
+
+class JsonTextError(ValueError):
+    """JSON text that :func:`loads` refuses: not strict JSON, a number out of range, or nested too deeply."""
+
+
+def _no_constant(name: str):
+    raise JsonTextError(f"{name} is not a JSON number (strict JSON has no NaN or Infinity)")
+
+
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise JsonTextError(f"the number {text[:40]} is out of range (beyond ±1.8e308)")
+    return value
+
+
+def _depth(obj: Any, limit: int) -> int:
+    """How deep ``obj`` nests, counted without recursion and up to ``limit + 1`` at most."""
+    deepest, level = 0, [(obj, 1)]
+    while level:
+        value, d = level.pop()
+        if isinstance(value, dict | list):
+            deepest = max(deepest, d)
+            if deepest > limit:
+                return deepest
+            items: Iterable = value.values() if isinstance(value, dict) else value
+            level.extend((v, d + 1) for v in items if isinstance(v, dict | list))
+    return deepest
+
+
+def loads(text: str | bytes, *, max_depth: int = MAX_DEPTH) -> Any:
+    """Strict JSON text parsed: ``NaN``, ``Infinity`` and numbers beyond a double refused, nesting bounded.
+
+    Python's parser accepts ``NaN`` and ``Infinity``, reads ``1e999`` as infinity,
+    and recurses once per level (a document nested 10 000 deep raises
+    :class:`RecursionError`). Here each is a :class:`JsonTextError` (a
+    :class:`ValueError`); :class:`json.JSONDecodeError` is raised as it is.
+    """
+    try:
+        value = json.loads(text, parse_constant=_no_constant, parse_float=_finite_float)
+    except RecursionError:
+        raise JsonTextError(f"nested more than {max_depth} levels deep") from None
+    except ValueError as exc:
+        if isinstance(exc, json.JSONDecodeError | JsonTextError):
+            raise
+        raise JsonTextError(str(exc)) from None  # e.g. an integer of more than 4300 digits
+    if _depth(value, max_depth) > max_depth:
+        raise JsonTextError(f"nested more than {max_depth} levels deep")
+    return value

@@ -19,6 +19,7 @@ Two ways, chosen by :func:`write_csv`:
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -74,7 +75,11 @@ def write_csv(
 
     The rows go to a temporary file next to ``path``, moved onto ``path`` only
     when all are written (:func:`imucalib.io.atomic.atomic_write`): a failed
-    or interrupted write leaves an existing ``path`` as it was.
+    or interrupted write leaves an existing ``path`` as it was. A source file
+    that changes while it is copied (rewritten, appended to, cut short: its
+    size or modification time on the open file differs from the read's) is
+    noticed before the copy replaces ``path``; the copy is discarded and the
+    rows are written from the values, which are the samples that were read.
     """
     rec = recording
     n = len(rec)
@@ -83,10 +88,8 @@ def write_csv(
         if len(v) != n:
             raise ValueError(f"column {k!r} has {len(v)} rows; the recording has {n}")
     layout = _source_layout(rec)
-    if layout is not None:
-        _copy_source(path, rec, layout, added)
-    else:
-        _write_values(path, rec, added)
+    if layout is None or not _copy_source(path, rec, layout, added):
+        _write_values(path, rec, added)  # the samples read, whatever their file has become since
 
 
 # ------------------------------------------------------------ copying the source
@@ -115,50 +118,103 @@ def _header_names(rec: Recording, layout: csvparse.Layout) -> list[str]:
     return names
 
 
-def _copy_source(path: str | Path, rec: Recording, layout: csvparse.Layout, added: dict[str, np.ndarray]) -> None:
+class _SourceChanged(Exception):
+    """The source file is not the one the recording was read from (checked on the open file)."""
+
+
+def _as_read(src, layout: csvparse.Layout) -> bool:
+    """Whether the open file ``src`` has the size and modification time the recording's file had when read."""
+    st = os.fstat(src.fileno())
+    return st.st_size == layout.size and st.st_mtime_ns == layout.mtime_ns
+
+
+def _body_chunks(src, layout: csvparse.Layout, chunk_bytes: int):
+    """The body's bytes from the open file ``src`` in pieces of whole lines, never past the body's end as read."""
+    src.seek(layout.body[0])
+    pos, end = layout.body
+    while pos < end:
+        data = src.read(min(chunk_bytes, end - pos))
+        if not data:
+            raise _SourceChanged  # shorter than when it was read
+        if pos + len(data) < end and not data.endswith(b"\n"):
+            data += src.readline(end - pos - len(data))  # finish the line
+        pos += len(data)
+        yield data
+
+
+def _copy_source(path: str | Path, rec: Recording, layout: csvparse.Layout, added: dict[str, np.ndarray]) -> bool:
+    """Copy the source's text with the calibrated columns appended; False (nothing written) when it changed.
+
+    Everything is read from one open file: its size and modification time are
+    checked against the read before the copy and again after it, before the
+    copy replaces ``path`` (a change in between discards the copy and leaves
+    ``path`` as it was); no byte past the end the file had when read is taken.
+    """
     sep = layout.sep or " "
     bsep = sep.encode()
     spaced = layout.sep is not None  # names may hold spaces only when a separator other than blanks parts cells
     names = list(added) if spaced else [k.replace(" ", "") for k in added]
     columns = list(added.values())
     row_format = (sep + ADDED_FORMAT) * len(columns)
-    with layout.path.open("rb") as src, atomic_write(path, "wb") as dst:
-        if layout.header is not None:
-            h0, h1 = layout.header
-            dst.write(src.read(h0))  # the preamble
-            header = src.read(h1 - h0)
-            end = b"\r" if header.endswith(b"\r") else b""
-            header = header[:len(header) - len(end)]
-            quote = header.lstrip(b"\xef\xbb\xbf \t").startswith(b'"')
-            dst.write(header + b"".join(bsep + (f'"{k}"' if quote else k).encode() for k in names) + end)
-            dst.write(src.read(layout.body[0] - h1))  # the header's line end
-        else:
-            dst.write(src.read(layout.body[0]))  # the preamble
-            own = _header_names(rec, layout) + names
-            own = own if spaced else [k.replace(" ", "") for k in own]
-            dst.write(sep.join(own).encode() + b"\n")
-        done = 0
-        for ch in csvparse.chunks(layout, _COPY_BYTES):
-            lines = ch.data.split(b"\n")
-            last_end = lines.pop() if ch.data.endswith(b"\n") else None  # b"" after a final line end
-            rows = [i for i, ln in enumerate(lines) if not ln.lstrip(b" \t").startswith(b"#")] \
-                if ch.comments else range(len(lines))
-            block = [c[done:done + len(rows)].tolist() for c in columns]
-            text = "\n".join(row_format % row for row in zip(*block, strict=True))
-            if layout.decimal_comma:
-                text = text.replace(".", ",")
-            tails = text.encode().split(b"\n") if columns else [b""] * len(rows)
-            for i, tail in zip(rows, tails, strict=True):
-                ln = lines[i]
-                lines[i] = ln[:-1] + tail + b"\r" if ln.endswith(b"\r") else ln + tail
-            dst.write(b"\n".join(lines))
-            if last_end is not None:
-                dst.write(b"\n")
-            done += len(rows)
-        src.seek(layout.body[1])
-        dst.write(src.read())  # what follows the last row: its line end, blank lines
-    if done != len(rec):  # the file changed between the check and the copy
-        raise ValueError(f"{layout.path}: the file changed while it was copied; write again")
+    try:
+        src = layout.path.open("rb")
+    except OSError:
+        return False
+    with src:
+        if not _as_read(src, layout):
+            return False
+        try:
+            with atomic_write(path, "wb") as dst:
+                _copy_rows(src, dst, rec, layout, names, columns, row_format, bsep, spaced)
+                if not _as_read(src, layout):  # changed while it was copied: the copy is discarded, path kept
+                    raise _SourceChanged
+        except _SourceChanged:
+            return False
+    return True
+
+
+def _copy_rows(src, dst, rec: Recording, layout: csvparse.Layout, names: list[str], columns: list[np.ndarray],
+               row_format: str, bsep: bytes, spaced: bool) -> None:
+    sep = bsep.decode()
+    src.seek(0)
+    if layout.header is not None:
+        h0, h1 = layout.header
+        dst.write(src.read(h0))  # the preamble
+        header = src.read(h1 - h0)
+        end = b"\r" if header.endswith(b"\r") else b""
+        header = header[:len(header) - len(end)]
+        quote = header.lstrip(b"\xef\xbb\xbf \t").startswith(b'"')
+        dst.write(header + b"".join(bsep + (f'"{k}"' if quote else k).encode() for k in names) + end)
+        dst.write(src.read(layout.body[0] - h1))  # the header's line end
+    else:
+        dst.write(src.read(layout.body[0]))  # the preamble
+        own = _header_names(rec, layout) + names
+        own = own if spaced else [k.replace(" ", "") for k in own]
+        dst.write(sep.join(own).encode() + b"\n")
+    done = 0
+    for data in _body_chunks(src, layout, _COPY_BYTES):
+        lines = data.split(b"\n")
+        last_end = lines.pop() if data.endswith(b"\n") else None  # b"" after a final line end
+        rows = [i for i, ln in enumerate(lines) if not ln.lstrip(b" \t").startswith(b"#")] \
+            if b"#" in data else range(len(lines))
+        if done + len(rows) > len(rec):
+            raise _SourceChanged  # more rows than were read
+        block = [c[done:done + len(rows)].tolist() for c in columns]
+        text = "\n".join(row_format % row for row in zip(*block, strict=True))
+        if layout.decimal_comma:
+            text = text.replace(".", ",")
+        tails = text.encode().split(b"\n") if columns else [b""] * len(rows)
+        for i, tail in zip(rows, tails, strict=True):
+            ln = lines[i]
+            lines[i] = ln[:-1] + tail + b"\r" if ln.endswith(b"\r") else ln + tail
+        dst.write(b"\n".join(lines))
+        if last_end is not None:
+            dst.write(b"\n")
+        done += len(rows)
+    if done != len(rec):
+        raise _SourceChanged  # fewer rows than were read
+    src.seek(layout.body[1])
+    dst.write(src.read(layout.size - layout.body[1]))  # what follows the last row, up to the end as read
 
 
 # ------------------------------------------------------------ from the values

@@ -24,7 +24,7 @@ from ..recording import ImucalibWarning, Interval, Recording
 if TYPE_CHECKING:
     from .wang2019 import WangSession
 
-__all__ = ["DEFAULT_NOISE", "Session", "TossSequence", "attitude_with_up", "distort", "noise_levels",
+__all__ = ["DEFAULT_NOISE", "Session", "TossSequence", "attitude_with_up", "distort", "noise_levels", "session_files",
            "pose_session", "read_session", "turns_between", "write_session"]
 
 #: default per-sample noise: σ_a [m/s²], σ_g [rad/s] (ICM-42605-like at 100 Hz)
@@ -133,7 +133,17 @@ def _write_rec(path: Path, rec: Recording) -> None:
     _write_table(path, np.column_stack(cols), names)
 
 
-def write_session(sim: Session | WangSession, directory: str | Path) -> Path:
+def session_files(sim: Session | WangSession) -> list[str]:
+    """The names of the files :func:`write_session` writes for ``sim``."""
+    from .wang2019 import WangSession
+
+    if isinstance(sim, WangSession):
+        return ["positions.csv", "turns.csv", "truth.json", "session.json"]
+    return ["recording.csv", *(f"weightless_{i:03d}.csv" for i in range(len(sim.weightless))),
+            *(f"test_{i:02d}.csv" for i in range(len(sim.tests))), "truth.json", "session.json"]
+
+
+def write_session(sim: Session | WangSession, directory: str | Path, *, overwrite: bool = True) -> Path:
     """Write a simulated session into a directory that :func:`read_session` reads back.
 
     Parameters
@@ -147,7 +157,9 @@ def write_session(sim: Session | WangSession, directory: str | Path) -> Path:
         ``turns.csv`` (clockwise − counter-clockwise turn integrals and
         angles), ``truth.json`` and ``session.json``.
     directory : str or Path
-        Created if missing; files already there are overwritten. Each file is
+        Created if missing; files already there are overwritten (unless
+        ``overwrite`` is false: then :class:`FileExistsError` names them before
+        anything is written). Each file is
         written through a temporary file moved into place, and ``session.json``
         (the index :func:`read_session` starts from) is removed first and
         written last, so an interrupted write leaves a directory that does not
@@ -161,6 +173,12 @@ def write_session(sim: Session | WangSession, directory: str | Path) -> Path:
     from .wang2019 import WangSession
 
     d = Path(directory)
+    if d.exists() and not d.is_dir():
+        raise NotADirectoryError(f"{d}: is a file; a session is written into a folder")
+    there = [name for name in session_files(sim) if (d / name).exists() or (d / name).is_symlink()]
+    if there and not overwrite:
+        raise FileExistsError(f"{d} holds {', '.join(there[:4])}{' …' if len(there) > 4 else ''}, which this session "
+                              "would overwrite: give a new folder, or overwrite them (simulate --force)")
     d.mkdir(parents=True, exist_ok=True)
     (d / "session.json").unlink(missing_ok=True)
     if isinstance(sim, WangSession):
