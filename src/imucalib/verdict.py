@@ -614,16 +614,25 @@ def _magnetometer(calibration) -> list[Check]:
     return out
 
 
+#: the figures made by applying the calibration to the data, and the data's temperature: NaN or infinite only
+#: when the numbers overflow (other entries may be NaN where they do not apply: no detector scan, no rotation)
+CALIBRATED_FIGURES = ("accelerometer_residual_rms", "accelerometer_residual_to_noise",
+                      "gyroscope_angle_error_mean_deg", "gyroscope_angle_error_max_deg", "gyroscope_error_to_noise",
+                      "gyroscope_rest_rate_deg_s", "temperature_c")
+
+
 def _non_finite(calibration, figures: dict) -> list[Check]:
-    """A rejection when a parameter or a figure that should be a number is NaN or infinite.
+    """A rejection when a parameter or a figure of the calibrated data is NaN or infinite.
 
     A comparison with NaN is false, so no other limit trips on one: a scale of
-    1e308 makes every figure NaN and every check pass. Figures are the ``fit``
-    entries and ``figures`` holding numbers (or flat lists of them); ``None``
-    (not available) is not a number and passes.
+    1e308 makes every figure NaN and every check pass. The figures checked are
+    :data:`CALIBRATED_FIGURES`, from ``fit`` and ``figures``; ``None`` (not
+    available) passes.
     """
     bad = [name for name, v in calibration.parameters().items() if not np.isfinite(v)]
-    for name, value in {**(calibration.fit or {}), **figures}.items():
+    found = {**(calibration.fit or {}), **figures}
+    for name in CALIBRATED_FIGURES:
+        value = found.get(name)
         values = value if isinstance(value, list | tuple) else [value]
         numbers = [v for v in values if isinstance(v, float | int | np.number) and not isinstance(v, bool)]
         if numbers and not np.all(np.isfinite(np.asarray(numbers, dtype=float))):

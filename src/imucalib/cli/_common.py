@@ -122,12 +122,19 @@ OUTPUT_OPTIONS = ("output", "plot", "report", "kalibr")
 _FOLDER_OUTPUTS = ("simulate",)
 
 
-def _named(args: argparse.Namespace, names: Sequence[str]) -> list[str]:
+#: path options that are always given by their flag (the others are positional in some commands)
+_FLAGGED = ("sections", "noise", "plot", "report", "kalibr")
+
+
+def _named(args: argparse.Namespace, names: Sequence[str]) -> list[tuple[str, str]]:
+    """``(how the message names it, path)`` of each path given in ``names``: the flag and the path for
+    :data:`_FLAGGED` options, else the path."""
     out = []
     for name in names:
         value = getattr(args, name, None)
         values = value if isinstance(value, list | tuple) else [value]
-        out += [str(v) for v in values if v is not None and str(v) != "-"]
+        out += [(f"--{name} {v}" if name in _FLAGGED else str(v), str(v))
+                for v in values if v is not None and str(v) != "-"]
     return out
 
 
@@ -141,13 +148,14 @@ def check_paths(args: argparse.Namespace) -> None:
     from ..io.errors import ReaderError
     from ..io.inputs import check_input_path
 
-    for name in _named(args, INPUT_OPTIONS):
+    for label, name in _named(args, INPUT_OPTIONS):
         try:
             check_input_path(name)
         except ReaderError as exc:
             if "not found" not in str(exc):
-                raise CliError(str(exc)) from None
-    for name in _named(args, OUTPUT_OPTIONS):
+                text = str(exc)
+                raise CliError(text if label == name else f"{label.split()[0]} {text}") from None
+    for _, name in _named(args, OUTPUT_OPTIONS):
         try:
             os.stat(name)
         except OSError as exc:

@@ -39,7 +39,7 @@ def cmd_noise(args: argparse.Namespace) -> int:
         show_warning(text, ImucalibWarning, "", 0)
     result = noise_summary(part)
     for name in ("accelerometer", "gyroscope"):
-        for text in result[name]["notes"]:
+        for text in result.get(name, {}).get("notes", []):
             show_warning(text, ImucalibWarning, "", 0)
     if args.kalibr:
         if part.gyro is None:
