@@ -294,3 +294,60 @@ def test_bad_sources_are_refused_with_exit_2(tmp_path):
     run = subprocess.run([*CLI, "record", "-", "-o", str(tmp_path / "s.csv"), "--method", "nope"],
                          input="t,ax\n", capture_output=True, text=True, env=ENV, timeout=60)
     assert run.returncode == 2 and "unknown method" in run.stderr
+
+
+def test_phyphox_source_against_a_local_rest_server():
+    """phyphox's remote interface (``/control?cmd=start``, ``/get`` with ``T|time`` thresholds), served locally."""
+    import http.server
+    from urllib.parse import parse_qs, urlsplit
+
+    from imucalib.record import open_source
+
+    t_acc = np.arange(0, 2.0, 0.01)
+    t_gyr = np.arange(0.003, 2.05, 0.01)
+    acc = np.column_stack([np.sin(t_acc), np.cos(t_acc), 9.8 + 0 * t_acc])
+    gyr = np.column_stack([t_gyr, -t_gyr, 2 * t_gyr])
+    served = {"started": False, "upto": 0.0}
+
+    class Phone(http.server.BaseHTTPRequestHandler):
+        def log_message(self, *args):
+            pass
+
+        def do_GET(self):
+            url = urlsplit(self.path)
+            q = {k: v[0] for k, v in parse_qs(url.query).items()}
+            if url.path == "/control":
+                served["started"] = q.get("cmd") == "start"
+                body = {"result": True}
+            else:
+                served["upto"] += 0.5  # the phone records half a second between polls
+                buf = {}
+                for name, (t, x, cols) in {"acc": (t_acc, acc, "XYZ"), "gyr": (t_gyr, gyr, "XYZ")}.items():
+                    since = q[f"{name}_time"]
+                    keep = (t <= served["upto"]) & (t > (-1.0 if since == "full" else float(since)))
+                    buf[f"{name}_time"] = {"buffer": t[keep].tolist()}
+                    for j, c in enumerate(cols):
+                        assert q[f"{name}{c}"] == ("full" if since == "full" else f"{since}|{name}_time")
+                        buf[f"{name}{c}"] = {"buffer": x[keep, j].tolist()}
+                body = {"buffer": buf, "status": {"measuring": True}}
+            data = json.dumps(body).encode()
+            self.send_response(200)
+            self.send_header("Content-Length", str(len(data)))
+            self.end_headers()
+            self.wfile.write(data)
+
+    server = http.server.HTTPServer(("127.0.0.1", 0), Phone)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        with open_source(f"phyphox://127.0.0.1:{server.server_port}") as stream:
+            lines = [stream.readline() for _ in range(1 + 150)]
+    finally:
+        server.shutdown()
+    assert served["started"]
+    assert lines[0].startswith(b"t,ax [m/s^2]")
+    rows = np.array([[float(c) for c in ln.decode().split(",")] for ln in lines[1:]])
+    # every sample from the gyroscope's first on (0.003 s), in order
+    np.testing.assert_allclose(rows[:, 0], t_acc[1:151], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(rows[:, 1:4], acc[1:151], rtol=1e-8)
+    np.testing.assert_allclose(rows[:, 4:], np.column_stack([rows[:, 0], -rows[:, 0], 2 * rows[:, 0]]),
+                               rtol=1e-8, atol=1e-9)  # the linear gyroscope interpolated exactly

@@ -621,12 +621,16 @@ def open_source(spec: str, *, stdin=None) -> Iterator:
 class PhyphoxStream:
     """phyphox's remote-access interface as a stream of CSV lines ``t,ax,ay,az,gx,gy,gz`` (m/s², rad/s).
 
-    The experiment on the phone must record the accelerometer (buffers
-    ``accX accY accZ acc_time``) and the gyroscope (``gyrX gyrY gyrZ gyr_time``),
-    as phyphox's "Acceleration (without g)"-free raw sensor experiments do with
-    "Allow remote access" on. ``/control?cmd=start`` starts it; ``/get?…=T|time``
-    returns each buffer's values newer than ``T`` (phyphox's REST interface).
-    The gyroscope is interpolated onto the accelerometer's stamps.
+    The experiment on the phone must record the accelerometer with gravity
+    (buffers ``accX accY accZ acc_time``, as in phyphox's "Acceleration with g")
+    and the gyroscope (``gyrX gyrY gyrZ gyr_time``, as in its "Gyroscope"): one
+    experiment holding both, with "Allow remote access" on. Over phyphox's
+    remote-interface REST API, ``/control?cmd=start`` starts it and
+    ``/get?acc_time=T&accX=T|acc_time…`` returns the values recorded after
+    ``T`` (``full`` the first time). The gyroscope is interpolated linearly onto
+    the accelerometer's stamps, which are written only once the gyroscope has
+    caught up with them (accelerometer samples from before the gyroscope's
+    first are not written: they have no rate to go with them).
     """
 
     BUFFERS = ("accX", "accY", "accZ", "gyrX", "gyrY", "gyrZ")
@@ -664,7 +668,7 @@ class PhyphoxStream:
             self._since["gyr"] = float(self._gyro[-1, 0])
         if n_a and self._gyro.shape[0] >= 2:
             a = np.column_stack([x[:n_a] for x in acc])
-            a = a[a[:, 0] <= self._gyro[-1, 0]]  # only where the gyroscope has caught up
+            a = a[(a[:, 0] >= self._gyro[0, 0]) & (a[:, 0] <= self._gyro[-1, 0])]  # where there is a gyroscope
             if a.shape[0]:
                 g = np.column_stack([np.interp(a[:, 0], self._gyro[:, 0], self._gyro[:, j]) for j in (1, 2, 3)])
                 self._lines += [(",".join(f"{v:.9g}" for v in (*row_a, *row_g)) + "\n").encode()
