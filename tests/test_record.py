@@ -351,3 +351,26 @@ def test_phyphox_source_against_a_local_rest_server():
     np.testing.assert_allclose(rows[:, 1:4], acc[1:151], rtol=1e-8)
     np.testing.assert_allclose(rows[:, 4:], np.column_stack([rows[:, 0], -rows[:, 0], 2 * rows[:, 0]]),
                                rtol=1e-8, atol=1e-9)  # the linear gyroscope interpolated exactly
+
+
+def test_a_stream_the_reader_cannot_take_is_an_error_that_keeps_the_lines(tmp_path):
+    run = subprocess.run([*CLI, "record", "-", "-o", str(tmp_path / "s.csv")], input="hello\nworld\n" * 30,
+                         capture_output=True, text=True, env=ENV, timeout=60)
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert "60 lines read so far" in run.stderr and not (tmp_path / "s.csv").exists()
+    assert (tmp_path / "s.csv.partial").read_text() == "hello\nworld\n" * 30
+
+
+def test_face_methods_are_told_the_faces_they_lack():
+    from imucalib.plans import describe_direction
+
+    events = []
+    rec = Recorder(events.append, method="six_position")
+    rec.directions = [np.array([0, 0, 1.0]), np.array([1.0, 0, 0]), np.array([0, 1.0, 0.02])]
+    rec.format = type("F", (), {"time_scale": 1.0, "rate": None})()
+    rec._raw[:2, 0] = [0.0, 0.01]
+    rec.n = 2
+    rec._next(1)
+    said = [events[-1]["words"], *events[-1]["then"]]
+    assert sorted(said) == ["x down", "y down", "z down"]
+    assert describe_direction(events[-1]["up"]) == events[-1]["words"]

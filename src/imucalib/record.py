@@ -57,6 +57,8 @@ __all__ = ["Recorder", "LineFormat", "SessionWriter", "record", "open_source", "
 
 #: the largest rotation per sample [deg] the attitude integration is trusted with
 MAX_STEP_DEG = 5.0
+#: methods that calibrate from the six faces (each axis up and down)
+FACE_METHODS = ("six_position", "ferraris")
 #: lines read before the table's layout is decided (fewer when the stream ends sooner)
 HEAD_LINES = 50
 
@@ -386,7 +388,9 @@ class Recorder:
                                             f"±{self.gyro_range:g} range at t = {self._time(i):.2f} s: turn more "
                                             "slowly (a clipped rate loses the rotation)")
         if self.scale is not None:
-            dt = np.diff(self.t[start - 1:self.n])
+            fmt = self.format
+            dt = (np.diff(self._raw[start - 1:self.n, 0]) * fmt.time_scale if fmt.time_scale is not None
+                  else np.full(self.n - start, 1.0 / fmt.rate))
             step = np.linalg.norm(g - bias, axis=1) * abs(self.scale) * dt
             over = np.nonzero(step > self.max_step)[0]
             if over.size:
@@ -459,7 +463,7 @@ class Recorder:
         from .methods import calibrate
         from .segment import MIN_INTERVALS
 
-        if len(self.poses) + 1 < MIN_INTERVALS:
+        if len(self.poses) + 1 < (7 if self.method in FACE_METHODS else MIN_INTERVALS):
             return
         try:
             with warnings.catch_warnings():
@@ -481,12 +485,13 @@ class Recorder:
     def _next(self, sample: int) -> None:
         from .plans import describe_direction, next_poses
 
-        if self.trial is not None and self.trial.fit.get("next_poses"):
+        reasons = (self.trial.fit.get("verdict_reasons") or []) if self.trial is not None else []
+        if self.method in FACE_METHODS:  # these take the six faces only: the next pose is one of them
+            nxt = next_poses(np.array(self.directions), candidates=np.vstack([np.eye(3), -np.eye(3)]))
+        elif self.trial is not None and self.trial.fit.get("next_poses"):
             nxt = np.asarray(self.trial.fit["next_poses"])
-            reasons = self.trial.fit.get("verdict_reasons") or []
         else:
             nxt = next_poses(np.array(self.directions))
-            reasons = []
         self.emit({"event": "next_pose", "after_pose": len(self.poses), "up": nxt[0].tolist(),
                    "words": describe_direction(nxt[0]), "then": [describe_direction(u) for u in nxt[1:]],
                    "reasons": reasons[:3], "sample": int(sample), "t": self._time(sample)})
@@ -558,6 +563,9 @@ def record(stream, output: str | Path, recorder: Recorder, *, poll: float = 0.2)
             recorder.feed(batch)
     except KeyboardInterrupt:
         interrupted = True
+    except Exception as exc:  # the stream cannot be followed: keep what was read, say where it is
+        partial = writer.finish(rename=False)
+        raise type(exc)(f"{exc} (the {writer.lines} lines read so far are in {partial})") from None
     try:
         recorder.close()
     finally:
