@@ -62,6 +62,10 @@ def _check_session(events, n_poses):
     assert "complete" in kinds
     first_complete = kinds.index("complete")
     assert "next_pose" in kinds[:first_complete]  # the next pose was suggested before the session was complete
+    # … and before the poses covered every axis up and down (within 60°, as pose_coverage asks)
+    covered = [k for k, e in enumerate(events) if e["event"] == "pose"
+               and all(lo <= -0.5 and hi >= 0.5 for lo, hi in e["coverage"].values())]
+    assert covered and "next_pose" in kinds[:covered[0]]
     assert kinds.count("complete") == 1
     nxt = [e for e in events if e["event"] == "next_pose"]
     assert all(np.linalg.norm(e["up"]) == pytest.approx(1.0) and e["words"] for e in nxt)
@@ -242,6 +246,18 @@ def test_a_line_that_does_not_parse_is_counted_and_kept(tmp_path, short_session)
     assert abs(result.poses - n_poses) <= 1
 
 
+def test_a_boot_message_among_the_first_lines_is_counted_not_fatal(tmp_path, short_session):
+    csv, _ = short_session
+    data = csv.read_bytes().splitlines(keepends=True)
+    sent = [b"MPU6050 ready\n", *data[:20], b"ERR i2c timeout\n", *data[20:]]
+    events = []
+    result = record(io.BytesIO(b"".join(sent)), tmp_path / "s.csv", Recorder(events.append))
+    assert (tmp_path / "s.csv").read_bytes() == b"".join(sent)
+    bad = [e["line"] for e in events if e["event"] == "warning" and e["kind"] == "unparsed_line"]
+    assert bad == [22] and result.unparsed == 1  # the banner before the header is a preamble line
+    assert events[-1]["samples"] == len(data) - 1
+
+
 def test_fast_turns_and_wobbling_poses_are_warned(tmp_path):
     with pytest.warns(UserWarning, match="clipped"):  # the simulated gyroscope saturates, as intended
         s = generate(np.random.default_rng(11), n_poses=12, rest=8.0, max_rate=None, move=(0.3, 0.5), tremor=2.0)
@@ -358,6 +374,7 @@ def test_a_stream_the_reader_cannot_take_is_an_error_that_keeps_the_lines(tmp_pa
                          capture_output=True, text=True, env=ENV, timeout=60)
     assert run.returncode == 2 and "Traceback" not in run.stderr
     assert "60 lines read so far" in run.stderr and not (tmp_path / "s.csv").exists()
+    assert "not a table the reader takes" in run.stderr and ".csv: line" not in run.stderr
     assert (tmp_path / "s.csv.partial").read_text() == "hello\nworld\n" * 30
 
 

@@ -264,7 +264,7 @@ class Recorder:
                    "poses": len(self.poses), "complete": self.complete, "t": self._time(self.n - 1)})
 
     def _start(self, lines: list[bytes]) -> None:
-        fmt, notes = LineFormat.from_head(lines, directory=self.directory, **self.reader_options)
+        fmt, notes = self._format(lines)
         self.format = fmt
         self.emit({"event": "format", "columns": list(fmt.indices), "acc_unit": fmt.acc_unit,
                    "gyro_unit": fmt.gyro_unit, "time": "column" if fmt.time_scale else f"{fmt.rate:g} Hz",
@@ -280,6 +280,27 @@ class Recorder:
                 self._add([ln])
             else:
                 self.line_no += 1
+
+    def _format(self, lines: list[bytes]) -> tuple[LineFormat, list[str]]:
+        """The stream's layout from its first lines; a row the reader names as bad is left out and tried again.
+
+        A boot message or a garbled row among the first lines is then counted as
+        a line that does not parse, as it would be later in the stream.
+        """
+        import re
+
+        head = list(lines)
+        for _ in range(5):
+            try:
+                return LineFormat.from_head(head, directory=self.directory, **self.reader_options)
+            except ValueError as exc:
+                m = re.search(r"\.csv: line (\d+)[:,]", str(exc))
+                k = int(m.group(1)) - 1 if m else -1
+                if not 0 < k < len(head) - 1:
+                    raise ValueError(f"the stream's first {len(lines)} lines are not a table the reader takes: "
+                                     + str(exc).split(".csv: ", 1)[-1]) from None
+                del head[k]
+        raise ValueError(f"the stream's first {len(lines)} lines hold more than five rows that do not parse")
 
     def _add(self, lines: list[bytes]) -> None:
         fmt = self.format

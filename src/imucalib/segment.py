@@ -3,6 +3,8 @@
 * :func:`find_initial_rest` — the rest that starts a session;
 * :func:`detect_static` and :func:`detect_intervals` — the accelerometer
   variance detector of Tedaldi 2014 with its threshold-multiplier scan;
+* :class:`VarianceNormStream` and :class:`StillDetector` — the same statistic
+  and detector sample by sample, for a live recording (:mod:`imucalib.record`);
 * :func:`detect_static_gyro` — the gyroscope-norm detector (Zhang 2021, eq. 22);
 * :func:`find_faces` — the six faces (each axis up and down);
 * :func:`find_turns` — turns about one axis between rests in the same pose.
