@@ -152,7 +152,10 @@ def test_replay_through_a_pty_in_real_time(tmp_path, short_session):
         while True:
             try:
                 chunk = os.read(master, 65536)
-            except OSError:
+            except BlockingIOError:
+                time.sleep(0.01)
+                continue
+            except OSError:  # the recorder closed the terminal
                 return
             if not chunk:
                 return
@@ -161,13 +164,23 @@ def test_replay_through_a_pty_in_real_time(tmp_path, short_session):
     reader = threading.Thread(target=drain, daemon=True)
     reader.start()
     start = time.monotonic()
-    os.write(master, data[0])  # the header
+    os.set_blocking(master, False)  # a recorder that stopped reading fails the test instead of hanging it
+
+    def send(chunk):
+        while chunk and proc.poll() is None and time.monotonic() - start < 300:
+            try:
+                chunk = chunk[os.write(master, chunk):]
+            except BlockingIOError:
+                time.sleep(0.01)
+        assert not chunk, "the recorder stopped reading"
+
+    send(data[0])  # the header
     for k, line in enumerate(data[1:]):
         lag = t[k] / speed - (time.monotonic() - start)
         if lag > 0:
             time.sleep(lag)
-        os.write(master, line)
-    os.write(master, b"\x04")  # Ctrl-D: the end of the input
+        send(line)
+    send(b"\x04")  # Ctrl-D: the end of the input
     assert proc.wait(timeout=300) == 0, screen.decode(errors="replace")[-2000:]
     os.close(master)
     assert out.read_bytes() == csv.read_bytes()
@@ -391,3 +404,42 @@ def test_face_methods_are_told_the_faces_they_lack():
     said = [events[-1]["words"], *events[-1]["then"]]
     assert sorted(said) == ["x down", "y down", "z down"]
     assert describe_direction(events[-1]["up"]) == events[-1]["words"]
+
+
+def test_a_serial_port_recorded_until_ctrl_c(tmp_path, short_session):
+    pytest.importorskip("serial")
+    pty = pytest.importorskip("pty")
+    import termios
+    import tty
+
+    csv, _ = short_session
+    data = csv.read_bytes().splitlines(keepends=True)[:3001]
+    master, slave = pty.openpty()
+    tty.setraw(slave, termios.TCSANOW)  # a serial line passes the bytes as they are
+    port = os.ttyname(slave)
+    proc = subprocess.Popen([*CLI, "record", f"serial:{port}?baud=115200", "-o", str(tmp_path / "s.csv"),
+                             "--events", str(tmp_path / "e.jsonl")], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, env=ENV)
+    partial = tmp_path / "s.csv.partial"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not partial.exists():  # created once the port is open (and flushed)
+        time.sleep(0.05)
+    os.set_blocking(master, False)  # a recorder that stopped reading fails the test instead of hanging it
+    buf, sent = b"".join(data), 0
+    while sent < len(buf) and time.monotonic() < deadline and proc.poll() is None:
+        try:
+            sent += os.write(master, buf[sent:sent + 4096])
+        except BlockingIOError:
+            time.sleep(0.01)
+    assert sent == len(buf)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (partial.exists() and partial.read_bytes() == b"".join(data)):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    os.close(master)
+    os.close(slave)
+    assert proc.returncode == 0, err.decode()
+    assert (tmp_path / "s.csv").read_bytes() == b"".join(data)
+    events = _events((tmp_path / "e.jsonl").read_text())
+    assert events[0]["event"] == "format" and events[-1]["event"] == "end" and events[-1]["samples"] == 3000

@@ -374,7 +374,7 @@ class Recorder:
         need = int(np.ceil(self.rest_seconds * rate))
         left = max(self.rest_seconds - self._time(self.n - 1), 0.0)
         whole = int(np.ceil(left))
-        if whole != self._countdown and self.n < need:
+        if whole != self._countdown and self.n < need and whole > 0:
             self._countdown = whole
             self.emit({"event": "rest", "remaining_s": whole, "sample": self.n - 1, "t": self._time(self.n - 1)})
         if self.n < need:
@@ -584,9 +584,12 @@ def record(stream, output: str | Path, recorder: Recorder, *, poll: float = 0.2)
             recorder.feed(batch)
     except KeyboardInterrupt:
         interrupted = True
-    except Exception as exc:  # the stream cannot be followed: keep what was read, say where it is
+    except (ValueError, OSError) as exc:  # the stream cannot be followed: keep what was read, say where it is
         partial = writer.finish(rename=False)
-        raise type(exc)(f"{exc} (the {writer.lines} lines read so far are in {partial})") from None
+        raise ValueError(f"{exc} (the {writer.lines} lines read so far are in {partial})") from None
+    except BaseException:
+        writer.finish(rename=False)
+        raise
     try:
         recorder.close()
     finally:
@@ -620,7 +623,7 @@ def open_source(spec: str, *, stdin=None) -> Iterator:
         if not port:
             raise ValueError(f"{spec}: name the port, e.g. serial:/dev/ttyUSB0?baud=115200")
         try:
-            port_obj = serial.Serial(port, baudrate=baud, timeout=None)
+            port_obj = serial.serial_for_url(port, baudrate=baud, timeout=None)
         except serial.SerialException as exc:
             raise ValueError(f"{spec}: cannot open the port ({exc})") from None
         with port_obj:

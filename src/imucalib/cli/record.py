@@ -22,7 +22,7 @@ def _lines_for(event: dict) -> list[str]:
     if kind == "rest":
         if event.get("remaining_s"):
             return [f"initial rest: keep the sensor still on the table … {event['remaining_s']} s"]
-        return [f"initial rest done ({event['t']:.1f} s): {event['message'].split(': ', 1)[1]}"]
+        return [f"initial rest done ({event['t']:.1f} s): take the first pose"]
     if kind == "pose":
         cov = " ".join(f"{a}[{lo:+.1f},{hi:+.1f}]" for a, (lo, hi) in event["coverage"].items())
         return [f"pose {event['pose']} held {event['seconds']:.1f} s at t = {event['t_start']:.1f} s: "
