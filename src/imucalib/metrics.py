@@ -6,7 +6,10 @@
 * ``gyroscope_angle_error_mean_deg`` / ``_max_deg`` — angles between the gravity
   direction measured at each static pose and the one predicted by integrating
   the calibrated gyroscope (RK4) from the previous pose (Tedaldi 2014; Zhang
-  2021, eq. 14).
+  2021, eq. 14);
+* ``next_poses`` — up to three up-directions (body frame, unit vectors) that,
+  recorded next, would most shrink the worst 1σ of the linear accelerometer
+  model (:func:`imucalib.plans.next_poses`).
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .kinematics import IntervalIntegrator, angle_between, quat_to_matrix
+from .plans import next_poses
 from .recording import Interval, Recording
 
 __all__ = [
@@ -110,7 +114,8 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
         ang = np.degrees(gravity_direction_errors(calibration, recording, intervals))
         out["gyroscope_angle_error_mean_deg"] = float(np.mean(ang))
         out["gyroscope_angle_error_max_deg"] = float(np.max(ang))
-    coverage, flags = pose_coverage(calibration.accelerometer_si(interval_means(recording.acc, intervals)))
+    up = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    coverage, flags = pose_coverage(up)
     flags += gap_flags(recording, intervals)
     floor = gravity_noise_floor(calibration, recording, intervals)
     if floor > 0:
@@ -122,6 +127,8 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
                          "leaves structure (nonlinear scale factors? temperature drift?) or some poses were not "
                          "still; compare the model variants (imucalib compare)")
     out["pose_coverage"] = coverage
+    # what to record next: the up-directions that most shrink the worst 1σ (imucalib.plans.next_poses)
+    out["next_poses"] = next_poses(up).tolist()
     if recording.temperature is not None and np.any(np.isfinite(recording.temperature)):
         # biases and scales of MEMS sensors drift with temperature: say where this calibration holds
         temp = recording.temperature[np.isfinite(recording.temperature)]

@@ -27,8 +27,8 @@ from .io.atomic import atomic_path, atomic_write
 from .metrics import gravity_direction_errors, gravity_residuals
 from .recording import Interval, Recording
 
-__all__ = ["fit_figure", "html_report", "magnetometer_figure", "parameter_unit", "plot_allan", "plot_fit",
-           "reference_levels", "thermal_figure"]
+__all__ = ["coverage_svg", "fit_figure", "html_report", "magnetometer_figure", "parameter_unit", "plot_allan",
+           "plot_fit", "reference_levels", "thermal_figure"]
 
 
 def _pyplot():
@@ -298,6 +298,50 @@ def _verdict_banner(fit: dict) -> str:
             + (f"<p>Notes:</p><ul>{notes}</ul>" if notes else "") + "</div>")
 
 
+def coverage_svg(up: np.ndarray | None, next_poses=(), *, size: int = 220) -> str:
+    """The pose directions on the sphere as inline SVG: two discs, the z-up and the z-down half.
+
+    Each disc is a Lambert azimuthal equal-area view about its pole (radius
+    ``√2 sin(θ/2)`` for the angle ``θ`` from the pole, 1 at the equator), seen
+    from above the sensor's +z for the upper half and from below for the lower
+    (so x keeps pointing right and y flips). ``up`` (M, 3) are the recorded
+    poses' up-directions (blue), ``next_poses`` the suggested ones (red,
+    numbered). A direction on the equator shows on both discs.
+    """
+    r = size * 0.42
+    parts = [f"<svg xmlns='http://www.w3.org/2000/svg' width='{2 * size}' height='{size + 20}' "
+             f"viewBox='0 0 {2 * size} {size + 20}' class='coverage-sphere' font-family='sans-serif' font-size='12'>"]
+    for k, (label, sign) in enumerate((("z up half", 1.0), ("z down half", -1.0))):
+        cx, cy = size * (k + 0.5), size / 2 + 10
+        parts.append(f"<circle cx='{cx:.1f}' cy='{cy:.1f}' r='{r:.1f}' fill='#f8f8f8' stroke='#888'/>"
+                     f"<text x='{cx:.1f}' y='{size + 14}' text-anchor='middle'>{label}</text>"
+                     f"<text x='{cx + r + 3:.1f}' y='{cy + 4:.1f}'>x</text>"
+                     f"<text x='{cx - 3:.1f}' y='{cy - sign * (r + 4) + (4 if sign < 0 else 0):.1f}'>y</text>")
+
+        def place(u, cx=cx, cy=cy, sign=sign):
+            u = np.asarray(u, dtype=float) / np.linalg.norm(u)
+            if sign * u[2] < -1e-9:
+                return None
+            theta = np.arccos(np.clip(sign * u[2], -1, 1))
+            rho = np.sqrt(2) * np.sin(theta / 2) * r
+            h = np.hypot(u[0], u[1])
+            c, s = (u[0] / h, u[1] / h) if h > 0 else (0.0, 0.0)
+            return cx + rho * c, cy - sign * rho * s  # svg y grows downwards; the lower half is seen from below
+
+        for u in [] if up is None else np.asarray(up, dtype=float):
+            p = place(u)
+            if p is not None:
+                parts.append(f"<circle cx='{p[0]:.1f}' cy='{p[1]:.1f}' r='4' fill='#1565c0' fill-opacity='0.7'/>")
+        for j, u in enumerate(next_poses, 1):
+            p = place(u)
+            if p is not None:
+                parts.append(f"<circle cx='{p[0]:.1f}' cy='{p[1]:.1f}' r='8' fill='none' stroke='#c62828' "
+                             f"stroke-width='2'/><text x='{p[0] + 9:.1f}' y='{p[1] - 6:.1f}' fill='#c62828' "
+                             f"font-weight='bold'>{j}</text>")
+    parts.append("</svg>")
+    return "".join(parts)
+
+
 def html_report(calibration: Calibration, path: str | Path, *, recording: Recording | None = None,
                 intervals: Sequence[Interval] | None = None, notes: Sequence[str] = (),
                 title: str | None = None) -> Path:
@@ -376,6 +420,20 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
                      "(+1: the axis straight up, −1: straight down); each axis should be held both up and down "
                      "(within 60°).</p><table class='coverage'><tr><th>axis</th><th>min</th><th>max</th>"
                      f"<th>up and down</th></tr>{cells}</table>")
+    nxt = fit.get("next_poses") or []
+    up = None
+    if recording is not None and intervals:
+        from .metrics import interval_means
+
+        up = cal.accelerometer_si(interval_means(recording.acc, intervals))
+    if up is not None or nxt:
+        from .plans import describe_direction
+
+        said = "".join(f"<li>{esc(describe_direction(u))}</li>" for u in nxt)
+        parts.append(coverage_svg(up, nxt) + "<p class='caption'>The up-direction of every pose in the sensor "
+                     "frame (blue dots; equal-area views of the z-up and z-down halves of the sphere)"
+                     + (", and the poses that would most shrink the worst 1σ, numbered in the order to record "
+                        f"them (red):</p><ol>{said}</ol>" if nxt else ".</p>"))
     all_notes = list(notes) + [f"quality flag: {f}" for f in fit.get("quality_flags", [])]
     if fit.get("uncertainty_unavailable"):
         all_notes.append(f"errors not available: {fit['uncertainty_unavailable']}")

@@ -3,6 +3,8 @@
 * :func:`find_initial_rest` — the rest that starts a session;
 * :func:`detect_static` and :func:`detect_intervals` — the accelerometer
   variance detector of Tedaldi 2014 with its threshold-multiplier scan;
+* :class:`VarianceNormStream` and :class:`StillDetector` — the same statistic
+  and detector sample by sample, for a live recording (:mod:`imucalib.record`);
 * :func:`detect_static_gyro` — the gyroscope-norm detector (Zhang 2021, eq. 22);
 * :func:`find_faces` — the six faces (each axis up and down);
 * :func:`find_turns` — turns about one axis between rests in the same pose.
@@ -34,6 +36,8 @@ __all__ = [
     "moving_variance",
     "runs",
     "variance_norm",
+    "VarianceNormStream",
+    "StillDetector",
     "find_initial_rest",
     "pose_blocks",
     "gyro_norm_variance",
@@ -139,18 +143,97 @@ def moving_variance(x: np.ndarray, window: int) -> np.ndarray:
 def variance_norm(acc: np.ndarray, window: int) -> np.ndarray:
     """Norm of the per-axis moving variance vector (Tedaldi 2014 detector statistic), (N,).
 
-    Block by block as :func:`moving_variance`, without its (N, 3) result.
+    Block by block as :func:`moving_variance`, without its (N, 3) result; the
+    same core as the incremental :class:`VarianceNormStream`.
     """
     x = np.asarray(acc, dtype=np.float64)
     if x.ndim == 1:
         x = x[:, None]
     half = max(int(window) // 2, 1)
-    centre = x.mean(axis=0)
     out = np.empty(x.shape[0])
-    for a, b, lo, hi in _blocks(x.shape[0], half):
-        var = _block_variance(x, centre, a, b, lo, hi, half)
-        out[a:b] = np.sqrt(np.einsum("ij,ij->i", var, var))
+    _variance_norm_rows(x, x.mean(axis=0), half, 0, x.shape[0], out)
     return out
+
+
+def _variance_norm_rows(x: np.ndarray, centre: np.ndarray, half: int, a: int, b: int, out: np.ndarray) -> None:
+    """The detector statistic of rows ``[a, b)`` of ``x`` into ``out[: b − a]``, windows truncated at ``len(x)``.
+
+    The running sums start at the blocks of :data:`BLOCK` samples counted from
+    sample 0 whatever ``a`` is, so any split of a record into spans gives the
+    statistic of the whole-record pass bit for bit.
+    """
+    n = x.shape[0]
+    s = a
+    while s < b:
+        anchor = s - s % BLOCK
+        e = min(anchor + BLOCK, b)
+        var = _block_variance(x, centre, s, e, max(anchor - half, 0), min(anchor + BLOCK + half, n), half)
+        out[s - a:e - a] = np.sqrt(np.einsum("ij,ij->i", var, var))
+        s = e
+
+
+class VarianceNormStream:
+    """:func:`variance_norm` sample by sample as a recording arrives (the same core, the same numbers).
+
+    Parameters
+    ----------
+    window : int
+        Window length [samples], as for :func:`variance_norm`.
+    centre : (3,) array_like
+        Subtracted before the running sums (:func:`variance_norm` takes the
+        record's mean; a live recording, the initial rest's). With the record's
+        mean, :attr:`statistic` after :meth:`close` equals
+        ``variance_norm(x, window)`` bit for bit, however ``x`` was split.
+
+    A sample's statistic is final once the ``window // 2`` samples after it
+    have arrived (:attr:`final`); :meth:`close` finishes the last ones with
+    the window truncated at the end, as the offline pass does.
+    """
+
+    def __init__(self, window: int, centre) -> None:
+        self.half = max(int(window) // 2, 1)
+        self.centre = np.asarray(centre, dtype=np.float64).reshape(1, -1)
+        self._x = np.empty((1024, self.centre.shape[1]))
+        self._stat = np.empty(1024)
+        self.n = 0  # samples received
+        self.final = 0  # samples whose statistic is final
+        self.closed = False
+
+    @property
+    def samples(self) -> np.ndarray:
+        """The samples received, (n, K)."""
+        return self._x[: self.n]
+
+    @property
+    def statistic(self) -> np.ndarray:
+        """The final statistic of the first :attr:`final` samples."""
+        return self._stat[: self.final]
+
+    def push(self, x) -> int:
+        """Append samples (M, K); returns how many statistics became final."""
+        if self.closed:
+            raise ValueError("this stream is closed: no samples can be added")
+        x = np.asarray(x, dtype=np.float64).reshape(-1, self.centre.shape[1])
+        need = self.n + x.shape[0]
+        if need > self._x.shape[0]:
+            size = max(need, 2 * self._x.shape[0])
+            self._x = np.concatenate([self._x[: self.n], np.empty((size - self.n, self._x.shape[1]))])
+            self._stat = np.concatenate([self._stat[: self.final], np.empty(size - self.final)])
+        self._x[self.n:need] = x
+        self.n = need
+        return self._advance(max(self.n - self.half, self.final))
+
+    def close(self) -> int:
+        """The last ``window // 2`` statistics, windows truncated at the end; returns how many."""
+        self.closed = True
+        return self._advance(self.n)
+
+    def _advance(self, stop: int) -> int:
+        start = self.final
+        if stop > start:
+            _variance_norm_rows(self._x[: self.n], self.centre, self.half, start, stop, self._stat[start:stop])
+            self.final = stop
+        return stop - start
 
 
 #: the initial rest the detector would like [s]: its noise level is the median statistic over this much rest
@@ -508,15 +591,81 @@ def static_at(recording: Recording, rest: Interval, multiplier: float, *, window
 
 
 def _detector(recording: Recording, rest: Interval, window: float, min_interval: float):
-    base = float(np.linalg.norm(np.var(recording.acc[rest.slice], axis=0)))
+    base, win, min_len = _detector_settings(recording.acc[rest.slice], recording.rate, window, min_interval)
+    return base, win, min_len, variance_norm(recording.acc, win)
+
+
+def _detector_settings(rest_acc: np.ndarray, rate: float, window: float, min_interval: float):
+    """The accelerometer detector's base level (the rest's variance norm), window and shortest run [samples]."""
+    base = float(np.linalg.norm(np.var(rest_acc, axis=0)))
     if base <= 0:
         raise ValueError(
             "the initial rest has zero accelerometer variance (quantised or synthetic "
             "noise-free data?): the detector threshold cannot be set from it"
         )
-    win = max(int(round(window * recording.rate)) | 1, 3)
-    min_len = max(int(round(min_interval * recording.rate)), 2)
-    return base, win, min_len, variance_norm(recording.acc, win)
+    win = max(int(round(window * rate)) | 1, 3)
+    min_len = max(int(round(min_interval * rate)), 2)
+    return base, win, min_len
+
+
+class StillDetector:
+    """The accelerometer detector of :func:`static_at` run as the samples arrive, for a live recording.
+
+    The same settings (:func:`_detector_settings`: the rest's variance norm,
+    the window, the shortest run), the same statistic
+    (:class:`VarianceNormStream`) and the same runs (:func:`detect_static`)
+    as the offline detector at one ``multiplier``: a static interval is
+    reported once it has ended (its statistic rose above the threshold); at
+    :meth:`close` a run still open at the end is reported too. The stream's
+    centre is the rest's mean rather than the record's, which changes the
+    statistic by rounding only.
+
+    Parameters
+    ----------
+    rest_acc : (M, 3) array_like
+        The initial rest's accelerometer samples (the samples ``[0, M)`` of the record).
+    rate : float
+        Sampling rate [Hz].
+    multiplier, window, min_interval
+        As for :func:`static_at`.
+    """
+
+    def __init__(self, rest_acc, rate: float, *, multiplier: float = 6.0, window: float = 1.0,
+                 min_interval: float = 1.0) -> None:
+        rest_acc = np.asarray(rest_acc, dtype=np.float64)
+        self.base, self.window, self.min_length = _detector_settings(rest_acc, rate, window, min_interval)
+        self.threshold = multiplier * self.base
+        self.stream = VarianceNormStream(self.window, rest_acc.mean(axis=0))
+        self.intervals: list[Interval] = []  # the static intervals ended so far, in time order
+
+    def push(self, acc) -> list[Interval]:
+        """Add accelerometer samples; returns the static intervals that ended with them."""
+        self.stream.push(acc)
+        return self._update(open_end=False)
+
+    def close(self) -> list[Interval]:
+        """Finish the record; returns the static intervals that end with it."""
+        self.stream.close()
+        return self._update(open_end=True)
+
+    def current(self) -> Interval | None:
+        """The static run the final statistic is in at its last sample (None when moving)."""
+        stat = self.stream.statistic
+        if stat.size == 0 or stat[-1] >= self.threshold:
+            return None
+        below = np.nonzero(stat >= self.threshold)[0]
+        start = int(below[-1]) + 1 if below.size else 0
+        return Interval(start, stat.size, "static")
+
+    def _update(self, open_end: bool) -> list[Interval]:
+        stat = self.stream.statistic
+        start = self.intervals[-1].stop if self.intervals else 0
+        found = detect_static(None, self.threshold, window=self.window, min_length=self.min_length,
+                              statistic=stat[start:])
+        new = [Interval(start + iv.start, start + iv.stop, iv.kind) for iv in found
+               if open_end or start + iv.stop < stat.size]
+        self.intervals += new
+        return new
 
 
 def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: Iterable[float], min_interval: float,

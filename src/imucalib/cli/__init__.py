@@ -6,8 +6,8 @@ the only thing printed on stdout; errors go to stderr with a non-zero exit.
 One module per group of commands, each adding its own sub-parsers
 (``register``): :mod:`.calibration` (calibrate, apply, compare, detect-fall),
 :mod:`.export` (export), :mod:`.validation` (validate), :mod:`.simulation` (simulate,
-montecarlo, demo), :mod:`.analysis` (noise, plan), :mod:`.thermal` (thermal) and :mod:`.fleet`
-(batch, store); :mod:`._common` holds what they share.
+montecarlo, demo), :mod:`.analysis` (noise, plan), :mod:`.thermal` (thermal), :mod:`.fleet`
+(batch, store) and :mod:`.record` (record); :mod:`._common` holds what they share.
 
 Exit codes: 0 success, 2 an error (:data:`EXIT_ERROR`), 3 a calibration that
 is rejected (:data:`EXIT_REJECTED`: calibrate made one, validate finds it no
@@ -23,7 +23,7 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..recording import ImucalibWarning
-from . import analysis, calibration, export, fleet, simulation, thermal, validation
+from . import analysis, calibration, export, fleet, record, simulation, thermal, validation
 from ._common import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_REJECTED, CliError, check_paths, normalise_argv, show_warning
 
 __all__ = ["EXIT_ERROR", "EXIT_REJECTED", "CliError", "build_parser", "main"]
@@ -37,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"imucalib {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for group in (calibration, export, validation, simulation, analysis, thermal, fleet):
+    for group in (calibration, export, validation, simulation, analysis, thermal, fleet, record):
         group.register(sub)
     return parser
 

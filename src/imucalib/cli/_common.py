@@ -238,11 +238,19 @@ def progress(enabled: bool) -> Callable[[str], None] | None:
     return stage_printer(enabled)
 
 
-def print_verdict(result: dict, headline: str) -> None:
-    """``headline``, then one line per reason of ``result["verdict_reasons"]``, then its notes indented further."""
+def print_verdict(result: dict, headline: str, *, advise: bool = False) -> None:
+    """``headline``, then one line per reason of ``result["verdict_reasons"]``, then its notes indented further.
+
+    With ``advise``, a verdict other than accepted is followed by the poses to
+    record next (``result["next_poses"]``) in words.
+    """
     print(headline)
     for reason in result.get("verdict_reasons") or []:
         print(f"  - {reason}")
+    if advise and result.get("verdict") != "accepted" and result.get("next_poses"):
+        from ..plans import describe_poses
+
+        print(f"  record next: {describe_poses(result['next_poses'])}")
     for note in result.get("verdict_notes") or []:
         print(f"      note: {note}")
 

@@ -204,7 +204,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         print(cal.to_json())  # strict JSON, as in the file
         return code
     if verdict:
-        print_verdict(cal.fit, f"verdict: {verdict.upper()}")
+        print_verdict(cal.fit, f"verdict: {verdict.upper()}", advise=True)
     print_calibration(cal)
     for done, what in ((args.output, "saved to"), (args.plot, "plot written to"),
                        (args.report, "report written to")):
