@@ -22,7 +22,6 @@ import warnings
 from collections.abc import Sequence
 
 from .. import __version__
-from ..recording import ImucalibWarning
 from . import analysis, calibration, export, fleet, simulation, thermal, validation
 from ._common import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_REJECTED, CliError, normalise_argv, show_warning
 
@@ -46,6 +45,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``imucalib`` with ``argv`` (default: the process's arguments); the exit code."""
     parser = build_parser()
     args = parser.parse_args(normalise_argv(sys.argv[1:] if argv is None else argv))
+    from ..recording import ImucalibWarning  # after parsing: --version and --help import no numpy
+
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("always", ImucalibWarning)

@@ -4,11 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
-from ..calibration import Calibration
 from ..io.atomic import atomic_write, refuse_overwriting_inputs
-from ..recording import ImucalibWarning
 from ._common import CliError, add_reader_options, positive_float, print_json, read_recording, show_warning
 
 __all__ = ["register"]
@@ -17,7 +13,9 @@ __all__ = ["register"]
 # ------------------------------------------------------------------ commands
 def cmd_noise(args: argparse.Namespace) -> int:
     """``imucalib noise``: :func:`imucalib.noise.noise_summary` of the initial rest, optionally a Kalibr file."""
+    from ..calibration import Calibration
     from ..noise import kalibr_yaml, noise_summary
+    from ..recording import ImucalibWarning
     from ..segment import find_initial_rest
 
     refuse_overwriting_inputs([args.kalibr, args.plot], [*args.data, args.calibration])
@@ -59,7 +57,9 @@ def cmd_noise(args: argparse.Namespace) -> int:
 
 
 def _triple(v) -> str:
-    return "[" + ", ".join("-" if not np.isfinite(x) else f"{x:.3g}" for x in v) + "]"
+    import math
+
+    return "[" + ", ".join("-" if not math.isfinite(x) else f"{x:.3g}" for x in v) + "]"
 
 
 def cmd_plan(args: argparse.Namespace) -> int:

@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..calibration import Calibration
 from ..io.atomic import refuse_overwriting_inputs
-from ..recording import Interval
 from ._common import (
     EXIT_REJECTED,
     add_init_static_option,
@@ -32,6 +30,8 @@ HEADLINES = {"accepted": "the calibration holds: ACCEPTED", "suspect": "the cali
 
 def cmd_validate(args: argparse.Namespace) -> int:
     """``imucalib validate``: :func:`imucalib.validate.validate`, the verdict first, then the figures."""
+    from ..calibration import Calibration
+    from ..recording import Interval
     from ..validate import validate
 
     refuse_overwriting_inputs([args.plot], [args.calibration, *args.data])
