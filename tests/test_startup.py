@@ -69,3 +69,17 @@ def test_written_out_constants_agree():
 
     assert _common.STANDARD_GRAVITY == STANDARD_GRAVITY
     assert simulation.SCENARIOS == tuple(SCENARIOS)
+
+
+@pytest.mark.parametrize("user", [{}, {"OMP_NUM_THREADS": "3"}, {"OPENBLAS_NUM_THREADS": "2"}])
+def test_one_blas_thread_unless_the_user_chose(user):
+    from imucalib.cli import BLAS_THREAD_VARIABLES
+
+    env = {k: v for k, v in os.environ.items() if k not in BLAS_THREAD_VARIABLES}
+    env |= {"PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", ""), **user}
+    code = ("import json, os\nfrom imucalib.cli import main\ntry:\n    main(['--version'])\nexcept SystemExit:\n"
+            "    pass\nprint(json.dumps({v: os.environ.get(v) for v in " + repr(BLAS_THREAD_VARIABLES) + "}))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    got = json.loads(out.stdout.splitlines()[-1])
+    expected = {v: user.get(v) for v in BLAS_THREAD_VARIABLES} if user else dict.fromkeys(BLAS_THREAD_VARIABLES, "1")
+    assert got == expected
