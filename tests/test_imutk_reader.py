@@ -31,8 +31,9 @@ def test_chunks_give_the_whole_texts_numbers(tmp_path, monkeypatch, kw):
              for p in paths]
     monkeypatch.setattr(csvparse, "CHUNK_BYTES", 4096)  # many chunks
     for p, w in zip(paths, whole, strict=True):
-        got = readers._imutk_table(p)
-        assert got.shape == w.shape == (3000, 4) and np.array_equal(got, w)
+        t, xyz = readers._imutk_table(p)
+        assert xyz.shape == (3000, 3) and xyz.flags.c_contiguous
+        assert np.array_equal(t, w[:, 0]) and np.array_equal(xyz, w[:, 1:])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         rec = read([str(p) for p in paths], reader="imutk")
