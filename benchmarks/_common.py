@@ -11,6 +11,17 @@ from pathlib import Path
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 
+def median_cpu_time(fn: Callable[[], object], runs: int) -> float:
+    """Median CPU seconds (all threads of this process) of ``runs`` calls, after one warm-up call."""
+    fn()
+    times = []
+    for _ in range(runs):
+        c0 = time.process_time()
+        fn()
+        times.append(time.process_time() - c0)
+    return statistics.median(times)
+
+
 def median_time(fn: Callable[[], object], runs: int, warm: bool = True) -> tuple[float, list[float]]:
     """Median wall time [s] of ``runs`` calls (after one warm-up call unless ``warm`` is False) and all times."""
     if warm:
@@ -55,8 +66,9 @@ def time_processes(commands: dict[str, tuple[list[str], dict | None]], runs: int
     """Whole-process wall times of each named ``(command, environment)``, run in turns ``runs`` times
     (so that every command sees the same load), after one untimed warm-up round.
 
-    Returns, by name, the median [s], every time, and for each run the CPU seconds other programs used
-    on the machine meanwhile (``other_programs_cpu_s``: 0 on a quiet machine).
+    Returns, by name, the median [s], every time, the median CPU seconds of the process itself
+    (``cpu_median_s``: less sensitive to other programs than the wall time), and for each run the CPU
+    seconds other programs used on the machine meanwhile (``other_programs_cpu_s``: 0 on a quiet machine).
     """
     import subprocess
 
@@ -64,6 +76,7 @@ def time_processes(commands: dict[str, tuple[list[str], dict | None]], runs: int
         subprocess.run(cmd, check=True, capture_output=True, env=env)
     times: dict[str, list[float]] = {name: [] for name in commands}
     others: dict[str, list[float | None]] = {name: [] for name in commands}
+    cpu: dict[str, list[float]] = {name: [] for name in commands}
     for _ in range(runs):
         for name, (cmd, env) in commands.items():
             busy0, own0 = machine_busy_s(), own_cpu_s()
@@ -74,7 +87,9 @@ def time_processes(commands: dict[str, tuple[list[str], dict | None]], runs: int
             if proc.returncode not in (0, 3):
                 raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr.decode()}")
             times[name].append(elapsed)
+            cpu[name].append(own1 - own0)
             others[name].append(None if busy0 is None else round(max(0.0, (busy1 - busy0) - (own1 - own0)), 2))
     return {name: {"median_s": round(statistics.median(times[name]), 4),
                    "times_s": [round(t, 4) for t in times[name]],
+                   "cpu_median_s": round(statistics.median(cpu[name]), 4),
                    "other_programs_cpu_s": others[name]} for name in commands}
