@@ -101,9 +101,9 @@ def generate_xsens(samples: int, directory: Path) -> None:
     write_csv(directory / f"xsens_{samples}.csv", Recording(t, cols["acc"], cols["gyro"], "counts", "counts"))
 
 
-def run_child(cmd: list[str], env: dict | None = None) -> tuple[float, float, float | None]:
-    """Wall time [s] and peak RSS [GB] of one child process (exit 0, or 3 for a rejected calibration), and
-    the CPU seconds other programs used on the machine meanwhile (what makes the time noisy)."""
+def run_child(cmd: list[str], env: dict | None = None) -> tuple[float, float, float | None, float]:
+    """Wall time [s] and peak RSS [GB] of one child process (exit 0, or 3 for a rejected calibration), the
+    CPU seconds other programs used on the machine meanwhile (what makes the time noisy), and its own."""
     busy0 = machine_busy_s()
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
@@ -116,7 +116,7 @@ def run_child(cmd: list[str], env: dict | None = None) -> tuple[float, float, fl
         raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{err}")
     busy1 = machine_busy_s()
     other = None if busy0 is None else round(max(0.0, busy1 - busy0 - usage.ru_utime - usage.ru_stime), 1)
-    return elapsed, usage.ru_maxrss * 1024 / 1e9, other  # ru_maxrss is in KiB on Linux
+    return elapsed, usage.ru_maxrss * 1024 / 1e9, other, usage.ru_utime + usage.ru_stime  # maxrss: KiB
 
 
 def _cli(engine: str | None) -> list[str]:
@@ -126,8 +126,9 @@ def _cli(engine: str | None) -> list[str]:
             "from imucalib.cli import main; sys.exit(main(sys.argv[2:]))", engine]
 
 
-def _summary(runs: list[tuple[float, float, float | None]]) -> dict:
+def _summary(runs: list[tuple[float, float, float | None, float]]) -> dict:
     return {"median_s": round(statistics.median(r[0] for r in runs), 2),
+            "cpu_median_s": round(statistics.median(r[3] for r in runs), 2),
             "peak_rss_gb": round(statistics.median(r[1] for r in runs), 3),
             "times_s": [round(r[0], 2) for r in runs], "peak_rss_gb_runs": [round(r[1], 3) for r in runs],
             "other_programs_cpu_s": [r[2] for r in runs]}
