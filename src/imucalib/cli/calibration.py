@@ -11,12 +11,9 @@ import json
 import sys
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from ..calibration import Calibration
 from ..io.atomic import refuse_overwriting_inputs
-from ..recording import ImucalibWarning, Interval
 from . import apply as apply_command
 from ._common import (
     EXIT_REJECTED,
@@ -32,6 +29,9 @@ from ._common import (
     read_recording,
 )
 
+if TYPE_CHECKING:
+    from ..calibration import Calibration
+
 __all__ = ["VERDICT_KEYS", "print_calibration", "register"]
 
 #: the entries of ``fit`` that make the verdict, printed before the parameters
@@ -41,6 +41,8 @@ VERDICT_KEYS = ("verdict", "verdict_reasons", "verdict_notes")
 # ------------------------------------------------------------------ printing
 def print_calibration(cal: Calibration) -> None:
     """The calibration for a person: every parameter, with ± its 1σ error where the method gives one."""
+    import numpy as np
+
     unc = (cal.fit or {}).get("uncertainty") or {}
 
     def pm(name: str, value: float, fmt: str = ".7g") -> str:
@@ -163,6 +165,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     with :data:`EXIT_REJECTED`.
     """
     from ..methods import calibrate
+    from ..recording import ImucalibWarning, Interval
 
     refuse_overwriting_inputs([args.output, args.plot, args.report], [*args.data, args.sections])
     options = _method_options(args)
@@ -252,6 +255,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def cmd_detect_fall(args: argparse.Namespace) -> int:
     """``imucalib detect-fall``: :func:`imucalib.methods.zhang2021.detect_fall`, with the intervals' times."""
+    from ..calibration import Calibration
     from ..methods.zhang2021 import detect_fall
 
     cal = Calibration.load(args.calibration)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from ..calibration import Calibration
 from ..io.atomic import refuse_overwriting_inputs
 from ._common import CliError, print_json
 
@@ -13,6 +12,7 @@ __all__ = ["register"]
 
 def cmd_thermal(args: argparse.Namespace) -> int:
     """:func:`imucalib.thermal.combine` over the files, the decisions printed, the result written."""
+    from ..calibration import Calibration
     from ..thermal import combine
 
     refuse_overwriting_inputs([args.output, args.plot], args.calibrations)
