@@ -25,7 +25,7 @@ the fit did not minimise, or that it cannot change:
   the same in every pose, and its direction must turn as the gyroscope says.
 
 Thresholds (:data:`THRESHOLDS`) come from Monte Carlo on the hand-held
-scenario (``benchmarks/verdict_thresholds.py``, 30 sessions, tedaldi2014,
+scenario (``python -m imucalib.experiments.verdict_thresholds``, 30 sessions, tedaldi2014,
 zhang2021 and ellipsoid): none of its good sessions is suspect or rejected.
 The margins between the worst good session and the limit are 2.3× on the
 gyroscope's error against its noise, 3× on its error in degrees, 6× on the
