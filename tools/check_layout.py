@@ -56,7 +56,7 @@ FLOORS_PACKAGE = "imucalib"
 #: prefix (``io.session`` is above the rest of ``io``). A module imports its own floor and those below.
 FLOORS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("foundations", "units, records, models, rotations, solvers, residuals",
-     ("constants", "recording", "conventions", "models", "kinematics", "solve", "residuals", "metrics",
+     ("constants", "presets", "recording", "conventions", "models", "kinematics", "solve", "residuals", "metrics",
       "progress")),
     ("readers", "files and streams in and out", ("io",)),
     ("estimators", "segmentation, fits, thermal models, noise, verdict",

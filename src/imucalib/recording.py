@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from .constants import STANDARD_GRAVITY
+
 __all__ = [
     "ACC_UNITS",
     "GYRO_UNITS",
@@ -25,7 +27,6 @@ __all__ = [
     "require_pandas",
 ]
 
-STANDARD_GRAVITY = 9.80665  # m/s², the conventional value (CGPM 1901)
 
 #: accepted accelerometer units and their factor to m/s² (``"g"`` uses ``gravity``)
 ACC_UNITS = ("counts", "g", "m/s^2")

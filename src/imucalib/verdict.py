@@ -41,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .constants import GRAVITY_RANGE
 from .fit.accelerometer import fit_sphere
 from .fit.magnetometer import WEAK_DIP_DEG
 from .metrics import gravity_direction_errors, interval_means, transition_bounds
@@ -50,9 +51,6 @@ __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibilit
            "predicted_direction_error", "time_unit_hint", "turn_speed", "with_verdict"]
 
 LEVELS = ("accepted", "suspect", "rejected")
-
-#: gravity on Earth's surface spans about 9.76 (equator, altitude) to 9.84 m/s² (poles)
-EARTH_GRAVITY = (9.74, 9.87)
 
 #: (suspect, rejected) limits of each figure; see the module docstring for where they come from
 THRESHOLDS = {
@@ -215,7 +213,7 @@ def _time_base(calibration, recording: Recording, intervals: list[Interval]) -> 
 def _gravity(calibration, recording: Recording | None, intervals: list[Interval]) -> list[Check]:
     g = calibration.gravity
     out = []
-    lo, hi = EARTH_GRAVITY
+    lo, hi = GRAVITY_RANGE  # the command line warns outside the same range
     if not lo <= g <= hi:
         out.append(Check(2, f"the declared gravity {g:.5g} m/s² is outside {lo}-{hi} m/s², the range on Earth's "
                             "surface (a typo, or a value in g?); every accelerometer scale factor is off by the "
