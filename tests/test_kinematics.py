@@ -143,3 +143,12 @@ def test_five_point_derivative_is_exact_for_quartics():
     np.testing.assert_allclose(d[2:-2], exact[2:-2], atol=1e-9)
     with pytest.raises(ValueError, match="at least 5 samples"):
         kin.five_point_derivative(y[:4], dt)
+
+
+def test_to_scipy_gives_the_same_rotation_and_from_scipy_undoes_it():
+    rng = np.random.default_rng(5)
+    q = kin.quat_normalize(rng.normal(size=(20, 4)))
+    rot = kin.to_scipy(q)
+    np.testing.assert_allclose(rot.as_matrix(), kin.quat_to_matrix(q), atol=1e-14)
+    back = kin.from_scipy(rot)
+    np.testing.assert_allclose(back * np.sign(back[:, :1] * q[:, :1]), q, atol=1e-15)

@@ -222,12 +222,6 @@ class Recording:
             mag_unit=self.mag_unit,
         )
 
-    def time_slice(self, t0: float | None = None, t1: float | None = None) -> Recording:
-        """Samples with ``t0 <= t < t1`` [s] (either bound may be None)."""
-        i0 = 0 if t0 is None else int(np.searchsorted(self.t, t0, side="left"))
-        i1 = len(self) if t1 is None else int(np.searchsorted(self.t, t1, side="left"))
-        return self[i0:i1]
-
     # ------------------------------------------------------------------ pandas
     def to_dataframe(self):
         """The recording as a pandas DataFrame (needs the ``pandas`` extra).
