@@ -270,7 +270,7 @@ def main(argv: list[str] | None = None) -> None:
     else:
         results = [job(s) for s in seeds]
     doc = {
-        "study": "verdict_thresholds",
+        "benchmark": "verdict_thresholds",
         "scenario": "handheld", "knobs": knobs, "runs": args.runs, "seeds": [seeds[0], seeds[-1]],
         "good_run": {"gyro_error_ratio_max": GOOD_GYRO_RATIO, "scale_error_rel_max": GOOD_SCALE_REL},
         "wall_s": round(time.perf_counter() - t0, 1),
