@@ -18,7 +18,7 @@ import warnings
 
 from _common import median_cpu_time, median_time
 
-from imucalib.evaluate import montecarlo
+from imucalib.experiments.evaluate import montecarlo
 from imucalib.methods import calibrate
 from imucalib.scenarios import session
 

@@ -179,3 +179,12 @@ def test_long_intervals_integrate_in_blocks_to_the_same_bits(monkeypatch):
     np.testing.assert_allclose(blocked.weighted_sum(weights_b, values), summed, rtol=1e-12, atol=1e-12)
     with pytest.raises(ValueError, match="stops"):
         kin.IntervalIntegrator(t, np.array([5]), np.array([5]))
+
+
+def test_to_scipy_gives_the_same_rotation_and_from_scipy_undoes_it():
+    rng = np.random.default_rng(5)
+    q = kin.quat_normalize(rng.normal(size=(20, 4)))
+    rot = kin.to_scipy(q)
+    np.testing.assert_allclose(rot.as_matrix(), kin.quat_to_matrix(q), atol=1e-14)
+    back = kin.from_scipy(rot)
+    np.testing.assert_allclose(back * np.sign(back[:, :1] * q[:, :1]), q, atol=1e-15)

@@ -207,10 +207,6 @@ def from_scipy(rotation) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- RK4
-def _pure(w: np.ndarray) -> np.ndarray:
-    return np.concatenate([np.zeros(w.shape[:-1] + (1,)), w], axis=-1)
-
-
 def _qmul_soa(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton product of quaternions stored component-first, shape (4, ...)."""
     pw, px, py, pz = p

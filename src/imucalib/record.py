@@ -173,9 +173,9 @@ class SessionWriter:
                 self._fh = None
         if not rename:
             return self.partial
-        from .io.atomic import _move_into_place
+        from .io.atomic import move_into_place
 
-        _move_into_place(self.partial, self.output)
+        move_into_place(self.partial, self.output)
         return self.output
 
 

@@ -11,6 +11,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
+from ..constants import GRAVITY_RANGE
 from ..progress import Progress, stage_printer
 
 if TYPE_CHECKING:
@@ -46,10 +47,6 @@ def positive_float(text: str) -> float:
     if not (math.isfinite(v) and v > 0):
         raise argparse.ArgumentTypeError(f"expected a positive number; got {text!r}")
     return v
-
-
-#: the range of gravity on the Earth's surface, with a margin [m/s^2] (9.78 at the equator, 9.83 at the poles)
-GRAVITY_RANGE = (9.7, 9.9)
 
 
 def gravity_value(text: str) -> float:

@@ -98,11 +98,11 @@ def _triple(r: dict, key: str) -> str:
 def cmd_plan(args: argparse.Namespace) -> int:
     """``imucalib plan``: the turntable plan of wang2019, else the method's accelerometer pose plan.
 
-    Over :func:`imucalib.scenarios.wang2019.plan_report` and :func:`imucalib.plans.accelerometer_plan`.
+    Over :func:`imucalib.experiments.wang2019.plan_report` and :func:`imucalib.plans.accelerometer_plan`.
     """
     if args.method != "wang2019":
         return _plan_accelerometer(args)
-    from ..scenarios.wang2019 import plan_report
+    from ..experiments.wang2019 import plan_report
 
     rep = plan_report(args.seed)
     if args.json:

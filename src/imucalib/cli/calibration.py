@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..io.atomic import refuse_overwriting_inputs
+from ..presets import FALL_THRESHOLD
 from . import apply as apply_command
 from ._common import (
     EXIT_REJECTED,
@@ -337,8 +338,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "below a threshold as falling; needs a calibration with a lever arm.")
     p.add_argument("calibration", help="calibration file (JSON) with a lever arm")
     p.add_argument("data", help="data file")
-    p.add_argument("--threshold", type=positive_float, default=2.5,
-                   help="loss threshold [m/s^2] (default 2.5)")
+    p.add_argument("--threshold", type=positive_float, default=FALL_THRESHOLD,
+                   help=f"loss threshold [m/s^2] (default {FALL_THRESHOLD})")
     p.add_argument("--json", action="store_true", help="print the intervals as JSON")
     add_reader_options(p)
     p.set_defaults(func=cmd_detect_fall)

@@ -29,9 +29,9 @@ def cmd_thermal(args: argparse.Namespace) -> int:
         raise CliError(f"{exc} (files: {names})") from None
     out.save(args.output)
     if args.plot:
-        from ..report import _pyplot, _save, thermal_figure
+        from ..report import plot_thermal
 
-        _save(thermal_figure(out), args.plot, _pyplot())
+        plot_thermal(out, args.plot)
     model = out.thermal
     if args.json:
         return print_json({"output": str(args.output), "reference_c": model.reference_c,

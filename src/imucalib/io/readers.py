@@ -23,7 +23,7 @@ from .errors import ReaderError
 from .phone import PhoneFile, check_specific_force, identify, sensor_logger_header
 from .rosbag import is_rosbag, read_rosbag
 
-__all__ = ["READERS", "ReaderError", "read", "guess_reader"]
+__all__ = ["READERS", "ReaderError", "guess_reader", "is_frame", "read"]
 
 READERS = ("csv", "imutk", "mat", "phone", "rosbag")
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
@@ -85,7 +85,7 @@ def read(
     supports; with no unit given or written, readings that look like m/s², g, rad/s or
     deg/s are still taken as counts, with a note saying so.
     """
-    if _is_frame(paths):
+    if is_frame(paths):
         return _read_frame(paths, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic)
     if isinstance(paths, str | Path):
         paths = [paths]
@@ -829,7 +829,7 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
 
 
 # ------------------------------------------------------------- DataFrames
-def _is_frame(obj) -> bool:
+def is_frame(obj) -> bool:
     """Whether ``obj`` is a pandas DataFrame (without importing pandas)."""
     return type(obj).__module__.split(".")[0] == "pandas" and hasattr(obj, "columns") and hasattr(obj, "iloc")
 
