@@ -11,7 +11,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
-from ..constants import GRAVITY_RANGE
+from ..constants import GRAVITY_RANGE, STANDARD_GRAVITY
 from ..progress import Progress, stage_printer
 
 if TYPE_CHECKING:
@@ -28,9 +28,6 @@ EXIT_ERROR = 2
 EXIT_REJECTED = 3
 #: exit code after Ctrl-C (128 + SIGINT)
 EXIT_INTERRUPTED = 130
-#: :data:`imucalib.recording.STANDARD_GRAVITY` [m/s^2], written out so that building the parser imports no numpy
-#: (a test checks that the two agree)
-STANDARD_GRAVITY = 9.80665
 
 
 class CliError(Exception):
