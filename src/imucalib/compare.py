@@ -35,8 +35,9 @@ from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 
 __all__ = ["DEFAULT_MODELS", "RANKED_BY", "compare", "even_folds", "rank"]
 
-#: the model each method is compared with (None: the method's only model)
-DEFAULT_MODELS: dict[str, str | None] = {"zhang2021": "cubic"}
+#: the model each method is compared with where it differs from the one ``calibrate`` takes by default (none does:
+#: ``compare`` and ``calibrate`` select the same variant on the same recording)
+DEFAULT_MODELS: dict[str, str | None] = {}
 
 
 #: the ranking in words (the module docstring has it in full), for the JSON and the table
@@ -140,8 +141,8 @@ def compare(
 
         try:
             full = fit(intervals)
-            row["model"] = model or full.model
             sel = full.fit.get("model_selection")
+            row["model"] = model or (sel["requested"] if sel else full.model)
             if sel:
                 # the variant is chosen once on all poses; the folds refit that variant
                 row["model_selected"] = sel["selected"]
