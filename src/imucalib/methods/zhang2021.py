@@ -786,8 +786,15 @@ def calibrate(
     if select and layout.order > 1:
         names = MODELS[: MODELS.index(model) + 1]
         budget = {name: _pose_budget(ZhangLayout.of(name), len(static)) for name in names}
-        cands = {name: stages(replace(ZhangLayout.of(name), with_r=False))
-                 for name in names if budget[name] or name == "linear"}
+        cands, unfit = {}, {}
+        for name in names:
+            if budget[name] or name == "linear":
+                try:
+                    cands[name] = stages(replace(ZhangLayout.of(name), with_r=False))
+                except ValueError as exc:  # more parameters than poses: that variant cannot be fitted at all
+                    if name == "linear":
+                        raise
+                    unfit[name] = str(exc)
         left_out = set().union(*(set(st.gyro.left_out) for st in cands.values()))
         aic = {name: _criterion(st, recording, static, gravity, left_out) for name, st in cands.items()}
         # a fit that did not converge, or whose parameters are implausible (a cross-axis term of tens of
@@ -797,7 +804,7 @@ def calibrate(
         best = min(usable or aic, key=(usable or aic).get)
         over = [name for name in names if not budget[name]]
         selection = {"criterion": "aic", "aic": aic, "requested": model, "selected": best,
-                     "excluded": sorted(set(aic) - set(usable)), "over_pose_budget": over}
+                     "excluded": sorted(set(aic) - set(usable)) + sorted(unfit), "over_pose_budget": over}
         if best != model:
             why = (f"{len(static)} static poses carry at most "
                    f"{len(static) / THRESHOLDS['poses_per_parameter'][1]:.3g} accelerometer parameters"
