@@ -15,10 +15,11 @@ The methods are ranked (:func:`rank`) by, in turn:
    best value any method reached on this recording (a method best on both scores 2).
 
 The best method is the first one that ran and was not rejected (none when
-every method was rejected or could not run). Where a method selects
-its model variant (zhang2021 without tosses), the variant is selected once on
-all poses and the folds refit it: ten times faster, slightly optimistic for
-that one choice.
+every method was rejected or could not run). Each method runs with the
+model its ``calibrate`` takes by default. Where a method selects its model
+variant (zhang2021 without tosses), the method's own selection runs once on all
+poses — the variant ``imucalib calibrate`` selects on the same recording — and
+the folds refit it: ten times faster, slightly optimistic for that one choice.
 """
 
 from __future__ import annotations

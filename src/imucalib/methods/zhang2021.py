@@ -27,12 +27,29 @@ with ``f_C(ω, r) = ‖ω‖² r − ω(ω·r)`` (eq. 17), ``f_E(ω̇, r) = r ×
 ``ω̇`` by the five-point stencil (eq. 20), and weights ``C1…C4`` from the
 noise of the initial rest (eqs. 25–30). (The paper writes ``R_{k−1,k} a_{k−1}``
 for the gravity carried into pose ``k``; with our attitude convention that is
-``Rᵀ``.) Step 1 initialises every block from its own cost (linear first);
-Step 2 minimises eq. (21) over all parameters by Levenberg–Marquardt with
-analytic Jacobians.
+``Rᵀ``.)
 
-Model variants (Zhang 2021, Table II): ``linear`` (RD1 only, C4 = 0, no G, no r),
-``quadratic`` (k2, r), ``cubic`` (k2, k3, r), ``all`` (k2, k3, G, r).
+The recipe (:func:`calibrate`) runs over the stages every method shares, the
+same as :mod:`imucalib.methods.tedaldi2014`: the static poses by the
+gyroscope-gated accelerometer detector (:func:`imucalib.segment.detect_intervals`),
+the rotations whose integration cannot be trusted left out
+(:func:`imucalib.segment.unreliable_transitions`), the accelerometer on the
+static means alone (eq. 10, :func:`imucalib.fit.accelerometer.gravity_norm_fit`)
+and the gyroscope by :func:`imucalib.fit.gyroscope.fit_gyroscope` (bias and
+``G`` from the static poses, eq. 11; ``T_g``, ``k1`` from the rotations, eq. 14).
+Its own terms come after: the gyroscope's polynomial scale factors on the
+rotations (eq. 14), and with tosses Step 2 of the paper, eq. (21) over every
+parameter from those estimates (Step 1). Without tosses no joint cost is
+minimised: in eq. (21) the rotations' unmodelled residuals (hand tremor, bias
+drift between poses) pull the accelerometer away from what its static poses
+say.
+
+Model variants (Zhang 2021, Table II): ``linear`` (RD1 only, C4 = 0, no r),
+``quadratic`` (k2, r), ``cubic`` (k2, k3, r), ``all`` (k2, k3, G, r). ``all``
+always estimates ``G``; the others keep it where the static poses support it
+(the shared gyroscope stage's criterion), as a sensor with a g-sensitivity
+leaves it in every rotation otherwise; with tosses, ``G`` enters the joint
+fit of ``all`` only.
 """
 
 from __future__ import annotations
