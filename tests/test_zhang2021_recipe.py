@@ -140,13 +140,9 @@ def test_selection_stays_within_the_verdicts_pose_budget(twelve_poses):
     for name, p in (("linear", 9), ("quadratic", 12), ("cubic", 15)):
         rejected_for_budget = m / p <= lim[1]
         assert rejected_for_budget == (name in sel["over_pose_budget"])
-        if p > m:  # more parameters than poses: a clear error before any verdict
-            with pytest.raises(ValueError, match="record more poses"):
-                _quiet(sim.recording, method="zhang2021", model=name, gravity=g, intervals=iv, select=False)
-            continue
         forced = _quiet(sim.recording, method="zhang2021", model=name, gravity=g, intervals=iv, select=False)
         assert (forced.fit["verdict"] == "rejected") == rejected_for_budget
-        assert any("per parameter" in r for r in forced.fit["verdict_reasons"])  # 1.0-1.33 per parameter: suspect
+        assert any("per parameter" in r for r in forced.fit["verdict_reasons"])  # 1.33 per parameter: suspect
 
 
 def test_the_pose_budget_is_the_verdicts_own_threshold(twelve_poses, monkeypatch):
@@ -156,8 +152,7 @@ def test_the_pose_budget_is_the_verdicts_own_threshold(twelve_poses, monkeypatch
     cal = _quiet(sim.recording, method="zhang2021", model="all", gravity=sim.truth.gravity)
     sel = cal.fit["model_selection"]
     assert sel["over_pose_budget"] == []
-    assert set(sel["aic"]) == {"linear", "quadratic"}  # cubic and all tried, but 15 parameters > 12 poses
-    assert {"cubic", "all"} <= set(sel["excluded"])  # (quadratic, 12 parameters on 12 poses, is fitted)
+    assert set(sel["aic"]) == {"linear", "quadratic", "cubic", "all"}
 
 
 def test_compare_and_calibrate_select_the_same_variant(tmp_path, capsys):

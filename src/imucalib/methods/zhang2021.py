@@ -62,7 +62,7 @@ import numpy as np
 
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import GravityNormFit, accelerometer_covariance, gravity_norm_fit
-from ..fit.gyroscope import GyroFit, fit_gyroscope, static_gyro
+from ..fit.gyroscope import GyroFit, fit_gyroscope
 from ..kinematics import IntervalIntegrator, five_point_derivative, quat_to_matrix, segmented_five_point, skew
 from ..metrics import fit_summary, interval_means, transition_bounds
 from ..models import AXES, TriadModel, misalignment_entries
@@ -486,11 +486,6 @@ def _concat(segments: Sequence[Recording]):
     return acc, gyro, stops - lengths, stops
 
 
-def _as_calibration(layout: ZhangLayout, theta: np.ndarray, gravity: float, recording: Recording) -> Calibration:
-    acc, gyro, r = layout.models(theta)
-    return Calibration(accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity, units=units_of(recording))
-
-
 def _block_errors(jac: np.ndarray, res: np.ndarray, sizes: list[int]) -> np.ndarray:
     """1σ errors with one variance per cost term (eqs. 10, 11, 14, 19), each from its own residuals.
 
@@ -513,11 +508,6 @@ def _block_errors(jac: np.ndarray, res: np.ndarray, sizes: list[int]) -> np.ndar
     return standard_errors(jac * scale[:, None], res * scale)
 
 
-def _aic(residuals: np.ndarray, n_params: int) -> float:
-    n = residuals.size
-    return float(n * np.log(float(residuals @ residuals) / n) + 2 * n_params)
-
-
 def _without_lever_arm(layout: ZhangLayout, model: str, why: str) -> ZhangLayout:
     warnings.warn(
         f"zhang2021 model {model!r}: {why}; the lever arm is not estimated and the weightless "
@@ -531,11 +521,12 @@ def _without_lever_arm(layout: ZhangLayout, model: str, why: str) -> ZhangLayout
 
 @dataclass
 class _Stages:
-    """One model variant fitted by the shared stages: the accelerometer on the static poses, then the gyroscope."""
+    """One model variant fitted by the shared stages (and, for the nonlinear variants, eq. 21 after them)."""
 
     layout: ZhangLayout
-    acc: GravityNormFit
-    gyro: GyroFit
+    acc: TriadModel
+    acc_residuals: np.ndarray  # ‖a_k‖ − g over the static poses [m/s²]
+    gyro: GyroFit  # the shared gyroscope stage: the bias source and the rotations left out
     gyroscope: TriadModel  # with the polynomial scale factors of the variant
     errors: dict[str, float]
     converged: bool
@@ -576,105 +567,138 @@ def _rotation_rows(m: int) -> slice:
     return slice(4 * m, 4 * m + 3 * (m - 1))
 
 
-def _gyro_polynomial(layout: ZhangLayout, recording: Recording, static: list[Interval], gravity: float,
-                     acc: TriadModel, gyro: GyroFit, bias_cov: np.ndarray, max_iter: int):
-    """The gyroscope's polynomial scale factors (Zhang 2021, eq. 7) on the rotations between poses (eq. 14).
+def _solve_joint(recording: Recording, static: list[Interval], rest: Interval, layout: ZhangLayout, gravity: float,
+                 acc0: TriadModel, gyro0: TriadModel, left_out: dict[int, str], tosses, *, initial: str = "step1",
+                 noise_weights: bool = True, max_iter: int = 200):
+    """Eq. (21) by Levenberg–Marquardt from ``acc0``, ``gyro0`` (Step 2), the rotations ``left_out`` weighted 0.
 
-    Starts from the linear gyroscope of the shared stage (``k2 = k3 = 0``) and
-    refits ``T_g`` and ``k1…k_order`` by Levenberg–Marquardt on the rotations
-    that stage kept, the bias and ``G`` held where the static poses put them
-    (eq. 11; the bias too when the stage estimated it from the rotations). The
-    1σ errors carry the bias's covariance ``bias_cov`` to first order, as
-    :func:`imucalib.fit.gyroscope.errors_at` does. Returns the model, its
-    errors by name, whether the solver converged and its iterations.
+    ``tosses``: ``(acc, gyro, starts, stops, r0, segments)`` of :func:`_tosses`,
+    or None (no eq. 19 term, ``C4 = 0``). Weights ``C1…C4`` from eqs. (25)–(30)
+    with ``noise_weights``, else 1. Returns the solution and the weights.
     """
-    lay = _fitted_layout(layout, gyro.model)
-    prob = _gyro_problem(lay, recording, static, gravity, gyro.left_out)
-    theta = lay.pack(acc, gyro.model, None)
-    s, o = lay.n_acc, lay.order
-    cols = np.arange(s, s + 6 + 3 * o)
-    bias_cols = np.arange(s + 6 + 3 * o, s + 9 + 3 * o)
-    free = np.concatenate([cols, bias_cols]) if gyro.bias_source == "fit" else cols
-    rows = _rotation_rows(len(static))
+    dt = 1.0 / recording.rate
+    if tosses is None:
+        wl_acc = wl_gyro = None
+        wl_starts = wl_stops = np.zeros(0, dtype=int)
+        r0 = np.zeros(3)
+    else:
+        wl_acc, wl_gyro, wl_starts, wl_stops, r0, _ = tosses
+    starts, stops = transition_bounds(static)
+    integ = IntervalIntegrator(recording.t, starts, stops)
+    motion_acc = recording.acc[integ.samples]
+    motion_gyro = recording.gyro[integ.samples]
+    cal0 = Calibration(accelerometer=acc0, gyroscope=gyro0)
+    m = len(static)
+    if noise_weights:
+        c = weights(
+            acc_var=recording.acc[rest.slice].var(axis=0),
+            gyro_var=recording.gyro[rest.slice].var(axis=0),
+            k1_acc=acc0.scale, k1_gyro=gyro0.scale, gravity=gravity, dt=dt,
+            g_max=float(np.max(np.abs(gyro0.g_sensitivity))), motion_steps=float(np.mean(stops - starts)),
+            mean_rate=float(np.mean(np.abs(cal0.gyroscope_si(motion_gyro, motion_acc)))),
+            omega_max=0.0 if tosses is None else float(np.max(np.abs(cal0.gyroscope_si(wl_gyro, wl_acc)))),
+            r_hat=r0, n_mean=np.array([len(iv) for iv in static]),
+        )
+        if not all(np.all(np.isfinite(v)) for v in c.values()):
+            raise ValueError("the initial rest has zero noise: the weights of eqs. (25)-(30) "
+                             "are infinite (for noise-free data: noise_weights=False, on the command line "
+                             "--no-noise-weights)")
+    else:
+        c = {"C1": np.ones(m), "C2": np.ones(m), "C3": np.ones(m - 1), "C4": np.float64(1.0)}
+    if tosses is None:
+        c["C4"] = np.float64(0.0)
+    c["C3"] = np.array(c["C3"], dtype=float)
+    c["C3"][[int(k) for k in left_out]] = 0.0  # the rotations the shared stage left out
+    problem = _Problem(layout, gravity, interval_means(recording.acc, static), interval_means(recording.gyro, static),
+                       integ, motion_acc, motion_gyro, wl_acc, wl_gyro, wl_starts, wl_stops, dt, c)
+    if initial == "step1":
+        th0 = layout.pack(acc0, gyro0 if layout.with_g else gyro0.with_(g_sensitivity=np.zeros((3, 3))), r0)
+    else:
+        th0 = layout.pack(TriadModel(shape="upper"), TriadModel(shape="full"), np.zeros(3))
+    sol = levenberg_marquardt(problem.residuals, lambda th: problem.residuals(th, jac=True)[1], th0,
+                              max_iter=max_iter, stol=1e-4 if noise_weights else 0.0)
+    return sol, problem, c
 
-    def full(p):
-        th = theta.copy()
-        th[free] = p
-        return th
 
-    def fun(p):
-        return prob.residuals(full(p))[rows]
-
-    def jac(p):
-        return prob.residuals(full(p), jac=True)[1][rows][:, free]
-
-    sol = levenberg_marquardt(fun, jac, theta[free], max_iter=max_iter, xtol=1e-12, ftol=1e-12)
-    theta = full(sol.x)
-    kept = int(np.count_nonzero(prob.w3)) // 3
-    extra = None
-    if gyro.bias_source != "fit":
-        j_b = prob.residuals(theta, jac=True)[1][rows][:, bias_cols]
-        sens = -np.linalg.pinv(sol.jac) @ j_b
-        extra = sens @ bias_cov @ sens.T
-    rows_kept = prob.w3 > 0
-    se = standard_errors(sol.jac[rows_kept], sol.fun[rows_kept], dof=2 * kept - len(free), extra_cov=extra)
-    names = [lay.names()[i] for i in free]
-    return (lay.models(theta)[1], {k: float(v) for k, v in zip(names, se, strict=True)},
-            bool(sol.success), int(sol.njev))
+def _joint_errors(layout: ZhangLayout, sol, problem: _Problem, c: dict, m: int) -> dict[str, float]:
+    """1σ errors of an eq. (21) fit: :func:`_block_errors` over the rows it weighted, the bias's spread added."""
+    kept = c["C3"] > 0
+    rows = np.concatenate([np.ones(4 * m, bool), np.repeat(kept, 3),
+                           np.ones(len(sol.fun) - 4 * m - 3 * (m - 1), bool)])
+    blocks = [m, 3 * m, 3 * int(np.count_nonzero(kept)), len(sol.fun) - m - 3 * m - 3 * (m - 1)]
+    out = {k: float(v) for k, v in
+           zip(layout.names(), _block_errors(sol.jac[rows], sol.fun[rows], blocks), strict=True)}
+    # the bias's own 1σ adds the scatter of one pose's static gyroscope residual (eq. 11): a drifting bias is
+    # that far from the session's estimate at any moment
+    e2 = (sol.fun[m : 4 * m] / problem.w2).reshape(m, 3)
+    for a, spread in zip(AXES, np.sqrt(np.mean(e2**2, axis=0)), strict=True):
+        key = f"gyroscope.bias.{a}"
+        out[key] = float(np.hypot(out[key], spread))
+    return out
 
 
-def _stages(layout: ZhangLayout, recording: Recording, static: list[Interval], gravity: float, *,
+def _stages(layout: ZhangLayout, recording: Recording, static: list[Interval], rest: Interval, gravity: float, *,
             linear: GravityNormFit, exclude: dict[int, str], estimate_gyro_bias: bool | str,
-            max_iter: int) -> _Stages:
-    """Fit one variant by the shared stages, as :mod:`imucalib.methods.tedaldi2014` does, plus its own terms.
+            noise_weights: bool, max_iter: int) -> _Stages:
+    """Fit one variant by the shared stages, as :mod:`imucalib.methods.tedaldi2014` does, then its own terms.
 
-    1. Accelerometer: ``‖a_k‖ = g`` on the static means (eq. 10) by
-       :func:`imucalib.fit.accelerometer.gravity_norm_fit`, polynomial scale
-       factors (eq. 2) for the nonlinear variants, started at the linear fit.
-       The rotations never pull it: their unmodelled residuals (hand tremor,
-       bias drift) would bend the accelerometer to fit the gyroscope.
+    1. Accelerometer: ``‖a_k‖ = g`` on the static means alone (eq. 10,
+       ``linear``, from :func:`imucalib.fit.accelerometer.gravity_norm_fit`).
     2. Gyroscope: :func:`imucalib.fit.gyroscope.fit_gyroscope` with that
-       accelerometer — the bias (and ``G`` of eq. 6 for ``all``) from the static
-       poses (eq. 11), ``T_g`` and ``k1`` from the rotations (eq. 14), the
-       unreliable rotations and outliers left out.
-    3. The nonlinear variants' gyroscope terms (eq. 7): :func:`_gyro_polynomial`.
+       accelerometer — the bias (and ``G`` of eq. 6: always for ``all``, where
+       the static poses support it otherwise) from the static poses (eq. 11),
+       ``T_g`` and ``k1`` from the rotations (eq. 14), the unreliable rotations
+       and outliers left out.
+    3. The nonlinear variants (eqs. 2, 7): eq. (21) without the tosses' term,
+       started at 1–2, on the rotations 2 kept. Their polynomial terms need the
+       gravity directions the rotations carry: fitted to the static norms alone,
+       a cubic accelerometer follows the poses and fails on held-out ones.
     """
     means = interval_means(recording.acc, static)
-    acc = linear if layout.order == 1 else gravity_norm_fit(means, gravity, order=layout.order,
-                                                            initial=linear.model, max_iter=max_iter)
-    # the accelerometer's covariance enters the gyroscope's errors; it is the linear layout's
-    acc_cov = accelerometer_covariance(acc.model, means, gravity) if layout.order == 1 else None
-    gyro = fit_gyroscope(recording, static, acc.model, estimate_bias=estimate_gyro_bias,
+    acc_cov = accelerometer_covariance(linear.model, means, gravity)
+    gyro = fit_gyroscope(recording, static, linear.model, estimate_bias=estimate_gyro_bias,
                          g_sensitivity=True if layout.with_g else "auto", acc_cov=acc_cov, exclude=exclude)
-    errors = acc.errors(layout.order) | gyro.errors
-    converged, iterations = acc.converged, acc.iterations
-    gyroscope = gyro.model
-    if layout.order > 1:
-        bias_cov = static_gyro(recording, static, acc.model,
-                               g_sensitivity=bool(np.any(gyro.model.g_sensitivity))).bias_cov
-        gyroscope, poly_errors, ok, its = _gyro_polynomial(layout, recording, static, gravity, acc.model, gyro,
-                                                           bias_cov, max_iter)
-        errors |= poly_errors
-        converged, iterations = converged and ok, iterations + its
-    return _Stages(layout, acc, gyro, gyroscope, errors, converged, iterations)
+    if layout.order == 1:
+        return _Stages(layout, linear.model, linear.residuals, gyro, gyro.model, linear.errors(1) | gyro.errors,
+                       linear.converged, linear.iterations)
+    lay = _fitted_layout(layout, gyro.model)
+    sol, problem, c = _solve_joint(recording, static, rest, lay, gravity, linear.model, gyro.model, gyro.left_out,
+                                   None, noise_weights=noise_weights, max_iter=max_iter)
+    acc, gyroscope, _ = lay.models(sol.x)
+    residuals = np.linalg.norm(acc.forward(means), axis=1) - gravity
+    errors = _joint_errors(lay, sol, problem, c, len(static))
+    return _Stages(layout, acc, residuals, gyro, gyroscope, errors, linear.converged and sol.success,
+                   linear.iterations + int(sol.njev))
 
 
 def _criterion(st: _Stages, recording: Recording, static: list[Interval], gravity: float,
                left_out: set[int]) -> float:
-    """Akaike's criterion of a variant: ``Σ_b n_b ln(RSS_b/n_b) + 2P`` over the terms of eq. (21).
+    """Akaike's criterion of a variant with the small-sample correction, summed over the terms of eq. (21).
 
-    One Gaussian term per block with its own variance: eq. (10) (``M``
-    residuals), eq. (11) (``3M``) and eq. (14) on the rotations no variant left
-    out (``2`` degrees of freedom each); ``P`` counts every fitted parameter.
+    One Gaussian term per block ``b`` with its own variance and its own
+    parameters ``p_b``: ``n_b ln(RSS_b/n_b) + 2 p_b + 2 p_b (p_b + 1)/(n_b − p_b − 1)``
+    (AICc; Hurvich & Tsai, Biometrika 1989). The blocks: eq. (10) (``M``
+    residuals, the accelerometer's parameters), eq. (11) (``3M``, the bias and
+    ``G``) and eq. (14) on the rotations no variant left out (``2`` degrees of
+    freedom each, ``T_g`` and the scale factors). The correction matters where
+    it should: 20 poses for 15 accelerometer parameters leave almost nothing to
+    judge a fit by, and the uncorrected criterion then favours the polynomial.
     """
     lay = _fitted_layout(st.layout, st.gyroscope)
     m = len(static)
     prob = _gyro_problem(lay, recording, static, gravity, {k: "" for k in left_out})
-    res = prob.residuals(lay.pack(st.acc.model, st.gyroscope, None))[_rotation_rows(m)]
-    a = st.acc.model.forward(interval_means(recording.acc, static))
+    res = prob.residuals(lay.pack(st.acc, st.gyroscope, None))[_rotation_rows(m)]
+    a = st.acc.forward(interval_means(recording.acc, static))
     e11 = interval_means(recording.gyro, static) - st.gyroscope.bias - a @ st.gyroscope.g_sensitivity.T
-    blocks = [(st.acc.residuals, m), (e11.ravel(), 3 * m), (res, 2 * (len(prob.w3) // 3 - len(left_out)))]
-    return float(sum(n * np.log(max(float(r @ r), 1e-300) / n) for r, n in blocks) + 2 * lay.size)
+    p14 = 6 + 3 * lay.order + (3 if st.gyro.bias_source == "fit" else 0)
+    blocks = [(st.acc_residuals, m, lay.n_acc), (e11.ravel(), 3 * m, lay.n_gyro - p14),
+              (res, 2 * (len(prob.w3) // 3 - len(left_out)), p14)]
+    total = 0.0
+    for r, n, p in blocks:
+        if n - p - 1 <= 0:
+            return float("inf")
+        total += n * np.log(max(float(r @ r), 1e-300) / n) + 2 * p + 2 * p * (p + 1) / (n - p - 1)
+    return float(total)
 
 
 def _poses(recording: Recording, gravity: float, intervals, init_static, detector) -> tuple[list[Interval], Interval]:
@@ -758,7 +782,7 @@ def calibrate(
         parameters exceeds this [m/s²] are not free fall and are dropped.
     select : bool
         Without weightless data, also fit the simpler variants and return the
-        one Akaike's criterion prefers (:func:`_criterion`; ``fit["model_selection"]``
+        one Akaike's criterion (small-sample corrected, :func:`_criterion`) prefers (``fit["model_selection"]``
         says which), among the variants the poses can carry: never one with so few
         poses per accelerometer parameter that the verdict rejects it.
     detector : {"accelerometer", "gyroscope"}
@@ -785,8 +809,9 @@ def calibrate(
     def stages(lay: ZhangLayout) -> _Stages:
         key = (lay.order, lay.with_g)
         if key not in fitted:
-            fitted[key] = _stages(lay, recording, static, gravity, linear=linear, exclude=exclude,
-                                  estimate_gyro_bias=estimate_gyro_bias, max_iter=max_iter)
+            fitted[key] = _stages(lay, recording, static, rest, gravity, linear=linear, exclude=exclude,
+                                  estimate_gyro_bias=estimate_gyro_bias, noise_weights=noise_weights,
+                                  max_iter=max_iter)
         return fitted[key]
 
     say("calibrating the accelerometer and the gyroscope")
@@ -820,7 +845,7 @@ def calibrate(
                   if st.converged and plausible(_stage_calibration(st, gravity, recording))}
         best = min(usable or aic, key=(usable or aic).get)
         over = [name for name in names if not budget[name]]
-        selection = {"criterion": "aic", "aic": aic, "requested": model, "selected": best,
+        selection = {"criterion": "aicc", "aic": aic, "requested": model, "selected": best,
                      "excluded": sorted(set(aic) - set(usable)) + sorted(unfit), "over_pose_budget": over}
         if best != model:
             why = (f"{len(static)} static poses carry at most "
@@ -849,7 +874,7 @@ def calibrate(
 
 
 def _stage_calibration(st: _Stages, gravity: float, recording: Recording) -> Calibration:
-    return Calibration(accelerometer=st.acc.model, gyroscope=st.gyroscope, gravity=gravity,
+    return Calibration(accelerometer=st.acc, gyroscope=st.gyroscope, gravity=gravity,
                        units=units_of(recording), fit={"converged": st.converged})
 
 
@@ -867,7 +892,7 @@ def _tosses(recording: Recording, weightless, rest: Interval, step1: _Stages, fa
     weightless = [w for w in weightless if len(w) >= 5]
     if not weightless:
         return "no weightless segments were found"
-    cal0 = Calibration(accelerometer=step1.acc.model, gyroscope=step1.gyroscope)
+    cal0 = Calibration(accelerometer=step1.acc, gyroscope=step1.gyroscope)
     dt = 1.0 / recording.rate
 
     def lever(segments):
@@ -896,44 +921,12 @@ def _joint(recording: Recording, static: list[Interval], rest: Interval, layout:
            gravity: float, step1: _Stages, tosses, *, initial: str, noise_weights: bool,
            max_iter: int) -> Calibration:
     """Step 2 with tosses: eq. (21) by Levenberg–Marquardt from the shared stages' linear estimates (Step 1)."""
-    wl_acc, wl_gyro, wl_starts, wl_stops, r0, weightless = tosses
+    wl_acc, wl_gyro, wl_starts, wl_stops, _, weightless = tosses
     dt = 1.0 / recording.rate
-    acc0 = step1.acc.model
-    gyro0 = step1.gyroscope if layout.with_g else step1.gyroscope.with_(g_sensitivity=np.zeros((3, 3)))
-    static_acc = interval_means(recording.acc, static)
-    static_gyro_means = interval_means(recording.gyro, static)
-    starts, stops = transition_bounds(static)
-    integ = IntervalIntegrator(recording.t, starts, stops)
-    motion_acc = recording.acc[integ.samples]
-    motion_gyro = recording.gyro[integ.samples]
-    cal0 = Calibration(accelerometer=acc0, gyroscope=gyro0)
+    sol, problem, c = _solve_joint(recording, static, rest, layout, gravity, step1.acc, step1.gyroscope,
+                                   step1.gyro.left_out, tosses, initial=initial, noise_weights=noise_weights,
+                                   max_iter=max_iter)
     m = len(static)
-    if noise_weights:
-        c = weights(
-            acc_var=recording.acc[rest.slice].var(axis=0),
-            gyro_var=recording.gyro[rest.slice].var(axis=0),
-            k1_acc=acc0.scale, k1_gyro=gyro0.scale, gravity=gravity, dt=dt,
-            g_max=float(np.max(np.abs(gyro0.g_sensitivity))), motion_steps=float(np.mean(stops - starts)),
-            mean_rate=float(np.mean(np.abs(cal0.gyroscope_si(motion_gyro, motion_acc)))),
-            omega_max=float(np.max(np.abs(cal0.gyroscope_si(wl_gyro, wl_acc)))),
-            r_hat=r0, n_mean=np.array([len(iv) for iv in static]),
-        )
-        if not all(np.all(np.isfinite(v)) for v in c.values()):
-            raise ValueError("the initial rest has zero noise: the weights of eqs. (25)-(30) "
-                             "are infinite (for noise-free data: noise_weights=False, on the command line "
-                             "--no-noise-weights)")
-    else:
-        c = {"C1": np.ones(m), "C2": np.ones(m), "C3": np.ones(m - 1), "C4": np.float64(1.0)}
-    c["C3"] = np.array(c["C3"], dtype=float)
-    c["C3"][[int(k) for k in step1.gyro.left_out]] = 0.0  # the rotations the shared stage left out
-    problem = _Problem(layout, gravity, static_acc, static_gyro_means, integ, motion_acc, motion_gyro,
-                       wl_acc, wl_gyro, wl_starts, wl_stops, dt, c)
-    if initial == "step1":
-        th0 = layout.pack(acc0, gyro0, r0)
-    else:
-        th0 = layout.pack(TriadModel(shape="upper"), TriadModel(shape="full"), np.zeros(3))
-    sol = levenberg_marquardt(problem.residuals, lambda th: problem.residuals(th, jac=True)[1], th0,
-                              max_iter=max_iter, stol=1e-4 if noise_weights else 0.0)
     acc, gyro, r = layout.models(sol.x)
     cal = Calibration(accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity, method="zhang2021",
                       model=model, units=units_of(recording))
@@ -943,19 +936,7 @@ def _joint(recording: Recording, static: list[Interval], rest: Interval, layout:
     fit["weights"] = {k: float(np.mean(v)) for k, v in c.items()}  # means over intervals
     fit["cost"] = float(sol.cost)
     # 1σ errors from the weighted Jacobian at the solution, σ² from the weighted residuals of each cost term
-    # (the rotations left out have zero rows: they add nothing)
-    kept = c["C3"] > 0
-    rows = np.concatenate([np.ones(4 * m, bool), np.repeat(kept, 3),
-                           np.ones(len(sol.fun) - 4 * m - 3 * (m - 1), bool)])
-    blocks = [m, 3 * m, 3 * int(np.count_nonzero(kept)), len(sol.fun) - m - 3 * m - 3 * (m - 1)]
-    fit["uncertainty"] = {k: float(v) for k, v in
-                          zip(layout.names(), _block_errors(sol.jac[rows], sol.fun[rows], blocks), strict=True)}
-    # the bias's own 1σ adds the scatter of one pose's static gyroscope residual (eq. 11): a drifting bias is
-    # that far from the session's estimate at any moment
-    e2 = (sol.fun[m : 4 * m] / problem.w2).reshape(m, 3)
-    for a, spread in zip(AXES, np.sqrt(np.mean(e2**2, axis=0)), strict=True):
-        key = f"gyroscope.bias.{a}"
-        fit["uncertainty"][key] = float(np.hypot(fit["uncertainty"][key], spread))
+    fit["uncertainty"] = _joint_errors(layout, sol, problem, c, m)
     fit["iterations"] = int(sol.njev)
     fit["converged"] = bool(sol.success)
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
