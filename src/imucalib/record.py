@@ -239,7 +239,8 @@ class Recorder:
         self.scale: float | None = None  # rad/s per raw gyroscope unit
         self._countdown = None
         self._last_warning: dict[str, float] = {}
-        self._checked = 0  # samples checked for fast rotations
+        self._checked = 0  # samples checked against the gyroscope's range
+        self._checked_speed = 0  # samples checked for fast rotations (once the gyroscope's scale is known)
 
     # ------------------------------------------------------------ input
     def feed(self, lines: list[bytes]) -> None:
@@ -396,31 +397,38 @@ class Recorder:
                    "message": "initial rest recorded: take the first pose"})
 
     def _fast(self, start: int) -> None:
-        """Warnings for rotations the rate or the gyroscope's range cannot follow, in samples ``[start, n)``."""
-        start = max(start, self._checked, 1)
-        if start >= self.n:
-            return
-        g = self._raw[start:self.n, 4:7]
+        """Warnings for rotations the rate or the gyroscope's range cannot follow, in samples ``[start, n)``.
+
+        Each sample is checked once against the range and once for its rotation per sample; the latter waits
+        until the gyroscope's scale is known (raw counts: from the first poses), so that what is found does
+        not depend on how the stream's lines were batched.
+        """
         bias = self._raw[: self.rest.stop, 4:7].mean(axis=0)
-        if self.gyro_range:
+        first = max(start, self._checked, 1)
+        if self.gyro_range and first < self.n:
+            g = self._raw[first:self.n, 4:7]
             near = np.nonzero(np.max(np.abs(g), axis=1) >= 0.95 * self.gyro_range)[0]
             if near.size:
-                i = start + int(near[0])
+                i = first + int(near[0])
                 self._warn("saturation", i, f"the gyroscope reaches {np.max(np.abs(g[near[0]])):.0f} of its "
                                             f"±{self.gyro_range:g} range at t = {self._time(i):.2f} s: turn more "
                                             "slowly (a clipped rate loses the rotation)")
-        if self.scale is not None:
-            fmt = self.format
-            dt = (np.diff(self._raw[start - 1:self.n, 0]) * fmt.time_scale if fmt.time_scale is not None
-                  else np.full(self.n - start, 1.0 / fmt.rate))
-            step = np.linalg.norm(g - bias, axis=1) * abs(self.scale) * dt
-            over = np.nonzero(step > self.max_step)[0]
-            if over.size:
-                i = start + int(over[0])
-                self._warn("fast", i, f"a rotation of {np.degrees(step[over[0]]):.1f}° in one sample at "
-                                      f"t = {self._time(i):.2f} s (limit {np.degrees(self.max_step):g}°): too fast "
-                                      "for this rate; turn more slowly")
         self._checked = self.n
+        first = max(self._checked_speed, 1)
+        if self.scale is None or first >= self.n:
+            return
+        g = self._raw[first:self.n, 4:7]
+        fmt = self.format
+        dt = (np.diff(self._raw[first - 1:self.n, 0]) * fmt.time_scale if fmt.time_scale is not None
+              else np.full(self.n - first, 1.0 / fmt.rate))
+        step = np.linalg.norm(g - bias, axis=1) * abs(self.scale) * dt
+        over = np.nonzero(step > self.max_step)[0]
+        if over.size:
+            i = first + int(over[0])
+            self._warn("fast", i, f"a rotation of {np.degrees(step[over[0]]):.1f}° in one sample at "
+                                  f"t = {self._time(i):.2f} s (limit {np.degrees(self.max_step):g}°): too fast "
+                                  "for this rate; turn more slowly")
+        self._checked_speed = self.n
 
     def _warn(self, kind: str, sample: int, message: str, *, every: float = 2.0, **extra) -> None:
         t = self._time(sample)
