@@ -1,7 +1,7 @@
 """The result of a calibration: both triad models, lever arm, fit quality; JSON I/O.
 
-The file format is the versioned JSON of ``DESIGN.md`` (``"format":
-"imucalib.calibration"``, ``"format_version": 1``).
+The file format is versioned JSON (``"format": "imucalib.calibration"``,
+``"format_version": 1``); ``docs/architecture.rst`` describes every entry.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ class Calibration:
     units : dict
         Raw and calibrated units of each sensor.
     fit : dict
-        Fit-quality figures (see ``DESIGN.md``).
+        Fit-quality figures, the verdict and its reasons (every entry in ``docs/architecture.rst``).
     magnetometer : MagnetometerModel or None
         Hard and soft iron and the map into the accelerometer's frame, when the IMU has a
         magnetometer and it was calibrated (``units["magnetometer"]`` then gives its units).

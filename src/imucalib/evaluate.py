@@ -14,7 +14,7 @@
 * :func:`demo` — one Zhang 2021 session calibrated with the linear and the full
   model and with Tedaldi 2014, against the truth (``imucalib demo``).
 
-The static ``fit`` figures of ``DESIGN.md`` are in :mod:`imucalib.metrics`.
+The static ``fit`` figures of the calibration file are in :mod:`imucalib.metrics`.
 """
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ def reductions(method: dict, baseline: dict) -> dict:
 
 
 def parameter_errors(estimate: Calibration, truth: Calibration) -> dict[str, float]:
-    """``estimate − truth`` for every parameter the truth has (names as in DESIGN)."""
+    """``estimate − truth`` for every parameter the truth has (names as in :meth:`Calibration.parameters`)."""
     est = estimate.parameters()
     return {k: est.get(k, 0.0) - v for k, v in truth.parameters().items()}
 
