@@ -41,7 +41,7 @@ What a manifest can make the batch do, and whom to trust:
   on a network that only trusted hosts reach (``scheduler="local"`` listens on 127.0.0.1).
 
 Each row is read with :func:`imucalib.io.data.read_data` and calibrated with
-:func:`imucalib.methods.calibrate`, exactly as ``imucalib calibrate FILES --method … `` does, in a
+:func:`imucalib.methods.calibrate`, exactly as ``imucalib calibrate FILES --method …`` does, in a
 worker (:func:`run_row`), which also hashes the files (SHA-256 of their contents). The process that runs
 the batch writes each result into the store (:class:`imucalib.store.Store`) as it arrives, one transaction
 per row. A row that fails (a file missing or unreadable, too few poses, a rejected verdict) is stored
