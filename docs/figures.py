@@ -8,7 +8,8 @@ The raw counts are turned into m/s² and °/s with the session's own truth.
 
 The documentation build runs this module as a Sphinx extension (``figures`` in
 ``conf.py``): when the build starts it draws the figures into
-``docs/_generated`` unless they are there already and newer than this file.
+``docs/_generated`` unless they are there already and newer than this file
+and the package's code.
 Run it by hand with ``python docs/figures.py [OUTDIR]``.
 """
 
@@ -205,9 +206,10 @@ def draw(outdir: Path = OUTDIR, *, names=None) -> list[Path]:
 
 
 def stale(outdir: Path = OUTDIR) -> list[str]:
-    """Names of the figures missing from ``outdir`` or older than this file."""
-    mine = Path(__file__).stat().st_mtime
-    return [n for n in FIGURES if not (outdir / n).is_file() or (outdir / n).stat().st_mtime < mine]
+    """Names of the figures missing from ``outdir`` or older than this file or the package's code."""
+    sources = [Path(__file__), *(HERE.parent / "src" / "imucalib").rglob("*.py")]
+    newest = max(p.stat().st_mtime for p in sources if p.is_file())
+    return [n for n in FIGURES if not (outdir / n).is_file() or (outdir / n).stat().st_mtime < newest]
 
 
 def _on_builder_inited(app) -> None:
