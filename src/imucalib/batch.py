@@ -2,24 +2,24 @@
 
 A manifest is a CSV file with one recording per line. Columns (a header line names them; any order):
 
-=============== ===========================================================================
-``device``      required: the device's name or serial number
-``files``       required: the data files, ``;``-separated, relative to the manifest (or absolute; or
-                fsspec URLs such as ``s3://bucket/run.csv`` when URLs are allowed: ``allow_urls``)
-``method``      calibration method (default ``tedaldi2014``, as ``imucalib calibrate``)
-``model``       model variant
-``reader``      input format (``csv``, ``imutk``, ``mat``, ``phone``, ``rosbag``, ``session``)
-``columns``     column names or indices in the order t,ax,ay,az,gx,gy,gz (``,`` or ``;``-separated)
-``acc_unit``    ``counts``, ``g``, ``m/s^2``
-``gyro_unit``   ``counts``, ``deg/s``, ``rad/s``
-``time_unit``   ``s``, ``ms``, ``us``, ``ns``
-``rate``        sampling rate [Hz] when there is no time column
-``topic``       ROS bags: the ``sensor_msgs/Imu`` topic
-``variable``    MATLAB files: the matrix's name
-``gravity``     local gravity [m/s²] (default 9.80665)
-``recorded_at`` when the recording was made: an ISO date or date-time
+================= ===========================================================================
+``device``        required: the device's name or serial number
+``files``         required: the data files, ``;``-separated, relative to the manifest (or absolute; or
+                  fsspec URLs such as ``s3://bucket/run.csv`` when URLs are allowed: ``allow_urls``)
+``method``        calibration method (default ``tedaldi2014``, as ``imucalib calibrate``)
+``model``         model variant
+``reader``        input format (``csv``, ``imutk``, ``mat``, ``phone``, ``rosbag``, ``session``)
+``columns``       column names or indices in the order t,ax,ay,az,gx,gy,gz (``,`` or ``;``-separated)
+``acc_unit``      ``counts``, ``g``, ``m/s^2``
+``gyro_unit``     ``counts``, ``deg/s``, ``rad/s``
+``time_unit``     ``s``, ``ms``, ``us``, ``ns``
+``rate``          sampling rate [Hz] when there is no time column
+``topic``         ROS bags: the ``sensor_msgs/Imu`` topic
+``variable``      MATLAB files: the matrix's name
+``gravity``       local gravity [m/s²] (default 9.80665)
+``recorded_at``   when the recording was made: an ISO date or date-time
 ``temperature_c`` the sensor's temperature [°C] during the recording
-=============== ===========================================================================
+================= ===========================================================================
 
 Empty cells take the default; lines that are empty or start with ``#`` are skipped. The whole manifest is
 checked before anything runs, and every problem is reported with its line.
@@ -41,7 +41,7 @@ What a manifest can make the batch do, and whom to trust:
   on a network that only trusted hosts reach (``scheduler="local"`` listens on 127.0.0.1).
 
 Each row is read with :func:`imucalib.io.data.read_data` and calibrated with
-:func:`imucalib.methods.calibrate`, exactly as ``imucalib calibrate FILES --method … `` does, in a
+:func:`imucalib.methods.calibrate`, exactly as ``imucalib calibrate FILES --method …`` does, in a
 worker (:func:`run_row`), which also hashes the files (SHA-256 of their contents). The process that runs
 the batch writes each result into the store (:class:`imucalib.store.Store`) as it arrives, one transaction
 per row. A row that fails (a file missing or unreadable, too few poses, a rejected verdict) is stored

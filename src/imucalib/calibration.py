@@ -1,7 +1,7 @@
 """The result of a calibration: both triad models, lever arm, fit quality; JSON I/O.
 
-The file format is the versioned JSON of ``DESIGN.md`` (``"format":
-"imucalib.calibration"``, ``"format_version": 1``).
+The file format is versioned JSON (``"format": "imucalib.calibration"``,
+``"format_version": 1``); ``docs/architecture.rst`` describes every entry.
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ class Calibration:
     units : dict
         Raw and calibrated units of each sensor.
     fit : dict
-        Fit-quality figures (see ``DESIGN.md``).
+        Fit-quality figures, the verdict and its reasons (every entry in ``docs/architecture.rst``).
     magnetometer : MagnetometerModel or None
         Hard and soft iron and the map into the accelerometer's frame, when the IMU has a
         magnetometer and it was calibrated (``units["magnetometer"]`` then gives its units).
@@ -554,7 +554,7 @@ def check_magnitudes(calibration: Calibration) -> None:
 
     Each bound is orders of magnitude beyond any MEMS sensor, in the
     calibrated units (:data:`FULL_SCALE`, the model ``a = T (k1 x + k2 x² + k3 x³
-    + d)``, ``x = u − b``, ``DESIGN.md``): one raw count between full scale/2⁴⁸
+    + d)``, ``x = u − b``, the architecture page of the documentation): one raw count between full scale/2⁴⁸
     and full scale (a physical unit's k1 within 10⁻² to 10² of its nominal
     factor); the bias ``k1 b`` and output bias ``d`` within full scale; at the
     raw reading ``k1`` maps to 16 g or 2000 °/s, ``k2 x²`` and ``k3 x³`` within

@@ -9,7 +9,7 @@ training) the method is run on the other poses and judged on ``k``:
   one predicted by integrating the calibrated gyroscope from pose ``k−1``.
 
 The figures are the RMS of the first and the mean of the second over the
-held-out poses (the ``fit`` metrics of ``DESIGN.md``, out of sample).
+held-out poses (the file's ``fit`` metrics, ``docs/architecture.rst``, out of sample).
 """
 
 from __future__ import annotations

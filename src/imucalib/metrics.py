@@ -1,4 +1,4 @@
-"""Fit-quality figures of a calibration on static poses (``DESIGN.md``, ``fit``).
+"""Fit-quality figures of a calibration on static poses (the file's ``fit``, ``docs/architecture.rst``).
 
 * ``accelerometer_residual_rms`` — RMS over static intervals of ``‖a‖ − g``
   [m/s²], with ``a`` the calibrated mean of each interval (the raw readings are
@@ -103,7 +103,7 @@ def gravity_direction_errors(calibration, recording: Recording,
 
 def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval],
                 gravity: float | None = None) -> dict:
-    """The ``fit`` entries of the calibration file (``DESIGN.md``)."""
+    """The ``fit`` entries of the calibration file (``docs/architecture.rst``)."""
     res = gravity_residuals(calibration, recording, intervals, gravity)
     out = {
         "static_intervals": len(intervals),

@@ -355,7 +355,7 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
 
     The page holds what a person checks before trusting a calibration: its
     verdict at the top (a green, amber or red banner with the reasons), the
-    method and units, the fit figures (``DESIGN.md``), every parameter with
+    method and units, the fit figures (``docs/architecture.rst``), every parameter with
     its 1σ error and relative error where the method gives one, the reasons
     when it cannot, the warnings of the run (``notes``), and the fit figure
     of :func:`plot_fit` embedded as PNG when matplotlib and the recording

@@ -2,7 +2,8 @@
 
 Each residual takes a parameter vector laid out by a :class:`AccelLayout` (or
 the gyroscope's own layout) and returns the residual vector and, on request,
-its Jacobian. Names of the parameters follow ``DESIGN.md``.
+its Jacobian. Names of the parameters are those of the calibration file
+(``docs/architecture.rst``, *The calibration file*).
 """
 
 from __future__ import annotations

@@ -184,6 +184,8 @@ def _sql_errors(method):
 class Store:
     """A calibration store in the SQLite file ``path``.
 
+    Use it as a context manager, or call :meth:`close`.
+
     Parameters
     ----------
     path : str or Path
@@ -197,8 +199,6 @@ class Store:
         read. When SQLite cannot open it read-only there (a write-ahead-log store needs its ``-shm`` file,
         which a read-only folder cannot hold), it is opened as immutable: as it is on disk, which is what a
         folder that nobody can write to holds. Implies ``create=False``.
-
-    Use it as a context manager, or call :meth:`close`.
     """
 
     def __init__(self, path: str | Path, *, create: bool = True, readonly: bool = False) -> None:

@@ -5,7 +5,7 @@
   eqs. (34)–(35) on the sessions' test tosses where they have them
   (:mod:`imucalib.experiments.zhang2021`).
 
-The static ``fit`` figures of ``DESIGN.md`` are in :mod:`imucalib.metrics`.
+The static ``fit`` figures of the calibration file are in :mod:`imucalib.metrics`.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ __all__ = ["montecarlo", "parameter_errors"]
 
 
 def parameter_errors(estimate: Calibration, truth: Calibration) -> dict[str, float]:
-    """``estimate − truth`` for every parameter the truth has (names as in DESIGN)."""
+    """``estimate − truth`` for every parameter the truth has (names as in :meth:`Calibration.parameters`)."""
     est = estimate.parameters()
     return {k: est.get(k, 0.0) - v for k, v in truth.parameters().items()}
 

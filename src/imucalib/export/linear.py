@@ -1,6 +1,6 @@
 """The linear form of a calibration, in the units other tools read, and its factorisations.
 
-Every exported model is linear, so the canonical model (``DESIGN.md``) must be
+Every exported model is linear, so the canonical model (``docs/architecture.rst``) must be
 linear too: ``k2 = k3 = 0``. With the output bias ``d`` folded into the input
 bias (``T (K (u − b) + d) = T K (u − (b − K⁻¹ d))``) it reads::
 

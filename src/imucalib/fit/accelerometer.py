@@ -1,7 +1,7 @@
 """Accelerometer estimators: building blocks the methods compose.
 
 Every block works on the raw means of static poses (``(M, 3)``, any raw unit)
-and returns the canonical model ``a = T_a f(u − b)`` (``DESIGN.md``):
+and returns the canonical model ``a = T_a f(u − b)`` (``docs/architecture.rst``):
 
 * :func:`fit_sphere`, :func:`fit_ellipsoid` — algebraic, no initial guess
   (Ru 2022, §3.2, the ellipsoid/norm methods);

@@ -77,6 +77,8 @@ def read(
     progress : callable, optional
         ``progress(done, total)`` while a long input is read (ROS bags: messages).
 
+    Notes
+    -----
     Xsens MT Manager text exports (``//`` comment lines, then ``PacketCounter
     SampleTimeFine … Acc_X … Gyr_Z``) are recognised from their header:
     ``SampleTimeFine`` counts 100 µs ticks, the readings are in m/s² and rad/s.

@@ -53,7 +53,7 @@ MIN_INTERVALS = 9
 
 
 def uncertainty(recording: Recording, intervals: list[Interval], calibration: Calibration) -> dict[str, float]:
-    """1σ standard errors of the linear model's parameters, by name (``DESIGN.md``).
+    """1σ standard errors of the linear model's parameters, by name (as in :meth:`Calibration.parameters`).
 
     From the Jacobians of the two fits at the solution
     (:func:`~imucalib.solve.standard_errors`): the gravity-norm residuals of
@@ -126,7 +126,7 @@ def calibrate(
     Returns
     -------
     Calibration
-        ``fit`` holds the DESIGN figures plus ``threshold_multiplier`` and
+        ``fit`` holds the figures every method gives (``docs/architecture.rst``) plus ``threshold_multiplier`` and
         ``initial_rest_seconds``.
     """
     say = progress or (lambda msg: None)

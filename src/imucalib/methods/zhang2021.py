@@ -97,7 +97,7 @@ MIN_INTERVALS = 10
 # --------------------------------------------------------------------- layout
 @dataclass(frozen=True)
 class ZhangLayout:
-    """The parameter vector of a model variant (names as in ``DESIGN.md``).
+    """The parameter vector of a model variant (names as in :meth:`Calibration.parameters`).
 
     Order: accelerometer ``T`` (3), ``k1..k_order`` (3 each), ``b`` (3);
     gyroscope ``T`` (6), ``k1..k_order`` (3 each), ``b`` (3), ``G`` (9, if

@@ -1,0 +1,48 @@
+"""Sphinx configuration of the imucalib documentation.
+
+Build it with ``python -m sphinx -W -b html docs docs/_build/html`` from the
+repository's root (``pip install -e ".[docs]"`` installs what it needs). The
+recording guide's figures are drawn from the simulator by :mod:`figures` when
+the build starts (the ``figures`` extension below), into ``docs/_generated``.
+"""
+
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent / "src"))  # the code next to these pages, installed or not
+sys.path.insert(0, str(HERE))  # figures.py
+
+import imucalib  # noqa: E402
+
+project = "imucalib"
+author = "the imucalib authors"
+copyright = "the imucalib authors, BSD-3-Clause"
+version = release = imucalib.__version__
+
+extensions = [
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "sphinx.ext.mathjax",
+    "numpydoc",
+    "figures",
+]
+
+exclude_patterns = ["_build", "_generated/*.py", "examples"]
+templates_path = []
+autosummary_generate = False
+autodoc_default_options = {"members": False}
+autodoc_typehints = "none"
+numpydoc_show_class_members = False
+numpydoc_class_members_toctree = False
+numpydoc_xref_param_type = False
+default_role = "literal"
+nitpicky = False
+
+html_theme = "pydata_sphinx_theme"
+html_title = f"imucalib {release}"
+html_theme_options = {
+    "navigation_with_keys": False,
+    "show_toc_level": 2,
+}
+html_sidebars = {"index": []}
