@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.jsontext import JsonTextError, loads
 from ..recording import ACC_UNITS, GYRO_UNITS, Interval, Recording
 
 __all__ = ["SessionFileError", "load_meta", "read_recording", "read_table", "segments"]
@@ -33,12 +34,14 @@ def load_meta(directory: Path) -> dict:
     if not path.is_file():
         raise SessionFileError(f"{directory}: not a simulated session directory (no session.json)")
     try:
-        meta = json.loads(path.read_bytes().decode("utf-8-sig"))
+        meta = loads(path.read_bytes().decode("utf-8-sig"))
     except UnicodeDecodeError:
         raise SessionFileError(f"{path}: not a text file") from None
     except json.JSONDecodeError as exc:
         raise SessionFileError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno}, column {exc.colno})") \
             from None
+    except JsonTextError as exc:
+        raise SessionFileError(f"{path}: not a session file: {exc}") from None
     if not isinstance(meta, dict):
         raise SessionFileError(f"{path}: expected a JSON object; got {_kind(meta)}")
     if meta.get("format") != "imucalib.session":
