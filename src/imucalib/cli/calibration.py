@@ -65,7 +65,8 @@ def print_calibration(cal: Calibration) -> None:
             ("accelerometer", a, ua, "m/s^2", "a = T_a · f(u − b)"),
             ("gyroscope", g, ug, "rad/s", "ω = T_g · f(u − b − G·a)")):
         if t is None:
-            print(f"{prefix}: none (an accelerometer-only recording)")
+            why = (cal.fit or {}).get("gyroscope_not_calibrated") or "an accelerometer-only recording"
+            print(f"{prefix}: none ({why})")
             continue
         print(f"{prefix}  {formula}")
         print(f"  misalignment T:\n{matrix(prefix, 'misalignment', t.misalignment)}")
