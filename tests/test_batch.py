@@ -274,3 +274,34 @@ def test_rows_read_from_fsspec_urls_match_the_local_files(fleet, tmp_path):
 def test_montecarlo_scheduler_is_refused_for_the_papers_own_experiments(capsys):
     assert main(["montecarlo", "--scenario", "wang2019", "--method", "wang2019", "--scheduler", "local"]) == 2
     assert "the wang2019 experiment runs on local processes" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("name", "ok"), [
+    ("Capteur nº 7 – bâti Ω", True),
+    ("D" * 256, True),
+    ("D" * 257, False),
+    ("IMU\x07bell", False),
+    ("IMU\tcolumn", False),
+    ("IMU\x1b[31mred", False),
+    ("IMU\u200bzero-width", False),
+])
+def test_a_device_name_the_store_cannot_read_back_is_refused_with_the_manifest(tmp_path, name, ok):
+    """The manifest accepts exactly the device names a calibration file (and so the store) reads back."""
+    (tmp_path / "a.csv").write_text("x\n", encoding="utf-8")
+    cell = '"' + name.replace('"', '""') + '"'
+    manifest = write_manifest(tmp_path / "m.csv", ["A,a.csv", f"{cell},a.csv"], header="device,files")
+    doc = Calibration(device=name, units={"accelerometer": {"raw": "m/s^2", "calibrated": "m/s^2"},
+                                          "gyroscope": {"raw": "rad/s", "calibrated": "rad/s"}}).to_dict()
+    if ok:
+        assert [r.device for r in read_manifest(manifest)] == ["A", name]
+        Calibration.from_dict(doc)  # the same name read back from a calibration
+        return
+    with pytest.raises(ManifestError) as err:
+        run_batch(manifest, tmp_path / "s.sqlite")
+    text = str(err.value)
+    assert "1 invalid line(s)" in text and "nothing was run" in text
+    assert "line 3: 'device': " in text and "printable text of at most 256 characters" in text, text
+    assert not any(c in text for c in "\x07\t\x1b\u200b")  # quoted, escaped: the message itself is printable
+    assert not (tmp_path / "s.sqlite").exists()
+    with pytest.raises(ValueError, match="'device'"):
+        Calibration.from_dict(doc)  # the same name refused by the calibration file's check

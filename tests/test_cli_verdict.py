@@ -171,7 +171,12 @@ def test_sections_from_a_file(capsys, tmp_path, handheld_ferraris):
     ('{"x_p": [0, 10]}', "missing y_p, z_p, x_a, y_a, z_a, x_rot, y_rot, z_rot"),
     ("FULL+extra", "unknown extra"),
     ("FULL+bad", "'y_rot' must be [start, stop]"),
-])
+    ("[" * 10_000 + "]" * 10_000, "nested more than 64 levels deep"),
+    ('{"a":' * 10_000 + "1" + "}" * 10_000, "nested more than 64 levels deep"),
+    ('{"x_p": [0, NaN]}', "NaN is not a JSON number"),
+    ("\x00\xff", "not a text file"),
+    (" " * 70_000, "larger than 64 kB"),
+], ids=lambda v: v[:30] if isinstance(v, str) else None)
 def test_bad_sections_files_give_clear_errors(capsys, tmp_path, handheld_ferraris, text, message):
     rec, _, truth = handheld_ferraris
     if text.startswith("FULL"):
@@ -181,10 +186,11 @@ def test_bad_sections_files_give_clear_errors(capsys, tmp_path, handheld_ferrari
         else:
             doc["y_rot"] = [5, "ten"]
         text = json.dumps(doc)
-    (tmp_path / "s.json").write_text(text)
+    (tmp_path / "s.json").write_bytes(text.encode("latin-1"))
     code, out, err = run(capsys, "calibrate", rec, "--method", "ferraris", "--sections", tmp_path / "s.json")
     assert code == 2 and out == ""
     assert f"--sections {tmp_path / 's.json'}" in err and message in err, err
+    assert "Traceback" not in err and len(err) < 1000
     code, out, err = run(capsys, "calibrate", rec, "--method", "ferraris", "--sections", tmp_path / "none.json")
     assert code == 2 and "file not found" in err
 

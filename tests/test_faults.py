@@ -182,6 +182,12 @@ def test_a_session_without_units_or_with_bad_segments(tmp_path, capsys):
     meta_path.write_text("[1, 2]")
     code, _, err = run(capsys, "calibrate", tmp_path / "s")
     assert code == 2 and "expected a JSON object" in err
+    for text, words in (("[" * 10_000 + "]" * 10_000, "nested more than 64 levels deep"),
+                        ('{"format": ' * 10_000 + "1" + "}" * 10_000, "nested more than 64 levels deep"),
+                        ('{"format": "imucalib.session", "x": Infinity}', "Infinity is not a JSON number")):
+        meta_path.write_text(text)
+        code, _, err = run(capsys, "calibrate", tmp_path / "s")
+        assert code == 2 and str(meta_path) in err and words in err and plain(err), err
 
 
 # --------------------------------------------------------- text and MAT

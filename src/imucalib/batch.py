@@ -212,9 +212,12 @@ def _positive(text: str, what: str) -> float:
 def _row(cells: dict[str, str], line: int, base: Path, methods: Sequence[str],
          schemes: frozenset[str] | None = frozenset()) -> Row:
     """One manifest line checked into a :class:`Row` (ValueError naming the column on a bad entry)."""
+    from .calibration import check_device
+
     device = cells.get("device", "")
     if not device:
         raise ValueError("device is empty")
+    check_device(device)  # what the calibration and the store read back accept
     names = [f.strip() for f in cells.get("files", "").split(";") if f.strip()]
     if not names:
         raise ValueError("files is empty (one or more paths, ';'-separated)")

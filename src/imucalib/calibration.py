@@ -22,8 +22,11 @@ from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
 from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, Recording
 from .thermal import ThermalModel
 
-__all__ = ["ACCELEROMETER_ONLY_METHODS", "FULL_SCALE", "Calibration", "CalibrationFileError", "FORMAT",
-           "FORMAT_VERSION", "GRAVITY_LIMITS", "check_document", "check_magnitudes"]
+__all__ = ["ACCELEROMETER_ONLY_METHODS", "DEVICE_MAX_CHARS", "FULL_SCALE", "Calibration", "CalibrationFileError",
+           "FORMAT", "FORMAT_VERSION", "GRAVITY_LIMITS", "check_device", "check_document", "check_magnitudes"]
+
+#: the longest device name a calibration holds [characters]
+DEVICE_MAX_CHARS = 256
 
 #: the methods that calibrate an accelerometer-only recording (the calibration then has no gyroscope)
 ACCELEROMETER_ONLY_METHODS = ("ellipsoid", "six_position", "tedaldi2014")
@@ -418,6 +421,16 @@ def _printable(value: str, where: str, longest: int) -> None:
                                    f"most {longest} characters")
 
 
+def check_device(name: str) -> None:
+    """Refuse (:class:`CalibrationFileError`) a device name a calibration cannot hold.
+
+    One line of printable text (no control characters, tabs or line breaks)
+    of at most :data:`DEVICE_MAX_CHARS` characters, as :func:`check_document`
+    requires of a calibration file's ``device``.
+    """
+    _printable(name, "'device'", DEVICE_MAX_CHARS)
+
+
 def check_document(d) -> None:
     """Check a calibration document (the parsed JSON of the file) entry by entry.
 
@@ -476,7 +489,7 @@ def check_document(d) -> None:
     if d.get("created") is not None:
         _identifier(d["created"], "'created'")
     if d.get("device") is not None:
-        _printable(d["device"], "'device'", 256)
+        check_device(d["device"])
     for sensor, entry in (units or {}).items() if isinstance(units, dict) else ():
         if isinstance(entry, dict):
             for key, value in entry.items():

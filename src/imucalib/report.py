@@ -382,14 +382,15 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
                                                    for k, (bg, fg) in _VERDICT_COLOURS.items())
              + "</style></head><body>", f"<h1>{esc(title)}</h1>", _verdict_banner(fit)]
     units = cal.units
+    fit_why = (cal.fit or {}).get("gyroscope_not_calibrated") or "an accelerometer-only recording"
     parts.append("<table><tr><th>item</th><th>value</th></tr>"
                  f"<tr><td>method / model</td><td>{esc(cal.method)} / {esc(cal.model)}</td></tr>"
                  f"<tr><td>gravity</td><td>{cal.gravity:.6g} m/s²</td></tr>"
                  f"<tr><td>accelerometer units</td><td>{esc(units['accelerometer']['raw'])} → "
                  f"{esc(units['accelerometer']['calibrated'])}</td></tr>"
                  + (f"<tr><td>gyroscope units</td><td>{esc(units['gyroscope']['raw'])} → "
-                    f"{esc(units['gyroscope']['calibrated'])}</td></tr>" if "gyroscope" in units else
-                    "<tr><td>gyroscope</td><td>none (an accelerometer-only recording)</td></tr>"))
+                    f"{esc(units['gyroscope']['calibrated'])}</td></tr>" if cal.gyroscope is not None else
+                    f"<tr><td>gyroscope</td><td>none ({esc(fit_why)})</td></tr>"))
     if recording is not None:
         src = recording.metadata.get("source")
         parts.append(f"<tr><td>recording</td><td>{esc(', '.join(src) if isinstance(src, list) else str(src or '-'))}"

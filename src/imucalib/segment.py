@@ -65,6 +65,7 @@ __all__ = [
     "saturated",
     "spikes",
     "unreliable_transitions",
+    "no_usable_rotations",
     "unsteady_poses",
     "pose_scatter",
     "initial_rest",
@@ -981,3 +982,28 @@ def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
             if 0 <= j < len(starts):
                 out[j] = f"{out[j]} and {why}" if j in out else why
     return out
+
+
+def no_usable_rotations(intervals: list[Interval], left_out: dict[int, str]) -> str | None:
+    """Why the rotations between ``intervals`` leave nothing to fit a gyroscope to, or None.
+
+    The gyroscope fit (:func:`imucalib.fit.gyroscope.fit_gyroscope`) needs
+    :data:`~imucalib.fit.gyroscope.MIN_POSES` static poses and at least one
+    rotation between them that is not ``left_out`` (index ``k``: from pose
+    ``k`` to ``k+1`` → why, :func:`unreliable_transitions`). Without them a
+    method that calibrates both sensors calibrates the accelerometer alone and
+    says why (``fit["gyroscope_not_calibrated"]``); a fit on a few rotations
+    runs, and its verdict judges whether they determine the gyroscope.
+    """
+    from .fit.gyroscope import MIN_POSES
+
+    n = max(len(intervals) - 1, 0)
+    if len(intervals) < MIN_POSES:
+        return (f"the gyroscope was not calibrated: {len(intervals)} static pose{'' if len(intervals) == 1 else 's'} "
+                f"found, and its calibration needs at least {MIN_POSES} with rotations between them")
+    if len(left_out) < n:
+        return None
+    k, why = min(left_out.items())
+    return (f"the gyroscope was not calibrated: all {n} rotations between poses were left out as unreliable (the "
+            f"first, from pose {k + 1} to {k + 2}: {why}); record again with rotations slower than the gyroscope's "
+            "range, without gaps")

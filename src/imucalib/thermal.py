@@ -197,10 +197,12 @@ def compensate(calibration, recording: Recording) -> tuple:
                       "calibration was made from: it extrapolates there", ImucalibWarning, stacklevel=3)
     base = calibration.with_(thermal=None)
     acc = _map(recording.acc, base.accelerometer, *_per_sample(base.accelerometer, model, "accelerometer", temp))
-    a_si = base.accelerometer.forward(acc)
-    g = base.gyroscope.g_sensitivity
-    ga = a_si @ g.T if np.any(g) else 0.0
-    gyro = _map(recording.gyro - ga, base.gyroscope, *_per_sample(base.gyroscope, model, "gyroscope", temp)) + ga
+    gyro = recording.gyro  # an accelerometer-only calibration (or recording): the rates are not calibrated
+    if base.gyroscope is not None and gyro is not None:
+        a_si = base.accelerometer.forward(acc)
+        g = base.gyroscope.g_sensitivity
+        ga = a_si @ g.T if np.any(g) else 0.0
+        gyro = _map(gyro - ga, base.gyroscope, *_per_sample(base.gyroscope, model, "gyroscope", temp)) + ga
     out = Recording(t=recording.t, acc=acc, gyro=gyro, acc_unit=recording.acc_unit, gyro_unit=recording.gyro_unit,
                     temperature=recording.temperature, extra=dict(recording.extra),
                     metadata={**recording.metadata, "thermal_compensation": model.reference_c},
@@ -229,6 +231,9 @@ def decompensate(calibration, raw_reference: tuple[np.ndarray, np.ndarray], temp
     out = []
     for u0, tri, prefix in ((raw_reference[0], base.accelerometer, "accelerometer"),
                             (raw_reference[1], base.gyroscope, "gyroscope")):
+        if tri is None or u0 is None:  # no gyroscope calibrated: its readings as they are
+            out.append(u0)
+            continue
         bias, tk = _per_sample(tri, model, prefix, temp)
         ga = specific_force @ tri.g_sensitivity.T if prefix == "gyroscope" and np.any(tri.g_sensitivity) else 0.0
         x = u0 - ga - tri.bias
@@ -298,11 +303,16 @@ def combine(calibrations: list, *, reference_c: float = REFERENCE_C, max_order: 
                              "temperature each")
     first = calibrations[0]
     for i, cal in enumerate(calibrations[1:], start=2):
+        if (cal.gyroscope is None) != (first.gyroscope is None):
+            raise ValueError(f"calibration {i} {'has no' if cal.gyroscope is None else 'has a'} gyroscope and the "
+                             f"first {'has one' if cal.gyroscope is None else 'has none'}: combine calibrations "
+                             "of the same sensors (accelerometer-only ones together)")
         for what in ("model", "units"):
             if getattr(cal, what) != getattr(first, what):
                 raise ValueError(f"calibration {i} has another {what} ({getattr(cal, what)!r}) than the first "
                                  f"({getattr(first, what)!r}): combine calibrations of one sensor made one way")
-        if cal.accelerometer.shape != first.accelerometer.shape or cal.gyroscope.shape != first.gyroscope.shape:
+        if cal.accelerometer.shape != first.accelerometer.shape or (
+                cal.gyroscope is not None and cal.gyroscope.shape != first.gyroscope.shape):
             raise ValueError(f"calibration {i} has another misalignment shape than the first")
     x = np.array(temps) - reference_c
     if np.ptp(x) < 1.0:
@@ -475,6 +485,11 @@ def calibrate_ramp(run, recording: Recording, *, reference_c: float = REFERENCE_
                                      coefficients={n: [v, 0.0] for n, v in slopes.items() if v}, source="ramp")
                 compensated = compensate(cal.with_(thermal=model), recording)[1]
             cal = run(compensated)
+            if cal.gyroscope is None and "gyroscope" in sensors:  # accelerometer-only: its slopes alone
+                sensors = ("accelerometer",)
+                for n in [n for n in slopes if n.startswith("gyroscope.")]:
+                    del slopes[n], sds[n]
+                free = {n for n in free if not n.startswith("gyroscope.")}
             intervals = [Interval(int(a), int(b)) for a, b in (cal.fit or {}).get("intervals") or []]
             if len(intervals) < 8:
                 raise ValueError(f"the temperature slopes need at least 8 static poses over the warm-up; "
@@ -482,10 +497,11 @@ def calibrate_ramp(run, recording: Recording, *, reference_c: float = REFERENCE_
             temps = interval_means(compensated.temperature[:, None], intervals)[:, 0] - reference_c
             acc_means = interval_means(compensated.acc, intervals)
             steps = {}
-            ab, ab_sd, asc, asc_sd = _accelerometer_slopes(cal, acc_means, temps)
-            gb, gb_sd, gsc, gsc_sd = _gyroscope_slopes(cal, compensated, intervals, acc_means, temps, reference_c)
-            for sensor, b, b_sd, sc, sc_sd in (("accelerometer", ab, ab_sd, asc, asc_sd),
-                                               ("gyroscope", gb, gb_sd, gsc, gsc_sd)):
+            found = [("accelerometer", *_accelerometer_slopes(cal, acc_means, temps))]
+            if "gyroscope" in sensors:
+                found.append(("gyroscope", *_gyroscope_slopes(cal, compensated, intervals, acc_means, temps,
+                                                              reference_c)))
+            for sensor, b, b_sd, sc, sc_sd in found:
                 k = getattr(cal, sensor).scale
                 for i, a in enumerate("xyz"):
                     steps[f"{sensor}.bias.{a}"], sds[f"{sensor}.bias.{a}"] = b[i], b_sd[i]

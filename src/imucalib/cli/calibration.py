@@ -68,7 +68,8 @@ def print_calibration(cal: Calibration) -> None:
             ("accelerometer", a, ua, "m/s^2", "a = T_a · f(u − b)"),
             ("gyroscope", g, ug, "rad/s", "ω = T_g · f(u − b − G·a)")):
         if t is None:
-            print(f"{prefix}: none (an accelerometer-only recording)")
+            why = (cal.fit or {}).get("gyroscope_not_calibrated") or "an accelerometer-only recording"
+            print(f"{prefix}: none ({why})")
             continue
         print(f"{prefix}  {formula}")
         print(f"  misalignment T:\n{matrix(prefix, 'misalignment', t.misalignment)}")
@@ -106,17 +107,33 @@ def print_calibration(cal: Calibration) -> None:
 
 
 # ------------------------------------------------------------------ commands
+_SECTIONS_BYTES = 1 << 16  # a sections file is nine pairs of integers: a few hundred bytes
+
+
 def _sections(path: str) -> dict:
     """The named Ferraris sections in the JSON file ``path``: ``{"x_p": [start, stop], …}``, checked."""
+    from ..io.jsontext import JsonTextError, loads
     from ..methods.ferraris import SECTION_NAMES
 
     try:
-        doc = json.loads(Path(path).read_text(encoding="utf-8"))
+        with Path(path).open("rb") as fh:
+            raw = fh.read(_SECTIONS_BYTES + 1)  # bounded: /dev/zero or a huge file is refused, not read whole
     except FileNotFoundError:
         raise CliError(f"--sections {path}: file not found") from None
+    except OSError as exc:
+        raise CliError(f"--sections {path}: cannot be read ({exc.strerror or exc})") from None
+    if len(raw) > _SECTIONS_BYTES:
+        raise CliError(f"--sections {path}: larger than {_SECTIONS_BYTES >> 10} kB; a sections file is nine "
+                       'pairs of sample indices {"x_p": [start, stop], …}')
+    try:
+        doc = loads(raw.decode("utf-8-sig"))
+    except UnicodeDecodeError:
+        raise CliError(f"--sections {path}: not a text file; expected JSON") from None
     except json.JSONDecodeError as exc:
         raise CliError(f"--sections {path}: not valid JSON ({exc.msg} at line {exc.lineno}, "
                        f"column {exc.colno})") from None
+    except JsonTextError as exc:
+        raise CliError(f"--sections {path}: not a sections file: {exc}") from None
     example = '{"x_p": [start, stop], …}'
     if not isinstance(doc, dict):
         raise CliError(f"--sections {path}: expected a JSON object {example}; got a {type(doc).__name__}")

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
 
 from ..io.atomic import atomic_write, refuse_overwriting_inputs
+from ..recording import ImucalibWarning
 from ._common import CliError, add_force_option, check_verdict, print_json, show_warning
 
 __all__ = ["register"]
@@ -78,20 +80,19 @@ def cmd_export(args: argparse.Namespace) -> int:
     elif cal.thermal is not None and fmt != "c":
         raise CliError(f"{args.calibration} follows temperature, which --format {fmt} has no place for: pass "
                        "--temperature C to write it at one temperature (the C header follows it)")
-    if cal.gyroscope is None:  # an accelerometer-only calibration: every format has a gyroscope part
-        from ..models import TriadModel
-
-        cal = cal.with_(gyroscope=TriadModel(scale=[1.0, 1.0, 1.0], shape="full"),
-                        units={**cal.units, "gyroscope": {"raw": "rad/s", "calibrated": "rad/s"}})
-        notes.append(f"the calibration has no gyroscope (it was made from an accelerometer-only recording): the "
-                     f"gyroscope part of the {_WHAT[fmt]} is the identity, which passes rates through unchanged")
     if cal.magnetometer is not None and fmt != "c":
         notes.append(f"the magnetometer calibration has no place in the {_WHAT[fmt]}: it is left out (the JSON "
                      "and the C header hold it)")
-    if fmt == "c":
-        texts = [export.to_c(cal, prefix=args.prefix, ctype="float" if args.float else "double")]
-    elif fmt == "imutk":
-        texts = list(export.to_imutk(cal))
+    if fmt in ("c", "imutk"):  # their notes (an accelerometer-only calibration's identity gyroscope) are warnings
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ImucalibWarning)
+            texts = ([export.to_c(cal, prefix=args.prefix, ctype="float" if args.float else "double")]
+                     if fmt == "c" else list(export.to_imutk(cal)))
+        for w in caught:
+            if issubclass(w.category, ImucalibWarning):
+                notes.append(str(w.message))
+            else:
+                show_warning(w.message, w.category)
     else:
         noise = None
         if args.noise:

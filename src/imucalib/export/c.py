@@ -27,10 +27,13 @@ calibration file holds, the code is the same.
 from __future__ import annotations
 
 import re
+import warnings
 
 import numpy as np
 
 from ..calibration import Calibration
+from ..recording import ImucalibWarning
+from .linear import gyroscope_part
 from .text import c_comment
 
 __all__ = ["to_c"]
@@ -44,7 +47,11 @@ def _array(values, fmt) -> str:
 
 
 def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "double") -> str:
-    """C99 header text with the calibration's constants and ``<prefix>_apply``."""
+    """C99 header text with the calibration's constants and ``<prefix>_apply``.
+
+    An accelerometer-only calibration gets the identity as its gyroscope part
+    (:func:`.linear.gyroscope_part`), with an :class:`~imucalib.recording.ImucalibWarning` saying so.
+    """
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", prefix):
         raise ValueError(f"prefix must be a C identifier; got {prefix!r}")
     if ctype not in ("double", "float"):
@@ -58,7 +65,9 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
         return text + suffix
 
     up = prefix.upper()
-    cal = calibration
+    cal, note = gyroscope_part(calibration, "C99 header")
+    if note:
+        warnings.warn(note, ImucalibWarning, stacklevel=2)
     units = cal.units
     thermal = cal.thermal
     lines = [

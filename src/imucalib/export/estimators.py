@@ -51,7 +51,14 @@ import numpy as np
 from ..calibration import MAX_FILE_BYTES, Calibration
 from ..io.jsontext import loads
 from ..noise import BOUND_MARK, kalibr_noise
-from .linear import ExportError, LinearForm, linear_form, rotation_times_triangular, triangular_times_rotation
+from .linear import (
+    ExportError,
+    LinearForm,
+    gyroscope_part,
+    linear_form,
+    rotation_times_triangular,
+    triangular_times_rotation,
+)
 from .text import comment_text, yaml_scalar
 
 __all__ = ["NOISE_KEYS", "OPENVINS_MODELS", "read_noise", "to_kalibr", "to_openvins"]
@@ -221,17 +228,22 @@ def _header(cal: Calibration, form: LinearForm, target: str) -> list[str]:
 # --------------------------------------------------------------------- OpenVINS
 def to_openvins(calibration: Calibration, *, model: str = "kalibr", raw_scale: tuple[float, float] | None = None,
                 noise: dict | None = None, rostopic: str | None = None) -> tuple[str, list[str]]:
-    """The ``imu0`` entry of OpenVINS's ``kalibr_imu_chain.yaml`` (module docstring); the text and notes."""
+    """The ``imu0`` entry of OpenVINS's ``kalibr_imu_chain.yaml`` (module docstring); the text and notes.
+
+    An accelerometer-only calibration gets the identity as its gyroscope part
+    (:func:`.linear.gyroscope_part`), and a note saying so.
+    """
     if model not in OPENVINS_MODELS:
         raise ExportError(f"OpenVINS's IMU model must be one of {', '.join(OPENVINS_MODELS)}; got {model!r}")
     lower = OPENVINS_MODELS[model]
+    calibration, note = gyroscope_part(calibration, "OpenVINS imu0 intrinsics (kalibr_imu_chain.yaml)")
     form = linear_form(calibration, "OpenVINS", physical=True, raw_scale=raw_scale)
     # T_a upper triangular (the canonical shape) gives R_IMUtoACC = I exactly for rpng
     r_acc, da = rotation_times_triangular(form.acc_matrix, lower=lower)
     r_gyro, dw = rotation_times_triangular(form.gyro_matrix, lower=lower)
     tri = np.tril if lower else np.triu
     ta, tw = tri(np.linalg.inv(da)), tri(np.linalg.inv(dw))  # the inverse of a triangular matrix is triangular
-    notes: list[str] = []
+    notes: list[str] = [note] if note else []
     _published_scale_note(calibration, form, noise, notes)
     _bias_note(form, "OpenVINS", notes)
     lines = ["%YAML:1.0", *_header(calibration, form, f"the imu0 intrinsics of OpenVINS (model {model})"),
@@ -247,16 +259,22 @@ def to_openvins(calibration: Calibration, *, model: str = "kalibr", raw_scale: t
 # ----------------------------------------------------------------------- Kalibr
 def to_kalibr(calibration: Calibration, *, raw_scale: tuple[float, float] | None = None,
               noise: dict | None = None, rostopic: str | None = None) -> tuple[str, list[str]]:
-    """Kalibr's ``imu0`` result entry for the scale-misalignment model (module docstring); the text and notes."""
+    """Kalibr's ``imu0`` result entry for the scale-misalignment model (module docstring); the text and notes.
+
+    An accelerometer-only calibration gets the identity as its gyroscope part
+    (:func:`.linear.gyroscope_part`), and a note saying so.
+    """
+    calibration, note = gyroscope_part(calibration, "Kalibr imu0 entry (scale-misalignment)")
     form = linear_form(calibration, "Kalibr", physical=True, raw_scale=raw_scale)
     m_acc, r = triangular_times_rotation(np.linalg.inv(form.acc_matrix), lower=True)  # s_a A⁻¹ = M_a R
     m_gyro, c_gyro_b = triangular_times_rotation(np.linalg.inv(form.gyro_matrix), lower=True)
     c_gyro_i = c_gyro_b @ r.T  # M_g C_gyro_i R = s_g W⁻¹
     a_sens = form.g_sensitivity @ c_gyro_b.T  # A C_gyro_i R = s_g G
     angle = np.degrees(np.arccos(np.clip((np.trace(r) - 1) / 2, -1, 1)))
-    notes = [f"Kalibr's IMU frame i is the accelerometer frame made orthogonal with a lower-triangular M_a, "
-             f"imucalib's with an upper-triangular T_a: they differ by a rotation of {angle:.4g} deg (in the "
-             "file's comments); Kalibr's --imu input reads only the noise, rostopic and update_rate"]
+    notes = [note] if note else []
+    notes.append(f"Kalibr's IMU frame i is the accelerometer frame made orthogonal with a lower-triangular M_a, "
+                 f"imucalib's with an upper-triangular T_a: they differ by a rotation of {angle:.4g} deg (in the "
+                 "file's comments); Kalibr's --imu input reads only the noise, rostopic and update_rate")
     _published_scale_note(calibration, form, noise, notes)
     _bias_note(form, "Kalibr", notes)
     lines = [*_header(calibration, form, "Kalibr's imu0 result (model scale-misalignment)"),

@@ -16,10 +16,13 @@ cannot be exported. Units are kept: imu_tk's files map the same raw units.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ..calibration import Calibration
-from .linear import ExportError, linear_form
+from ..recording import ImucalibWarning
+from .linear import ExportError, gyroscope_part, linear_form
 
 __all__ = ["imutk_paths", "to_imutk"]
 
@@ -30,7 +33,14 @@ def _block(m: np.ndarray) -> str:
 
 
 def to_imutk(calibration: Calibration) -> tuple[str, str]:
-    """The text of imu_tk's accelerometer and gyroscope files (module docstring)."""
+    """The text of imu_tk's accelerometer and gyroscope files (module docstring).
+
+    An accelerometer-only calibration gets the identity as its gyroscope file
+    (:func:`.linear.gyroscope_part`), with an :class:`~imucalib.recording.ImucalibWarning` saying so.
+    """
+    calibration, note = gyroscope_part(calibration, "imu_tk parameter files")
+    if note:
+        warnings.warn(note, ImucalibWarning, stacklevel=2)
     if np.any(calibration.gyroscope.g_sensitivity):
         raise ExportError("imu_tk has no gyroscope g-sensitivity, and this calibration has one (G not zero): "
                           "it cannot be exported to imu_tk without changing what it corrects")

@@ -30,7 +30,8 @@ import numpy as np
 from ..calibration import Calibration
 from ..recording import STANDARD_GRAVITY
 
-__all__ = ["ExportError", "LinearForm", "linear_form", "rotation_times_triangular", "triangular_times_rotation"]
+__all__ = ["ExportError", "LinearForm", "gyroscope_part", "linear_form", "rotation_times_triangular",
+           "triangular_times_rotation"]
 
 #: factor of each physical raw unit to SI; ``g`` is the standard gravity g_n (the unit, not the local value)
 UNIT_TO_SI = {"m/s^2": 1.0, "g": STANDARD_GRAVITY, "rad/s": 1.0, "deg/s": np.pi / 180}
@@ -63,6 +64,29 @@ class LinearForm:
     g_sensitivity: np.ndarray
     acc_scale: float = 1.0
     gyro_scale: float = 1.0
+
+
+def gyroscope_part(calibration: Calibration, what: str) -> tuple[Calibration, str | None]:
+    """``calibration`` with a gyroscope part, which every format has: the identity for an accelerometer-only one.
+
+    A calibration made from an accelerometer-only recording has no gyroscope;
+    it is exported with the identity in rad/s (no bias, unit scales, no
+    misalignment or g-sensitivity), which passes rates through unchanged.
+
+    Returns
+    -------
+    (Calibration, str or None)
+        The calibration to export and, when the identity was put in, a note saying so (``what`` names the
+        format in it).
+    """
+    if calibration.gyroscope is not None:
+        return calibration, None
+    from ..models import TriadModel
+
+    identity = calibration.with_(gyroscope=TriadModel(scale=[1.0, 1.0, 1.0], shape="full"),
+                                 units={**calibration.units, "gyroscope": {"raw": "rad/s", "calibrated": "rad/s"}})
+    return identity, (f"the calibration has no gyroscope (it was made from an accelerometer-only recording): the "
+                      f"gyroscope part of the {what} is the identity, which passes rates through unchanged")
 
 
 def _scales(calibration: Calibration, raw_scale: tuple[float, float] | None, target: str) -> tuple[float, float]:

@@ -48,6 +48,7 @@ decimal mark (:attr:`Layout.decimal_comma`).
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import re
 import warnings
@@ -61,7 +62,7 @@ import numpy as np
 from .errors import ReaderError
 
 __all__ = ["CHUNK_BYTES", "ENGINE", "Chunk", "Head", "Layout", "PANDAS_MIN_BYTES", "Plan", "chunks", "column_kinds",
-           "plan", "engine_for", "fingerprint", "pandas_available", "parse", "read_head", "split_cells"]
+           "digest", "plan", "engine_for", "fingerprint", "pandas_available", "parse", "read_head", "split_cells"]
 
 #: body text parsed at a time [bytes] (about 100 000 rows of 7 columns)
 CHUNK_BYTES = 1 << 23
@@ -234,14 +235,23 @@ class Plan:
         return sum(comments for *_, comments in self.pieces)
 
 
-def chunks(layout: Layout, chunk_bytes: int | None = None, plan: Plan | None = None) -> Iterator[Chunk]:
+def chunks(layout: Layout, chunk_bytes: int | None = None, plan: Plan | None = None,
+           digest=None) -> Iterator[Chunk]:
     """The body of ``layout``'s file in pieces of whole lines (about ``chunk_bytes``, default
-    :data:`CHUNK_BYTES`, or as ``plan`` cut it), each with its first line number."""
+    :data:`CHUNK_BYTES`, or as ``plan`` cut it), each with its first line number.
+
+    With ``digest`` (a :mod:`hashlib` object), the file's bytes up to its size
+    as scanned (:attr:`Layout.size`) are fed to it in order, from the same open
+    file: what precedes the body, each chunk as it is yielded, what follows the
+    body (once the last chunk has been consumed).
+    """
     chunk_bytes = chunk_bytes or CHUNK_BYTES
     start, end = layout.body
     line = layout.first_line
     known = iter(plan.pieces) if plan is not None else None
     with layout.path.open("rb") as f:
+        if digest is not None:
+            _feed(digest, f, start)
         f.seek(start)
         pos = start
         while pos < end:
@@ -257,8 +267,38 @@ def chunks(layout: Layout, chunk_bytes: int | None = None, plan: Plan | None = N
                 n = data.count(b"\n") + (0 if data.endswith(b"\n") else 1)
                 comments = len(_COMMENT.findall(data)) if b"#" in data else 0
             pos += len(data)
+            if digest is not None:
+                digest.update(data)
             yield Chunk(data, line, n, comments)
             line += n
+        if digest is not None:
+            f.seek(pos)
+            _feed(digest, f, layout.size - pos)
+
+
+def _feed(digest, f, n: int) -> None:
+    """Feed the next ``n`` bytes of the open file ``f`` (fewer at its end) to ``digest``."""
+    while n > 0:
+        data = f.read(min(n, CHUNK_BYTES))
+        if not data:
+            return
+        digest.update(data)
+        n -= len(data)
+
+
+def digest() -> hashlib.blake2b:
+    """The checksum of a file's bytes as parsed (:func:`parse`'s ``facts["digest"]``), fed as it is read.
+
+    BLAKE2b over every byte, not the size, modification time and first and
+    last blocks: a rewrite of the same size in the middle of the rows, within
+    the timestamp's resolution (1–2 s on some file systems) or with the time
+    put back (``cp -p``, ``rsync -t``, ``touch -r``), leaves those unchanged
+    but not this. It streams at about 0.6 GB/s on one core: reading 1 M rows
+    of 7 columns (80 MB) took 0.98 s instead of 0.79 s without it (medians of
+    7, pandas' parser). A CRC (4× faster) would catch accidents as well but
+    can be forged by whoever rewrites the file.
+    """
+    return hashlib.blake2b(digest_size=16)
 
 
 def plan(layout: Layout, chunk_bytes: int | None = None) -> Plan:
@@ -319,7 +359,9 @@ def parse(layout: Layout, kinds: Sequence[str | None], names: Sequence[str], *, 
     columns : dict of int to ndarray
         Column index → float64, int64 or str array of one entry per row.
     facts : dict
-        ``rows``, ``comment_lines``, ``engine`` and ``kinds`` (after any demotion).
+        ``rows``, ``comment_lines``, ``engine``, ``kinds`` (after any demotion) and
+        ``digest``: the hex :func:`digest` of the file's bytes up to :attr:`Layout.size`,
+        the body's being exactly the bytes parsed.
     """
     kinds = list(kinds)
     if plan is None:
@@ -328,10 +370,11 @@ def parse(layout: Layout, kinds: Sequence[str | None], names: Sequence[str], *, 
     engine = engine_for(layout)
     while True:
         cols = {j: _allocate(kind, rows, (out or {}).get(j)) for j, kind in enumerate(kinds) if kind is not None}
+        checksum = digest()
         try:
             done = 0
             comments = 0
-            for ch in chunks(layout, chunk_bytes, plan):
+            for ch in chunks(layout, chunk_bytes, plan, checksum):
                 n = ch.lines - ch.comments
                 if done + n > rows:
                     raise ReaderError(f"{layout.path}: the file changed while it was read")
@@ -349,7 +392,8 @@ def parse(layout: Layout, kinds: Sequence[str | None], names: Sequence[str], *, 
         except _Demote as d:
             kinds[d.col] = d.to
             continue
-        return cols, {"rows": rows, "comment_lines": comments, "engine": engine, "kinds": kinds}
+        return cols, {"rows": rows, "comment_lines": comments, "engine": engine, "kinds": kinds,
+                      "digest": checksum.hexdigest()}
 
 
 def _allocate(kind: str, rows: int, given: np.ndarray | None) -> np.ndarray:

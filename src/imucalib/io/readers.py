@@ -713,10 +713,11 @@ def _block_times(path: Path, t: np.ndarray, blocks: list[list[int]]) -> np.ndarr
 
 
 def _parse_table(path: Path, table: _Table, required: Sequence[int], *, others: bool = True,
-                 out: dict[int, np.ndarray] | None = None, plan: csvparse.Plan | None = None
-                 ) -> dict[int, np.ndarray]:
+                 out: dict[int, np.ndarray] | None = None, plan: csvparse.Plan | None = None,
+                 facts: dict | None = None) -> dict[int, np.ndarray]:
     """The rows' columns as arrays (:func:`.csvparse.parse`): ``required`` ones numbers, checked; the others
-    (when ``others``) numbers or text as their cells are; int64 for long integers (ns stamps, IDs)."""
+    (when ``others``) numbers or text as their cells are; int64 for long integers (ns stamps, IDs).
+    ``facts``, when given, receives the parse's facts (its ``digest`` of the bytes parsed)."""
     kinds: list[str | None] = csvparse.column_kinds(table.first_row, False)
     if len(kinds) != table.ncols:  # the first row's width is wrong: the line-by-line parser says so
         kinds = (kinds + ["float"] * table.ncols)[:table.ncols]
@@ -725,9 +726,11 @@ def _parse_table(path: Path, table: _Table, required: Sequence[int], *, others: 
             kinds[j] = "float"  # the parse names the bad cell
         elif j not in required and not others:
             kinds[j] = None
-    cols, facts = csvparse.parse(table.layout, kinds, table.names, required=required, out=out, plan=plan)
-    if facts["comment_lines"]:
-        n = facts["comment_lines"]
+    cols, parsed = csvparse.parse(table.layout, kinds, table.names, required=required, out=out, plan=plan)
+    if facts is not None:
+        facts.update(parsed)
+    if parsed["comment_lines"]:
+        n = parsed["comment_lines"]
         warnings.warn(f"{path}: skipped {n} comment line{'s' if n > 1 else ''} (starting with #) between the rows",
                       ImucalibWarning, stacklevel=4)
     return cols
@@ -760,10 +763,11 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     out: dict[int, np.ndarray] = {}
     for f, view in targets.items():
         out.setdefault(mapping[f], view)
+    parsed: dict = {}
     if blocks is not None:
         cols = {j: blocks[0][:, j] for j in range(table.ncols)}
     elif frame is None:
-        cols = _parse_table(path, table, numeric_cols, out=out, plan=plan)
+        cols = _parse_table(path, table, numeric_cols, out=out, plan=plan, facts=parsed)
     else:
         cols, stamps = _frame_columns(path, frame, numeric_cols, out)
         if mapping["t"] in stamps and time_unit is None:
@@ -825,8 +829,9 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
         extra[name if name not in extra else f"{name} (column {j + 1})"] = col
     rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
                     extra=extra, metadata=meta)
-    if table.layout is not None and blocks is None:  # what apply needs to copy the file's own text (io.writers)
-        meta["source_layout"] = {**table.layout.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec)}
+    if "digest" in parsed:  # what apply needs to copy the file's own text (io.writers)
+        meta["source_layout"] = {**table.layout.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec),
+                                 "digest": parsed["digest"]}
     return rec
 
 

@@ -21,7 +21,7 @@ from ..calibration import Calibration
 from ..constants import G0
 from ..recording import ACC_UNITS, GYRO_UNITS, Interval, Recording
 from .atomic import atomic_write
-from .jsontext import dumps
+from .jsontext import JsonTextError, dumps, loads
 
 __all__ = ["Session", "SessionFileError", "TossSequence", "WangSession", "load_meta", "read_recording",
            "read_session", "read_table", "segments", "session_files", "write_session"]
@@ -106,12 +106,14 @@ def load_meta(directory: Path) -> dict:
     if not path.is_file():
         raise SessionFileError(f"{directory}: not a simulated session directory (no session.json)")
     try:
-        meta = json.loads(path.read_bytes().decode("utf-8-sig"))
+        meta = loads(path.read_bytes().decode("utf-8-sig"))
     except UnicodeDecodeError:
         raise SessionFileError(f"{path}: not a text file") from None
     except json.JSONDecodeError as exc:
         raise SessionFileError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno}, column {exc.colno})") \
             from None
+    except JsonTextError as exc:
+        raise SessionFileError(f"{path}: not a session file: {exc}") from None
     if not isinstance(meta, dict):
         raise SessionFileError(f"{path}: expected a JSON object; got {_kind(meta)}")
     if meta.get("format") != "imucalib.session":

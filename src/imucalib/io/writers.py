@@ -3,14 +3,18 @@
 Two ways, chosen by :func:`write_csv`:
 
 * **copying the source**: a recording read from a CSV file (:func:`imucalib.io.read`)
-  carries where that file's rows lie (``metadata["source_layout"]``). While
-  the file is unchanged and the recording still holds the samples read from it
-  (same checksum: :func:`.csvparse.fingerprint`), every byte of the file is
-  copied as it was written (preamble, header, each cell with its precision,
-  integer stamps, IDs, text, columns of the same name, the separator, the line
-  ends) and the calibrated columns are appended to each row, with their names
-  appended to the header. The file is streamed a few megabytes at a time:
-  nothing of it is held as Python strings.
+  carries where that file's rows lie (``metadata["source_layout"]``) and a
+  checksum of its bytes as they were parsed (:func:`.csvparse.digest`). While
+  the recording still holds the samples read (same checksum of its arrays:
+  :func:`.csvparse.fingerprint`), every byte the reader parsed, up to the
+  file's size when it was read, is copied as it was written (preamble, header,
+  each cell with its precision, integer stamps, IDs, text, columns of the same
+  name, the separator, the line ends) and the calibrated columns are appended
+  to each row, with their names appended to the header. The copy is checked
+  against the parse's checksum before it replaces anything: a file that grew
+  since (a logger still writing) is copied up to the end it had when read; one
+  rewritten or cut short is not copied. The file is streamed a few megabytes
+  at a time: nothing of it is held as Python strings.
 * **from the values** otherwise: each column written from the recording's
   arrays; floats with the shortest text that reads back to the same double
   (Python's ``repr``), integers as integers, integer time stamps (ns since the
@@ -19,7 +23,6 @@ Two ways, chosen by :func:`write_csv`:
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -75,11 +78,12 @@ def write_csv(
 
     The rows go to a temporary file next to ``path``, moved onto ``path`` only
     when all are written (:func:`imucalib.io.atomic.atomic_write`): a failed
-    or interrupted write leaves an existing ``path`` as it was. A source file
-    that changes while it is copied (rewritten, appended to, cut short: its
-    size or modification time on the open file differs from the read's) is
-    noticed before the copy replaces ``path``; the copy is discarded and the
-    rows are written from the values, which are the samples that were read.
+    or interrupted write leaves an existing ``path`` as it was. The source's
+    bytes are copied only up to the size it had when read, and only if their
+    checksum is the parse's (checked before the copy replaces ``path``): a
+    source appended to since is copied up to that end; one rewritten (even
+    with its size and modification time put back) or cut short is not, and
+    the rows are written from the values, which are the samples that were read.
     """
     rec = recording
     n = len(rec)
@@ -94,13 +98,22 @@ def write_csv(
 
 # ------------------------------------------------------------ copying the source
 def _source_layout(rec: Recording) -> csvparse.Layout | None:
-    """The layout of the CSV file ``rec`` was read from, when copying its text writes ``rec`` exactly."""
+    """The layout of the CSV file ``rec`` was read from, when copying its text may write ``rec`` exactly.
+
+    The recording must hold the rows read, unchanged, and the file must be at
+    least as long as when it was read; whether its bytes are still the ones
+    parsed is checked while they are copied (:func:`_copy_source`).
+    """
     info = rec.metadata.get("source_layout")
-    if not info:
+    if not info or not info.get("digest"):
         return None
     layout = csvparse.Layout.from_dict(info)
-    if (info.get("rows") != len(rec) or not layout.unchanged()
-            or info.get("fingerprint") != csvparse.fingerprint(rec)):
+    if info.get("rows") != len(rec) or info.get("fingerprint") != csvparse.fingerprint(rec):
+        return None
+    try:
+        if layout.path.stat().st_size < layout.size:
+            return None
+    except OSError:
         return None
     return layout
 
@@ -119,13 +132,38 @@ def _header_names(rec: Recording, layout: csvparse.Layout) -> list[str]:
 
 
 class _SourceChanged(Exception):
-    """The source file is not the one the recording was read from (checked on the open file)."""
+    """The source file's bytes are not the ones the recording was read from."""
 
 
-def _as_read(src, layout: csvparse.Layout) -> bool:
-    """Whether the open file ``src`` has the size and modification time the recording's file had when read."""
-    st = os.fstat(src.fileno())
-    return st.st_size == layout.size and st.st_mtime_ns == layout.mtime_ns
+class _Checked:
+    """The open source file read forwards from its start, up to its size as read, each byte fed to a checksum.
+
+    :meth:`as_read` tells whether everything up to that size was read and its
+    checksum is the parse's (:func:`.csvparse.digest`).
+    """
+
+    def __init__(self, src, layout: csvparse.Layout) -> None:
+        self.src, self.size, self.pos = src, layout.size, 0
+        self.digest = csvparse.digest()
+
+    def read(self, n: int) -> bytes:
+        data = self.src.read(max(0, min(n, self.size - self.pos)))
+        self.digest.update(data)
+        self.pos += len(data)
+        return data
+
+    def readline(self, limit: int) -> bytes:
+        data = self.src.readline(max(0, min(limit, self.size - self.pos)))
+        self.digest.update(data)
+        self.pos += len(data)
+        return data
+
+    def seek(self, pos: int) -> None:
+        if pos != self.pos:  # every byte goes through the checksum, in order
+            raise ValueError(f"the source is read forwards: at byte {self.pos}, asked for {pos}")
+
+    def as_read(self, expected: str) -> bool:
+        return self.pos == self.size and self.digest.hexdigest() == expected
 
 
 def _body_chunks(src, layout: csvparse.Layout, chunk_bytes: int):
@@ -145,10 +183,11 @@ def _body_chunks(src, layout: csvparse.Layout, chunk_bytes: int):
 def _copy_source(path: str | Path, rec: Recording, layout: csvparse.Layout, added: dict[str, np.ndarray]) -> bool:
     """Copy the source's text with the calibrated columns appended; False (nothing written) when it changed.
 
-    Everything is read from one open file: its size and modification time are
-    checked against the read before the copy and again after it, before the
-    copy replaces ``path`` (a change in between discards the copy and leaves
-    ``path`` as it was); no byte past the end the file had when read is taken.
+    Everything is read from one open file, forwards, up to the size it had
+    when read, through the checksum the parse took of those bytes
+    (:class:`_Checked`); a difference (rewritten, cut short) is found before
+    the copy replaces ``path``: the copy is discarded and ``path`` left as it
+    was. Bytes appended since the read are never taken.
     """
     sep = layout.sep or " "
     bsep = sep.encode()
@@ -156,17 +195,17 @@ def _copy_source(path: str | Path, rec: Recording, layout: csvparse.Layout, adde
     names = list(added) if spaced else [k.replace(" ", "") for k in added]
     columns = list(added.values())
     row_format = (sep + ADDED_FORMAT) * len(columns)
+    expected = rec.metadata["source_layout"]["digest"]
     try:
         src = layout.path.open("rb")
     except OSError:
         return False
     with src:
-        if not _as_read(src, layout):
-            return False
+        checked = _Checked(src, layout)
         try:
             with atomic_write(path, "wb") as dst:
-                _copy_rows(src, dst, rec, layout, names, columns, row_format, bsep, spaced)
-                if not _as_read(src, layout):  # changed while it was copied: the copy is discarded, path kept
+                _copy_rows(checked, dst, rec, layout, names, columns, row_format, bsep, spaced)
+                if not checked.as_read(expected):  # not the bytes parsed: the copy is discarded, path kept
                     raise _SourceChanged
         except _SourceChanged:
             return False

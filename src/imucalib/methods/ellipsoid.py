@@ -21,7 +21,7 @@ from ..fit.accelerometer import (
 )
 from ..fit.gyroscope import fit_gyroscope
 from ..metrics import fit_summary, interval_means
-from ..segment import pose_blocks, static_poses, unreliable_transitions
+from ..segment import no_usable_rotations, pose_blocks, static_poses, unreliable_transitions
 
 __all__ = ["calibrate"]
 
@@ -36,8 +36,10 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     (:func:`~imucalib.fit.accelerometer.fit_determined`, ``fit`` says which).
     The gyroscope (bias, drift, g-sensitivity, scales and misalignment) by
     :func:`imucalib.fit.gyroscope.fit_gyroscope` over the poses and the rotations;
-    a recording in blocks (no motion recorded between its poses) leaves the
-    gyroscope uncalibrated.
+    a recording in blocks (no motion recorded between its poses), or one whose
+    rotations are all unreliable (:func:`imucalib.segment.no_usable_rotations`),
+    leaves the gyroscope uncalibrated and says why in
+    ``fit["gyroscope_not_calibrated"]``.
     """
     intervals = static_poses(recording, gravity, intervals, init_static=init_static)
     means = interval_means(recording.acc, intervals)
@@ -49,9 +51,10 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     else:  # fewer poses than the ellipsoid's 9 parameters: the model they determine
         acc, _, which = fit_determined(means, gravity)
     blocks = pose_blocks(recording) is not None
-    gyro_fit = None if recording.gyro is None or blocks else fit_gyroscope(  # none without rotations recorded
-        recording, intervals, acc, exclude=unreliable_transitions(recording, intervals),
-        acc_cov=accelerometer_covariance(acc, means, gravity, which=which))
+    exclude = {} if recording.gyro is None or blocks else unreliable_transitions(recording, intervals)
+    why_not = None if recording.gyro is None or blocks else no_usable_rotations(intervals, exclude)
+    gyro_fit = None if recording.gyro is None or blocks or why_not else fit_gyroscope(  # none without rotations
+        recording, intervals, acc, exclude=exclude, acc_cov=accelerometer_covariance(acc, means, gravity, which=which))
     gyro, gyro_errors = (gyro_fit.model, gyro_fit.errors) if gyro_fit is not None else (None, {})
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="ellipsoid",
                       model="linear", units=units_of(recording))
@@ -62,6 +65,10 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     if blocks and recording.gyro is not None:
         fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
                                            "the rotations that calibrate the gyroscope were not recorded")
+    elif why_not:  # nothing to fit the gyroscope to: the accelerometer's calibration, and why
+        fit["gyroscope_not_calibrated"] = why_not
+        if exclude:
+            fit["rotations_left_out"] = {str(k): w for k, w in sorted(exclude.items())}
     if which is None:
         fit["uncertainty"] = accelerometer_errors(acc, means, gravity) | gyro_errors
     else:

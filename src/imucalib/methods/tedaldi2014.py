@@ -45,7 +45,7 @@ from ..fit.gyroscope import errors_at, fit_gyroscope, joint_errors_at, static_gy
 from ..metrics import fit_summary, interval_means
 from ..presets import MIN_INTERVAL, MULTIPLIERS, VARIANCE_WINDOW
 from ..recording import STANDARD_GRAVITY, Interval, Recording
-from ..segment import detect_intervals, pose_blocks, unreliable_transitions
+from ..segment import detect_intervals, no_usable_rotations, pose_blocks, unreliable_transitions
 
 __all__ = ["calibrate", "uncertainty"]
 
@@ -127,7 +127,11 @@ def calibrate(
     -------
     Calibration
         ``fit`` holds the figures every method gives (``docs/architecture.rst``) plus ``threshold_multiplier`` and
-        ``initial_rest_seconds``.
+        ``initial_rest_seconds``. Without a gyroscope (accelerometer-only
+        recording), without rotations recorded (poses in blocks), or when no
+        rotation is reliable (:func:`imucalib.segment.no_usable_rotations`:
+        saturated, spiking or gapped rotations are left out), the calibration
+        has no gyroscope and ``fit["gyroscope_not_calibrated"]`` says why.
     """
     say = progress or (lambda msg: None)
     say("detecting static intervals")
@@ -147,11 +151,14 @@ def calibrate(
         acc_model, _, which = fit_determined(means, gravity)
     if recording.gyro is None or pose_blocks(recording) is not None:  # no gyroscope, or no rotations recorded
         return _accelerometer_alone(recording, intervals, acc_model, which, gravity, mult, rest)
+    exclude = unreliable_transitions(recording, intervals)
+    why = no_usable_rotations(intervals, exclude)
+    if why:  # nothing to fit the gyroscope to: the accelerometer's calibration, and why
+        return _accelerometer_alone(recording, intervals, acc_model, which, gravity, mult, rest, why, exclude)
     say("calibrating the gyroscope")
     acc_cov = accelerometer_covariance(acc_model, means, gravity, which=which)
     gyro = fit_gyroscope(recording, intervals, acc_model, estimate_bias=estimate_gyro_bias,
-                         g_sensitivity=gyro_g_sensitivity, acc_cov=acc_cov,
-                         exclude=unreliable_transitions(recording, intervals))
+                         g_sensitivity=gyro_g_sensitivity, acc_cov=acc_cov, exclude=exclude)
     gyro_model, gyro_errors = gyro.model, gyro.errors
     cal = Calibration(
         accelerometer=acc_model,
@@ -174,16 +181,22 @@ def calibrate(
 
 
 def _accelerometer_alone(recording: Recording, intervals: list[Interval], acc_model, which, gravity: float,
-                         mult: float, rest: Interval) -> Calibration:
+                         mult: float, rest: Interval, why: str | None = None,
+                         left_out: dict[int, str] | None = None) -> Calibration:
     """The accelerometer part of the method: a calibration with no gyroscope, for an accelerometer-only
-    recording or one whose poses were recorded as separate blocks (no rotations between them)."""
+    recording, one whose poses were recorded as separate blocks (no rotations between them), or one whose
+    rotations were all left out as unreliable (``why``; ``left_out``: the rotations, and why)."""
     means = interval_means(recording.acc, intervals)
     cal = Calibration(accelerometer=acc_model, gyroscope=None, gravity=gravity, method="tedaldi2014", model="linear",
                       units=units_of(recording))
     fit = fit_summary(cal, recording, intervals, gravity)
     fit["threshold_multiplier"] = mult
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
-    if recording.gyro is not None:
+    if why:
+        fit["gyroscope_not_calibrated"] = why
+        if left_out:
+            fit["rotations_left_out"] = {str(k): w for k, w in sorted(left_out.items())}
+    elif recording.gyro is not None:
         fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
                                            "the rotations that calibrate the gyroscope were not recorded")
     if which is None:
