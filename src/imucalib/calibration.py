@@ -22,11 +22,9 @@ from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
 from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, Recording
 from .thermal import ThermalModel
 
-__all__ = ["ACCELEROMETER_ONLY_METHODS", "FULL_SCALE", "Calibration", "CalibrationFileError", "FORMAT",
+__all__ = ["FULL_SCALE", "Calibration", "CalibrationFileError", "FORMAT",
            "FORMAT_VERSION", "GRAVITY_LIMITS", "check_document", "check_magnitudes"]
 
-#: the methods that calibrate an accelerometer-only recording (the calibration then has no gyroscope)
-ACCELEROMETER_ONLY_METHODS = ("ellipsoid", "six_position", "tedaldi2014")
 FORMAT = "imucalib.calibration"
 FORMAT_VERSION = 1
 _BLOCK = 1 << 16  # samples calibrated at a time by apply

@@ -650,7 +650,7 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     sentences of the suspect and rejecting ones, notes the rest.
 
     ``purpose="validate"`` judges a calibration on a recording it was not
-    fitted to (:func:`imucalib.validate.validate`, with ``fit`` holding the
+    fitted to (:func:`imucalib.validation.validate`, with ``fit`` holding the
     figures on that recording): the checks of the fit itself — poses per
     parameter, over-fit, the 1σ errors' usefulness — are left out; the
     residual against the noise floor, the gyroscope against its noise, the
