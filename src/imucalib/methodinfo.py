@@ -19,7 +19,7 @@ from functools import cache
 from pathlib import Path
 
 __all__ = ["DATA_KINDS", "DEFAULT_METHOD", "MethodInfo", "Option", "accelerometer_only", "declared", "method_names",
-           "needing", "read_declaration"]
+           "markdown_table", "needing", "read_declaration"]
 
 #: the method ``imucalib calibrate`` and :func:`imucalib.calibrate` use when none is named
 DEFAULT_METHOD = "tedaldi2014"
@@ -152,6 +152,16 @@ def method_names() -> list[str]:
     return sorted(declared())
 
 
+def markdown_table() -> str:
+    """The README's table of methods, one row per declaration (``python -m imucalib.methodinfo`` prints it)."""
+    rows = ["| method | data | models | estimates | paper |", "|---|---|---|---|---|"]
+    for name, info in declared().items():
+        default = " (default)" if name == DEFAULT_METHOD else ""
+        models = ", ".join(f"`{m}`" for m in info.models)
+        rows.append(f"| `{name}`{default} | {', '.join(info.needs)} | {models} | {info.summary} | {info.paper} |")
+    return "\n".join(rows)
+
+
 def needing(kind: str) -> tuple[str, ...]:
     """The declared methods that need ``kind`` of data (a key of :data:`DATA_KINDS`), sorted."""
     if kind not in DATA_KINDS:
@@ -162,3 +172,7 @@ def needing(kind: str) -> tuple[str, ...]:
 def accelerometer_only() -> tuple[str, ...]:
     """The declared methods that calibrate an accelerometer-only recording, sorted."""
     return tuple(sorted(name for name, info in declared().items() if info.accelerometer_only))
+
+
+if __name__ == "__main__":
+    print(markdown_table())

@@ -55,7 +55,8 @@ from ..segment import (
 
 METHOD = MethodInfo(
     name="ferraris",
-    summary="six static faces and known-angle turns, in closed form (the imucal package's method)",
+    summary="closed form from six static faces and a known-angle turn about each axis: full misalignments, "
+            "linear gyro g-sensitivity (what `imucal` implements)",
     needs=("static poses", "six faces", "known-angle turns", "gyroscope"),
     models=("linear",),
     options=(

@@ -50,8 +50,8 @@ from ..segment import find_faces, static_poses
 
 METHOD = MethodInfo(
     name="qureshi2017",
-    summary="9-parameter accelerometer by Newton's method on the interval means; gyroscope from the "
-            "measured rotations",
+    summary="9-parameter accelerometer by Newton's method on the interval means (18 orientations); "
+            "gyroscope bias and scale from turns about each horizontal axis, static-bias or dynamic approach",
     needs=("static poses", "rotations", "gyroscope"),
     models=("linear",),
     options=(

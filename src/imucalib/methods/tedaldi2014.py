@@ -50,8 +50,8 @@ from ..segment import detect_intervals, pose_blocks, unreliable_transitions
 
 METHOD = MethodInfo(
     name="tedaldi2014",
-    summary="linear accelerometer on the static poses at the detector threshold that fits best, then the "
-            "gyroscope on the rotations between them",
+    summary="linear model, automatic static detection: the accelerometer on the static poses at the "
+            "detector threshold that fits best, then the gyroscope on the rotations between them",
     needs=("static poses", "rotations"),
     models=("linear",),
     options=(

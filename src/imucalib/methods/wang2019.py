@@ -39,7 +39,7 @@ from ..solve import levenberg_marquardt, standard_errors
 METHOD = MethodInfo(
     name="wang2019",
     summary="navigation-grade model with nonlinear scale factors from turntable positions and "
-            "clockwise/counter-clockwise turns",
+            "clockwise/counter-clockwise turns (`imucalib plan --method wang2019` prints the plan)",
     needs=("turntable aggregates", "gyroscope"),
     models=("wang2019",),
     options=(

@@ -81,8 +81,8 @@ from ..verdict import THRESHOLDS, plausible
 
 METHOD = MethodInfo(
     name="zhang2021",
-    summary="3rd-order scale factors, misalignment, biases, gyro g-sensitivity and lever arm; the model "
-            "variant chosen by Akaike's criterion",
+    summary="the main method: 3rd-order scale factors, misalignment, biases, gyro g-sensitivity and lever "
+            "arm; the model variant chosen by Akaike's criterion",
     needs=("static poses", "rotations", "tosses", "gyroscope"),
     models=("all", "linear", "quadratic", "cubic"),
     options=(
