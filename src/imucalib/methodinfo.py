@@ -14,7 +14,7 @@ read here is what the imported modules hold.
 from __future__ import annotations
 
 import ast
-from dataclasses import dataclass
+from collections import namedtuple
 from functools import cache
 from pathlib import Path
 
@@ -37,8 +37,7 @@ DATA_KINDS = {
 }
 
 
-@dataclass(frozen=True)
-class Option:
+class Option(namedtuple("Option", "name default unit meaning")):
     """One keyword option of a method's ``calibrate``.
 
     Attributes
@@ -51,16 +50,16 @@ class Option:
         Its unit (``""`` for none).
     meaning : str
         What it sets, in a few words.
+
+    A named tuple rather than a dataclass: :mod:`dataclasses` imports :mod:`inspect`, which the command
+    line's start-up (building ``--method``'s help) should not pay for.
     """
 
-    name: str
-    default: object
-    unit: str
-    meaning: str
+    __slots__ = ()
 
 
-@dataclass(frozen=True)
-class MethodInfo:
+class MethodInfo(namedtuple("MethodInfo", "name summary needs models options paper accelerometer_only",
+                            defaults=(False,))):
     """A method's declaration: its name, summary, the data it needs, its models, options and paper.
 
     Attributes
@@ -81,20 +80,16 @@ class MethodInfo:
         True when it calibrates an accelerometer-only recording (no gyroscope section).
     """
 
-    name: str
-    summary: str
-    needs: tuple[str, ...]
-    models: tuple[str, ...]
-    options: tuple[Option, ...]
-    paper: str
-    accelerometer_only: bool = False
+    __slots__ = ()
 
-    def __post_init__(self) -> None:
-        unknown = [k for k in self.needs if k not in DATA_KINDS]
+    def __new__(cls, *args, **kwargs):
+        info = super().__new__(cls, *args, **kwargs)
+        unknown = [k for k in info.needs if k not in DATA_KINDS]
         if unknown:
-            raise ValueError(f"{self.name}: unknown data kinds {unknown}; use those of DATA_KINDS")
-        if not self.models:
-            raise ValueError(f"{self.name}: a method has at least one model")
+            raise ValueError(f"{info.name}: unknown data kinds {unknown}; use those of DATA_KINDS")
+        if not info.models:
+            raise ValueError(f"{info.name}: a method has at least one model")
+        return info
 
     @property
     def default_model(self) -> str:
