@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import warnings
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -16,10 +17,11 @@ from typing import Any
 
 import numpy as np
 
+from .fitreport import undeclared
 from .io.atomic import atomic_write
 from .io.jsontext import JsonTextError, dumps, jsonable, loads
 from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
-from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, Recording
+from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, ImucalibWarning, Recording
 from .thermal import ThermalModel
 
 __all__ = ["FULL_SCALE", "Calibration", "CalibrationFileError", "FORMAT",
@@ -259,9 +261,15 @@ class Calibration:
     def from_dict(cls, d: dict[str, Any]) -> Calibration:
         """Inverse of :meth:`to_dict`; checks the format, its version and every entry's type and shape.
 
-        Raises :class:`CalibrationFileError` naming the entry that is wrong.
+        Raises :class:`CalibrationFileError` naming the entry that is wrong. A ``fit`` field that is not
+        declared (:data:`imucalib.fitreport.FIELDS`: a file from another version) is kept as read, with an
+        :class:`~imucalib.recording.ImucalibWarning` naming it.
         """
         check_document(d)
+        unknown = undeclared(d.get("fit") or {})
+        if unknown:
+            warnings.warn(f"the calibration's fit holds field(s) this version does not know: {', '.join(unknown)}; "
+                          "kept as read", ImucalibWarning, stacklevel=2)
         units = d.get("units")
         calibration = cls(
             accelerometer=TriadModel.from_dict(d["accelerometer"], default_shape="upper"),
