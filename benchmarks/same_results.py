@@ -9,6 +9,7 @@ were. This script calibrates
 * the Zhang 2021 simulated session of seed 1 with zhang2021 ``all``;
 
 and with ``--methods a,b,…`` also each of those methods on the Xsens session and the hand-held seeds
+(six_position, ferraris and qureshi2017 also on the hand-held Ferraris procedure of those seeds)
 (spelled out, so that the same list runs on code from before a method's declaration existed); it
 writes every calibration's file content (parameters, uncertainties, the
 verdict and its reasons; the creation time left out) to ``--save FILE``.
@@ -50,6 +51,9 @@ def results(methods: list[str] | None = None) -> dict:
             out[f"xsens/{method}"] = _attempt(calibrate, rec, method=method, gravity=9.81744)
         for seed in (1, 2, 3):
             out[f"handheld{seed}/{method}"] = _attempt(calibrate, session("handheld", rng=seed), method=method)
+            if method in ("six_position", "ferraris", "qureshi2017"):  # the cube's faces, as users do Ferraris
+                faces = session("handheld", rng=seed, procedure="ferraris")
+                out[f"handheld_ferraris{seed}/{method}"] = _attempt(calibrate, faces, method=method)
     docs = {}
     for name, cal in out.items():
         if isinstance(cal, str):  # the method's error, which must stay the same too
