@@ -17,11 +17,11 @@ from typing import Any
 
 import numpy as np
 
-from .fitreport import undeclared
 from .io.atomic import atomic_write
 from .io.jsontext import JsonTextError, dumps, jsonable, loads
 from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
 from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, ImucalibWarning, Recording
+from .reportfields import undeclared
 from .thermal import ThermalModel
 
 __all__ = ["FULL_SCALE", "Calibration", "CalibrationFileError", "FORMAT",
@@ -262,7 +262,7 @@ class Calibration:
         """Inverse of :meth:`to_dict`; checks the format, its version and every entry's type and shape.
 
         Raises :class:`CalibrationFileError` naming the entry that is wrong. A ``fit`` field that is not
-        declared (:data:`imucalib.fitreport.FIELDS`: a file from another version) is kept as read, with an
+        declared (:data:`imucalib.reportfields.FIELDS`: a file from another version) is kept as read, with an
         :class:`~imucalib.recording.ImucalibWarning` naming it.
         """
         check_document(d)

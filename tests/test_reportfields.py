@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from imucalib.calibration import Calibration
-from imucalib.fitreport import FIELDS, GROUPS, field, undeclared
 from imucalib.methods import calibrate
 from imucalib.models import TriadModel
 from imucalib.recording import ImucalibWarning
+from imucalib.reportfields import FIELDS, GROUPS, field, undeclared
 from imucalib.scenarios import handheld, session
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "imucalib"
@@ -74,7 +74,7 @@ def test_code_reads_and_writes_only_declared_fields():
             found.append(key)
             if key not in {f.name for f in FIELDS}:
                 pytest.fail(f"{path.relative_to(SRC)}:{line}: fit field {key!r} is not declared in "
-                            "imucalib.fitreport.FIELDS")
+                            "imucalib.reportfields.FIELDS")
     assert len(set(found)) > 40  # the scan sees the package's fields
 
 

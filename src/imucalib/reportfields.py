@@ -165,7 +165,7 @@ def field(name: str) -> FieldInfo:
     try:
         return _BY_NAME[name]
     except KeyError:
-        raise KeyError(f"{name!r} is not a declared field of the fit report (imucalib.fitreport.FIELDS)") from None
+        raise KeyError(f"{name!r} is not a declared field of the fit report (imucalib.reportfields.FIELDS)") from None
 
 
 def undeclared(fit: dict) -> list[str]:
