@@ -32,7 +32,7 @@ from imucalib.metrics import interval_means
 from imucalib.recording import ImucalibWarning, Interval
 from imucalib.scenarios import handheld
 from imucalib.thermal import combine
-from imucalib.validate import validate
+from imucalib.validation import validate
 
 STEADY = {"turn_on": 0.0, "gyro_drift": 0.0, "gyro_rw": 0.0}
 AXES = {"mpu9250": [[0, 1, 0], [1, 0, 0], [0, 0, -1]], "reflected": [[0, 1, 0], [1, 0, 0], [0, 0, 1]]}

@@ -8,7 +8,10 @@ were. This script calibrates
 * the hand-held simulated sessions of seeds 1, 2 and 3 with tedaldi2014;
 * the Zhang 2021 simulated session of seed 1 with zhang2021 ``all``;
 
-and writes every calibration's file content (parameters, uncertainties, the
+and with ``--methods a,b,…`` also each of those methods on the Xsens session and the hand-held seeds
+(six_position, ferraris and qureshi2017 also on the hand-held Ferraris procedure of those seeds)
+(spelled out, so that the same list runs on code from before a method's declaration existed); it
+writes every calibration's file content (parameters, uncertainties, the
 verdict and its reasons; the creation time left out) to ``--save FILE``.
 ``--compare FILE`` compares with a stored set instead: every number within a
 relative 1e-12 (absolute 1e-15 near zero), every string and shape equal. Run
@@ -29,8 +32,8 @@ from _common import DATA
 RTOL, ATOL = 1e-12, 1e-15
 
 
-def results() -> dict:
-    """Every reference calibration as its JSON dictionary, by name."""
+def results(methods: list[str] | None = None) -> dict:
+    """Every reference calibration as its JSON dictionary, by name (``methods``: more, see the module)."""
     from imucalib.io import read
     from imucalib.methods import calibrate
     from imucalib.scenarios import session
@@ -43,12 +46,31 @@ def results() -> dict:
     for seed in (1, 2, 3):
         out[f"handheld{seed}/tedaldi2014"] = calibrate(session("handheld", rng=seed), method="tedaldi2014")
     out["zhang2021_1/zhang2021_all"] = calibrate(session("zhang2021", rng=1), method="zhang2021", model="all")
+    for method in methods or []:
+        if xsens.is_dir():
+            out[f"xsens/{method}"] = _attempt(calibrate, rec, method=method, gravity=9.81744)
+        for seed in (1, 2, 3):
+            out[f"handheld{seed}/{method}"] = _attempt(calibrate, session("handheld", rng=seed), method=method)
+            if method in ("six_position", "ferraris", "qureshi2017"):  # the cube's faces, as users do Ferraris
+                faces = session("handheld", rng=seed, procedure="ferraris")
+                out[f"handheld_ferraris{seed}/{method}"] = _attempt(calibrate, faces, method=method)
     docs = {}
     for name, cal in out.items():
+        if isinstance(cal, str):  # the method's error, which must stay the same too
+            docs[name] = {"error": cal}
+            continue
         d = json.loads(cal.to_json())
         d.pop("created", None)
         docs[name] = d
     return docs
+
+
+def _attempt(fn, *args, **kwargs):
+    """``fn(*args, **kwargs)``, or the text of the ValueError it raises."""
+    try:
+        return fn(*args, **kwargs)
+    except ValueError as exc:
+        return f"ValueError: {exc}"
 
 
 def differences(a, b, where: str = "") -> list[str]:
@@ -75,8 +97,9 @@ def main() -> None:
     group = parser.add_mutually_exclusive_group(required=True)
     group.add_argument("--save", metavar="FILE", help="write the calibrations here")
     group.add_argument("--compare", metavar="FILE", help="compare with the calibrations stored here")
+    parser.add_argument("--methods", help="comma-separated methods to run on the Xsens session and hand-held seeds too")
     args = parser.parse_args()
-    docs = results()
+    docs = results(args.methods.split(",") if args.methods else None)
     if args.save:
         Path(args.save).write_text(json.dumps(docs, indent=1) + "\n", encoding="utf-8")
         print(json.dumps({"saved": args.save, "calibrations": sorted(docs)}))

@@ -28,7 +28,7 @@ from imucalib.calibration import Calibration, CalibrationFileError, check_magnit
 from imucalib.cli import main  # noqa: E402
 from imucalib.io import write_csv  # noqa: E402
 from imucalib.scenarios import pose_session  # noqa: E402
-from imucalib.validate import validate  # noqa: E402
+from imucalib.validation import validate  # noqa: E402
 from imucalib.verdict import assess  # noqa: E402
 from synth import linear_truth  # noqa: E402
 

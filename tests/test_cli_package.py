@@ -69,7 +69,7 @@ def test_scenario_choices_follow_the_library(monkeypatch):
 
 def test_validate_is_the_library_function(capsys, tmp_path):
     from imucalib.methods import calibrate
-    from imucalib.validate import validate
+    from imucalib.validation import validate
 
     rec, truth, _ = tedaldi_session(seed=12, noise_acc=0.003, noise_gyro=0.002)
     calibrate(rec, method="tedaldi2014", gravity=truth.gravity).save(tmp_path / "c.json")

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imucalib.compare import compare, even_folds
+from imucalib.comparison import compare, even_folds
 from imucalib.crossval import leave_one_pose_out
 from imucalib.io import read
 from imucalib.methods import calibrate, tedaldi2014
@@ -60,7 +60,7 @@ def test_cubic_without_tosses_does_not_overfit(xsens):
 
 
 def test_rank_orders_ran_then_verdict_then_score():
-    from imucalib.compare import rank
+    from imucalib.comparison import rank
 
     def row(method, ok=True, verdict="accepted", acc=None, ang=None):
         return {"method": method, "ok": ok, "verdict": verdict, "cv_accelerometer_residual_rms": acc,
@@ -86,9 +86,9 @@ def test_rank_orders_ran_then_verdict_then_score():
 def test_identical_scores_are_a_tie_not_an_arbitrary_best(tmp_path, capsys, monkeypatch):
     """Two methods with the same verdict and the same figures share the first rank; there is no best, and the
     table says it is a tie. A third, worse one keeps its own rank."""
-    from imucalib import compare as compare_module
+    from imucalib import comparison as compare_module
     from imucalib.cli import main
-    from imucalib.compare import rank, tied_best
+    from imucalib.comparison import rank, tied_best
     from imucalib.io import write_csv
     from imucalib.recording import Recording
 

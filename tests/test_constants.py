@@ -50,7 +50,7 @@ def _default(fn, name):
 
 
 def test_detectors_and_their_callers_default_to_the_presets():
-    from imucalib import segment, validate
+    from imucalib import segment, validation
     from imucalib.methods import tedaldi2014
 
     for fn in (segment.detect_intervals, tedaldi2014.calibrate):
@@ -63,7 +63,7 @@ def test_detectors_and_their_callers_default_to_the_presets():
     assert _default(segment.find_initial_rest, "factor") == presets.REST_FACTOR
     assert _default(segment.gyro_still, "rate_limit") == presets.STILL_RATE
     assert segment.MIN_INTERVALS is presets.MIN_INTERVALS
-    assert validate.THRESHOLD_MULTIPLIER == presets.VALIDATE_MULTIPLIER
+    assert validation.THRESHOLD_MULTIPLIER == presets.VALIDATE_MULTIPLIER
 
 
 def test_the_detect_fall_command_defaults_to_the_preset(capsys):

@@ -10,7 +10,7 @@ from imucalib.methods import calibrate
 from imucalib.recording import ImucalibWarning, Recording
 from imucalib.scenarios import handheld
 from imucalib.thermal import ThermalModel, combine, compensate, evaluate
-from imucalib.validate import validate
+from imucalib.validation import validate
 
 #: a session isolated from the other run-to-run changes of the bias (turn-on offset, drift, random walk),
 #: so that what differs between temperatures is the temperature

@@ -9,7 +9,7 @@ import pytest
 from imucalib.cli import build_parser, main
 from imucalib.io import write_csv
 from imucalib.scenarios import pose_session
-from imucalib.validate import validate
+from imucalib.validation import validate
 from imucalib.verdict import assess
 from synth import linear_truth
 

@@ -55,9 +55,10 @@ FLOORS_PACKAGE = "imucalib"
 #: package; ``""`` is the package's own ``__init__``). A module is on the floor of its longest listed
 #: prefix (``io.session`` is above the rest of ``io``). A module imports its own floor and those below.
 FLOORS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
-    ("foundations", "units, records, models, rotations, solvers, residuals, pose plans",
-     ("constants", "presets", "recording", "conventions", "models", "kinematics", "solve", "residuals", "metrics",
-      "plans", "progress")),
+    ("foundations", "units, records, models, rotations, solvers, residuals, pose plans, method declarations, "
+     "the fit report's fields",
+     ("constants", "presets", "methodinfo", "reportfields", "recording", "conventions", "models", "kinematics", "solve",
+      "residuals", "metrics", "plans", "progress")),
     ("readers", "files and streams in and out", ("io",)),
     ("estimators", "segmentation, fits, thermal models, noise, verdict",
      ("fit", "segment", "thermal", "verdict", "noise")),
@@ -67,7 +68,7 @@ FLOORS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("simulators", "simulated sessions with their truth", ("scenarios",)),
     ("methods", "the published methods over the shared stages", ("methods",)),
     ("services", "validation, comparison, guided recording, batch runs and the calibration store",
-     ("compare", "crossval", "validate", "record", "batch", "store")),
+     ("comparison", "crossval", "validation", "record", "batch", "store")),
     ("experiments", "the papers' experiments and studies: methods run on simulated sessions",
      ("experiments",)),
     ("interface", "the package's API and the command line", ("", "cli")),

@@ -1,5 +1,14 @@
-"""imucalib: calibrate the accelerometer and gyroscope of low-cost MEMS IMUs without equipment.
+"""imucalib: calibrate the accelerometer, gyroscope and magnetometer of low-cost MEMS IMUs without equipment.
 
+The Python route is the command line's::
+
+    import imucalib
+
+    data = imucalib.read("session.csv")          # what ``imucalib calibrate`` reads, magnetometer included
+    cal = imucalib.calibrate(data)               # the command line's default method
+    cal.save("calib.json")                       # the file ``imucalib calibrate session.csv -o calib.json`` writes
+
+with :func:`validate` and :func:`compare` beside them, and :class:`Calibration` (``Calibration.load``).
 The names below are imported on first use (PEP 562), so that ``import imucalib``
 and the command line's start-up stay light: a command imports only what it runs.
 """
@@ -10,19 +19,29 @@ import importlib
 
 __all__ = [
     "Calibration",
+    "DEFAULT_METHOD",
     "ImucalibWarning",
     "Interval",
     "Recording",
     "STANDARD_GRAVITY",
     "TriadModel",
     "__version__",
+    "calibrate",
+    "compare",
+    "read",
+    "validate",
 ]
 
 __version__ = "0.1.0"
 
-#: the public names and the module each comes from
-_LAZY = {
+#: the public names and the module each comes from (``(module, name there)`` where the name differs)
+_LAZY: dict[str, str | tuple[str, str]] = {
     "Calibration": ".calibration",
+    "DEFAULT_METHOD": ".methodinfo",
+    "calibrate": ".methods",
+    "compare": ".comparison",
+    "read": (".io.data", "read_data"),
+    "validate": ".validation",
     "TriadModel": ".models",
     "ImucalibWarning": ".recording",
     "Interval": ".recording",
@@ -32,10 +51,11 @@ _LAZY = {
 
 
 def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
+    where = _LAZY.get(name)
+    if where is None:
         raise AttributeError(f"module 'imucalib' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module, __name__), name)
+    module, attribute = where if isinstance(where, tuple) else (where, name)
+    value = getattr(importlib.import_module(module, __name__), attribute)
     globals()[name] = value  # found directly from now on
     return value
 

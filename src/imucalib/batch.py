@@ -90,6 +90,7 @@ from .io.atomic import refuse_overwriting_inputs
 from .io.errors import ReaderError
 from .io.inputs import check_input_path, path_kind
 from .io.rosbag import is_rosbag
+from .methodinfo import DEFAULT_METHOD
 from .recording import STANDARD_GRAVITY
 from .store import Store, canonical_json, check_store_path, parse_time
 
@@ -99,8 +100,6 @@ __all__ = ["EXCERPT_CHARS", "MANIFEST_COLUMNS", "BatchError", "ManifestError", "
 #: the manifest's columns; ``device`` and ``files`` are required
 MANIFEST_COLUMNS = ("device", "files", "method", "model", "reader", "columns", "acc_unit", "gyro_unit",
                     "time_unit", "rate", "topic", "variable", "gravity", "recorded_at", "temperature_c")
-#: the method of a row that names none (``imucalib calibrate``'s default)
-DEFAULT_METHOD = "tedaldi2014"
 _READERS = ("csv", "imutk", "mat", "phone", "rosbag", "session")
 _UNITS = {"acc_unit": ("counts", "g", "m/s^2"), "gyro_unit": ("counts", "deg/s", "rad/s"),
           "time_unit": ("s", "ms", "us", "ns")}
@@ -231,6 +230,8 @@ def _row(cells: dict[str, str], line: int, base: Path, methods: Sequence[str],
         raise ValueError(f"method {method!r} is unknown; choose one of {', '.join(methods)}")
     opts["method"] = method
     opts["model"] = cells.get("model") or None
+    if opts["model"] is not None and opts["model"] not in methods[method].models:
+        raise ValueError(f"model {opts['model']!r} is not one of {method}'s: {', '.join(methods[method].models)}")
     reader = cells.get("reader") or None
     if reader is not None and reader not in _READERS:
         raise ValueError(f"reader {reader!r} is unknown; choose one of {', '.join(_READERS)}")
@@ -277,7 +278,7 @@ def read_manifest(path: str | Path, *, allow_urls: bool | str | Sequence[str] = 
         The file cannot be read, a required column is missing, a column is unknown, or entries are
         invalid: every problem found, each with its line.
     """
-    from .methods import method_names
+    from .methodinfo import declared
 
     path = Path(path)
     schemes = url_schemes(allow_urls)
@@ -313,7 +314,7 @@ def read_manifest(path: str | Path, *, allow_urls: bool | str | Sequence[str] = 
                 f"unknown column(s) {', '.join(unknown)} (known: {', '.join(MANIFEST_COLUMNS)})" if unknown else "",
                 f"column(s) named twice: {', '.join(duplicated)}" if duplicated else ""))))
     base = path.resolve().parent
-    methods = method_names()
+    methods = declared()
     rows, problems = [], []
     for number, cells in zip(numbers[1:], table[1:], strict=True):
         if len(cells) > len(header):

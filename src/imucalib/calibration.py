@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import warnings
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -19,17 +20,16 @@ import numpy as np
 from .io.atomic import atomic_write
 from .io.jsontext import JsonTextError, dumps, jsonable, loads
 from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
-from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, Recording
+from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, ImucalibWarning, Recording
+from .reportfields import undeclared
 from .thermal import ThermalModel
 
-__all__ = ["ACCELEROMETER_ONLY_METHODS", "DEVICE_MAX_CHARS", "FULL_SCALE", "Calibration", "CalibrationFileError",
-           "FORMAT", "FORMAT_VERSION", "GRAVITY_LIMITS", "check_device", "check_document", "check_magnitudes"]
+__all__ = ["DEVICE_MAX_CHARS", "FULL_SCALE", "Calibration", "CalibrationFileError", "FORMAT", "FORMAT_VERSION",
+           "GRAVITY_LIMITS", "check_device", "check_document", "check_magnitudes"]
 
 #: the longest device name a calibration holds [characters]
 DEVICE_MAX_CHARS = 256
 
-#: the methods that calibrate an accelerometer-only recording (the calibration then has no gyroscope)
-ACCELEROMETER_ONLY_METHODS = ("ellipsoid", "six_position", "tedaldi2014")
 FORMAT = "imucalib.calibration"
 FORMAT_VERSION = 1
 _BLOCK = 1 << 16  # samples calibrated at a time by apply
@@ -264,9 +264,15 @@ class Calibration:
     def from_dict(cls, d: dict[str, Any]) -> Calibration:
         """Inverse of :meth:`to_dict`; checks the format, its version and every entry's type and shape.
 
-        Raises :class:`CalibrationFileError` naming the entry that is wrong.
+        Raises :class:`CalibrationFileError` naming the entry that is wrong. A ``fit`` field that is not
+        declared (:data:`imucalib.reportfields.FIELDS`: a file from another version) is kept as read, with an
+        :class:`~imucalib.recording.ImucalibWarning` naming it.
         """
         check_document(d)
+        unknown = undeclared(d.get("fit") or {})
+        if unknown:
+            warnings.warn(f"the calibration's fit holds field(s) this version does not know: {', '.join(unknown)}; "
+                          "kept as read", ImucalibWarning, stacklevel=2)
         units = d.get("units")
         calibration = cls(
             accelerometer=TriadModel.from_dict(d["accelerometer"], default_shape="upper"),

@@ -1,6 +1,6 @@
 """Detector presets: the windows, thresholds and shortest intervals the static-pose detectors default to.
 
-One place for the values :mod:`imucalib.segment`, the methods, :mod:`imucalib.validate` and the command
+One place for the values :mod:`imucalib.segment`, the methods, :mod:`imucalib.validation` and the command
 line share, each with its source. Times are in seconds; multipliers are of the initial rest's detector
 statistic.
 """
@@ -22,7 +22,7 @@ MIN_INTERVAL = 1.0
 MULTIPLIERS = tuple(range(2, 11))
 #: the fewest static intervals the multiplier scan accepts
 MIN_INTERVALS = 10
-#: the fixed multiplier of a validation recording, too short for a scan (:mod:`imucalib.validate`)
+#: the fixed multiplier of a validation recording, too short for a scan (:mod:`imucalib.validation`)
 VALIDATE_MULTIPLIER = 6.0
 
 # --------------------------------------------------------------------------------- the initial rest

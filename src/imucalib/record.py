@@ -52,6 +52,7 @@ from urllib.parse import parse_qs, urlsplit
 import numpy as np
 
 from .constants import STANDARD_GRAVITY
+from .methodinfo import DEFAULT_METHOD, declared, needing
 from .recording import Interval, Recording
 
 __all__ = ["Recorder", "LineFormat", "SessionWriter", "record", "open_source", "RecordResult", "MAX_STEP_DEG"]
@@ -59,7 +60,7 @@ __all__ = ["Recorder", "LineFormat", "SessionWriter", "record", "open_source", "
 #: the largest rotation per sample [deg] the attitude integration is trusted with
 MAX_STEP_DEG = 5.0
 #: methods that calibrate from the six faces (each axis up and down)
-FACE_METHODS = ("six_position", "ferraris")
+FACE_METHODS = needing("six faces")
 #: lines read before the table's layout is decided (fewer when the stream ends sooner)
 HEAD_LINES = 50
 
@@ -204,15 +205,13 @@ class Recorder:
         Keyword options of the method (as for :func:`imucalib.methods.calibrate`).
     """
 
-    def __init__(self, on_event: Callable[[dict], None], *, method: str = "tedaldi2014",
+    def __init__(self, on_event: Callable[[dict], None], *, method: str = DEFAULT_METHOD,
                  gravity: float = STANDARD_GRAVITY, rest: float = 5.0, columns=None, acc_unit=None,
                  gyro_unit=None, time_unit=None, rate=None, multiplier: float = 6.0,
                  gyro_range: float | None = None, max_step_deg: float = MAX_STEP_DEG,
                  method_options: dict | None = None, directory: Path | None = None) -> None:
-        from .methods import METHODS
-
-        if method not in METHODS:
-            raise ValueError(f"unknown method {method!r}; use one of {', '.join(METHODS)}")
+        if method not in declared():
+            raise ValueError(f"unknown method {method!r}; use one of {', '.join(declared())}")
         if not (np.isfinite(rest) and rest > 0):
             raise ValueError(f"rest must be a positive number of seconds; got {rest!r}")
         self.emit = on_event

@@ -53,6 +53,7 @@ import numpy as np
 from .constants import GRAVITY_RANGE
 from .fit.accelerometer import REDUCED_MODELS, fit_sphere
 from .fit.magnetometer import WEAK_DIP_DEG
+from .methodinfo import needing
 from .metrics import gravity_direction_errors, interval_means, transition_bounds
 from .recording import Interval, Recording
 
@@ -376,8 +377,8 @@ def _redundancy(calibration, fitted: bool = True) -> list[Check]:
     fit = calibration.fit or {}
     out = []
     m = fit.get("static_intervals")
-    exact = "accelerometer" in str(fit.get("uncertainty_unavailable", "")) or calibration.method in (
-        "six_position", "ferraris")
+    exact = "accelerometer" in str(fit.get("uncertainty_unavailable", "")) or calibration.method in needing(
+        "six faces")
     if not m or (exact and fitted):
         return out
     p = _accelerometer_parameters(calibration)
@@ -650,7 +651,7 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     sentences of the suspect and rejecting ones, notes the rest.
 
     ``purpose="validate"`` judges a calibration on a recording it was not
-    fitted to (:func:`imucalib.validate.validate`, with ``fit`` holding the
+    fitted to (:func:`imucalib.validation.validate`, with ``fit`` holding the
     figures on that recording): the checks of the fit itself — poses per
     parameter, over-fit, the 1σ errors' usefulness — are left out; the
     residual against the noise floor, the gyroscope against its noise, the

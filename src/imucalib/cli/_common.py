@@ -18,7 +18,8 @@ if TYPE_CHECKING:
     from ..recording import Recording
 
 __all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_REJECTED", "STANDARD_GRAVITY", "CliError", "Progress",
-           "add_force_option", "add_gravity_option", "add_init_static_option", "add_reader_options",
+           "add_force_option", "add_gravity_option", "add_init_static_option", "add_method_option",
+           "add_reader_options",
            "check_paths", "check_verdict", "gravity_value", "normalise_argv", "positive_float", "print_json",
            "print_verdict", "progress", "read", "read_recording", "reading_progress", "show_warning"]
 
@@ -99,6 +100,20 @@ def add_reader_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--mag-unit", choices=("counts", "uT", "gauss"),
                    help="magnetometer unit of the mx,my,mz (or mag_x,…) columns (default: from the header, else "
                    "counts)")
+
+
+def add_method_option(p: argparse.ArgumentParser, *, required: bool = False, help: str | None = None) -> None:
+    """``--method``: one of the declared methods (:func:`imucalib.methodinfo.declared`), by default the library's.
+
+    The help names them; an unknown name is the command's error (exit 2, the known names in the message).
+    """
+    from ..methodinfo import DEFAULT_METHOD, declared
+
+    names = list(declared())
+    text = help or "calibration method"
+    p.add_argument("--method", metavar="METHOD", required=required,
+                   default=None if required else DEFAULT_METHOD,
+                   help=f"{text}: {', '.join(names)}" + ("" if required else f" (default: {DEFAULT_METHOD})"))
 
 
 def add_init_static_option(p: argparse.ArgumentParser) -> None:

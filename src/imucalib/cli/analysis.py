@@ -8,6 +8,7 @@ from ..io.atomic import atomic_write, refuse_overwriting_inputs
 from ._common import (
     CliError,
     add_init_static_option,
+    add_method_option,
     add_reader_options,
     positive_float,
     print_json,
@@ -100,7 +101,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
     Over :func:`imucalib.experiments.wang2019.plan_report` and :func:`imucalib.plans.accelerometer_plan`.
     """
-    if args.method != "wang2019":
+    from ..methodinfo import declared, needing
+
+    if args.method not in declared():
+        raise CliError(f"unknown method {args.method!r}; use one of {', '.join(declared())}")
+    if args.method not in needing("turntable aggregates"):
         return _plan_accelerometer(args)
     from ..experiments.wang2019 import plan_report
 
@@ -121,12 +126,10 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _plan_accelerometer(args: argparse.Namespace) -> int:
-    from ..methods import METHODS
+    from ..methodinfo import needing
     from ..plans import accelerometer_plan
 
-    if args.method not in METHODS:
-        raise CliError(f"unknown method {args.method!r}; use one of {', '.join(METHODS)}")
-    poses = args.poses or ("six" if args.method in ("six_position", "ferraris") else "nine")
+    poses = args.poses or ("six" if args.method in needing("six faces") else "nine")
     rep = accelerometer_plan(poses, noise=args.noise_acc)
     if args.json:
         return print_json(rep)
@@ -164,11 +167,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("plan", help="print a method's calibration plan and parameter observability",
                        description="Print the positions and rotations of a method's optimal plan "
                        "and, per parameter, its sensitivity and Fisher information.")
-    p.add_argument("--method", required=True,
-                   help="wang2019 (turntable plan), or any other method (its accelerometer pose plan)")
+    add_method_option(p, required=True, help="the method: a turntable plan for one that needs turntable "
+                      "aggregates, else its accelerometer pose plan")
     p.add_argument("--seed", type=int, default=0, help="wang2019: seed of the typical truth used")
     p.add_argument("--poses", help="six, nine (Ru 2022 Table 3) or a number of evenly spread poses "
-                   "(default: six for six_position/ferraris, else nine)")
+                   "(default: six for a method that takes the six faces, else nine)")
     p.add_argument("--noise-acc", type=positive_float, default=0.002,
                    help="noise of one pose's mean [m/s^2] (default 0.002)")
     p.add_argument("--json", action="store_true")

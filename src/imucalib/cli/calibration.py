@@ -21,6 +21,7 @@ from ._common import (
     CliError,
     add_gravity_option,
     add_init_static_option,
+    add_method_option,
     add_reader_options,
     positive_float,
     print_json,
@@ -235,8 +236,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    """``imucalib compare``: :func:`imucalib.compare.compare`, as a table."""
-    from ..compare import compare
+    """``imucalib compare``: :func:`imucalib.comparison.compare`, as a table."""
+    from ..comparison import compare
 
     say = progress(not args.json and sys.stderr.isatty())
     rec = read_recording(args, args.data)
@@ -301,7 +302,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "written, marked as such, and the command exits with code 3.")
     p.add_argument("data", nargs="+", help="data file(s): one CSV/MAT file, two imu_tk files "
                    "(accelerometer then gyroscope), a ROS bag, or a simulated session directory")
-    p.add_argument("--method", default="tedaldi2014", help="calibration method (default: tedaldi2014)")
+    add_method_option(p)
     p.add_argument("--model", help="model variant, e.g. linear, quadratic, cubic, all")
     add_gravity_option(p)
     add_init_static_option(p)

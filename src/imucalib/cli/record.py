@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from ._common import CliError, add_gravity_option, normalise_argv, positive_float
+from ._common import CliError, add_gravity_option, add_method_option, normalise_argv, positive_float
 
 __all__ = ["register", "cmd_record"]
 
@@ -211,7 +211,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", required=True, help="the session file to write (CSV, the lines as read)")
     p.add_argument("--events", metavar="FILE", help="also write every event as one JSON line to FILE (- for "
                    "stdout, the view then on stderr)")
-    p.add_argument("--method", default="tedaldi2014", help="the method the session is for (default tedaldi2014)")
+    add_method_option(p, help="the method the session is for")
     p.add_argument("--calibrate", metavar="CAL.json", help="calibrate the session at the end and write this file")
     p.add_argument("--rest", type=positive_float, default=5.0, help="seconds of initial rest to count down "
                    "(default 5)")

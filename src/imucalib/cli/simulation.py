@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ._common import CliError, Progress, positive_float, print_json, progress
+from ._common import CliError, Progress, add_method_option, positive_float, print_json, progress
 from .fleet import add_scheduler_option
 
 __all__ = ["register", "scenario_choices"]
@@ -248,7 +248,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scenario", default="zhang2021",
                    choices=scenario_choices(*TURNTABLE_SCENARIOS, *EXPERIMENT_SCENARIOS),
                    help="scenario (default: zhang2021)")
-    p.add_argument("--method", required=True)
+    add_method_option(p, required=True)
     p.add_argument("--model", help="model variant")
     p.add_argument("--runs", type=int, default=20)
     p.add_argument("--workers", type=int, help="parallel processes (default 1); with --scheduler local, the "

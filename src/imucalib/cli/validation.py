@@ -1,6 +1,6 @@
 """Check a calibration on another recording: validate.
 
-:func:`imucalib.validate.validate` finds the poses without fitting anything and
+:func:`imucalib.validation.validate` finds the poses without fitting anything and
 judges the calibration on them; the command prints the verdict first, then
 the figures beside those at calibration, and exits with
 :data:`._common.EXIT_REJECTED` when the calibration no longer holds.
@@ -30,10 +30,10 @@ HEADLINES = {"accepted": "verdict: ACCEPTED — the calibration holds on this re
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    """``imucalib validate``: :func:`imucalib.validate.validate`, the verdict first, then the figures."""
+    """``imucalib validate``: :func:`imucalib.validation.validate`, the verdict first, then the figures."""
     from ..calibration import Calibration
     from ..recording import Interval
-    from ..validate import validate
+    from ..validation import validate
 
     refuse_overwriting_inputs([args.plot], [args.calibration, *args.data])
     cal = Calibration.load(args.calibration)

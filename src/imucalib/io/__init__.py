@@ -2,6 +2,10 @@
 
 The readers are imported on first use (PEP 562): a submodule such as
 :mod:`.atomic` can be imported without them.
+
+:func:`read` here is the readers' level: the file's columns, no more. What the command line reads —
+the magnetometer's columns attached, a ROS bag's magnetic-field topic, a simulated session directory —
+is :func:`imucalib.read` (:func:`imucalib.io.data.read_data`).
 """
 
 from __future__ import annotations

@@ -43,7 +43,10 @@ def read_data(
 ):
     """The data in ``paths``: a :class:`~imucalib.recording.Recording`, or a simulated session.
 
-    Parameters are those of :func:`imucalib.io.read`, and ``reader="session"`` for a directory
+    This is :func:`imucalib.read`, the one reading the command line, batch runs and a program share.
+    ``paths`` is one file, several (two imu_tk files; CSV or MAT files read as blocks of one recording),
+    a ROS bag, a pandas DataFrame (read as a CSV file) or a simulated session directory. The other
+    parameters are those of :func:`imucalib.io.read`, and ``reader="session"`` for a directory
     written by :func:`imucalib.io.session.write_session` (read by
     :func:`imucalib.io.session.read_session`; found without ``reader`` too). A recording's
     magnetometer columns become its ``mag`` (:func:`imucalib.io.magnetometer.attach_magnetometer`,
@@ -54,17 +57,22 @@ def read_data(
     Recording or Session or WangSession
         What :func:`imucalib.methods.calibrate` takes.
     """
-    if isinstance(paths, str | Path):
+    from .readers import is_frame
+
+    if is_frame(paths):
+        paths = [paths]  # a pandas DataFrame: read as one CSV file, never a session
+    elif isinstance(paths, str | Path):
         paths = [paths]
     paths = list(paths)
-    if paths and is_session_directory(paths, reader):
+    if paths and not is_frame(paths[0]) and is_session_directory(paths, reader):
         from .session import read_session
 
         return read_session(paths[0])
     from .magnetometer import attach_magnetometer
     from .readers import read
 
-    rec = read(paths, reader=reader, columns=columns, acc_unit=acc_unit, gyro_unit=gyro_unit, rate=rate,
+    source = paths[0] if len(paths) == 1 and is_frame(paths[0]) else paths
+    rec = read(source, reader=reader, columns=columns, acc_unit=acc_unit, gyro_unit=gyro_unit, rate=rate,
                variable=variable, time_unit=time_unit, topic=topic, progress=progress)
     if mag_topic is not None:
         if rec.metadata.get("reader") != "rosbag":

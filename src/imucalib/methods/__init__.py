@@ -13,7 +13,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..calibration import ACCELEROMETER_ONLY_METHODS, Calibration
+from ..calibration import Calibration
+from ..methodinfo import DEFAULT_METHOD, MethodInfo, accelerometer_only, declared
 from ..recording import STANDARD_GRAVITY, Recording
 from ..thermal import calibrate_ramp, compensate
 from ..verdict import check_rate, with_verdict
@@ -21,51 +22,36 @@ from ..verdict import check_rate, with_verdict
 __all__ = ["ACCELEROMETER_ONLY", "METHODS", "calibrate", "method_names", "with_magnetometer"]
 
 
-def _zhang2021(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
-    from . import zhang2021
+def _runner(info: MethodInfo) -> Callable[..., Calibration]:
+    """callable(data, *, model, gravity, **options) → Calibration: the module of ``info`` run on ``data``."""
 
-    return zhang2021.calibrate(_recording_of(data), model=model or "all", gravity=gravity, **options)
-
-
-def _wang2019(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
-    from . import wang2019
-
-    if model not in (None, "wang2019"):
-        raise ValueError(f"wang2019 has one model; got model={model!r}")
-    if not hasattr(data, "positions_acc"):
-        raise ValueError("wang2019 needs turntable data (static position means and clockwise/"
-                         "counter-clockwise turn integrals), as the wang2019 scenario provides; "
-                         "it does not run on a free-hand recording")
-    return wang2019.calibrate(data, gravity=gravity, **_accepted(wang2019.calibrate, options))
-
-
-def _linear_only(module_name: str) -> Callable[..., Calibration]:
     def run(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
         import importlib
 
-        if model not in (None, "linear"):
-            raise ValueError(f"{module_name} fits the linear model only; got model={model!r}")
-        module = importlib.import_module(f"{__name__}.{module_name}")
-        return module.calibrate(_recording_of(data), gravity=gravity,
-                                **_accepted(module.calibrate, options))
+        if len(info.models) == 1 and model not in (None, info.default_model):
+            raise ValueError(f"{info.name} fits the {info.default_model} model only; got model={model!r}")
+        module = importlib.import_module(f"{__name__}.{info.name}")
+        if "turntable aggregates" in info.needs:
+            if not hasattr(data, "positions_acc"):
+                raise ValueError(f"{info.name} needs turntable data (static position means and clockwise/"
+                                 "counter-clockwise turn integrals), as the wang2019 scenario provides; "
+                                 "it does not run on a free-hand recording")
+        else:
+            data = _recording_of(data)
+        if len(info.models) > 1:
+            options = {**options, "model": model or info.default_model}
+        return module.calibrate(data, gravity=gravity, **_accepted(module.calibrate, options))
 
     return run
 
 
-#: method name → callable(data, *, model, gravity, **options) → Calibration
-METHODS: dict[str, Callable[..., Calibration]] = {
-    "tedaldi2014": _linear_only("tedaldi2014"),
-    "zhang2021": _zhang2021,
-    "wang2019": _wang2019,
-    "ellipsoid": _linear_only("ellipsoid"),
-    "six_position": _linear_only("six_position"),
-    "qureshi2017": _linear_only("qureshi2017"),
-    "ferraris": _linear_only("ferraris"),
-}
+#: method name → callable(data, *, model, gravity, **options) → Calibration, from each module's declaration
+#: (:data:`METHOD`, read by :func:`imucalib.methodinfo.declared`)
+METHODS: dict[str, Callable[..., Calibration]] = {name: _runner(info) for name, info in declared().items()}
 
 
 #: the methods that calibrate an accelerometer-only recording (no gyroscope section in the calibration)
-ACCELEROMETER_ONLY = ACCELEROMETER_ONLY_METHODS
+ACCELEROMETER_ONLY = accelerometer_only()
 
 
 def method_names() -> list[str]:
@@ -97,7 +83,7 @@ def _recording_of(data) -> Recording:
 def calibrate(
     data,
     *,
-    method: str,
+    method: str = DEFAULT_METHOD,
     model: str | None = None,
     gravity: float = STANDARD_GRAVITY,
     **options: Any,
@@ -110,7 +96,8 @@ def calibrate(
         Raw readings (a session contributes its ``recording`` and the options
         of its ``method_options(method)``).
     method : str
-        One of :func:`method_names`.
+        One of :func:`method_names` (default :data:`~imucalib.methodinfo.DEFAULT_METHOD`, as
+        ``imucalib calibrate``).
     model : str, optional
         Model variant where the method has several (e.g. ``"linear"``, ``"cubic"``).
     gravity : float

@@ -20,8 +20,24 @@ from ..fit.accelerometer import (
     fit_gravity_norm,
 )
 from ..fit.gyroscope import fit_gyroscope
+from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
 from ..segment import no_usable_rotations, pose_blocks, static_poses, unreliable_transitions
+
+METHOD = MethodInfo(
+    name="ellipsoid",
+    summary="accelerometer by an algebraic ellipsoid fit of the static poses; gyroscope on the poses and "
+            "rotations",
+    needs=("static poses", "rotations"),
+    models=("linear",),
+    options=(
+        Option("intervals", None, "samples", "static intervals given instead of found"),
+        Option("refine", False, "", "refine the closed form by Levenberg–Marquardt on the gravity norms"),
+        Option("init_static", None, "s", "length of the initial rest (found automatically)"),
+    ),
+    paper="ru2022_mems_calibration_review.md (Ru 2022), §3.2",
+    accelerometer_only=True,
+)
 
 __all__ = ["calibrate"]
 

@@ -39,6 +39,7 @@ import numpy as np
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import faces_full
 from ..fit.gyroscope import fit_known_turns, rough_scale
+from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
 from ..recording import Interval, Recording
 from ..segment import (
@@ -50,6 +51,24 @@ from ..segment import (
     initial_rest,
     static_at,
     still_intervals,
+)
+
+METHOD = MethodInfo(
+    name="ferraris",
+    summary="closed form from six static faces and a known-angle turn about each axis: full misalignments, "
+            "linear gyro g-sensitivity (what `imucal` implements)",
+    needs=("static poses", "six faces", "known-angle turns", "gyroscope"),
+    models=("linear",),
+    options=(
+        Option("intervals", None, "samples", "static intervals given instead of found"),
+        Option("angle", 360.0, "deg", "the known angle of each turn"),
+        Option("max_tilt", 15.0, "deg", "largest tilt of a face from its axis"),
+        Option("init_static", None, "s", "length of the initial rest (found automatically)"),
+        Option("sections", None, "samples", "named sample ranges of the faces and turns, instead of finding "
+               "them"),
+    ),
+    paper="Ferraris et al., Sensors and Materials 1995 (not among the papers; the equations are in this module's "
+          "docstring)",
 )
 
 __all__ = ["SECTION_NAMES", "calibrate", "sections_from_ranges"]

@@ -43,9 +43,24 @@ from ..calibration import Calibration, units_of
 from ..conventions import from_qureshi, to_qureshi
 from ..fit.accelerometer import accelerometer_errors, newton_backtracking, six_position
 from ..fit.gyroscope import fit_measured_rotations, rotation_angles
+from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
 from ..models import TriadModel
 from ..segment import find_faces, static_poses
+
+METHOD = MethodInfo(
+    name="qureshi2017",
+    summary="9-parameter accelerometer by Newton's method on the interval means (18 orientations); "
+            "gyroscope bias and scale from turns about each horizontal axis, static-bias or dynamic approach",
+    needs=("static poses", "rotations", "gyroscope"),
+    models=("linear",),
+    options=(
+        Option("intervals", None, "samples", "static intervals given instead of found"),
+        Option("gyroscope", "static", "", "how the gyroscope's rotations are measured (§III-B)"),
+        Option("init_static", None, "s", "length of the initial rest (found automatically)"),
+    ),
+    paper="qureshi2017_infield_calibration.md (Qureshi & Golnaraghi, IEEE Sensors J. 2017), §III",
+)
 
 __all__ = ["calibrate", "calibrate_accelerometer"]
 

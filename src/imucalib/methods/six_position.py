@@ -29,8 +29,24 @@ import numpy as np
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import six_position
 from ..fit.gyroscope import fit_gyroscope
+from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
 from ..segment import FACE_NAMES, find_faces, pose_blocks, static_poses, unreliable_transitions
+
+METHOD = MethodInfo(
+    name="six_position",
+    summary="accelerometer biases and scales from each axis up and down (no misalignment); gyroscope on the "
+            "poses and rotations",
+    needs=("static poses", "six faces", "rotations"),
+    models=("linear",),
+    options=(
+        Option("intervals", None, "samples", "static intervals given instead of found"),
+        Option("max_tilt", 15.0, "deg", "largest tilt of a face from its axis"),
+        Option("init_static", None, "s", "length of the initial rest (found automatically)"),
+    ),
+    paper="ru2022_mems_calibration_review.md (Ru 2022), §3.1, eqs. 8–9",
+    accelerometer_only=True,
+)
 
 __all__ = ["calibrate"]
 

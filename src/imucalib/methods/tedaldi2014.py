@@ -42,10 +42,33 @@ from ..fit.accelerometer import (
     fit_gravity_norm,
 )
 from ..fit.gyroscope import errors_at, fit_gyroscope, joint_errors_at, static_gyro
+from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
 from ..presets import MIN_INTERVAL, MULTIPLIERS, VARIANCE_WINDOW
 from ..recording import STANDARD_GRAVITY, Interval, Recording
 from ..segment import detect_intervals, no_usable_rotations, pose_blocks, unreliable_transitions
+
+METHOD = MethodInfo(
+    name="tedaldi2014",
+    summary="linear model, automatic static detection: the accelerometer on the static poses at the "
+            "detector threshold that fits best, then the gyroscope on the rotations between them",
+    needs=("static poses", "rotations"),
+    models=("linear",),
+    options=(
+        Option("init_static", None, "s", "length of the initial rest (found automatically)"),
+        Option("multipliers", (2, 3, 4, 5, 6, 7, 8, 9, 10), "", "static-detector thresholds tried, in multiples "
+               "of the rest's accelerometer variance"),
+        Option("window", 1.0, "s", "the static detector's variance window"),
+        Option("min_interval", 1.0, "s", "shortest static interval kept"),
+        Option("estimate_gyro_bias", "auto", "", "fit the gyroscope bias with the rotations (auto: when the "
+               "rests do not give it)"),
+        Option("gyro_g_sensitivity", "auto", "", "fit the gyroscope's g-sensitivity (auto: when the poses "
+               "determine it)"),
+        Option("intervals", None, "samples", "static intervals given instead of found"),
+    ),
+    paper="static_dynamic_interval_detection_fragment.md (Tedaldi, Pretto & Menegatti, ICRA 2014), §2",
+    accelerometer_only=True,
+)
 
 __all__ = ["calibrate", "uncertainty"]
 

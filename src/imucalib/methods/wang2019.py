@@ -32,8 +32,21 @@ import numpy as np
 
 from ..calibration import Calibration
 from ..constants import DEG, EARTH_RATE, G0, MICRO_G
+from ..methodinfo import MethodInfo, Option
 from ..models import TriadModel
 from ..solve import levenberg_marquardt, standard_errors
+
+METHOD = MethodInfo(
+    name="wang2019",
+    summary="navigation-grade model with nonlinear scale factors from turntable positions and "
+            "clockwise/counter-clockwise turns (`imucalib plan --method wang2019` prints the plan)",
+    needs=("turntable aggregates", "gyroscope"),
+    models=("wang2019",),
+    options=(
+        Option("initial", "estimate", "", "starting point: estimate (closed form) or nominal"),
+    ),
+    paper="wang2019_multiposition_nonlinear.md (Wang, Cheng & Fu, Sensors 2019), eqs. 18, 30, 35",
+)
 
 __all__ = ["calibrate", "poly_norm_residuals"]
 

@@ -64,6 +64,7 @@ from ..calibration import Calibration, units_of
 from ..fit.accelerometer import GravityNormFit, accelerometer_covariance, gravity_norm_fit
 from ..fit.gyroscope import GyroFit, fit_gyroscope
 from ..kinematics import IntervalIntegrator, five_point_derivative, quat_to_matrix, segmented_five_point, skew
+from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means, transition_bounds
 from ..models import AXES, TriadModel, misalignment_entries
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
@@ -77,6 +78,29 @@ from ..segment import (
 )
 from ..solve import levenberg_marquardt, standard_errors
 from ..verdict import THRESHOLDS, plausible
+
+METHOD = MethodInfo(
+    name="zhang2021",
+    summary="the main method: 3rd-order scale factors, misalignment, biases, gyro g-sensitivity and lever "
+            "arm; the model variant chosen by Akaike's criterion",
+    needs=("static poses", "rotations", "tosses", "gyroscope"),
+    models=("all", "linear", "quadratic", "cubic"),
+    options=(
+        Option("weightless", None, "", "spinning weightless tosses (recordings) for the lever arm"),
+        Option("intervals", None, "samples", "static intervals given instead of found"),
+        Option("init_static", None, "s", "length of the initial rest (found automatically)"),
+        Option("initial", "step1", "", "the starting point of the joint fit (step1: the two-step estimate)"),
+        Option("noise_weights", True, "", "weigh each residual by its noise (False: for noise-free data)"),
+        Option("max_iter", 200, "", "Levenberg–Marquardt iterations at most"),
+        Option("fall_threshold", 2.5, "m/s^2", "eq. (19) loss below which a sample is falling"),
+        Option("select", True, "", "drop nonlinear terms Akaike's criterion does not support"),
+        Option("detector", "accelerometer", "", "static detector: accelerometer variance or the gyroscope "
+               "norm of eq. (22)"),
+        Option("estimate_gyro_bias", "auto", "", "fit the gyroscope bias with the rotations (auto: when the "
+               "rests do not give it)"),
+    ),
+    paper="zhang2021_nonlinear_scale_factors.md (Zhang et al., IEEE TII 2021), eqs. 1–22",
+)
 
 __all__ = [
     "MODELS",
@@ -796,10 +820,10 @@ def calibrate(
         Called with a message at each stage.
     """
     if recording.gyro is None:
-        from ..calibration import ACCELEROMETER_ONLY_METHODS
+        from ..methodinfo import accelerometer_only
 
         raise ValueError("zhang2021 calibrates the gyroscope with the accelerometer and this recording is "
-                         f"accelerometer-only; the methods that take it are {', '.join(ACCELEROMETER_ONLY_METHODS)}")
+                         f"accelerometer-only; the methods that take it are {', '.join(accelerometer_only())}")
     say = progress or (lambda msg: None)
     layout = ZhangLayout.of(model)
     if initial not in ("step1", "identity"):
