@@ -8,7 +8,6 @@ import warnings
 from pathlib import Path
 
 from ..io.atomic import atomic_write, refuse_overwriting_inputs
-from ..recording import ImucalibWarning
 from ._common import CliError, add_force_option, check_verdict, print_json, show_warning
 
 __all__ = ["register"]
@@ -61,6 +60,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     """``imucalib export``: :mod:`imucalib.export` on stdout or into the file(s) named by ``-o``."""
     from .. import export
     from ..calibration import Calibration
+    from ..recording import ImucalibWarning
 
     refuse_overwriting_inputs([args.output], [args.calibration, args.noise])
     fmt = _format(args)
