@@ -208,3 +208,19 @@ def test_the_calibration_file_section_names_every_entry():
                               in " ".join(fit_text.split())))
     assert missing == []
     assert len(_fit_keys_in_source()) > 30
+
+
+def test_the_architecture_page_has_the_floors_of_check_layout():
+    """Every floor of ``tools/check_layout.py``, top first, numbered as ``--floors`` prints them, with its modules."""
+    sys.path.insert(0, str(ROOT / "tools"))
+    try:
+        from check_layout import FLOORS
+    finally:
+        sys.path.remove(str(ROOT / "tools"))
+    text = _page("architecture.rst")
+    table = text[text.index(".. _floors:"):text.index("The data model\n")]
+    rows = re.findall(r"^   \* - (\d+)\n     - (\w+)\n     - (.*?)\n     - ", table, flags=re.M | re.S)
+    expected = [(str(i), name, [m or "(package)" for m in modules]) for i, (name, _, modules) in enumerate(FLOORS)]
+    found = [(i, name, re.findall(r"``([\w.]+)``|(\(package\))", cells)) for i, name, cells in rows]
+    found = [(i, name, [a or b for a, b in cells]) for i, name, cells in found]
+    assert found == expected[::-1]
