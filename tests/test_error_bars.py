@@ -92,3 +92,33 @@ def test_band_is_the_chi2_spread_of_the_goal():
     third = np.sqrt(np.mean((3 * rng.normal(size=(2000, 30))) ** 2, axis=1))
     assert np.mean((honest < lo) | (honest > hi)) < 0.01
     assert np.mean((third < lo) | (third > hi)) > 0.95
+
+
+def test_g_sensitivity_jacobian_matches_finite_differences():
+    """The joint fit's ∂r/∂G, which carries the g-sensitivity's error into the bias's, against central differences."""
+    from dataclasses import replace
+
+    from imucalib.fit import gyroscope as gy
+    from imucalib.recording import Interval
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sim = session("handheld", rng=3)
+        cal = calibrate(sim.recording, method="tedaldi2014", gravity=sim.truth.gravity)
+    rec, fit = sim.recording, cal.fit
+    ivs = [Interval(int(a), int(b), "static") for a, b in fit["intervals"]]
+    drift = fit.get("gyroscope_bias_drift_per_s")
+    static = gy.static_gyro(rec, ivs, cal.accelerometer, g_sensitivity=True, drift=drift is not None)
+    weights, sigma = np.ones(len(ivs) - 1), fit["gyroscope_rotation_sigma_rad"]
+    theta = np.concatenate([gy.GyroLayout(True).pack(cal.gyroscope), np.asarray(drift or [])])
+    analytic = gy._g_sensitivity_jacobian(rec, ivs, cal.accelerometer, static, weights, sigma, theta)
+    g0 = static.g_sensitivity
+    h = 1e-3 * np.abs(g0).max()
+    numeric = np.empty_like(analytic)
+    for k in range(9):
+        step = np.zeros(9)
+        step[k] = h
+        r = [gy.joint_problem(rec, ivs, cal.accelerometer, replace(static, g_sensitivity=g0 + sg * step.reshape(3, 3)),
+                              weights, sigma)[0](theta) for sg in (1.0, -1.0)]
+        numeric[:, k] = (r[0] - r[1]) / (2 * h)
+    assert np.abs(analytic - numeric).max() < 1e-5 * np.abs(numeric).max()

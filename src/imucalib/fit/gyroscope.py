@@ -310,6 +310,7 @@ class StaticGyro:
     variances: np.ndarray | None = None  # (M, 3) each pose mean's variance [raw²], scatter included
     scatter: np.ndarray | None = None  # (3,) the scatter between poses beyond the white noise [raw]
     drift_se: np.ndarray | None = None  # (3,) 1σ of ``drift``
+    g_cov: np.ndarray | None = None  # (3, 3, 3) per gyroscope axis, the covariance of its row of ``g_sensitivity``
 
 
 def _weighted_regression(x: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, float,
@@ -411,17 +412,18 @@ def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: 
     bias = coef[0]
     bias_cov = np.diag([c[0, 0] for c in covs])
     errors: dict[str, float] = {}
-    g = d = d_se = None
+    g = d = d_se = g_cov = None
     first_g = 2 if with_d else 1
     if with_d:
         d = coef[1].copy()
         d_se = np.sqrt([c[1, 1] for c in covs])
     if with_g:
         g = coef[first_g:].T  # row: gyroscope axis, column: accelerometer axis
-        se = np.sqrt(np.array([np.diag(c)[first_g:] for c in covs]))
+        g_cov = np.array([c[first_g:, first_g:] for c in covs])
+        se = np.sqrt(np.array([np.diag(c) for c in g_cov]))
         errors = {f"gyroscope.g_sensitivity.{AXES[i]}{AXES[j]}": float(se[i, j]) for i in range(3) for j in range(3)}
     return StaticGyro(bias, bias_cov, g, errors, spread, d, t_ref, times, u, a, v + tau2[None, :],
-                      np.sqrt(tau2), d_se)
+                      np.sqrt(tau2), d_se, g_cov)
 
 
 def joint_problem(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, static: StaticGyro,
@@ -534,7 +536,9 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
     two per kept rotation and three per pose, less the parameters), carried
     to ``T_g`` and ``k1`` by the delta method. The accelerometer's covariance
     ``acc_cov`` enters through the gravity directions to first order
-    (``∂θ̂/∂x = −J⁺ ∂r/∂x``, as in :func:`errors_at`). The bias is the bias
+    (``∂θ̂/∂x = −J⁺ ∂r/∂x``, as in :func:`errors_at`); so does the
+    g-sensitivity the joint fit holds at the static poses' estimate
+    (``static.g_cov``): its error moves the bias the poses show. The bias is the bias
     at ``static.t_ref`` and its 1σ is the error of that: each pose's mean is
     weighted by its white noise plus the scatter between poses
     (``static.variances``, random effects: :func:`_weighted_regression`), so
@@ -555,6 +559,13 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
         j_acc[:n_rot] = _direction_acc_jacobian(recording, intervals, accelerometer, model) * w[:, None]
         sens = -np.linalg.pinv(j) @ j_acc
         extra = sens @ acc_cov @ sens.T
+    if static.g_cov is not None and np.all(np.isfinite(static.g_cov)):
+        sens = -np.linalg.pinv(j) @ _g_sensitivity_jacobian(recording, intervals, accelerometer, static, weights,
+                                                           sigma_rot, theta)
+        c_g = np.zeros((9, 9))
+        for i in range(3):  # the rows of G come from independent regressions, one per gyroscope axis
+            c_g[3 * i:3 * i + 3, 3 * i:3 * i + 3] = static.g_cov[i]
+        extra = (0.0 if extra is None else extra) + sens @ c_g @ sens.T
     m = theta[:9].reshape(3, 3)
     off = [(i, k) for i in range(3) for k in range(3) if i != k]
     names = [f"gyroscope.misalignment.{AXES[i]}{AXES[k]}" for i, k in off]
@@ -578,6 +589,40 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
     if undetermined:  # the poses leave the gravity directions themselves undetermined
         se = np.full_like(se, np.nan)
     return {k: float(v) for k, v in zip(names, se, strict=True)}
+
+
+def _g_sensitivity_jacobian(recording, intervals, accelerometer, static: StaticGyro, weights, sigma_rot,
+                            theta) -> np.ndarray:
+    """∂r/∂G of the joint residuals (:func:`joint_problem`) at ``theta``, ``G`` row-major, analytic.
+
+    ``G`` enters the static poses' targets, ``(ū_k − G a_k − …)/se_k``, so
+    ``∂r_{k,i}/∂G_ij = −a_{k,j}/se_{k,i}``, and every rotation sample's rate
+    ``ω = M (u − b − d τ − G a)``, so ``∂ω/∂G_ij = −M e_i a_j`` with ``a`` the
+    sample's calibrated specific force, through the same gravity-direction
+    Jacobian as the other parameters (:func:`~imucalib.residuals.gravity_direction_residuals_jac`).
+    """
+    acc = static.accel if static.accel is not None else accelerometer.forward(interval_means(recording.acc, intervals))
+    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
+    starts, stops = transition_bounds(intervals)
+    integrator = IntervalIntegrator(recording.t, starts, stops)
+    a_s = accelerometer.forward(recording.acc[integrator.samples])
+    raw = recording.gyro[integrator.samples] - a_s @ np.asarray(static.g_sensitivity).T
+    tau = recording.t[integrator.samples] - static.t_ref
+    m, b = theta[:9].reshape(3, 3), theta[9:12]
+    dr = theta[12:15] if static.drift is not None else np.zeros(3)
+    v = raw - b - tau[:, None] * dr
+    d = np.zeros((raw.shape[0], 3, 9))
+    for i in range(3):
+        for j in range(3):
+            d[:, :, 3 * i + j] = -m[None, :, i] * a_s[:, j, None]
+    w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
+    j_rot = gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1] * w[:, None]
+    mm = len(static.means)
+    se = np.sqrt(static.variances)
+    j_st = np.zeros((mm, 3, 9))
+    for i in range(3):
+        j_st[:, i, 3 * i:3 * i + 3] = -static.accel / se[:, i:i + 1]
+    return np.vstack([j_rot, j_st.reshape(3 * mm, 9)])
 
 
 def _joint_covariance(j: np.ndarray, res: np.ndarray, n_rot: int, weights: np.ndarray, *,
