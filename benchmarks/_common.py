@@ -11,6 +11,17 @@ from pathlib import Path
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 
+def median_cpu_time(fn: Callable[[], object], runs: int) -> float:
+    """Median CPU seconds (all threads of this process) of ``runs`` calls, after one warm-up call."""
+    fn()
+    times = []
+    for _ in range(runs):
+        c0 = time.process_time()
+        fn()
+        times.append(time.process_time() - c0)
+    return statistics.median(times)
+
+
 def median_time(fn: Callable[[], object], runs: int, warm: bool = True) -> tuple[float, list[float]]:
     """Median wall time [s] of ``runs`` calls (after one warm-up call unless ``warm`` is False) and all times."""
     if warm:
@@ -29,3 +40,56 @@ def require_data(sub: str) -> Path:
         print(f'{{"skipped": "{path} not present (needs ../shared/data)"}}')
         sys.exit(0)
     return path
+
+
+def machine_busy_s() -> float | None:
+    """CPU seconds the whole machine has been busy (all cores; Linux /proc/stat), or None elsewhere."""
+    import os
+
+    try:
+        fields = [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
+    except (OSError, ValueError):
+        return None
+    user, nice, system, _idle, _iowait, irq, softirq, steal = fields[:8]
+    return (user + nice + system + irq + softirq + steal) / os.sysconf("SC_CLK_TCK")
+
+
+def own_cpu_s() -> float:
+    """CPU seconds of this process and its ended children."""
+    import resource
+
+    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def time_processes(commands: dict[str, tuple[list[str], dict | None]], runs: int) -> dict[str, dict]:
+    """Whole-process wall times of each named ``(command, environment)``, run in turns ``runs`` times
+    (so that every command sees the same load), after one untimed warm-up round.
+
+    Returns, by name, the median [s], every time, the median CPU seconds of the process itself
+    (``cpu_median_s``: less sensitive to other programs than the wall time), and for each run the CPU
+    seconds other programs used on the machine meanwhile (``other_programs_cpu_s``: 0 on a quiet machine).
+    """
+    import subprocess
+
+    for cmd, env in commands.values():
+        subprocess.run(cmd, check=True, capture_output=True, env=env)
+    times: dict[str, list[float]] = {name: [] for name in commands}
+    others: dict[str, list[float | None]] = {name: [] for name in commands}
+    cpu: dict[str, list[float]] = {name: [] for name in commands}
+    for _ in range(runs):
+        for name, (cmd, env) in commands.items():
+            busy0, own0 = machine_busy_s(), own_cpu_s()
+            t0 = time.perf_counter()
+            proc = subprocess.run(cmd, capture_output=True, env=env)
+            elapsed = time.perf_counter() - t0
+            busy1, own1 = machine_busy_s(), own_cpu_s()
+            if proc.returncode not in (0, 3):
+                raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr.decode()}")
+            times[name].append(elapsed)
+            cpu[name].append(own1 - own0)
+            others[name].append(None if busy0 is None else round(max(0.0, (busy1 - busy0) - (own1 - own0)), 2))
+    return {name: {"median_s": round(statistics.median(times[name]), 4),
+                   "times_s": [round(t, 4) for t in times[name]],
+                   "cpu_median_s": round(statistics.median(cpu[name]), 4),
+                   "other_programs_cpu_s": others[name]} for name in commands}

@@ -9,6 +9,16 @@ alone (``os.wait4``). Times and peaks are medians of ``--runs`` runs. The goal
 for 3.6 M samples is ≤ 20 s and ≤ 0.6 GB. ``imucalib apply`` of the
 calibration to the same file is measured too (``--no-apply`` to skip it).
 
+Long rotations (``--cases xsens_imutk,xsens_csv``): imu_tk's Xsens session
+(``../shared/data/xsens_imu_tk``, 51 175 samples at 100 Hz, about 35 % of them
+in motion) resampled to ``--xsens-samples`` (3.6 M: about 7 kHz, each rotation
+some 35 000 samples) by linear interpolation, with white noise of the initial
+rest's own spread added per axis (seeded), written as an imu_tk pair and as one
+CSV, and calibrated as ``imucalib calibrate … --method tedaldi2014 --gravity
+9.81744``. The hand-held sessions' rotations are a few hundred samples; these
+are a hundred times longer, so a memory peak that follows the longest rotation
+shows here. The goal is the same: ≤ 20 s and ≤ 0.6 GB at 3.6 M samples.
+
 ``--baseline DIR`` runs the same commands with another copy of the package
 (``DIR`` is put on ``PYTHONPATH``: e.g. the ``src`` of an older checkout),
 alternating with this one run by run so that both see the same load on the
@@ -16,7 +26,8 @@ machine; its figures are printed as ``"before"``. ``--engine`` picks the CSV
 parser of this copy (:data:`imucalib.io.csvparse.ENGINE`). ``--data-dir DIR``
 keeps the CSV files there and reuses them (the 10 M file takes a few minutes
 to simulate); ``--save FILE`` stores the figures. ``--sizes 360000,3600000``
-picks the sizes.
+picks the sizes of the hand-held sessions, ``--cases`` the cases
+(``handheld,xsens_imutk,xsens_csv``, the default).
 """
 
 from __future__ import annotations
@@ -31,10 +42,14 @@ import tempfile
 import time
 from pathlib import Path
 
+from _common import machine_busy_s
+
 RATE = 1000.0
 SEED = 2024
 N_POSES = 36
 REST = 60.0
+XSENS_GRAVITY = 9.81744
+CASES = ("handheld", "xsens_imutk", "xsens_csv")
 
 
 def dwell_for(samples: int) -> tuple[float, float]:
@@ -56,8 +71,40 @@ def generate(samples: int, path: Path) -> None:
     write_csv(path, sim["recording"])
 
 
-def run_child(cmd: list[str], env: dict | None = None) -> tuple[float, float]:
-    """Wall time [s] and peak RSS [GB] of one child process (exit 0, or 3 for a rejected calibration)."""
+def generate_xsens(samples: int, directory: Path) -> None:
+    """The Xsens session resampled to ``samples`` samples with noise, as an imu_tk pair and a CSV (own process)."""
+    import warnings
+
+    import numpy as np
+
+    from imucalib.io import read, write_csv
+    from imucalib.recording import Recording
+    from imucalib.segment import find_initial_rest
+
+    source = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "xsens_imu_tk"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rec = read([str(source / "xsens_acc.mat"), str(source / "xsens_gyro.mat")], reader="imutk")
+    rest = rec[find_initial_rest(rec)]
+    rng = np.random.default_rng(SEED)
+    t = np.linspace(rec.t[0], rec.t[-1], samples)
+    cols = {}
+    for name in ("acc", "gyro"):
+        raw, sd = getattr(rec, name), getattr(rest, name).std(axis=0)
+        cols[name] = np.stack([np.interp(t, rec.t, raw[:, i]) + sd[i] * rng.standard_normal(samples)
+                               for i in range(3)], axis=1)
+    for name in ("acc", "gyro"):
+        with (directory / f"xsens_{samples}_{name}.mat").open("w", encoding="ascii") as f:
+            for a in range(0, samples, 1 << 18):  # imu_tk's text: time and three values per line
+                b = min(samples, a + (1 << 18))
+                np.savetxt(f, np.column_stack([t[a:b], cols[name][a:b]]), fmt="%15.7e")
+    write_csv(directory / f"xsens_{samples}.csv", Recording(t, cols["acc"], cols["gyro"], "counts", "counts"))
+
+
+def run_child(cmd: list[str], env: dict | None = None) -> tuple[float, float, float | None, float]:
+    """Wall time [s] and peak RSS [GB] of one child process (exit 0, or 3 for a rejected calibration), the
+    CPU seconds other programs used on the machine meanwhile (what makes the time noisy), and its own."""
+    busy0 = machine_busy_s()
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
     err = proc.stderr.read().decode(errors="replace")  # drained while it runs
@@ -67,7 +114,9 @@ def run_child(cmd: list[str], env: dict | None = None) -> tuple[float, float]:
     proc.stderr.close()
     if proc.returncode not in (0, 3):
         raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}):\n{err}")
-    return elapsed, usage.ru_maxrss * 1024 / 1e9  # ru_maxrss is in KiB on Linux
+    busy1 = machine_busy_s()
+    other = None if busy0 is None else round(max(0.0, busy1 - busy0 - usage.ru_utime - usage.ru_stime), 1)
+    return elapsed, usage.ru_maxrss * 1024 / 1e9, other, usage.ru_utime + usage.ru_stime  # maxrss: KiB
 
 
 def _cli(engine: str | None) -> list[str]:
@@ -77,10 +126,12 @@ def _cli(engine: str | None) -> list[str]:
             "from imucalib.cli import main; sys.exit(main(sys.argv[2:]))", engine]
 
 
-def _summary(runs: list[tuple[float, float]]) -> dict:
+def _summary(runs: list[tuple[float, float, float | None, float]]) -> dict:
     return {"median_s": round(statistics.median(r[0] for r in runs), 2),
+            "cpu_median_s": round(statistics.median(r[3] for r in runs), 2),
             "peak_rss_gb": round(statistics.median(r[1] for r in runs), 3),
-            "times_s": [round(r[0], 2) for r in runs], "peak_rss_gb_runs": [round(r[1], 3) for r in runs]}
+            "times_s": [round(r[0], 2) for r in runs], "peak_rss_gb_runs": [round(r[1], 3) for r in runs],
+            "other_programs_cpu_s": [r[2] for r in runs]}
 
 
 def main() -> None:
@@ -94,12 +145,23 @@ def main() -> None:
     parser.add_argument("--no-apply", action="store_true", help="time calibrate only")
     parser.add_argument("--data-dir", help="keep and reuse the simulated CSV files here")
     parser.add_argument("--save", metavar="FILE", help="store the figures (JSON) here")
+    parser.add_argument("--cases", default=",".join(CASES), help=f"comma-separated, of {', '.join(CASES)}")
+    parser.add_argument("--xsens-samples", type=float, default=3.6e6,
+                        help="samples of the resampled Xsens session (default 3.6e6)")
     parser.add_argument("--generate", nargs=2, metavar=("SAMPLES", "PATH"), help=argparse.SUPPRESS)
+    parser.add_argument("--generate-xsens", nargs=2, metavar=("SAMPLES", "DIR"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.generate:
         generate(int(args.generate[0]), Path(args.generate[1]))
         return
-    sizes = [int(float(s)) for s in args.sizes.split(",")]
+    if args.generate_xsens:
+        generate_xsens(int(args.generate_xsens[0]), Path(args.generate_xsens[1]))
+        return
+    cases = args.cases.split(",")
+    if set(cases) - set(CASES):
+        parser.error(f"unknown case(s) {', '.join(sorted(set(cases) - set(CASES)))}; choose among {', '.join(CASES)}")
+    sizes = [int(float(s)) for s in args.sizes.split(",")] if "handheld" in cases else []
+    xsens = int(args.xsens_samples)
     here = {**os.environ}
     copies = {"after": (_cli(args.engine), here)}
     if args.baseline:
@@ -111,25 +173,44 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         data_dir = Path(args.data_dir or tmp)
         data_dir.mkdir(parents=True, exist_ok=True)
+        jobs = []  # (case, input files, reader and gravity options)
         for size in sizes:
             path = data_dir / f"handheld_{size}_seed{SEED}.csv"
             if not path.exists():
                 subprocess.run([sys.executable, __file__, "--generate", str(size), str(path)], check=True)
+            jobs.append(("handheld", [path], []))
+        if {"xsens_imutk", "xsens_csv"} & set(cases):
+            pair = [data_dir / f"xsens_{xsens}_acc.mat", data_dir / f"xsens_{xsens}_gyro.mat"]
+            csv = data_dir / f"xsens_{xsens}.csv"
+            if not all(p.exists() for p in (*pair, csv)):
+                subprocess.run([sys.executable, __file__, "--generate-xsens", str(xsens), str(data_dir)], check=True)
+            gravity = ["--gravity", str(XSENS_GRAVITY)]
+            if "xsens_imutk" in cases:
+                jobs.append(("xsens_imutk", pair, ["--reader", "imutk", *gravity]))
+            if "xsens_csv" in cases:
+                jobs.append(("xsens_csv", [csv], gravity))
+        for case, paths, options in jobs:
+            path = paths[-1]
             with path.open("rb") as f:
-                samples = sum(chunk.count(b"\n") for chunk in iter(lambda f=f: f.read(1 << 24), b"")) - 1
+                samples = sum(chunk.count(b"\n") for chunk in iter(lambda f=f: f.read(1 << 24), b""))
+            samples -= case != "xsens_imutk"  # a CSV's header line
+            data = [str(p) for p in paths]
             runs: dict = {name: {"calibrate": [], "apply": []} for name in copies}
             for _ in range(args.runs):
                 for name, (cli, env) in copies.items():
-                    cal = Path(tmp) / f"cal_{name}_{size}.json"
+                    cal = Path(tmp) / f"cal_{name}_{case}_{samples}.json"
                     runs[name]["calibrate"].append(run_child(
-                        [*cli, "calibrate", str(path), "--method", "tedaldi2014", "-o", str(cal), "--json"], env))
+                        [*cli, "calibrate", *data, "--method", "tedaldi2014", *options, "-o", str(cal), "--json"],
+                        env))
                     if not args.no_apply:
                         out = Path(tmp) / f"applied_{name}.csv"
                         runs[name]["apply"].append(run_child(
-                            [*cli, "apply", str(cal), str(path), "-o", str(out), "--force"], env))
+                            [*cli, "apply", str(cal), *data, *options[:2 if case == "xsens_imutk" else 0],
+                             "-o", str(out), "--force"], env))
                         out.unlink()
             for name in copies:
-                row = {"samples": samples, "file_mb": round(path.stat().st_size / 1e6, 1),
+                size_mb = round(sum(p.stat().st_size for p in paths) / 1e6, 1)
+                row = {"case": case, "samples": samples, "file_mb": size_mb,
                        "calibrate": _summary(runs[name]["calibrate"])}
                 if not args.no_apply:
                     row["apply"] = _summary(runs[name]["apply"])

@@ -15,8 +15,9 @@ import time
 
 from _common import median_time
 
+from imucalib.experiments.wang2019 import montecarlo
 from imucalib.methods.wang2019 import calibrate
-from imucalib.scenarios.wang2019 import montecarlo, session
+from imucalib.scenarios.wang2019 import session
 
 
 def main() -> None:

@@ -187,7 +187,7 @@ def test_figures_go_through_a_temporary_file(capsys, tmp_path, session):
 
 
 def test_an_interrupted_session_write_does_not_read_as_a_session(tmp_path, monkeypatch):
-    import imucalib.scenarios.base as base
+    import imucalib.io.session as base
     from imucalib.scenarios import read_session, session, write_session
 
     sim = session("zhang2021", rng=0)

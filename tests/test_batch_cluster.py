@@ -12,7 +12,7 @@ pytest.importorskip("distributed", reason="Dask distributed is not installed (th
 import dask  # noqa: E402
 
 from imucalib.batch import BatchError, run_batch  # noqa: E402
-from imucalib.evaluate import montecarlo  # noqa: E402
+from imucalib.experiments.evaluate import montecarlo  # noqa: E402
 from imucalib.store import Store  # noqa: E402
 from test_batch import write_fleet, write_manifest  # noqa: E402
 

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from imucalib.calibration import Calibration
-from imucalib.evaluate import eq34, eq35, montecarlo, parameter_errors, reductions, sequence_metrics
+from imucalib.experiments.evaluate import montecarlo, parameter_errors
+from imucalib.experiments.zhang2021 import eq34, eq35, reductions, sequence_metrics
 from imucalib.metrics import fit_summary, gravity_residuals
 from imucalib.models import TriadModel
 from imucalib.recording import Interval, Recording

@@ -143,3 +143,48 @@ def test_five_point_derivative_is_exact_for_quartics():
     np.testing.assert_allclose(d[2:-2], exact[2:-2], atol=1e-9)
     with pytest.raises(ValueError, match="at least 5 samples"):
         kin.five_point_derivative(y[:4], dt)
+
+
+def test_long_intervals_integrate_in_blocks_to_the_same_bits(monkeypatch):
+    """Blocks of a long interval give the very numbers of integrating it whole, and agree with integrate()."""
+    rng = np.random.default_rng(7)
+    n = 6000
+    t = np.cumsum(rng.uniform(0.009, 0.011, n))
+    w = rng.normal(size=(n, 3))
+    starts = np.array([0, 100, 400, 10, 1500, 3000, 3000, 4500])
+    stops = np.array([50, 399, 999, 11, 2525, 5999, 3017, 4500 + 64])
+    whole = kin.IntervalIntegrator(t, starts, stops)  # every interval at most BLOCK steps: no blocks
+    assert whole._long.size == 0
+    ws = w[whole.samples]
+    q_whole = whole.from_samples(ws)
+    q_sens, weights = whole.sensitivity(ws)
+    values = rng.normal(size=(len(whole.samples), 3, 4))
+    summed = whole.weighted_sum(weights, values)
+    monkeypatch.setattr(kin, "BLOCK", 16)
+    monkeypatch.setattr(kin, "CHUNK", 64)  # a few blocks at a time
+    blocked = kin.IntervalIntegrator(t, starts, stops)
+    assert blocked._long.size == 7 and np.array_equal(blocked.samples, whole.samples)
+    assert np.array_equal(blocked.from_samples(ws), q_whole)
+    q_b, weights_b = blocked.sensitivity(ws)
+    assert np.array_equal(q_b, q_sens) and np.array_equal(q_b, q_whole)
+    assert len(weights_b) == len(starts)
+    for m in range(len(starts)):
+        assert np.array_equal(weights_b[m], weights[m])
+    assert np.array_equal(blocked.weighted_sum(weights_b, values), summed)
+    for i, (a, b) in enumerate(zip(starts, stops, strict=True)):  # and each is the RK4 trajectory's end
+        np.testing.assert_allclose(np.abs(np.sum(q_b[i] * kin.integrate(t[a : b + 1], w[a : b + 1])[-1])), 1.0,
+                                   atol=1e-12)
+    # a sum over more samples than SUM_BLOCK is formed block by block: the same to rounding
+    monkeypatch.setattr(kin, "SUM_BLOCK", 100)
+    np.testing.assert_allclose(blocked.weighted_sum(weights_b, values), summed, rtol=1e-12, atol=1e-12)
+    with pytest.raises(ValueError, match="stops"):
+        kin.IntervalIntegrator(t, np.array([5]), np.array([5]))
+
+
+def test_to_scipy_gives_the_same_rotation_and_from_scipy_undoes_it():
+    rng = np.random.default_rng(5)
+    q = kin.quat_normalize(rng.normal(size=(20, 4)))
+    rot = kin.to_scipy(q)
+    np.testing.assert_allclose(rot.as_matrix(), kin.quat_to_matrix(q), atol=1e-14)
+    back = kin.from_scipy(rot)
+    np.testing.assert_allclose(back * np.sign(back[:, :1] * q[:, :1]), q, atol=1e-15)

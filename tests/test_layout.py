@@ -242,3 +242,88 @@ def test_main_prints_each_violation_and_exits_1(tmp_path, capsys):
     assert layout.main([str(root)]) == 1
     lines = capsys.readouterr().out.splitlines()
     assert [line.split(":")[0] for line in lines] == ["method imports another method", "import cycle"]
+
+
+# -------------------------------------------------------------------------------------------------- floors
+#: floors of the synthetic package: models below segment, segment below methods, methods below cli
+PKG_FLOORS = (
+    ("base", "", ("models",)),
+    ("stages", "", ("segment", "fit")),
+    ("simulators", "", ("scenarios",)),
+    ("methods", "", ("methods",)),
+    ("top", "", ("", "cli")),
+)
+#: CLEAN without its scenario's import of a method (which these floors forbid)
+FLOORED = {**CLEAN, "scenarios/paper.py": "from ..segment import poses\n\n\ndef session():\n    pass\n"}
+
+
+def test_clean_synthetic_package_on_floors_passes(tmp_path):
+    assert layout.check(make_package(tmp_path, FLOORED), floors=PKG_FLOORS) == []
+
+
+@pytest.mark.parametrize("rel, source, target", [
+    ("scenarios/paper.py", "from ..methods.alpha import poses\n", "pkg.methods.alpha"),
+    ("models.py", "def f():\n    from .segment import poses\n", "pkg.segment"),
+    ("fit/accelerometer.py", "import pkg.scenarios.paper\n", "pkg.scenarios.paper"),
+    ("fit/accelerometer.py", "from .. import scenarios\n", "pkg.scenarios"),
+])
+def test_an_import_that_runs_up_is_caught(tmp_path, rel, source, target):
+    root = make_package(tmp_path, {**FLOORED, rel: source})
+    found = layout.check(root, floors=PKG_FLOORS)
+    assert len(found) == 1 and found[0].startswith("import runs up: ") and f"→ {target} " in found[0], found
+
+
+def test_a_module_on_no_floor_is_caught_and_the_longest_prefix_decides(tmp_path):
+    root = make_package(tmp_path, {**FLOORED, "extra.py": "", "fit/low.py": ""})
+    floors = (("base", "", ("models", "fit.low")), *PKG_FLOORS[1:])
+    found = layout.check(root, floors=floors)
+    assert found == [f"module on no floor: pkg.extra ({layout._display(root / 'extra.py')}); add it to FLOORS"]
+    scanned = layout.scan(root)
+    assert layout.floor_of(scanned, "pkg.fit.low", floors) == 0
+    assert layout.floor_of(scanned, "pkg.fit.accelerometer", floors) == 1
+    assert layout.floor_of(scanned, "pkg", floors) == 4
+
+
+def test_floors_apply_to_the_real_package_by_default_and_to_no_other(tmp_path):
+    root = make_package(tmp_path, CLEAN)  # its scenario imports a method: fine without floors
+    assert layout.check(root) == []
+    assert layout.check(root, floors=PKG_FLOORS)[0].startswith("import runs up: pkg.scenarios.paper")
+    assert layout.FLOORS_PACKAGE == PACKAGE.name
+
+
+def test_the_real_floors_keep_simulators_below_methods_and_experiments_above():
+    names = [name for name, _, _ in layout.FLOORS]
+    assert names.index("readers") < names.index("sessions") < names.index("simulators") \
+        < names.index("methods") < names.index("experiments")
+    scanned = layout.scan(PACKAGE)
+    where = {m: layout.floor_of(scanned, m) for m in scanned.modules}
+    assert None not in where.values()
+    assert names[where["imucalib.io.data"]] == "sessions" and names[where["imucalib.io.readers"]] == "readers"
+    table = layout.floor_table()
+    assert table.splitlines()[1].split()[1] == "interface" and table.splitlines()[-1].split()[1] == "foundations"
+
+
+# -------------------------------------------------------------------------------------------- private names
+@pytest.mark.parametrize("rel, source, message", [
+    ("cli/run.py", "from ..segment import _helper\n", "private name imported from another module: pkg.cli.run → "
+                                                       "pkg.segment._helper"),
+    ("cli/run.py", "def f():\n    from pkg.models import _x, y\n", "private name imported from another module"),
+    ("segment.py", "from .cli._common import x\n", "private module imported from outside its package: pkg.segment"),
+    ("segment.py", "from .cli import _common\n", "private module imported from outside its package: pkg.segment"),
+])
+def test_a_private_import_across_modules_is_caught(tmp_path, rel, source, message):
+    root = make_package(tmp_path, {**CLEAN, "cli/_common.py": "x = 1\n", rel: source})
+    found = layout.check(root)
+    assert len(found) == 1 and found[0].startswith(message), found
+
+
+def test_private_modules_inside_their_package_and_dunders_pass(tmp_path):
+    files = {**CLEAN, "cli/_common.py": "x = 1\n", "cli/__init__.py": "from ._common import x\nfrom .run import main\n",
+             "cli/run.py": "from . import _common\nfrom ._common import x\nfrom .. import __name__ as n\n"}
+    assert layout.check(make_package(tmp_path, files)) == []
+
+
+def test_main_prints_the_floors_table(capsys):
+    assert layout.main(["--floors", str(PACKAGE)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split()[:3] == ["#", "floor", "modules"] and out[-1].startswith("layout ok: ")

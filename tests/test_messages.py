@@ -159,7 +159,7 @@ def test_advice_to_pass_rate_and_topic_works(files, tmp_path, capsys):
 
 def test_gravity_outside_the_earths_range_is_a_warning_naming_it(files, tmp_path, capsys):
     code, _, err = run(capsys, "calibrate", files["csv"], "--gravity", "1", "-o", tmp_path / "c.json")
-    assert "warning: --gravity 1: 1 m/s^2 is outside 9.7-9.9 m/s^2" in err
+    assert "warning: --gravity 1: 1 m/s^2 is outside 9.74-9.87 m/s^2" in err
     code, _, err = run(capsys, "calibrate", files["csv"], "--gravity", "9.81", "-o", tmp_path / "d.json")
     assert "--gravity" not in err
 

@@ -113,7 +113,12 @@ def _as_nobody(script: str, cwd: Path) -> subprocess.CompletedProcess:
     import pwd
 
     user = pwd.getpwnam("nobody")
-    prelude = ("import os, sys, encodings.utf_8_sig\nimport imucalib.cli, imucalib.export, imucalib.calibration\n"
+    # every module of the package (the command line imports them lazily) and what argparse loads on first use
+    prelude = ("import os, sys, encodings.utf_8_sig, locale, importlib, pkgutil\nimport imucalib\n"
+               "for m in pkgutil.walk_packages(imucalib.__path__, 'imucalib.'):\n"
+               "    if not m.name.endswith('__main__'):\n"
+               "        importlib.import_module(m.name)\n"
+               "imucalib.cli.build_parser().parse_args(['export', 'c.json'])\n"
                f"os.setgroups([])\nos.setgid({user.pw_gid})\nos.setuid({user.pw_uid})\n")
     return subprocess.run([sys.executable, "-c", prelude + script], cwd=cwd, capture_output=True, text=True,
                           timeout=120, env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})

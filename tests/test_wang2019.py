@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
+from imucalib.experiments.wang2019 import montecarlo, parameter_errors_wang_units, plan_report
 from imucalib.methods import calibrate
-from imucalib.scenarios.wang2019 import EARTH_RATE, G0, montecarlo, parameter_errors_wang_units, plan, session
+from imucalib.scenarios.wang2019 import EARTH_RATE, G0, plan, session
 
 QUIET = {"accelerometer": 0, "gyroscope": 0}
 
@@ -65,8 +66,6 @@ def test_small_montecarlo_within_the_papers_tables():
 
 def test_montecarlo_spread_equals_the_cramer_rao_bound():
     """The estimator is efficient: for one truth, the spread over noise draws is the CRLB of plan_report."""
-    from imucalib.scenarios.wang2019 import plan_report
-
     truth = session(0).truth
     report = {p["parameter"]: p["crlb_std"] for p in plan_report(0)["parameters"]}
     errs, reported = [], []
@@ -132,8 +131,6 @@ def test_clear_errors(tmp_path):
 
 def test_plan_shows_every_parameter_observable(capsys):
     from imucalib.cli import main
-    from imucalib.scenarios.wang2019 import plan_report
-
     rep = plan_report(0)
     assert len(rep["positions_gravity_body"]) == 15 and len(rep["rotation_axes_body"]) == 12
     assert len(rep["parameters"]) == 15 + 9 + 3

@@ -12,6 +12,12 @@ Rules
 * No file of the command-line package (``<pkg>/cli/``, or ``<pkg>/cli.py``) is longer than
   :data:`MAX_CLI_LINES` lines.
 * Every import of a module inside the package names a module that exists.
+* Floors (:data:`FLOORS`, for the package named :data:`FLOORS_PACKAGE`): every module sits on one floor,
+  and imports only modules on its own floor or below. An import that runs up is a violation, and so is
+  a module on no floor.
+* No module imports a private (underscore) name of another module: ``from X import _f`` is a
+  violation unless ``_f`` is a submodule of a package holding the importer (``cli._common`` for the
+  modules of ``cli``); a private module (``a._b``) is imported only from inside its package ``a``.
 
 Imports of modules outside the package are ignored. An import ``from X import name`` depends on the
 submodule ``X.name`` when that module exists, else on ``X``; importing ``a.b.c`` depends on ``a.b.c`` only
@@ -19,9 +25,10 @@ submodule ``X.name`` when that module exists, else on ``X``; importing ``a.b.c``
 
 Usage::
 
-    python tools/check_layout.py [PACKAGE_DIR]
+    python tools/check_layout.py [--floors] [PACKAGE_DIR]
 
-prints one line per violation and exits 1, or prints ``layout ok: N modules, M imports`` and exits 0.
+prints one line per violation and exits 1, or prints ``layout ok: N modules, M imports`` and exits 0;
+``--floors`` prints the table of floors first.
 ``PACKAGE_DIR`` defaults to ``src/imucalib`` of the repository holding this script.
 """
 
@@ -35,10 +42,36 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["MAX_CLI_LINES", "Import", "Layout", "check", "find_cycles", "main", "scan", "strongly_connected"]
+__all__ = ["FLOORS", "FLOORS_PACKAGE", "MAX_CLI_LINES", "Import", "Layout", "check", "find_cycles", "floor_of",
+           "floor_table", "main", "scan", "strongly_connected"]
 
 #: longest allowed file in the command-line package, in lines
 MAX_CLI_LINES = 400
+
+#: the package :data:`FLOORS` describes
+FLOORS_PACKAGE = "imucalib"
+
+#: The floors of the package, lowest first: (name, what lives there, modules and packages relative to the
+#: package; ``""`` is the package's own ``__init__``). A module is on the floor of its longest listed
+#: prefix (``io.session`` is above the rest of ``io``). A module imports its own floor and those below.
+FLOORS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+    ("foundations", "units, records, models, rotations, solvers, residuals, pose plans",
+     ("constants", "presets", "recording", "conventions", "models", "kinematics", "solve", "residuals", "metrics",
+      "plans", "progress")),
+    ("readers", "files and streams in and out", ("io",)),
+    ("estimators", "segmentation, fits, thermal models, noise, verdict",
+     ("fit", "segment", "thermal", "verdict", "noise")),
+    ("calibration", "the calibration record, its exports and reports", ("calibration", "export", "report")),
+    ("sessions", "the simulated-session format; reading any input the command line takes",
+     ("io.session", "io.data")),
+    ("simulators", "simulated sessions with their truth", ("scenarios",)),
+    ("methods", "the published methods over the shared stages", ("methods",)),
+    ("services", "validation, comparison, guided recording, batch runs and the calibration store",
+     ("compare", "crossval", "validate", "record", "batch", "store")),
+    ("experiments", "the papers' experiments and studies: methods run on simulated sessions",
+     ("experiments",)),
+    ("interface", "the package's API and the command line", ("", "cli")),
+)
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_PACKAGE = REPO_ROOT / "src" / "imucalib"
@@ -60,6 +93,8 @@ class Import:
         Line of the import statement.
     type_only : bool
         True when the statement sits under ``if TYPE_CHECKING:``.
+    name : str or None
+        For ``from target import name`` where ``target.name`` is not a module: the name imported.
     """
 
     source: str
@@ -67,6 +102,7 @@ class Import:
     path: Path
     line: int
     type_only: bool = False
+    name: str | None = None
 
 
 @dataclass
@@ -154,16 +190,17 @@ def _import_nodes(tree: ast.AST) -> Iterator[tuple[ast.Import | ast.ImportFrom, 
         stack.extend((child, type_only) for child in ast.iter_child_nodes(node))
 
 
-def _resolve(layout: Layout, module: str, node: ast.Import | ast.ImportFrom) -> list[str]:
-    """Dotted names inside the package that ``node`` (a statement of ``module``) imports."""
+def _resolve(layout: Layout, module: str, node: ast.Import | ast.ImportFrom) -> list[tuple[str, str | None]]:
+    """Modules inside the package that ``node`` (a statement of ``module``) imports, each with the name it
+    takes from that module (``from X import name`` where ``X.name`` is no module), else None."""
     if isinstance(node, ast.Import):
-        return [alias.name for alias in node.names if alias.name.split(".")[0] == layout.name]
+        return [(alias.name, None) for alias in node.names if alias.name.split(".")[0] == layout.name]
     if node.level:
         base = module.split(".") if module in layout.packages else module.split(".")[:-1]
         up = node.level - 1
         if up >= len(base):
             # above the top of the package: kept as written, so that it is reported as a missing module
-            return ["." * node.level + (node.module or "")]
+            return [("." * node.level + (node.module or ""), None)]
         target = ".".join([*base[: len(base) - up], *(node.module.split(".") if node.module else [])])
     else:
         target = node.module or ""
@@ -172,7 +209,10 @@ def _resolve(layout: Layout, module: str, node: ast.Import | ast.ImportFrom) -> 
     out = []
     for alias in node.names:
         sub = f"{target}.{alias.name}"
-        out.append(sub if alias.name != "*" and sub in layout.modules else target)
+        if alias.name != "*" and sub in layout.modules:
+            out.append((sub, None))
+        else:
+            out.append((target, None if alias.name == "*" else alias.name))
     return list(dict.fromkeys(out))
 
 
@@ -206,8 +246,8 @@ def scan(package_dir: Path) -> Layout:
             continue
         found = []
         for node, type_only in _import_nodes(tree):
-            for target in _resolve(layout, source, node):
-                found.append(Import(source, target, path, node.lineno, type_only))
+            for target, name in _resolve(layout, source, node):
+                found.append(Import(source, target, path, node.lineno, type_only, name))
         layout.imports.extend(sorted(found, key=lambda i: (i.line, i.target)))
     return layout
 
@@ -388,13 +428,73 @@ def _missing_violations(layout: Layout) -> Iterable[str]:
             yield f"missing module: {imp.source} imports {imp.target} ({_display(imp.path)}:{imp.line})"
 
 
-def check(package_dir: Path) -> list[str]:
+def floor_of(layout: Layout, module: str, floors=FLOORS) -> int | None:
+    """Index in ``floors`` of ``module``'s floor (its longest listed prefix), or None when on no floor."""
+    rel = module[len(layout.name) + 1:] if module != layout.name else ""
+    best, where = -1, None
+    for index, (_, _, members) in enumerate(floors):
+        for member in members:
+            if member == "" and rel != "":
+                continue
+            if rel == member or rel.startswith(member + ".") and member != "":
+                if len(member) > best:
+                    best, where = len(member), index
+    return where
+
+
+def floor_table(floors=FLOORS) -> str:
+    """The floors as a text table, highest first."""
+    rows = [(str(i), name, ", ".join(m or "(package)" for m in members), what)
+            for i, (name, what, members) in enumerate(floors)][::-1]
+    head = ("#", "floor", "modules", "what lives there")
+    widths = [max(len(r[k]) for r in [*rows, head]) for k in range(3)]
+    lines = [f"{head[0]:>{widths[0]}}  {head[1]:<{widths[1]}}  {head[2]:<{widths[2]}}  {head[3]}"]
+    lines += [f"{r[0]:>{widths[0]}}  {r[1]:<{widths[1]}}  {r[2]:<{widths[2]}}  {r[3]}" for r in rows]
+    return "\n".join(lines)
+
+
+def _floor_violations(layout: Layout, floors) -> Iterable[str]:
+    if not floors:
+        return
+    for module in sorted(layout.modules):
+        if floor_of(layout, module, floors) is None:
+            yield f"module on no floor: {module} ({_display(layout.modules[module])}); add it to FLOORS"
+    for imp in layout.imports:
+        if imp.target not in layout.modules or imp.target == imp.source:
+            continue
+        low, high = floor_of(layout, imp.source, floors), floor_of(layout, imp.target, floors)
+        if low is not None and high is not None and high > low:
+            yield (f"import runs up: {imp.source} ({floors[low][0]}) → {imp.target} ({floors[high][0]}) "
+                   f"({_display(imp.path)}:{imp.line})")
+
+
+def _private(part: str) -> bool:
+    return part.startswith("_") and not (part.startswith("__") and part.endswith("__"))
+
+
+def _private_violations(layout: Layout) -> Iterable[str]:
+    for imp in layout.imports:
+        at = f"({_display(imp.path)}:{imp.line})"
+        parts = imp.target.split(".")
+        for k, part in enumerate(parts[1:], start=1):
+            inside = ".".join(parts[:k])  # the package holding the private module
+            if _private(part) and not (imp.source == inside or imp.source.startswith(inside + ".")):
+                yield f"private module imported from outside its package: {imp.source} → {imp.target} {at}"
+                break
+        if imp.name is not None and _private(imp.name) and imp.target != imp.source:
+            yield f"private name imported from another module: {imp.source} → {imp.target}.{imp.name} {at}"
+
+
+def check(package_dir: Path, floors=None) -> list[str]:
     """Every layout violation of the package at ``package_dir``.
 
     Parameters
     ----------
     package_dir : Path
         The package directory, e.g. ``src/imucalib``.
+    floors : tuple, optional
+        Floors as in :data:`FLOORS`; default :data:`FLOORS` for the package named :data:`FLOORS_PACKAGE`,
+        none for any other (``()`` checks none).
 
     Returns
     -------
@@ -403,12 +503,16 @@ def check(package_dir: Path) -> list[str]:
         the layout is clean.
     """
     layout = scan(Path(package_dir))
+    if floors is None:
+        floors = FLOORS if layout.name == FLOORS_PACKAGE else ()
     return [
         *layout.errors,
         *_method_violations(layout),
         *_cycle_violations(layout),
         *_cli_violations(layout),
         *_missing_violations(layout),
+        *_floor_violations(layout, floors),
+        *dict.fromkeys(_private_violations(layout)),
     ]
 
 
@@ -417,7 +521,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Check the package's import and size rules.")
     parser.add_argument("package_dir", nargs="?", type=Path, default=DEFAULT_PACKAGE,
                         help=f"package directory (default: {_display(DEFAULT_PACKAGE)})")
+    parser.add_argument("--floors", action="store_true", help="print the table of floors first")
     args = parser.parse_args(argv)
+    if args.floors:
+        print(floor_table())
     if not args.package_dir.is_dir():
         print(f"not a directory: {args.package_dir}", file=sys.stderr)
         return 2

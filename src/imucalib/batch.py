@@ -49,7 +49,7 @@ with its error and never stops the batch. A row already in the store, same devic
 file contents, is skipped (``force`` redoes it, replacing the record): a batch killed half-way and run
 again does the rest, and every row ends up in the store once.
 
-Where the rows run (:func:`execute`, shared with :func:`imucalib.evaluate.montecarlo`):
+Where the rows run (:func:`execute`, shared with :func:`imucalib.experiments.evaluate.montecarlo`):
 
 * ``workers=1``: in this process;
 * ``workers=N``: a pool of N processes that lives for the whole batch (started once, imports done once),

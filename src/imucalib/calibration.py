@@ -166,10 +166,10 @@ class Calibration:
         )
 
     def _apply_frame(self, frame, read_options: dict):
-        from .io.readers import _is_frame, read
+        from .io.readers import is_frame, read
         from .io.writers import calibrated_columns
 
-        if not _is_frame(frame):
+        if not is_frame(frame):
             raise TypeError(f"apply takes a Recording or a pandas DataFrame; got {type(frame).__name__}")
         rec = read(frame, **read_options)
         out = self.apply(rec)

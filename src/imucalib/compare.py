@@ -18,9 +18,11 @@ The methods are ranked (:func:`rank`) by, in turn:
 
 The best method is the first one that ran and was not rejected (none when
 every method was rejected or could not run, or when two or more share the
-first place with the same verdict and score: a tie, said as such). Where a method selects
-its model variant (zhang2021 without tosses), the variant is selected once on
-all poses and the folds refit it: ten times faster, slightly optimistic for
+first place with the same verdict and score: a tie, said as such). Each method
+runs with the model its ``calibrate`` takes by default. Where a method selects
+its model variant (zhang2021 without tosses), the method's own selection runs
+once on all poses — the variant ``imucalib calibrate`` selects on the same
+recording — and the folds refit it: ten times faster, slightly optimistic for
 that one choice.
 """
 
@@ -38,8 +40,9 @@ from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 
 __all__ = ["DEFAULT_MODELS", "RANKED_BY", "compare", "even_folds", "rank", "tied_best"]
 
-#: the model each method is compared with (None: the method's only model)
-DEFAULT_MODELS: dict[str, str | None] = {"zhang2021": "cubic"}
+#: the model each method is compared with where it differs from the one ``calibrate`` takes by default (none does:
+#: ``compare`` and ``calibrate`` select the same variant on the same recording)
+DEFAULT_MODELS: dict[str, str | None] = {}
 
 
 #: the ranking in words (the module docstring has it in full), for the JSON and the table
@@ -172,8 +175,8 @@ def compare(
 
         try:
             full = fit(intervals)
-            row["model"] = model or full.model
             sel = full.fit.get("model_selection")
+            row["model"] = model or (sel["requested"] if sel else full.model)
             if sel:
                 # the variant is chosen once on all poses; the folds refit that variant
                 row["model_selected"] = sel["selected"]

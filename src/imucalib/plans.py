@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .constants import STANDARD_GRAVITY
 from .models import TriadModel
 from .residuals import AccelLayout, gravity_norm_residuals
 from .solve import standard_errors
@@ -63,7 +64,7 @@ def plan_directions(plan: str | int) -> np.ndarray:
 
 
 def accelerometer_plan(plan: str | int | np.ndarray, *, noise: float = 0.002,
-                       gravity: float = 9.80665) -> dict:
+                       gravity: float = STANDARD_GRAVITY) -> dict:
     """Cramér–Rao bounds of the linear accelerometer model's 9 parameters for a pose plan.
 
     ``noise`` is the standard deviation of one pose's mean [m/s²] (the

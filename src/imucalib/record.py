@@ -38,6 +38,7 @@ from __future__ import annotations
 import contextlib
 import os
 import queue
+import signal
 import socket
 import tempfile
 import threading
@@ -172,9 +173,9 @@ class SessionWriter:
                 self._fh = None
         if not rename:
             return self.partial
-        from .io.atomic import _move_into_place
+        from .io.atomic import move_into_place
 
-        _move_into_place(self.partial, self.output)
+        move_into_place(self.partial, self.output)
         return self.output
 
 
@@ -557,12 +558,20 @@ def record(stream, output: str | Path, recorder: Recorder, *, poll: float = 0.2)
     writer = SessionWriter(output)
     q: queue.Queue = queue.Queue()
     thread = threading.Thread(target=_pump, args=(stream, writer, q), daemon=True)
+    # Ctrl-C sets a flag the loop looks at between batches, so that it never lands inside the analysis
+    stop = threading.Event()
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGINT, lambda signum, frame: stop.set())
     thread.start()
     interrupted = False
     error = None
     try:
         pending = None
         while True:
+            if stop.is_set():
+                interrupted = True
+                break
             if pending is None:
                 try:
                     pending = q.get(timeout=poll)
@@ -590,6 +599,9 @@ def record(stream, output: str | Path, recorder: Recorder, *, poll: float = 0.2)
     except BaseException:
         writer.finish(rename=False)
         raise
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
     try:
         recorder.close()
     finally:

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from .constants import STANDARD_GRAVITY
+
 __all__ = [
     "ACC_UNITS",
     "GYRO_UNITS",
@@ -25,7 +27,6 @@ __all__ = [
     "require_pandas",
 ]
 
-STANDARD_GRAVITY = 9.80665  # m/s², the conventional value (CGPM 1901)
 
 #: accepted accelerometer units and their factor to m/s² (``"g"`` uses ``gravity``)
 ACC_UNITS = ("counts", "g", "m/s^2")
@@ -230,12 +231,6 @@ class Recording:
             mag=None if self.mag is None else self.mag[index],
             mag_unit=self.mag_unit,
         )
-
-    def time_slice(self, t0: float | None = None, t1: float | None = None) -> Recording:
-        """Samples with ``t0 <= t < t1`` [s] (either bound may be None)."""
-        i0 = 0 if t0 is None else int(np.searchsorted(self.t, t0, side="left"))
-        i1 = len(self) if t1 is None else int(np.searchsorted(self.t, t1, side="left"))
-        return self[i0:i1]
 
     # ------------------------------------------------------------------ pandas
     def to_dataframe(self):

@@ -28,7 +28,7 @@ from .metrics import gravity_direction_errors, gravity_residuals
 from .recording import Interval, Recording
 
 __all__ = ["coverage_svg", "fit_figure", "html_report", "magnetometer_figure", "parameter_unit", "plot_allan",
-           "plot_fit", "reference_levels", "thermal_figure"]
+           "plot_fit", "plot_thermal", "reference_levels", "thermal_figure"]
 
 
 def _pyplot():
@@ -243,6 +243,12 @@ def magnetometer_figure(calibration: Calibration):
     ax2.set_xlabel("static pose")
     fig.tight_layout()
     return fig
+
+
+def plot_thermal(calibration: Calibration, path) -> Path:
+    """Write :func:`thermal_figure` (PNG, SVG or PDF by the file's suffix, or PNG into a binary file object)."""
+    plt = _pyplot()
+    return _save(thermal_figure(calibration), path, plt)
 
 
 def thermal_figure(calibration: Calibration):

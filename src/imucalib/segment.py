@@ -30,6 +30,21 @@ import numpy as np
 from .fit.accelerometer import fit_determined, fit_gravity_norm, fit_sphere
 from .metrics import interval_means, transition_bounds
 from .models import TriadModel
+from .presets import (
+    GYRO_MULTIPLIER,
+    GYRO_VARIANCE_WINDOW,
+    MIN_INTERVAL,
+    MIN_INTERVALS,
+    MULTIPLIERS,
+    REST_FACTOR,
+    REST_MIN_SECONDS,
+    REST_SHORTEST_SECONDS,
+    REST_WINDOW,
+    STILL_N_SIGMA,
+    STILL_RATE,
+    STILL_WINDOW,
+    VARIANCE_WINDOW,
+)
 from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 
 __all__ = [
@@ -64,8 +79,6 @@ __all__ = [
     "BLOCK",
 ]
 
-#: the fewest static intervals the accelerometer detector's scan accepts
-MIN_INTERVALS = 10
 #: the six faces in the order :func:`find_faces` returns them
 FACE_NAMES = ("+x", "+y", "+z", "-x", "-y", "-z")
 
@@ -237,16 +250,16 @@ class VarianceNormStream:
 
 
 #: the initial rest the detector would like [s]: its noise level is the median statistic over this much rest
-PREFERRED_REST = 2.0
+PREFERRED_REST = REST_MIN_SECONDS
 #: the shortest initial rest found automatically [s]; a rest between this and :data:`PREFERRED_REST` gets a note
-SHORTEST_REST = 1.0
+SHORTEST_REST = REST_SHORTEST_SECONDS
 
 
 def find_initial_rest(
     recording: Recording,
     *,
-    window_seconds: float = 1.0,
-    factor: float = 30.0,
+    window_seconds: float = REST_WINDOW,
+    factor: float = REST_FACTOR,
     min_seconds: float = PREFERRED_REST,
     shortest: float = SHORTEST_REST,
 ) -> Interval:
@@ -380,9 +393,9 @@ def detect_static_gyro(
     recording: Recording,
     rest: Interval,
     *,
-    window: float = 2.0,
-    multiplier: float = 6.0,
-    min_interval: float = 1.0,
+    window: float = GYRO_VARIANCE_WINDOW,
+    multiplier: float = GYRO_MULTIPLIER,
+    min_interval: float = MIN_INTERVAL,
 ) -> list[Interval]:
     """Static intervals by the gyroscope detector of Zhang 2021, eq. (22).
 
@@ -433,11 +446,6 @@ def initial_rest(recording: Recording, init_static: float | None = None) -> Inte
     return Interval(0, n, "static")
 
 
-#: a pose is still when the gyroscope's mean rate over ``STILL_WINDOW`` s, bias removed, stays below this [rad/s]
-STILL_RATE = np.radians(0.7)
-STILL_WINDOW = 0.25
-
-
 def moving_mean(x: np.ndarray, window: int) -> np.ndarray:
     """Mean over a centred window of ``window`` samples, per column (truncated at the ends), :data:`BLOCK` at a time."""
     x = np.asarray(x, dtype=np.float64)
@@ -460,7 +468,7 @@ def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int) -> np.ndarray:
 
 
 def gyro_still(recording: Recording, rest: Interval, scale: float, intervals: list[Interval] | None = None, *,
-               rate_limit: float = STILL_RATE, window: float = STILL_WINDOW, n_sigma: float = 6.0,
+               rate_limit: float = STILL_RATE, window: float = STILL_WINDOW, n_sigma: float = STILL_N_SIGMA,
                offset_factor: float = 4.0) -> np.ndarray:
     """Samples where the gyroscope says the sensor is still: a mask (N,).
 
@@ -509,9 +517,9 @@ def detect_intervals(
     gravity: float,
     *,
     init_static: float | None = None,
-    multipliers: Iterable[float] = range(2, 11),
-    window: float = 1.0,
-    min_interval: float = 1.0,
+    multipliers: Iterable[float] = MULTIPLIERS,
+    window: float = VARIANCE_WINDOW,
+    min_interval: float = MIN_INTERVAL,
     gyro_gate: bool = True,
 ) -> tuple[list[Interval], float, Interval, TriadModel]:
     """Static intervals by the Tedaldi 2014 detector with the multiplier scan, still for the gyroscope too.
@@ -578,8 +586,8 @@ def detect_intervals(
     return intervals, mult, rest, model
 
 
-def static_at(recording: Recording, rest: Interval, multiplier: float, *, window: float = 1.0,
-              min_interval: float = 1.0) -> list[Interval]:
+def static_at(recording: Recording, rest: Interval, multiplier: float, *, window: float = VARIANCE_WINDOW,
+              min_interval: float = MIN_INTERVAL) -> list[Interval]:
     """Static intervals of the accelerometer variance detector at one threshold, ``multiplier`` × the rest's.
 
     Tedaldi 2014's detector without the scan (nothing is fitted): where the norm

@@ -23,6 +23,7 @@ import numpy as np
 
 from .calibration import Calibration
 from .metrics import fit_summary, gap_flags
+from .presets import MIN_INTERVAL, VALIDATE_MULTIPLIER, VARIANCE_WINDOW
 from .recording import Interval, Recording
 from .segment import gyro_still, initial_rest, static_at, still_intervals
 from .thermal import compensate
@@ -36,12 +37,9 @@ VALIDATION_KEYS = ("accelerometer_residual_rms", "gyroscope_angle_error_mean_deg
 #: the fit figures on the new recording the verdict rests on, besides :data:`VALIDATION_KEYS`
 _FIGURES = ("accelerometer_noise_floor", "accelerometer_residual_to_noise")
 #: the accelerometer detector's threshold, in multiples of the initial rest's variance norm
-THRESHOLD_MULTIPLIER = 6.0
+THRESHOLD_MULTIPLIER = VALIDATE_MULTIPLIER
 #: the fewest static poses (the initial rest included) a validation needs
 MIN_POSES = 2
-#: the detector's window and the shortest pose [s]
-_WINDOW = 1.0
-_MIN_POSE = 1.0
 
 
 def find_poses(calibration: Calibration, recording: Recording, *, init_static: float | None = None
@@ -65,12 +63,12 @@ def find_poses(calibration: Calibration, recording: Recording, *, init_static: f
     """
     rest = initial_rest(recording, init_static)
     # the detector at one threshold, without the scan's fits
-    candidates = static_at(recording, rest, THRESHOLD_MULTIPLIER, window=_WINDOW, min_interval=_MIN_POSE)
+    candidates = static_at(recording, rest, THRESHOLD_MULTIPLIER, window=VARIANCE_WINDOW, min_interval=MIN_INTERVAL)
     if recording.gyro is None or calibration.gyroscope is None:  # accelerometer-only: the detector's poses
         return candidates
     scale = float(np.mean(np.abs(calibration.gyroscope.scale)))
     still = gyro_still(recording, rest, scale, candidates)
-    return still_intervals(candidates, still, max(int(round(_MIN_POSE * recording.rate)), 2))
+    return still_intervals(candidates, still, max(int(round(MIN_INTERVAL * recording.rate)), 2))
 
 
 def _ratio(now, then) -> float | None:
@@ -130,7 +128,7 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
         raise ValueError(
             f"{len(poses)} static pose(s) found in the {recording.duration:.3g} s recording; validate needs "
             f"the initial rest and at least {MIN_POSES - 1} more pose: after the rest, turn the sensor and hold "
-            f"it still for at least {_MIN_POSE:g} s (the initial rest sets the detector's threshold: if it is "
+            f"it still for at least {MIN_INTERVAL:g} s (the initial rest sets the detector's threshold: if it is "
             "found too short, give its length with --init-static SECONDS)")
     fit = fit_summary(calibration, recording, poses, gravity)
     # the checks apply to this recording: the calibration's own fit (its poses, turns, errors) is left behind

@@ -32,7 +32,7 @@ the fit did not minimise, or that it cannot change:
 * **finite numbers** — a NaN or infinite parameter or figure rejects: no limit trips on NaN.
 
 Thresholds (:data:`THRESHOLDS`) come from Monte Carlo on the hand-held
-scenario (``benchmarks/verdict_thresholds.py``, 30 sessions, tedaldi2014,
+scenario (``python -m imucalib.experiments.verdict_thresholds``, 30 sessions, tedaldi2014,
 zhang2021 and ellipsoid): none of its good sessions is suspect or rejected.
 The margins between the worst good session and the limit are 2.1× on the
 gyroscope's error against its noise, 2.7× on its error in degrees, 3.3× on
@@ -50,6 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .constants import GRAVITY_RANGE
 from .fit.accelerometer import REDUCED_MODELS, fit_sphere
 from .fit.magnetometer import WEAK_DIP_DEG
 from .metrics import gravity_direction_errors, interval_means, transition_bounds
@@ -60,9 +61,6 @@ __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibilit
            "white_noise_variance", "with_verdict"]
 
 LEVELS = ("accepted", "suspect", "rejected")
-
-#: gravity on Earth's surface spans about 9.76 (equator, altitude) to 9.84 m/s² (poles)
-EARTH_GRAVITY = (9.74, 9.87)
 
 #: (suspect, rejected) limits of each figure; see the module docstring for where they come from
 THRESHOLDS = {
@@ -282,7 +280,7 @@ def _time_base(calibration, recording: Recording, intervals: list[Interval]) -> 
 def _gravity(calibration, recording: Recording | None, intervals: list[Interval]) -> list[Check]:
     g = calibration.gravity
     out = []
-    lo, hi = EARTH_GRAVITY
+    lo, hi = GRAVITY_RANGE  # the command line warns outside the same range
     if not lo <= g <= hi:
         out.append(Check(2, f"the declared gravity {g:.5g} m/s² is outside {lo}-{hi} m/s², the range on Earth's "
                             "surface (a typo, or a value in g?); every accelerometer scale factor is off by the "

@@ -4,15 +4,18 @@ from __future__ import annotations
 
 import argparse
 import errno
+import math
 import os
 import sys
 import time
 from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
-import numpy as np
-
+from ..constants import GRAVITY_RANGE, STANDARD_GRAVITY
 from ..progress import Progress, stage_printer
-from ..recording import STANDARD_GRAVITY, Recording
+
+if TYPE_CHECKING:
+    from ..recording import Recording
 
 __all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_REJECTED", "STANDARD_GRAVITY", "CliError", "Progress",
            "add_force_option", "add_gravity_option", "add_init_static_option", "add_reader_options",
@@ -38,13 +41,9 @@ def positive_float(text: str) -> float:
         v = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number; got {text!r}") from None
-    if not (np.isfinite(v) and v > 0):
+    if not (math.isfinite(v) and v > 0):
         raise argparse.ArgumentTypeError(f"expected a positive number; got {text!r}")
     return v
-
-
-#: the range of gravity on the Earth's surface, with a margin [m/s^2] (9.78 at the equator, 9.83 at the poles)
-GRAVITY_RANGE = (9.7, 9.9)
 
 
 def gravity_value(text: str) -> float:
@@ -216,6 +215,8 @@ def reading_progress(args: argparse.Namespace, label: str) -> _LateProgress:
 
 def read_recording(args: argparse.Namespace, paths: Sequence[str]) -> Recording:
     """The recording in ``paths`` (a simulated session's main recording); a clear error for turntable aggregates."""
+    from ..recording import Recording
+
     data = read(args, paths)
     rec = getattr(data, "recording", data)
     if not isinstance(rec, Recording):

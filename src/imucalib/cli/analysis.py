@@ -4,11 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
-from ..calibration import Calibration
 from ..io.atomic import atomic_write, refuse_overwriting_inputs
-from ..recording import ImucalibWarning
 from ._common import (
     CliError,
     add_init_static_option,
@@ -25,7 +21,9 @@ __all__ = ["register"]
 # ------------------------------------------------------------------ commands
 def cmd_noise(args: argparse.Namespace) -> int:
     """``imucalib noise``: :func:`imucalib.noise.noise_summary` of the initial rest, optionally a Kalibr file."""
+    from ..calibration import Calibration
     from ..noise import check_rest, kalibr_yaml, noise_summary
+    from ..recording import ImucalibWarning
     from ..segment import initial_rest
     from ..verdict import check_rate
 
@@ -81,14 +79,16 @@ def cmd_noise(args: argparse.Namespace) -> int:
 
 def _triple(r: dict, key: str) -> str:
     """The three axes of a figure: the value, '<bound' where only its bound holds, 'const' for a constant column."""
+    import math
+
     out = []
     for j, v in enumerate(r[key]):
         bound = r.get(f"{key}_bound", [None] * 3)[j]
         if r.get("constant", [False] * 3)[j]:
             out.append("const")
-        elif v is not None and np.isfinite(v):
+        elif v is not None and math.isfinite(v):
             out.append(f"{v:.3g}")
-        elif bound is not None and np.isfinite(bound):
+        elif bound is not None and math.isfinite(bound):
             out.append(f"<{bound:.3g}")
         else:
             out.append("-")
@@ -98,11 +98,11 @@ def _triple(r: dict, key: str) -> str:
 def cmd_plan(args: argparse.Namespace) -> int:
     """``imucalib plan``: the turntable plan of wang2019, else the method's accelerometer pose plan.
 
-    Over :func:`imucalib.scenarios.wang2019.plan_report` and :func:`imucalib.plans.accelerometer_plan`.
+    Over :func:`imucalib.experiments.wang2019.plan_report` and :func:`imucalib.plans.accelerometer_plan`.
     """
     if args.method != "wang2019":
         return _plan_accelerometer(args)
-    from ..scenarios.wang2019 import plan_report
+    from ..experiments.wang2019 import plan_report
 
     rep = plan_report(args.seed)
     if args.json:

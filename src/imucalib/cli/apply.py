@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..calibration import Calibration
 from ..io.atomic import refuse_overwriting_inputs
 from ._common import (
     add_force_option,
@@ -33,6 +32,7 @@ def _is_bag(args: argparse.Namespace) -> bool:
 
 def cmd_apply(args: argparse.Namespace) -> int:
     """``imucalib apply``: :meth:`Calibration.apply` into a CSV, or a ROS bag calibrated topic by topic."""
+    from ..calibration import Calibration
     from ..io import write_csv
 
     refuse_overwriting_inputs([args.output], [args.calibration, *args.data])

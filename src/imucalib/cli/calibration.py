@@ -11,12 +11,10 @@ import json
 import sys
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from ..calibration import Calibration
 from ..io.atomic import refuse_overwriting_inputs
-from ..recording import ImucalibWarning, Interval
+from ..presets import FALL_THRESHOLD
 from . import apply as apply_command
 from ._common import (
     EXIT_REJECTED,
@@ -32,6 +30,9 @@ from ._common import (
     read_recording,
 )
 
+if TYPE_CHECKING:
+    from ..calibration import Calibration
+
 __all__ = ["VERDICT_KEYS", "print_calibration", "register"]
 
 #: the entries of ``fit`` that make the verdict, printed before the parameters
@@ -41,6 +42,8 @@ VERDICT_KEYS = ("verdict", "verdict_reasons", "verdict_notes")
 # ------------------------------------------------------------------ printing
 def print_calibration(cal: Calibration) -> None:
     """The calibration for a person: every parameter, with ± its 1σ error where the method gives one."""
+    import numpy as np
+
     unc = (cal.fit or {}).get("uncertainty") or {}
 
     def pm(name: str, value: float, fmt: str = ".7g") -> str:
@@ -163,6 +166,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     with :data:`EXIT_REJECTED`.
     """
     from ..methods import calibrate
+    from ..recording import ImucalibWarning, Interval
 
     refuse_overwriting_inputs([args.output, args.plot, args.report], [*args.data, args.sections])
     options = _method_options(args)
@@ -252,6 +256,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def cmd_detect_fall(args: argparse.Namespace) -> int:
     """``imucalib detect-fall``: :func:`imucalib.methods.zhang2021.detect_fall`, with the intervals' times."""
+    from ..calibration import Calibration
     from ..methods.zhang2021 import detect_fall
 
     cal = Calibration.load(args.calibration)
@@ -333,8 +338,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "below a threshold as falling; needs a calibration with a lever arm.")
     p.add_argument("calibration", help="calibration file (JSON) with a lever arm")
     p.add_argument("data", help="data file")
-    p.add_argument("--threshold", type=positive_float, default=2.5,
-                   help="loss threshold [m/s^2] (default 2.5)")
+    p.add_argument("--threshold", type=positive_float, default=FALL_THRESHOLD,
+                   help=f"loss threshold [m/s^2] (default {FALL_THRESHOLD})")
     p.add_argument("--json", action="store_true", help="print the intervals as JSON")
     add_reader_options(p)
     p.set_defaults(func=cmd_detect_fall)

@@ -6,7 +6,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..calibration import Calibration
 from ..io.atomic import atomic_write, refuse_overwriting_inputs
 from ._common import CliError, add_force_option, check_verdict, print_json, show_warning
 
@@ -59,6 +58,7 @@ def _check_options(args: argparse.Namespace, fmt: str) -> None:
 def cmd_export(args: argparse.Namespace) -> int:
     """``imucalib export``: :mod:`imucalib.export` on stdout or into the file(s) named by ``-o``."""
     from .. import export
+    from ..calibration import Calibration
 
     refuse_overwriting_inputs([args.output], [args.calibration, args.noise])
     fmt = _format(args)

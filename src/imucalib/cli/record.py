@@ -143,10 +143,10 @@ class EventLog:
 
     def close(self) -> None:
         if self.fh is not None and self.target != "-":
-            from ..io.atomic import _move_into_place
+            from ..io.atomic import move_into_place
 
             self.fh.close()
-            _move_into_place(self.partial, Path(self.target))
+            move_into_place(self.partial, Path(self.target))
 
 
 def cmd_record(args: argparse.Namespace) -> int:

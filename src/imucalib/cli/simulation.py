@@ -5,23 +5,29 @@ from __future__ import annotations
 import argparse
 import sys
 
-import numpy as np
-
-from ..scenarios import SCENARIOS
 from ._common import CliError, Progress, positive_float, print_json, progress
 from .fleet import add_scheduler_option
 
 __all__ = ["register", "scenario_choices"]
 
+#: the names of :data:`imucalib.scenarios.SCENARIOS`, written out so that building the parser imports no simulator
+#: (a test checks that the two agree)
+SCENARIOS = ("zhang2021", "handheld")
 #: scenarios with a simulator of their own outside :data:`imucalib.scenarios.SCENARIOS` (turntable aggregates)
 TURNTABLE_SCENARIOS = ("wang2019",)
-#: scenarios whose Monte Carlo is a paper's own experiment (:func:`imucalib.scenarios.qureshi2017.montecarlo`)
+#: scenarios whose Monte Carlo is a paper's own experiment (:func:`imucalib.experiments.qureshi2017.montecarlo`)
 EXPERIMENT_SCENARIOS = ("qureshi2017",)
 
 
 def scenario_choices(*special: str) -> tuple[str, ...]:
-    """The scenario names of :data:`imucalib.scenarios.SCENARIOS`, then ``special`` ones not among them."""
-    return (*SCENARIOS, *(s for s in special if s not in SCENARIOS))
+    """The scenario names of :data:`imucalib.scenarios.SCENARIOS`, then ``special`` ones not among them.
+
+    The simulators are not imported for this: when a program has loaded them, their registry is read
+    (scenarios it added included), else the built-in names of :data:`SCENARIOS`.
+    """
+    loaded = sys.modules.get(__name__.rsplit(".", 2)[0] + ".scenarios")
+    names = tuple(loaded.SCENARIOS) if loaded is not None else SCENARIOS
+    return (*names, *(s for s in special if s not in names))
 
 
 def _noise_options(args: argparse.Namespace) -> dict | None:
@@ -80,8 +86,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def cmd_montecarlo(args: argparse.Namespace) -> int:
-    """``imucalib montecarlo``: :func:`imucalib.evaluate.montecarlo`, or a paper's own Monte Carlo experiment."""
-    from ..evaluate import montecarlo
+    """``imucalib montecarlo``: :func:`imucalib.experiments.evaluate.montecarlo`, or a paper's own experiment."""
+    from ..experiments.evaluate import montecarlo
 
     if args.scheduler is not None and args.scenario in (*TURNTABLE_SCENARIOS, *EXPERIMENT_SCENARIOS):
         raise CliError(f"--scheduler runs the simulate → calibrate Monte Carlo of {', '.join(SCENARIOS)}; the "
@@ -90,7 +96,7 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     if args.scenario == "wang2019":
         if args.method != "wang2019":
             raise CliError("the wang2019 scenario holds turntable data: use --method wang2019")
-        from ..scenarios.wang2019 import montecarlo as wang_mc
+        from ..experiments.wang2019 import montecarlo as wang_mc
 
         result = wang_mc(args.runs, turntable_error=args.turntable_error, seed=args.seed,
                          initial=args.initial, workers=workers, noise=_noise_options(args),
@@ -99,7 +105,7 @@ def cmd_montecarlo(args: argparse.Namespace) -> int:
     if args.scenario == "qureshi2017":
         if args.method != "qureshi2017":
             raise CliError("the qureshi2017 scenario reproduces Qureshi 2017 §IV: use --method qureshi2017")
-        from ..scenarios.qureshi2017 import montecarlo as qureshi_mc
+        from ..experiments.qureshi2017 import montecarlo as qureshi_mc
 
         result = qureshi_mc(args.runs, seed=args.seed, workers=workers)
         return print_json(result) if args.json else _print_qureshi_montecarlo(result)
@@ -159,8 +165,10 @@ def _print_qureshi_montecarlo(result: dict) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    """``imucalib demo``: :func:`imucalib.evaluate.demo`, as tables."""
-    from ..evaluate import demo
+    """``imucalib demo``: :func:`imucalib.experiments.zhang2021.demo`, as tables."""
+    import math
+
+    from ..experiments.zhang2021 import demo
 
     result = demo(args.seed, progress=progress(not args.json and sys.stderr.isatty()))
     if args.json:
@@ -171,7 +179,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     for r in result["parameters"]:
         lv = "-" if r["linear"] is None else f"{r['linear']:.6g}"
         sd = r["all_std"]
-        if sd is not None and np.isfinite(sd) and sd > 0:
+        if sd is not None and math.isfinite(sd) and sd > 0:
             z = (r["all"] - r["truth"]) / sd
             within.append(abs(z) <= 2)
             tail = f"{sd:>11.2g}{z:>9.2f}"

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from ..calibration import Calibration
 from ..io.atomic import refuse_overwriting_inputs
 from ._common import CliError, print_json
 
@@ -13,6 +12,7 @@ __all__ = ["register"]
 
 def cmd_thermal(args: argparse.Namespace) -> int:
     """:func:`imucalib.thermal.combine` over the files, the decisions printed, the result written."""
+    from ..calibration import Calibration
     from ..thermal import combine
 
     refuse_overwriting_inputs([args.output, args.plot], args.calibrations)
@@ -29,9 +29,9 @@ def cmd_thermal(args: argparse.Namespace) -> int:
         raise CliError(f"{exc} (files: {names})") from None
     out.save(args.output)
     if args.plot:
-        from ..report import _pyplot, _save, thermal_figure
+        from ..report import plot_thermal
 
-        _save(thermal_figure(out), args.plot, _pyplot())
+        plot_thermal(out, args.plot)
     model = out.thermal
     if args.json:
         return print_json({"output": str(args.output), "reference_c": model.reference_c,

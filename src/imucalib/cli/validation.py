@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..calibration import Calibration
 from ..io.atomic import refuse_overwriting_inputs
-from ..recording import Interval
 from ._common import (
     EXIT_REJECTED,
     add_init_static_option,
@@ -33,6 +31,8 @@ HEADLINES = {"accepted": "verdict: ACCEPTED — the calibration holds on this re
 
 def cmd_validate(args: argparse.Namespace) -> int:
     """``imucalib validate``: :func:`imucalib.validate.validate`, the verdict first, then the figures."""
+    from ..calibration import Calibration
+    from ..recording import Interval
     from ..validate import validate
 
     refuse_overwriting_inputs([args.plot], [args.calibration, *args.data])

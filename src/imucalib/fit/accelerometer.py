@@ -16,15 +16,18 @@ and returns the canonical model ``a = T_a f(u − b)`` (``DESIGN.md``):
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..models import TriadModel
 from ..residuals import AccelLayout, gravity_norm_residuals
 from ..solve import levenberg_marquardt
 
-__all__ = ["REDUCED_MODELS", "accelerometer_covariance", "accelerometer_errors", "determined_figures", "faces_full",
-           "fit_determined", "fit_ellipsoid", "fit_gravity_norm", "fit_sphere", "full_from_sensitivity",
-           "newton_backtracking", "pose_covariance", "qureshi_cost", "six_position"]
+__all__ = ["REDUCED_MODELS", "GravityNormFit", "accelerometer_covariance", "accelerometer_errors",
+           "determined_figures", "faces_full", "fit_determined", "fit_ellipsoid", "fit_gravity_norm", "fit_sphere",
+           "full_from_sensitivity", "gravity_norm_fit", "newton_backtracking", "pose_covariance", "qureshi_cost",
+           "six_position"]
 
 
 def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:
@@ -104,12 +107,31 @@ def fit_ellipsoid(raw: np.ndarray, gravity: float) -> TriadModel:
     return TriadModel(misalignment=t, scale=k, bias=mu + s * c, shape="upper")
 
 
-def fit_gravity_norm(
-    raw_means: np.ndarray, gravity: float, *, order: int = 1, initial: TriadModel | None = None
-) -> tuple[TriadModel, np.ndarray]:
-    """Fit ``a = T_a f(u − b)`` to ``‖a‖ = g`` on static means (Tedaldi 2014).
+@dataclass(frozen=True)
+class GravityNormFit:
+    """The outcome of :func:`gravity_norm_fit`: the model, its residuals and how the solver ended."""
 
-    Returns the model and the final residuals ``‖a_k‖ − g`` [m/s²].
+    model: TriadModel
+    residuals: np.ndarray  # ‖a_k‖ − g [m/s²]
+    jacobian: np.ndarray  # (M, P) at the solution, in ``AccelLayout("upper", order)`` order
+    converged: bool
+    iterations: int
+
+    def errors(self, order: int) -> dict[str, float]:
+        """1σ errors of the parameters by name, each pose's scatter from its own residual (:func:`pose_covariance`)."""
+        names = AccelLayout("upper", order).names("accelerometer")
+        return {k: float(v) for k, v in zip(names, _errors(*pose_covariance(self.jacobian, self.residuals)),
+                                            strict=True)}
+
+
+def gravity_norm_fit(raw_means: np.ndarray, gravity: float, *, order: int = 1, initial: TriadModel | None = None,
+                     max_iter: int = 200) -> GravityNormFit:
+    """Fit ``a = T_a f(u − b)`` to ``‖a_k‖ = g`` on static means (Tedaldi 2014; Zhang 2021, eq. 10).
+
+    Levenberg–Marquardt with the analytic Jacobian from ``initial`` (default:
+    the algebraic ellipsoid fit, or the sphere fit where the poses do not
+    determine an ellipsoid); ``order`` 2 or 3 adds the polynomial scale
+    factors of Zhang 2021, eq. (2), started at zero.
     """
     if initial is None:
         try:
@@ -130,8 +152,19 @@ def fit_gravity_norm(
     def jac(th):
         return gravity_norm_residuals(th, layout, raw_means, gravity, jacobian=True)[1]
 
-    sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-14, ftol=1e-14)
-    return layout.unpack(sol.x, initial), sol.fun
+    sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-14, ftol=1e-14, max_iter=max_iter)
+    return GravityNormFit(layout.unpack(sol.x, initial), sol.fun, sol.jac, sol.success, sol.njev)
+
+
+def fit_gravity_norm(
+    raw_means: np.ndarray, gravity: float, *, order: int = 1, initial: TriadModel | None = None
+) -> tuple[TriadModel, np.ndarray]:
+    """Fit ``a = T_a f(u − b)`` to ``‖a‖ = g`` on static means (Tedaldi 2014).
+
+    Returns the model and the final residuals ``‖a_k‖ − g`` [m/s²] (:func:`gravity_norm_fit`).
+    """
+    fit = gravity_norm_fit(raw_means, gravity, order=order, initial=initial)
+    return fit.model, fit.residuals
 
 
 #: the linear accelerometer models from the richest down: (name, misalignment shape or None for one common scale,

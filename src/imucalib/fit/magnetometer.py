@@ -62,7 +62,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..kinematics import IntervalIntegrator, quat_from_rotvec, quat_to_matrix
 from ..metrics import interval_means, transition_bounds
@@ -197,6 +196,8 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
         No magnetometer in the recording, too few poses, poses that do not determine the
         ellipsoid, or a bad option.
     """
+    from scipy.optimize import least_squares  # here: importing scipy.optimize takes ~0.3 s
+
     if recording.mag is None:
         raise ValueError("the recording has no magnetometer columns (mx, my, mz) to calibrate")
     if hemisphere not in ("north", "south"):

@@ -48,7 +48,8 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import IO
 
-__all__ = ["OutputIsInputError", "atomic_create", "atomic_path", "atomic_write", "refuse_overwriting_inputs",
+__all__ = ["OutputIsInputError", "atomic_create", "atomic_path", "atomic_write", "move_into_place",
+           "refuse_overwriting_inputs",
            "temporary_prefix"]
 
 
@@ -146,7 +147,9 @@ def _remove(path: Path) -> None:
             path.unlink()
 
 
-def _move_into_place(tmp: Path, target: Path) -> None:
+def move_into_place(tmp: Path, target: Path) -> None:
+    """Rename the finished file ``tmp`` onto ``target`` (same folder), keeping the target's mode and owner,
+    and make the rename durable (the folder synced)."""
     os.chmod(tmp, _file_mode(target))
     with contextlib.suppress(OSError):  # the owner kept (root replacing a user's file), as the shell's > keeps it
         st = target.stat()
@@ -204,7 +207,7 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
-        _move_into_place(tmp, target)
+        move_into_place(tmp, target)
     except BaseException:
         _remove(tmp)
         raise
@@ -245,7 +248,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             os.fsync(fd)
         finally:
             os.close(fd)
-        _move_into_place(tmp, target)
+        move_into_place(tmp, target)
     except BaseException:
         _remove(tmp)
         raise

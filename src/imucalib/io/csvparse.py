@@ -61,7 +61,7 @@ import numpy as np
 from .errors import ReaderError
 
 __all__ = ["CHUNK_BYTES", "ENGINE", "Chunk", "Head", "Layout", "PANDAS_MIN_BYTES", "Plan", "chunks", "column_kinds",
-           "count_rows", "plan", "engine_for", "fingerprint", "pandas_available", "parse", "read_head", "split_cells"]
+           "plan", "engine_for", "fingerprint", "pandas_available", "parse", "read_head", "split_cells"]
 
 #: body text parsed at a time [bytes] (about 100 000 rows of 7 columns)
 CHUNK_BYTES = 1 << 23
@@ -264,12 +264,6 @@ def chunks(layout: Layout, chunk_bytes: int | None = None, plan: Plan | None = N
 def plan(layout: Layout, chunk_bytes: int | None = None) -> Plan:
     """One pass over the body: where its chunks end, and their lines (rows to allocate before parsing)."""
     return Plan(tuple((len(ch.data), ch.lines, ch.comments) for ch in chunks(layout, chunk_bytes)))
-
-
-def count_rows(layout: Layout, chunk_bytes: int | None = None) -> tuple[int, int]:
-    """Rows (lines that are not full-line comments) and comment lines of the body."""
-    p = plan(layout, chunk_bytes)
-    return p.rows, p.comments
 
 
 # ------------------------------------------------------------------ parse

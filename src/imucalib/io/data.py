@@ -44,8 +44,8 @@ def read_data(
     """The data in ``paths``: a :class:`~imucalib.recording.Recording`, or a simulated session.
 
     Parameters are those of :func:`imucalib.io.read`, and ``reader="session"`` for a directory
-    written by :func:`imucalib.scenarios.write_session` (read by
-    :func:`imucalib.scenarios.read_session`; found without ``reader`` too). A recording's
+    written by :func:`imucalib.io.session.write_session` (read by
+    :func:`imucalib.io.session.read_session`; found without ``reader`` too). A recording's
     magnetometer columns become its ``mag`` (:func:`imucalib.io.magnetometer.attach_magnetometer`,
     ``mag_unit``), or for a ROS bag the ``sensor_msgs/MagneticField`` topic ``mag_topic``.
 
@@ -58,7 +58,7 @@ def read_data(
         paths = [paths]
     paths = list(paths)
     if paths and is_session_directory(paths, reader):
-        from ..scenarios import read_session
+        from .session import read_session
 
         return read_session(paths[0])
     from .magnetometer import attach_magnetometer

@@ -23,7 +23,7 @@ from .errors import ReaderError
 from .phone import PhoneFile, check_specific_force, identify, sensor_logger_header
 from .rosbag import is_rosbag, read_rosbag
 
-__all__ = ["READERS", "ReaderError", "read", "guess_reader"]
+__all__ = ["READERS", "ReaderError", "guess_reader", "is_frame", "read"]
 
 READERS = ("csv", "imutk", "mat", "phone", "rosbag")
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
@@ -85,7 +85,7 @@ def read(
     supports; with no unit given or written, readings that look like m/s², g, rad/s or
     deg/s are still taken as counts, with a note saying so.
     """
-    if _is_frame(paths):
+    if is_frame(paths):
         return _read_frame(paths, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic)
     if isinstance(paths, str | Path):
         paths = [paths]
@@ -390,20 +390,55 @@ def _to_seconds(t: np.ndarray, unit: str, metadata: dict) -> np.ndarray:
 
 # ------------------------------------------------------------------ imu_tk
 def _read_imutk(acc_path: Path, gyro_path: Path, acc_unit, gyro_unit, time_unit) -> Recording:
-    arrays = []
-    for path in (acc_path, gyro_path):
-        text = path.read_bytes().decode("utf-8-sig", errors="replace")
-        arrays.append(_numeric_table(path, text, 4, ("time", "x", "y", "z")))
-    acc, gyro = arrays
+    (ta, acc), (tg, gyro) = (_imutk_table(path) for path in (acc_path, gyro_path))
     meta: dict = {"source": [str(acc_path), str(gyro_path)]}
     unit = time_unit or "s"
-    t_acc = _to_seconds(acc[:, 0], unit, meta)
-    t_gyro = (gyro[:, 0] - acc[0, 0]) * TIME_UNITS[unit] if meta.get("time_relative") \
-        else gyro[:, 0] * TIME_UNITS[unit]
+    t_acc = _to_seconds(ta, unit, meta)
+    t_gyro = (tg - ta[0]) * TIME_UNITS[unit] if meta.get("time_relative") else tg * TIME_UNITS[unit]
+    del ta, tg
     return Recording.from_streams(
-        t_acc, acc[:, 1:], t_gyro, gyro[:, 1:],
+        t_acc, acc, t_gyro, gyro,
         acc_unit=acc_unit or "counts", gyro_unit=gyro_unit or "counts", metadata=meta,
     )
+
+
+def _imutk_table(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """One imu_tk file's ``time x y z`` rows: the times (n,) and the values (n, 3), read a few megabytes at a time.
+
+    The body is parsed in chunks by :func:`.csvparse.parse` into preallocated
+    arrays, so memory is the arrays', not the text's (a 230 MB file of 3.6 M rows
+    took 0.8 GB as one string). A file it does not take as it is (blank lines, a
+    bad cell, another number of columns) is read again whole by
+    :func:`_numeric_table`, whose messages name the line.
+    """
+    names = ("time", "x", "y", "z")
+    st = path.stat()
+    with path.open("rb") as f:
+        head = f.read(1 << 16)
+        start = 3 if head.startswith(b"\xef\xbb\xbf") else 0
+        end = st.st_size
+        while end > start:  # the body ends at the last non-blank character, as the text was stripped
+            f.seek(max(start, end - 4096))
+            tail = f.read(end - max(start, end - 4096))
+            stripped = tail.rstrip()
+            end -= len(tail) - len(stripped)
+            if stripped:
+                break
+    first = head[start:].split(b"\n", 1)[0].split()
+    if end > start and len(first) == 4:
+        layout = csvparse.Layout(path, None, (start, end), 1, None, False, 4, st.st_size, st.st_mtime_ns)
+        try:
+            body = csvparse.plan(layout)
+            if body.comments == 0:  # a '#' line is a bad line here, named by the whole-text reader
+                t, xyz = np.empty(body.rows), np.empty((body.rows, 3))
+                csvparse.parse(layout, ["float"] * 4, names, required=range(4),
+                               out={0: t, 1: xyz[:, 0], 2: xyz[:, 1], 3: xyz[:, 2]}, plan=body)
+                _check_time(path, t, 1)
+                return t, xyz
+        except ReaderError:
+            pass
+    data = _numeric_table(path, path.read_bytes().decode("utf-8-sig", errors="replace"), 4, names)
+    return data[:, 0].copy(), np.ascontiguousarray(data[:, 1:])
 
 
 def _numeric_table(path: Path, text: str, ncols: int, names: Sequence[str]) -> np.ndarray:
@@ -794,7 +829,7 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
 
 
 # ------------------------------------------------------------- DataFrames
-def _is_frame(obj) -> bool:
+def is_frame(obj) -> bool:
     """Whether ``obj`` is a pandas DataFrame (without importing pandas)."""
     return type(obj).__module__.split(".")[0] == "pandas" and hasattr(obj, "columns") and hasattr(obj, "iloc")
 

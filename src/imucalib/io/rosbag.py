@@ -79,12 +79,6 @@ def _choose_topic(reader, topic: str | None, path: Path) -> str:
     return topic
 
 
-def _imu_messages(reader, connections):
-    """``(record time [ns], message)`` of the given connections, in record order."""
-    for conn, log_ns, raw in reader.messages(connections=connections):
-        yield log_ns, reader.deserialize(raw, conn.msgtype)
-
-
 def _readings(m) -> tuple[float, ...]:
     a, w = m.linear_acceleration, m.angular_velocity
     return a.x, a.y, a.z, w.x, w.y, w.z

@@ -43,6 +43,7 @@ from ..fit.accelerometer import (
 )
 from ..fit.gyroscope import errors_at, fit_gyroscope, joint_errors_at, static_gyro
 from ..metrics import fit_summary, interval_means
+from ..presets import MIN_INTERVAL, MULTIPLIERS, VARIANCE_WINDOW
 from ..recording import STANDARD_GRAVITY, Interval, Recording
 from ..segment import detect_intervals, pose_blocks, unreliable_transitions
 
@@ -83,9 +84,9 @@ def calibrate(
     *,
     gravity: float = STANDARD_GRAVITY,
     init_static: float | None = None,
-    multipliers: Iterable[float] = range(2, 11),
-    window: float = 1.0,
-    min_interval: float = 1.0,
+    multipliers: Iterable[float] = MULTIPLIERS,
+    window: float = VARIANCE_WINDOW,
+    min_interval: float = MIN_INTERVAL,
     estimate_gyro_bias: bool | str = "auto",
     gyro_g_sensitivity: bool | str = "auto",
     intervals: list[Interval] | None = None,

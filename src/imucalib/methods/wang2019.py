@@ -35,14 +35,14 @@ from ..constants import DEG, EARTH_RATE, G0, MICRO_G
 from ..models import TriadModel
 from ..solve import levenberg_marquardt, standard_errors
 
-__all__ = ["calibrate"]
+__all__ = ["calibrate", "poly_norm_residuals"]
 
 
 def _lower(e: np.ndarray) -> np.ndarray:
     return np.array([[1.0, 0, 0], [e[0], 1.0, 0], [e[1], e[2], 1.0]])
 
 
-def _poly_norm_residuals(theta, scales, n_list, order, target2, with_bias, bias_fixed=None,
+def poly_norm_residuals(theta, scales, n_list, order, target2, with_bias, bias_fixed=None,
                          k_fixed=None, jac=False):
     """``‖C (Σ_k K_k N_k + ∇)‖² − target²`` and its Jacobian in scaled parameters.
 
@@ -86,7 +86,7 @@ def _solve(fun_jac, x0, scales):
 
 
 def calibrate(session, *, gravity: float | None = None, initial: str = "estimate") -> Calibration:
-    """Calibrate from a :class:`~imucalib.scenarios.wang2019.WangSession`-like object.
+    """Calibrate from a :class:`~imucalib.io.session.WangSession`-like object.
 
     It needs ``positions_acc``, ``positions_gyro`` (static means, pulses/s),
     ``turn_sum``, ``turn_sum2`` and ``turn_angle`` (CW/CCW turn integrals) and
@@ -114,7 +114,7 @@ def calibrate(session, *, gravity: float | None = None, initial: str = "estimate
     n_max = np.max(np.abs(na), axis=0)
     scales_a = np.concatenate([k1, k1 / n_max, k1 / n_max**2, np.full(3, 1e-4), np.full(3, 1e-2 * g)])
     x0 = np.concatenate([k1, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3)])
-    xa, sol_a = _solve(lambda th, j: _poly_norm_residuals(th, scales_a, [na, na**2, na**3], 3, g**2,
+    xa, sol_a = _solve(lambda th, j: poly_norm_residuals(th, scales_a, [na, na**2, na**3], 3, g**2,
                                                          True, jac=j), x0, scales_a)
     # ---- gyroscope scale and misalignment (eq. 30), initial K1 from eq. (42)
     if initial == "estimate":
@@ -126,13 +126,13 @@ def calibrate(session, *, gravity: float | None = None, initial: str = "estimate
     s2_max = np.max(np.abs(ns2), axis=0) + 1e-300
     scales_g = np.concatenate([kg1, kg1 * s_max / s2_max, np.full(3, 1e-4)])
     x0 = np.concatenate([kg1, np.zeros(3), np.zeros(3)])
-    xg, sol_g = _solve(lambda th, j: _poly_norm_residuals(th, scales_g, [ns, ns2], 2, two_theta**2,
+    xg, sol_g = _solve(lambda th, j: poly_norm_residuals(th, scales_g, [ns, ns2], 2, two_theta**2,
                                                          False, jac=j), x0, scales_g)
     kg = xg[:6].reshape(2, 3)
     eg = xg[6:9]
     # ---- gyroscope bias (eq. 35)
     scales_b = np.full(3, EARTH_RATE * 0.01)
-    xb, sol_b = _solve(lambda th, j: _poly_norm_residuals(th, scales_b, [ng, ng**2], 2,
+    xb, sol_b = _solve(lambda th, j: poly_norm_residuals(th, scales_b, [ng, ng**2], 2,
                                                          EARTH_RATE**2, True, k_fixed=(kg, eg), jac=j),
                        np.zeros(3), scales_b)
     ka = xa[:9].reshape(3, 3)

@@ -27,12 +27,29 @@ with ``f_C(ω, r) = ‖ω‖² r − ω(ω·r)`` (eq. 17), ``f_E(ω̇, r) = r ×
 ``ω̇`` by the five-point stencil (eq. 20), and weights ``C1…C4`` from the
 noise of the initial rest (eqs. 25–30). (The paper writes ``R_{k−1,k} a_{k−1}``
 for the gravity carried into pose ``k``; with our attitude convention that is
-``Rᵀ``.) Step 1 initialises every block from its own cost (linear first);
-Step 2 minimises eq. (21) over all parameters by Levenberg–Marquardt with
-analytic Jacobians.
+``Rᵀ``.)
 
-Model variants (Zhang 2021, Table II): ``linear`` (RD1 only, C4 = 0, no G, no r),
-``quadratic`` (k2, r), ``cubic`` (k2, k3, r), ``all`` (k2, k3, G, r).
+The recipe (:func:`calibrate`) runs over the stages every method shares, the
+same as :mod:`imucalib.methods.tedaldi2014`: the static poses by the
+gyroscope-gated accelerometer detector (:func:`imucalib.segment.detect_intervals`),
+the rotations whose integration cannot be trusted left out
+(:func:`imucalib.segment.unreliable_transitions`), the accelerometer on the
+static means alone (eq. 10, :func:`imucalib.fit.accelerometer.gravity_norm_fit`)
+and the gyroscope by :func:`imucalib.fit.gyroscope.fit_gyroscope` (bias and
+``G`` from the static poses, eq. 11; ``T_g``, ``k1`` from the rotations, eq. 14).
+Its own terms come after: the gyroscope's polynomial scale factors on the
+rotations (eq. 14), and with tosses Step 2 of the paper, eq. (21) over every
+parameter from those estimates (Step 1). Without tosses no joint cost is
+minimised: in eq. (21) the rotations' unmodelled residuals (hand tremor, bias
+drift between poses) pull the accelerometer away from what its static poses
+say.
+
+Model variants (Zhang 2021, Table II): ``linear`` (RD1 only, C4 = 0, no r),
+``quadratic`` (k2, r), ``cubic`` (k2, k3, r), ``all`` (k2, k3, G, r). ``all``
+always estimates ``G``; the others keep it where the static poses support it
+(the shared gyroscope stage's criterion), as a sensor with a g-sensitivity
+leaves it in every rotation otherwise; with tosses, ``G`` enters the joint
+fit of ``all`` only.
 """
 
 from __future__ import annotations
@@ -44,15 +61,22 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..calibration import Calibration, units_of
-from ..fit.accelerometer import fit_gravity_norm
-from ..fit.gyroscope import fit_gravity_direction
+from ..fit.accelerometer import GravityNormFit, accelerometer_covariance, gravity_norm_fit
+from ..fit.gyroscope import GyroFit, fit_gyroscope
 from ..kinematics import IntervalIntegrator, five_point_derivative, quat_to_matrix, segmented_five_point, skew
 from ..metrics import fit_summary, interval_means, transition_bounds
 from ..models import AXES, TriadModel, misalignment_entries
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
-from ..segment import detect_intervals, detect_static_gyro, find_initial_rest, gyro_norm_variance, runs
+from ..segment import (
+    detect_intervals,
+    detect_static_gyro,
+    find_initial_rest,
+    gyro_norm_variance,
+    runs,
+    unreliable_transitions,
+)
 from ..solve import levenberg_marquardt, standard_errors
-from ..verdict import plausible
+from ..verdict import THRESHOLDS, plausible
 
 __all__ = [
     "MODELS",
@@ -66,6 +90,8 @@ __all__ = [
 ]
 
 MODELS = ("linear", "quadratic", "cubic", "all")
+#: the fewest static poses (the initial rest included) a calibration takes
+MIN_INTERVALS = 10
 
 
 # --------------------------------------------------------------------- layout
@@ -460,11 +486,6 @@ def _concat(segments: Sequence[Recording]):
     return acc, gyro, stops - lengths, stops
 
 
-def _as_calibration(layout: ZhangLayout, theta: np.ndarray, gravity: float, recording: Recording) -> Calibration:
-    acc, gyro, r = layout.models(theta)
-    return Calibration(accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity, units=units_of(recording))
-
-
 def _block_errors(jac: np.ndarray, res: np.ndarray, sizes: list[int]) -> np.ndarray:
     """1σ errors with one variance per cost term (eqs. 10, 11, 14, 19), each from its own residuals.
 
@@ -487,11 +508,6 @@ def _block_errors(jac: np.ndarray, res: np.ndarray, sizes: list[int]) -> np.ndar
     return standard_errors(jac * scale[:, None], res * scale)
 
 
-def _aic(residuals: np.ndarray, n_params: int) -> float:
-    n = residuals.size
-    return float(n * np.log(float(residuals @ residuals) / n) + 2 * n_params)
-
-
 def _without_lever_arm(layout: ZhangLayout, model: str, why: str) -> ZhangLayout:
     warnings.warn(
         f"zhang2021 model {model!r}: {why}; the lever arm is not estimated and the weightless "
@@ -501,6 +517,210 @@ def _without_lever_arm(layout: ZhangLayout, model: str, why: str) -> ZhangLayout
         stacklevel=3,
     )
     return replace(layout, with_r=False)
+
+
+@dataclass
+class _Stages:
+    """One model variant fitted by the shared stages (and, for the nonlinear variants, eq. 21 after them)."""
+
+    layout: ZhangLayout
+    acc: TriadModel
+    acc_residuals: np.ndarray  # ‖a_k‖ − g over the static poses [m/s²]
+    gyro: GyroFit  # the shared gyroscope stage: the bias source and the rotations left out
+    gyroscope: TriadModel  # with the polynomial scale factors of the variant
+    errors: dict[str, float]
+    converged: bool
+    iterations: int
+
+
+def _pose_budget(layout: ZhangLayout, poses: int) -> bool:
+    """Whether ``poses`` static poses are enough for the variant's accelerometer by the verdict's own limit.
+
+    The verdict rejects a calibration with at most ``THRESHOLDS["poses_per_parameter"][1]`` poses per
+    estimated accelerometer parameter (:mod:`imucalib.verdict`); model selection never picks such a variant.
+    """
+    return poses / layout.n_acc > THRESHOLDS["poses_per_parameter"][1]
+
+
+def _gyro_problem(layout: ZhangLayout, recording: Recording, static: list[Interval], gravity: float,
+                  left_out: dict[int, str]) -> _Problem:
+    """The eq. (14) term of eq. (21) alone: every other term and the rotations ``left_out`` weighted 0."""
+    m = len(static)
+    kept = np.ones(m - 1)
+    kept[[int(k) for k in left_out]] = 0.0
+    starts, stops = transition_bounds(static)
+    integ = IntervalIntegrator(recording.t, starts, stops)
+    none = np.zeros(0, dtype=int)
+    c = {"C1": np.zeros(m), "C2": np.zeros(m), "C3": kept, "C4": np.float64(0.0)}
+    return _Problem(replace(layout, with_r=False), gravity, interval_means(recording.acc, static),
+                    interval_means(recording.gyro, static), integ, recording.acc[integ.samples],
+                    recording.gyro[integ.samples], None, None, none, none, 1.0 / recording.rate, c)
+
+
+def _fitted_layout(layout: ZhangLayout, gyroscope: TriadModel) -> ZhangLayout:
+    """``layout`` without the lever arm, with ``G`` wherever the gyroscope stage estimated it."""
+    return replace(layout, with_r=False, with_g=layout.with_g or bool(np.any(gyroscope.g_sensitivity)))
+
+
+def _rotation_rows(m: int) -> slice:
+    """The rows of eq. (14) in :class:`_Problem`'s residuals (after eq. 10's ``m`` and eq. 11's ``3m``)."""
+    return slice(4 * m, 4 * m + 3 * (m - 1))
+
+
+def _solve_joint(recording: Recording, static: list[Interval], rest: Interval, layout: ZhangLayout, gravity: float,
+                 acc0: TriadModel, gyro0: TriadModel, left_out: dict[int, str], tosses, *, initial: str = "step1",
+                 noise_weights: bool = True, max_iter: int = 200):
+    """Eq. (21) by Levenberg–Marquardt from ``acc0``, ``gyro0`` (Step 2), the rotations ``left_out`` weighted 0.
+
+    ``tosses``: ``(acc, gyro, starts, stops, r0, segments)`` of :func:`_tosses`,
+    or None (no eq. 19 term, ``C4 = 0``). Weights ``C1…C4`` from eqs. (25)–(30)
+    with ``noise_weights``, else 1. Returns the solution and the weights.
+    """
+    dt = 1.0 / recording.rate
+    if tosses is None:
+        wl_acc = wl_gyro = None
+        wl_starts = wl_stops = np.zeros(0, dtype=int)
+        r0 = np.zeros(3)
+    else:
+        wl_acc, wl_gyro, wl_starts, wl_stops, r0, _ = tosses
+    starts, stops = transition_bounds(static)
+    integ = IntervalIntegrator(recording.t, starts, stops)
+    motion_acc = recording.acc[integ.samples]
+    motion_gyro = recording.gyro[integ.samples]
+    cal0 = Calibration(accelerometer=acc0, gyroscope=gyro0)
+    m = len(static)
+    if noise_weights:
+        c = weights(
+            acc_var=recording.acc[rest.slice].var(axis=0),
+            gyro_var=recording.gyro[rest.slice].var(axis=0),
+            k1_acc=acc0.scale, k1_gyro=gyro0.scale, gravity=gravity, dt=dt,
+            g_max=float(np.max(np.abs(gyro0.g_sensitivity))), motion_steps=float(np.mean(stops - starts)),
+            mean_rate=float(np.mean(np.abs(cal0.gyroscope_si(motion_gyro, motion_acc)))),
+            omega_max=0.0 if tosses is None else float(np.max(np.abs(cal0.gyroscope_si(wl_gyro, wl_acc)))),
+            r_hat=r0, n_mean=np.array([len(iv) for iv in static]),
+        )
+        if not all(np.all(np.isfinite(v)) for v in c.values()):
+            raise ValueError("the initial rest has zero noise: the weights of eqs. (25)-(30) "
+                             "are infinite (for noise-free data: noise_weights=False, on the command line "
+                             "--no-noise-weights)")
+    else:
+        c = {"C1": np.ones(m), "C2": np.ones(m), "C3": np.ones(m - 1), "C4": np.float64(1.0)}
+    if tosses is None:
+        c["C4"] = np.float64(0.0)
+    c["C3"] = np.array(c["C3"], dtype=float)
+    c["C3"][[int(k) for k in left_out]] = 0.0  # the rotations the shared stage left out
+    problem = _Problem(layout, gravity, interval_means(recording.acc, static), interval_means(recording.gyro, static),
+                       integ, motion_acc, motion_gyro, wl_acc, wl_gyro, wl_starts, wl_stops, dt, c)
+    if initial == "step1":
+        th0 = layout.pack(acc0, gyro0 if layout.with_g else gyro0.with_(g_sensitivity=np.zeros((3, 3))), r0)
+    else:
+        th0 = layout.pack(TriadModel(shape="upper"), TriadModel(shape="full"), np.zeros(3))
+    sol = levenberg_marquardt(problem.residuals, lambda th: problem.residuals(th, jac=True)[1], th0,
+                              max_iter=max_iter, stol=1e-4 if noise_weights else 0.0)
+    return sol, problem, c
+
+
+def _joint_errors(layout: ZhangLayout, sol, problem: _Problem, c: dict, m: int) -> dict[str, float]:
+    """1σ errors of an eq. (21) fit: :func:`_block_errors` over the rows it weighted, the bias's spread added."""
+    kept = c["C3"] > 0
+    rows = np.concatenate([np.ones(4 * m, bool), np.repeat(kept, 3),
+                           np.ones(len(sol.fun) - 4 * m - 3 * (m - 1), bool)])
+    blocks = [m, 3 * m, 3 * int(np.count_nonzero(kept)), len(sol.fun) - m - 3 * m - 3 * (m - 1)]
+    out = {k: float(v) for k, v in
+           zip(layout.names(), _block_errors(sol.jac[rows], sol.fun[rows], blocks), strict=True)}
+    # the bias's own 1σ adds the scatter of one pose's static gyroscope residual (eq. 11): a drifting bias is
+    # that far from the session's estimate at any moment
+    e2 = (sol.fun[m : 4 * m] / problem.w2).reshape(m, 3)
+    for a, spread in zip(AXES, np.sqrt(np.mean(e2**2, axis=0)), strict=True):
+        key = f"gyroscope.bias.{a}"
+        out[key] = float(np.hypot(out[key], spread))
+    return out
+
+
+def _stages(layout: ZhangLayout, recording: Recording, static: list[Interval], rest: Interval, gravity: float, *,
+            linear: GravityNormFit, exclude: dict[int, str], estimate_gyro_bias: bool | str,
+            noise_weights: bool, max_iter: int) -> _Stages:
+    """Fit one variant by the shared stages, as :mod:`imucalib.methods.tedaldi2014` does, then its own terms.
+
+    1. Accelerometer: ``‖a_k‖ = g`` on the static means alone (eq. 10,
+       ``linear``, from :func:`imucalib.fit.accelerometer.gravity_norm_fit`).
+    2. Gyroscope: :func:`imucalib.fit.gyroscope.fit_gyroscope` with that
+       accelerometer — the bias (and ``G`` of eq. 6: always for ``all``, where
+       the static poses support it otherwise) from the static poses (eq. 11),
+       ``T_g`` and ``k1`` from the rotations (eq. 14), the unreliable rotations
+       and outliers left out.
+    3. The nonlinear variants (eqs. 2, 7): eq. (21) without the tosses' term,
+       started at 1–2, on the rotations 2 kept. Their polynomial terms need the
+       gravity directions the rotations carry: fitted to the static norms alone,
+       a cubic accelerometer follows the poses and fails on held-out ones.
+    """
+    means = interval_means(recording.acc, static)
+    acc_cov = accelerometer_covariance(linear.model, means, gravity)
+    gyro = fit_gyroscope(recording, static, linear.model, estimate_bias=estimate_gyro_bias,
+                         g_sensitivity=True if layout.with_g else "auto", acc_cov=acc_cov, exclude=exclude)
+    if layout.order == 1:
+        return _Stages(layout, linear.model, linear.residuals, gyro, gyro.model, linear.errors(1) | gyro.errors,
+                       linear.converged, linear.iterations)
+    lay = _fitted_layout(layout, gyro.model)
+    sol, problem, c = _solve_joint(recording, static, rest, lay, gravity, linear.model, gyro.model, gyro.left_out,
+                                   None, noise_weights=noise_weights, max_iter=max_iter)
+    acc, gyroscope, _ = lay.models(sol.x)
+    residuals = np.linalg.norm(acc.forward(means), axis=1) - gravity
+    errors = _joint_errors(lay, sol, problem, c, len(static))
+    return _Stages(layout, acc, residuals, gyro, gyroscope, errors, linear.converged and sol.success,
+                   linear.iterations + int(sol.njev))
+
+
+def _criterion(st: _Stages, recording: Recording, static: list[Interval], gravity: float,
+               left_out: set[int]) -> float:
+    """Akaike's criterion of a variant with the small-sample correction, summed over the terms of eq. (21).
+
+    One Gaussian term per block ``b`` with its own variance and its own
+    parameters ``p_b``: ``n_b ln(RSS_b/n_b) + 2 p_b + 2 p_b (p_b + 1)/(n_b − p_b − 1)``
+    (AICc; Hurvich & Tsai, Biometrika 1989). The blocks: eq. (10) (``M``
+    residuals, the accelerometer's parameters), eq. (11) (``3M``, the bias and
+    ``G``) and eq. (14) on the rotations no variant left out (``2`` degrees of
+    freedom each, ``T_g`` and the scale factors). The correction matters where
+    it should: 20 poses for 15 accelerometer parameters leave almost nothing to
+    judge a fit by, and the uncorrected criterion then favours the polynomial.
+    """
+    lay = _fitted_layout(st.layout, st.gyroscope)
+    m = len(static)
+    prob = _gyro_problem(lay, recording, static, gravity, {k: "" for k in left_out})
+    res = prob.residuals(lay.pack(st.acc, st.gyroscope, None))[_rotation_rows(m)]
+    a = st.acc.forward(interval_means(recording.acc, static))
+    e11 = interval_means(recording.gyro, static) - st.gyroscope.bias - a @ st.gyroscope.g_sensitivity.T
+    p14 = 6 + 3 * lay.order + (3 if st.gyro.bias_source == "fit" else 0)
+    blocks = [(st.acc_residuals, m, lay.n_acc), (e11.ravel(), 3 * m, lay.n_gyro - p14),
+              (res, 2 * (len(prob.w3) // 3 - len(left_out)), p14)]
+    total = 0.0
+    for r, n, p in blocks:
+        if n - p - 1 <= 0:
+            return float("inf")
+        total += n * np.log(max(float(r @ r), 1e-300) / n) + 2 * p + 2 * p * (p + 1) / (n - p - 1)
+    return float(total)
+
+
+def _poses(recording: Recording, gravity: float, intervals, init_static, detector) -> tuple[list[Interval], Interval]:
+    """The static poses (the initial rest first): given, or by the shared detector, or by eq. (22)."""
+    if intervals is not None:
+        static = [iv for iv in intervals if iv.kind == "static"]
+        rest = static[0] if static else None
+    elif detector == "gyroscope":
+        rest0 = (find_initial_rest(recording) if init_static is None
+                 else Interval(0, int(round(init_static * recording.rate)), "static"))
+        static = detect_static_gyro(recording, rest0)  # eq. (22), t_w = 2 s, n = 6
+        if len(static) < MIN_INTERVALS:
+            raise ValueError(f"the gyroscope detector (eq. 22) found {len(static)} static intervals; "
+                             f"at least {MIN_INTERVALS} are needed")
+        rest = static[0]
+    elif detector == "accelerometer":
+        static, _, rest, _ = detect_intervals(recording, gravity, init_static=init_static)
+    else:
+        raise ValueError(f"detector must be 'accelerometer' or 'gyroscope'; got {detector!r}")
+    if len(static) < MIN_INTERVALS:
+        raise ValueError(f"zhang2021 needs at least {MIN_INTERVALS} static intervals; got {len(static)}")
+    return static, rest
 
 
 def calibrate(
@@ -517,9 +737,20 @@ def calibrate(
     fall_threshold: float = 2.5,
     select: bool = True,
     detector: str = "accelerometer",
+    estimate_gyro_bias: bool | str = "auto",
     progress: Callable[[str], None] | None = None,
 ) -> Calibration:
-    """Calibrate by Zhang et al. 2021 (two-step initialisation + LM on eq. 21).
+    """Calibrate by Zhang et al. 2021 over the shared stages, with its own terms.
+
+    The static poses, the rotations left out, the accelerometer and the
+    gyroscope come from the stages every method shares (:func:`_stages`; the
+    same as :func:`imucalib.methods.tedaldi2014.calibrate`); Zhang 2021 adds
+    the polynomial scale factors (eqs. 2, 7), the g-sensitivity (eq. 6) and,
+    with spinning tosses, the lever arm (eqs. 16–19). With tosses the shared
+    stages' linear estimates are Step 1 and eq. (21) is minimised over every
+    parameter (Step 2): only the tosses reach the large rates and accelerations
+    that determine the nonlinear terms together, and no rotation the stages
+    left out enters.
 
     Parameters
     ----------
@@ -536,25 +767,31 @@ def calibrate(
     intervals : sequence of Interval, optional
         Static intervals of ``recording`` (the first is the initial rest);
         detected by default with ``detector``.
-    detector : {"accelerometer", "gyroscope"}
-        Tedaldi 2014's accelerometer-variance detector with its threshold scan
-        (default), or the gyroscope-norm detector of Zhang 2021, eq. (22).
     init_static : float, optional
         Length of the initial rest [s] for the detector.
     initial : {"step1", "identity"}
-        Start LM from the Step-1 estimates (the paper) or from the identity
-        model (unit scales, zero biases) — for robustness studies.
+        Start the joint fit with tosses from the Step-1 estimates (the paper)
+        or from the identity model (unit scales, zero biases) — for robustness
+        studies.
     noise_weights : bool
-        Weights from eqs. (25)–(30); ``False`` weighs every residual by 1.
+        Weights of the joint fit from eqs. (25)–(30); ``False`` weighs every residual by 1.
     max_iter : int
-        Most LM iterations.
+        Most Levenberg–Marquardt iterations of each fit.
     fall_threshold : float
         Detected weightless segments whose eq. (19) loss RMS with the Step-1
         parameters exceeds this [m/s²] are not free fall and are dropped.
     select : bool
         Without weightless data, also fit the simpler variants and return the
-        one Akaike's criterion prefers (``fit["model_selection"]`` says which),
-        so 1-g poses alone do not over-fit polynomial terms.
+        one Akaike's criterion (small-sample corrected, :func:`_criterion`) prefers (``fit["model_selection"]``
+        says which), among the variants the poses can carry: never one with so few
+        poses per accelerometer parameter that the verdict rejects it.
+    detector : {"accelerometer", "gyroscope"}
+        The shared detector (Tedaldi 2014's accelerometer variance with its
+        threshold scan, gated by the gyroscope; default), or the
+        gyroscope-norm detector of Zhang 2021, eq. (22).
+    estimate_gyro_bias : bool or "auto"
+        The gyroscope bias from the static poses (False), with the rotations
+        (True), or as the data decide (:func:`imucalib.fit.gyroscope.fit_gyroscope`).
     progress : callable, optional
         Called with a message at each stage.
     """
@@ -567,185 +804,151 @@ def calibrate(
     layout = ZhangLayout.of(model)
     if initial not in ("step1", "identity"):
         raise ValueError(f"initial must be 'step1' or 'identity'; got {initial!r}")
-    # ---- RD1 segmentation
     say("detecting static intervals")
-    if intervals is None and detector == "gyroscope":
-        rest0 = (find_initial_rest(recording) if init_static is None
-                 else Interval(0, int(round(init_static * recording.rate)), "static"))
-        static = detect_static_gyro(recording, rest0)  # eq. (22), t_w = 2 s, n = 6
-        if len(static) < 10:
-            raise ValueError(f"the gyroscope detector (eq. 22) found {len(static)} static intervals; "
-                             "at least 10 are needed")
-        rest, acc0 = static[0], None
-    elif intervals is None:
-        if detector != "accelerometer":
-            raise ValueError(f"detector must be 'accelerometer' or 'gyroscope'; got {detector!r}")
-        static, _, rest, acc0 = detect_intervals(recording, gravity, init_static=init_static)
-    else:
-        static = [iv for iv in intervals if iv.kind == "static"]
-        if len(static) < 10:
-            raise ValueError(f"zhang2021 needs at least 10 static intervals; got {len(static)}")
-        rest = static[0]
-        acc0 = None
+    static, rest = _poses(recording, gravity, intervals, init_static, detector)
+    exclude = unreliable_transitions(recording, static)
     static_acc = interval_means(recording.acc, static)
-    static_gyro = interval_means(recording.gyro, static)
-    if acc0 is None:
-        acc0, _ = fit_gravity_norm(static_acc, gravity)
-    # ---- RD2
-    dt = 1.0 / recording.rate
-    if layout.with_r:
-        detected = weightless is None
-        if detected:
-            wl_iv = detect_weightless(recording, rest=rest)
-            weightless = [recording[iv] for iv in wl_iv]
-        weightless = [w for w in weightless if len(w) >= 5]
-        if not weightless:
-            layout = _without_lever_arm(layout, model, "no weightless segments were found")
-    if layout.with_r:
-        wl_acc, wl_gyro, wl_starts, wl_stops = _concat(weightless)
-    else:
-        wl_acc = wl_gyro = None
-        wl_starts = wl_stops = np.zeros(0, dtype=int)
-    # ---- Step 1: initial values
-    say("step 1: initial values")
-    if layout.with_g:
-        design = np.column_stack([np.ones(len(static)), acc0.forward(static_acc)])
-        sol, *_ = np.linalg.lstsq(design, static_gyro, rcond=None)  # eq. (11), linear
-        bg0, g0 = sol[0], sol[1:].T
-    else:
-        bg0, g0 = static_gyro.mean(axis=0), np.zeros((3, 3))  # eq. (11) with G = 0
-    gyro_rec = recording
-    if layout.with_g:
-        gyro_rec = Recording(recording.t, recording.acc,
-                             recording.gyro - acc0.forward(recording.acc) @ g0.T)
-    gyro_lin = fit_gravity_direction(gyro_rec, list(static), acc0, bg0)[0]  # eq. (14)
-    gyro0 = gyro_lin.with_(g_sensitivity=g0)
-    r0 = None
-    if layout.with_r:
-        cal0 = Calibration(accelerometer=acc0, gyroscope=gyro0)
-        a_w = cal0.accelerometer_si(wl_acc)
-        w_w = cal0.gyroscope_si(wl_gyro, wl_acc)
-        wd = segmented_five_point(w_w, wl_starts, wl_stops, dt)
-        lm = lever_arm_matrix(w_w, wd)
-        r0, *_ = np.linalg.lstsq(lm.reshape(-1, 3), a_w.ravel(), rcond=None)  # eq. (19), linear in r
-        if detected:
-            # the accelerometer confirms the fall: keep segments whose eq. (19) loss is
-            # below the falling-state threshold of §IV-C, then refit r̂
-            loss = np.linalg.norm(a_w - lm @ r0, axis=1)
-            seg_rms = np.sqrt(np.add.reduceat(loss**2, wl_starts) / (wl_stops - wl_starts))
-            keep = seg_rms < fall_threshold
-            if not np.any(keep):
-                layout = _without_lever_arm(
-                    layout, model, f"none of the {len(keep)} candidate weightless segments fits "
-                    f"free fall (eq. 19 loss ≥ {fall_threshold} m/s²)")
-                r0 = None
-                wl_acc = wl_gyro = None
-                wl_starts = wl_stops = np.zeros(0, dtype=int)
-            elif not np.all(keep):
-                weightless = [w for w, k in zip(weightless, keep, strict=True) if k]
-                wl_acc, wl_gyro, wl_starts, wl_stops = _concat(weightless)
-                a_w = cal0.accelerometer_si(wl_acc)
-                w_w = cal0.gyroscope_si(wl_gyro, wl_acc)
-                wd = segmented_five_point(w_w, wl_starts, wl_stops, dt)
-                lm = lever_arm_matrix(w_w, wd)
-                r0, *_ = np.linalg.lstsq(lm.reshape(-1, 3), a_w.ravel(), rcond=None)
-    # ---- weights (eqs. 25–30)
-    starts, stops = transition_bounds(static)
-    integ = IntervalIntegrator(recording.t, starts, stops)
-    motion_acc = recording.acc[integ.samples]
-    motion_gyro = recording.gyro[integ.samples]
-    if noise_weights:
-        w_motion = Calibration(accelerometer=acc0, gyroscope=gyro0).gyroscope_si(motion_gyro, motion_acc)
-        c = weights(
-            acc_var=recording.acc[rest.slice].var(axis=0),
-            gyro_var=recording.gyro[rest.slice].var(axis=0),
-            k1_acc=acc0.scale, k1_gyro=gyro0.scale, gravity=gravity, dt=dt,
-            g_max=float(np.max(np.abs(g0))), motion_steps=float(np.mean(stops - starts)),
-            mean_rate=float(np.mean(np.abs(w_motion))),
-            omega_max=float(np.max(np.abs(Calibration(accelerometer=acc0, gyroscope=gyro0)
-                                          .gyroscope_si(wl_gyro, wl_acc)))) if layout.with_r else 0.0,
-            r_hat=r0 if r0 is not None else np.zeros(3),
-            n_mean=np.array([len(iv) for iv in static]),
-        )
-        if not all(np.all(np.isfinite(v)) for v in c.values()):
-            raise ValueError("the initial rest has zero noise: the weights of eqs. (25)-(30) "
-                             "are infinite (for noise-free data: noise_weights=False, on the command line "
-                             "--no-noise-weights)")
-    else:
-        m = len(static)
-        c = {"C1": np.ones(m), "C2": np.ones(m), "C3": np.ones(m - 1), "C4": np.float64(1.0)}
-    if not layout.with_r:
-        c["C4"] = np.float64(0.0)
-    # ---- Step 2: global LM on eq. (21)
-    say("step 2: global optimisation")
+    linear = gravity_norm_fit(static_acc, gravity, max_iter=max_iter)
+    fitted: dict[tuple[int, bool], _Stages] = {}
 
-    def solve(lay: ZhangLayout):
-        prob = _Problem(lay, gravity, static_acc, static_gyro, integ, motion_acc, motion_gyro,
-                        wl_acc, wl_gyro, wl_starts, wl_stops, dt, c)
-        if initial == "step1":
-            th0 = lay.pack(acc0, gyro0 if lay.with_g else gyro0.with_(g_sensitivity=np.zeros((3, 3))), r0)
+    def stages(lay: ZhangLayout) -> _Stages:
+        key = (lay.order, lay.with_g)
+        if key not in fitted:
+            fitted[key] = _stages(lay, recording, static, rest, gravity, linear=linear, exclude=exclude,
+                                  estimate_gyro_bias=estimate_gyro_bias, noise_weights=noise_weights,
+                                  max_iter=max_iter)
+        return fitted[key]
+
+    say("calibrating the accelerometer and the gyroscope")
+    if layout.with_r:
+        step1 = stages(replace(layout, order=1, with_r=False))
+        tosses = _tosses(recording, weightless, rest, step1, fall_threshold)
+        if isinstance(tosses, str):
+            layout = _without_lever_arm(layout, model, tosses)
         else:
-            th0 = lay.pack(TriadModel(shape="upper"), TriadModel(shape="full"), np.zeros(3))
-        return prob, levenberg_marquardt(
-            prob.residuals, lambda th: prob.residuals(th, jac=True)[1], th0, max_iter=max_iter,
-            stol=1e-4 if noise_weights else 0.0)
-
-    problem, sol = solve(layout)
+            say("step 2: global optimisation with the tosses")
+            return _joint(recording, static, rest, layout, model, gravity, step1, tosses, initial=initial,
+                          noise_weights=noise_weights, max_iter=max_iter)
     selection = None
-    if select and not layout.with_r and layout.order > 1:
-        # Without weightless data the nonlinear terms rest on 1-g poses only: keep them
-        # only where they lower Akaike's criterion n·ln(RSS/n) + 2p of the weighted fit.
-        candidates = {model: (problem, sol, layout)}
-        for name in MODELS[: MODELS.index(model)]:
-            lay = replace(ZhangLayout.of(name), with_r=False)
-            candidates[name] = (*solve(lay), lay)
-        aic = {name: _aic(sol_.fun, lay.size) for name, (_, sol_, lay) in candidates.items()}
+    if select and layout.order > 1:
+        names = MODELS[: MODELS.index(model) + 1]
+        budget = {name: _pose_budget(ZhangLayout.of(name), len(static)) for name in names}
+        cands, unfit = {}, {}
+        for name in names:
+            if budget[name] or name == "linear":
+                try:
+                    cands[name] = stages(replace(ZhangLayout.of(name), with_r=False))
+                except ValueError as exc:  # more parameters than poses: that variant cannot be fitted at all
+                    if name == "linear":
+                        raise
+                    unfit[name] = str(exc)
+        left_out = set().union(*(set(st.gyro.left_out) for st in cands.values()))
+        aic = {name: _criterion(st, recording, static, gravity, left_out) for name, st in cands.items()}
         # a fit that did not converge, or whose parameters are implausible (a cross-axis term of tens of
         # degrees, a scale far from the unit's nominal), is never chosen, however low its criterion
-        usable = {name: aic[name] for name, (_, sol_, lay) in candidates.items()
-                  if sol_.success and plausible(_as_calibration(lay, sol_.x, gravity, recording))}
+        usable = {name: aic[name] for name, st in cands.items()
+                  if st.converged and plausible(_stage_calibration(st, gravity, recording))}
         best = min(usable or aic, key=(usable or aic).get)
-        selection = {"criterion": "aic", "aic": aic, "requested": model, "selected": best,
-                     "excluded": sorted(set(aic) - set(usable))}
+        over = [name for name in names if not budget[name]]
+        selection = {"criterion": "aicc", "aic": aic, "requested": model, "selected": best,
+                     "excluded": sorted(set(aic) - set(usable)) + sorted(unfit), "over_pose_budget": over}
         if best != model:
+            why = (f"{len(static)} static poses carry at most "
+                   f"{len(static) / THRESHOLDS['poses_per_parameter'][1]:.3g} accelerometer parameters"
+                   if model in over else "the poses do not support the extra terms")
             warnings.warn(
-                f"zhang2021 model {model!r}: without weightless data the poses do not support "
-                f"the extra terms (Akaike's criterion prefers {best!r}); the {best!r} solution "
-                "is returned with the other terms at zero (to keep them: select=False, on the command line "
-                "--keep-terms)",
+                f"zhang2021 model {model!r}: without weightless data {why} (Akaike's criterion prefers "
+                f"{best!r} among the variants they carry); the {best!r} solution is returned with the other "
+                "terms at zero (to keep them: select=False, on the command line --keep-terms)",
                 ImucalibWarning, stacklevel=2,
             )
-            problem, sol, layout = candidates[best]
-    acc, gyro, r = layout.models(sol.x)
-    cal = Calibration(
-        accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity,
-        method="zhang2021", model=model if selection is None else selection["selected"],
-        units=units_of(recording),
-    )
+        chosen = cands[best]
+    else:
+        chosen = stages(layout)
+    cal = _stage_calibration(chosen, gravity, recording).with_(
+        method="zhang2021", model=model if selection is None else selection["selected"])
     fit = fit_summary(cal, recording, static, gravity)
+    fit |= chosen.gyro.summary()
+    fit["uncertainty"] = chosen.errors
+    fit["iterations"] = chosen.iterations
+    fit["converged"] = chosen.converged
+    fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
+    if selection is not None:
+        fit["model_selection"] = selection
+    return cal.with_(fit=fit)
+
+
+def _stage_calibration(st: _Stages, gravity: float, recording: Recording) -> Calibration:
+    return Calibration(accelerometer=st.acc, gyroscope=st.gyroscope, gravity=gravity,
+                       units=units_of(recording), fit={"converged": st.converged})
+
+
+def _tosses(recording: Recording, weightless, rest: Interval, step1: _Stages, fall_threshold: float):
+    """RD2 as ``(acc, gyro, starts, stops, r0, segments)``, or why there is none (a string).
+
+    Detected tosses (``weightless`` None, eq. 22) are confirmed by the
+    accelerometer: a segment whose eq. (19) loss RMS with the Step-1 parameters
+    and the lever arm fitted to them exceeds ``fall_threshold`` is not free fall
+    (Zhang 2021, §IV-C); ``r̂`` is refitted on the rest.
+    """
+    detected = weightless is None
+    if detected:
+        weightless = [recording[iv] for iv in detect_weightless(recording, rest=rest)]
+    weightless = [w for w in weightless if len(w) >= 5]
+    if not weightless:
+        return "no weightless segments were found"
+    cal0 = Calibration(accelerometer=step1.acc, gyroscope=step1.gyroscope)
+    dt = 1.0 / recording.rate
+
+    def lever(segments):
+        acc, gyro, starts, stops = _concat(segments)
+        a_w = cal0.accelerometer_si(acc)
+        w_w = cal0.gyroscope_si(gyro, acc)
+        lm = lever_arm_matrix(w_w, segmented_five_point(w_w, starts, stops, dt))
+        r0, *_ = np.linalg.lstsq(lm.reshape(-1, 3), a_w.ravel(), rcond=None)  # eq. (19), linear in r
+        return acc, gyro, starts, stops, r0, a_w, lm
+
+    acc, gyro, starts, stops, r0, a_w, lm = lever(weightless)
+    if detected:
+        loss = np.linalg.norm(a_w - lm @ r0, axis=1)
+        seg_rms = np.sqrt(np.add.reduceat(loss**2, starts) / (stops - starts))
+        keep = seg_rms < fall_threshold
+        if not np.any(keep):
+            return (f"none of the {len(keep)} candidate weightless segments fits free fall "
+                    f"(eq. 19 loss ≥ {fall_threshold} m/s²)")
+        if not np.all(keep):
+            weightless = [w for w, k in zip(weightless, keep, strict=True) if k]
+            acc, gyro, starts, stops, r0, _, _ = lever(weightless)
+    return acc, gyro, starts, stops, r0, weightless
+
+
+def _joint(recording: Recording, static: list[Interval], rest: Interval, layout: ZhangLayout, model: str,
+           gravity: float, step1: _Stages, tosses, *, initial: str, noise_weights: bool,
+           max_iter: int) -> Calibration:
+    """Step 2 with tosses: eq. (21) by Levenberg–Marquardt from the shared stages' linear estimates (Step 1)."""
+    wl_acc, wl_gyro, wl_starts, wl_stops, _, weightless = tosses
+    dt = 1.0 / recording.rate
+    sol, problem, c = _solve_joint(recording, static, rest, layout, gravity, step1.acc, step1.gyroscope,
+                                   step1.gyro.left_out, tosses, initial=initial, noise_weights=noise_weights,
+                                   max_iter=max_iter)
+    m = len(static)
+    acc, gyro, r = layout.models(sol.x)
+    cal = Calibration(accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity, method="zhang2021",
+                      model=model, units=units_of(recording))
+    fit = fit_summary(cal, recording, static, gravity)
+    fit |= step1.gyro.summary()
+    fit["gyroscope_g_sensitivity"] = "estimated" if layout.with_g else "none"
     fit["weights"] = {k: float(np.mean(v)) for k, v in c.items()}  # means over intervals
     fit["cost"] = float(sol.cost)
     # 1σ errors from the weighted Jacobian at the solution, σ² from the weighted residuals of each cost term
-    m = len(static)
-    blocks = [m, 3 * m, 3 * (m - 1), len(sol.fun) - m - 3 * m - 3 * (m - 1)]
-    fit["uncertainty"] = {k: float(v) for k, v in
-                          zip(layout.names(), _block_errors(sol.jac, sol.fun, blocks), strict=True)}
-    # the bias's own 1σ adds the scatter of one pose's static gyroscope residual (eq. 11): a drifting bias is
-    # that far from the session's estimate at any moment
-    e2 = (sol.fun[m : 4 * m] / problem.w2).reshape(m, 3)
-    for a, spread in zip(AXES, np.sqrt(np.mean(e2**2, axis=0)), strict=True):
-        key = f"gyroscope.bias.{a}"
-        if key in fit["uncertainty"]:
-            fit["uncertainty"][key] = float(np.hypot(fit["uncertainty"][key], spread))
+    fit["uncertainty"] = _joint_errors(layout, sol, problem, c, m)
     fit["iterations"] = int(sol.njev)
     fit["converged"] = bool(sol.success)
-    if selection is not None:
-        fit["model_selection"] = selection
-    if layout.with_r:
-        fit["weightless_segments"] = len(weightless)
-        cal_w = cal.apply(Recording(np.arange(wl_acc.shape[0]) * dt, wl_acc, wl_gyro,
-                                    acc_unit=recording.acc_unit, gyro_unit=recording.gyro_unit))
-        wd = segmented_five_point(cal_w.gyro, wl_starts, wl_stops, dt)
-        e4 = cal_w.acc - lever_arm_matrix(cal_w.gyro, wd) @ r
-        fit["weightless_residual_rms"] = float(np.sqrt(np.mean(np.sum(e4**2, axis=1))))
+    fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
+    fit["weightless_segments"] = len(weightless)
+    cal_w = cal.apply(Recording(np.arange(wl_acc.shape[0]) * dt, wl_acc, wl_gyro,
+                                acc_unit=recording.acc_unit, gyro_unit=recording.gyro_unit))
+    wd = segmented_five_point(cal_w.gyro, wl_starts, wl_stops, dt)
+    e4 = cal_w.acc - lever_arm_matrix(cal_w.gyro, wd) @ r
+    fit["weightless_residual_rms"] = float(np.sqrt(np.mean(np.sum(e4**2, axis=1))))
     return cal.with_(fit=fit)

@@ -1,10 +1,12 @@
-"""Simulated sessions with known truth, and the papers' experiments.
+"""Simulated sessions with known truth.
 
 ``session(name, rng=seed, ...)`` simulates one of :data:`SCENARIOS`; each
 scenario lives in its own module (``zhang2021``, ``handheld``, ``qureshi2017``,
-``ferraris``, ``wang2019``) with its truth and, where a paper has one, its
-experiment. Methods never import from here: a session hands its layout to a
-method through ordinary keyword options (:meth:`Session.method_options`).
+``ferraris``, ``wang2019``) with its truth. The simulators sit below the methods and import none of
+them; the papers' experiments that run a method on these sessions are :mod:`imucalib.experiments`.
+Methods never import from here: a session hands its layout to a method through ordinary keyword
+options (:meth:`Session.method_options`). The session records and their directory format are
+:mod:`imucalib.io.session`.
 """
 
 from __future__ import annotations

@@ -40,11 +40,11 @@ from functools import partial
 
 import numpy as np
 
-from imucalib.methods import calibrate
-from imucalib.metrics import gravity_direction_errors, interval_means
-from imucalib.recording import Interval
-from imucalib.scenarios import session
-from imucalib.verdict import THRESHOLDS, turn_speed
+from ..methods import calibrate
+from ..metrics import gravity_direction_errors, interval_means
+from ..recording import Interval
+from ..scenarios import session
+from ..verdict import THRESHOLDS, turn_speed
 
 DEFAULT_METHODS = "tedaldi2014,zhang2021,ellipsoid"
 #: a run is good when the fitted gyroscope error is at most this many times the true parameters' …
@@ -252,7 +252,8 @@ def summarise(results: list[dict], methods: list[str]) -> dict:
     return out
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    """Run the study and print its JSON (``python -m imucalib.experiments.verdict_thresholds --help``)."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--runs", type=int, default=30, help="number of seeds (0 … runs−1 from --first-seed)")
     parser.add_argument("--first-seed", type=int, default=0)
@@ -260,7 +261,7 @@ def main() -> None:
     parser.add_argument("--methods", default=DEFAULT_METHODS, help="comma-separated, each 'name' or 'name:model'")
     parser.add_argument("--scenario-knobs", default="{}", help="JSON object of handheld scenario knobs")
     parser.add_argument("--per-run", action="store_true", help="also print every run's figures")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     knobs = json.loads(args.scenario_knobs)
     if not isinstance(knobs, dict):

@@ -1,0 +1,129 @@
+"""Evaluation against the truth: parameter errors and the Monte Carlo of any scenario and method.
+
+* :func:`parameter_errors` — estimate − truth by parameter name;
+* :func:`montecarlo` — N seeded runs of simulate → calibrate → compare, with Zhang 2021's
+  eqs. (34)–(35) on the sessions' test tosses where they have them
+  (:mod:`imucalib.experiments.zhang2021`).
+
+The static ``fit`` figures of ``DESIGN.md`` are in :mod:`imucalib.metrics`.
+"""
+
+from __future__ import annotations
+
+import os
+import traceback
+from collections.abc import Callable
+
+import numpy as np
+
+from ..batch import execute
+from ..calibration import Calibration
+from ..verdict import LEVELS
+from .zhang2021 import reductions, sequence_metrics
+
+__all__ = ["montecarlo", "parameter_errors"]
+
+
+def parameter_errors(estimate: Calibration, truth: Calibration) -> dict[str, float]:
+    """``estimate − truth`` for every parameter the truth has (names as in DESIGN)."""
+    est = estimate.parameters()
+    return {k: est.get(k, 0.0) - v for k, v in truth.parameters().items()}
+
+
+# ------------------------------------------------------------ Monte Carlo
+def _one_run(args) -> dict:
+    scenario, method, model, seed, baseline, sim_options, method_options = args
+    import warnings
+
+    from ..methods import calibrate
+    from ..scenarios import session
+
+    try:
+        sim = session(scenario, rng=seed, **sim_options)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            cal = calibrate(sim, method=method, model=model, gravity=sim.truth.gravity,
+                            **method_options)
+            out = {"seed": seed, "parameters": cal.parameters(), "fit": cal.fit}
+            if sim.tests:
+                m = sequence_metrics(cal, sim.tests, lever_arm=cal.lever_arm if cal.lever_arm is not None
+                                 else sim.truth.lever_arm)
+                out["tests"] = m
+                if baseline:
+                    base = calibrate(sim, method=baseline, gravity=sim.truth.gravity)
+                    r = cal.lever_arm if cal.lever_arm is not None else sim.truth.lever_arm
+                    out["baseline_tests"] = sequence_metrics(base, sim.tests, lever_arm=r)
+        return out
+    except Exception as exc:  # a failing run is recorded, never aborts the batch
+        return {"seed": seed, "error": f"{type(exc).__name__}: {exc}",
+                "traceback": traceback.format_exc(limit=3)}
+
+
+def montecarlo(
+    scenario: str,
+    method: str,
+    *,
+    model: str | None = None,
+    runs: int = 20,
+    workers: int | None = 1,
+    scheduler: str | None = None,
+    seed: int = 0,
+    baseline: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    sim_options: dict | None = None,
+    method_options: dict | None = None,
+) -> dict:
+    """Seeded runs of simulate → calibrate → compare with the truth.
+
+    Run ``i`` uses seed ``seed + i``, so the summary does not depend on
+    where the runs run: ``workers`` local processes (a pool that lives for
+    the whole study), or with ``scheduler`` one Dask task per run on a
+    ``"local"`` LocalCluster of ``workers`` processes (None: one per core) or
+    the cluster at an address (:func:`imucalib.batch.execute`). Returns
+    ``{"scenario", "method", "model", "runs",
+    "parameters": [{"name", "truth", "mean", "std", "rms_error"}, …],
+    "metrics": {…}, "verdicts": {"accepted": n, "suspect": n, "rejected": n},
+    "failures": [{"seed", "message"}, …]}``; ``verdicts`` counts the runs that
+    produced a calibration by its verdict (:mod:`imucalib.verdict`).
+    """
+    from ..scenarios import session
+
+    if runs < 1:
+        raise ValueError(f"runs must be ≥ 1; got {runs}")
+    if scheduler is None:
+        workers = max(1, min(int(workers or 1), os.cpu_count() or 1, runs))
+    sim_options = sim_options or {}
+    method_options = method_options or {}
+    jobs = [(scenario, method, model, seed + i, baseline, sim_options, method_options)
+            for i in range(runs)]
+    results = [r for _, r in execute(_one_run, jobs, workers=workers, scheduler=scheduler, progress=progress)]
+    results.sort(key=lambda r: r["seed"])
+    ok = [r for r in results if "error" not in r]
+    failures = [{"seed": r["seed"], "message": r["error"]} for r in results if "error" in r]
+    truth = session(scenario, rng=seed, **sim_options).truth.parameters()
+    params = []
+    for name, true in truth.items():
+        vals = np.array([r["parameters"].get(name, 0.0) for r in ok]) if ok else np.array([])
+        params.append({
+            "name": name, "truth": true,
+            "mean": float(vals.mean()) if vals.size else None,
+            "std": float(vals.std()) if vals.size else None,
+            "rms_error": float(np.sqrt(np.mean((vals - true) ** 2))) if vals.size else None,
+        })
+    metrics: dict = {}
+    if ok:
+        for key in ("accelerometer_residual_rms", "gyroscope_angle_error_mean_deg"):
+            vals = [r["fit"][key] for r in ok if key in r["fit"]]
+            if vals:
+                metrics[key] = float(np.mean(vals))
+        if all("tests" in r for r in ok):
+            metrics["eq34_mean"] = float(np.mean([np.mean(r["tests"]["eq34"]) for r in ok]))
+            metrics["eq35_mean"] = float(np.mean([np.mean(r["tests"]["eq35"]) for r in ok]))
+        if baseline and all("baseline_tests" in r for r in ok):
+            red = [reductions(r["tests"], r["baseline_tests"]) for r in ok]
+            metrics["baseline"] = baseline
+            metrics["eq34_reduction"] = float(np.mean([x["eq34_reduction"] for x in red]))
+            metrics["eq35_reduction"] = float(np.mean([x["eq35_reduction"] for x in red]))
+    verdicts = {level: sum(r["fit"].get("verdict") == level for r in ok) for level in LEVELS}
+    return {"scenario": scenario, "method": method, "model": model, "runs": runs,
+            "parameters": params, "metrics": metrics, "verdicts": verdicts, "failures": failures}

@@ -1,0 +1,56 @@
+"""Detector presets: the windows, thresholds and shortest intervals the static-pose detectors default to.
+
+One place for the values :mod:`imucalib.segment`, the methods, :mod:`imucalib.validate` and the command
+line share, each with its source. Times are in seconds; multipliers are of the initial rest's detector
+statistic.
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = ["FALL_MIN_LENGTH", "FALL_THRESHOLD", "GYRO_MULTIPLIER", "GYRO_VARIANCE_WINDOW", "MIN_INTERVAL",
+           "MIN_INTERVALS", "MULTIPLIERS", "REST_FACTOR", "REST_MIN_SECONDS", "REST_SHORTEST_SECONDS", "REST_WINDOW",
+           "STILL_N_SIGMA", "STILL_RATE", "STILL_WINDOW", "VALIDATE_MULTIPLIER", "VARIANCE_WINDOW"]
+
+# ----------------------------------------------- the accelerometer variance detector (Tedaldi 2014)
+#: the variance window t_w [s]: poses of Tedaldi 2014's procedure last 1–2 s (the detection fragment, §2)
+VARIANCE_WINDOW = 1.0
+#: the shortest static interval kept [s], the shortest pose of the same procedure
+MIN_INTERVAL = 1.0
+#: the threshold multipliers scanned, × the initial rest's variance norm (Tedaldi 2014's scan, k = 2 … 10)
+MULTIPLIERS = tuple(range(2, 11))
+#: the fewest static intervals the multiplier scan accepts
+MIN_INTERVALS = 10
+#: the fixed multiplier of a validation recording, too short for a scan (:mod:`imucalib.validate`)
+VALIDATE_MULTIPLIER = 6.0
+
+# --------------------------------------------------------------------------------- the initial rest
+#: the detector window over which the rest's noise level is measured [s]
+REST_WINDOW = 1.0
+#: the rest ends where a statistic first exceeds this many times its level over the first seconds
+REST_FACTOR = 30.0
+#: the seconds at the start taken to be at rest when the noise level is measured (the rest the detector would like)
+REST_MIN_SECONDS = 2.0
+#: the shortest initial rest found automatically [s]; one shorter than :data:`REST_MIN_SECONDS` gets a note
+REST_SHORTEST_SECONDS = 1.0
+
+# ----------------------------------------------------- the gyroscope detector (Zhang 2021, eq. 22)
+#: the variance window t_w of eq. (22) [s] (Zhang 2021, §IV-A: T_w = 2 s for RD1)
+GYRO_VARIANCE_WINDOW = 2.0
+#: the threshold n × ζ_init of eq. (22) (Zhang 2021, §IV-A: n = 6 for RD1)
+GYRO_MULTIPLIER = 6.0
+
+# ------------------------------------------------------------------------- a still gyroscope
+#: a pose is still when the gyroscope's mean rate over STILL_WINDOW s, bias removed, stays below this [rad/s]
+STILL_RATE = math.radians(0.7)
+#: the window of that mean [s]
+STILL_WINDOW = 0.25
+#: … or below this many standard deviations of the rest's mean over that window, whichever is larger
+STILL_N_SIGMA = 6.0
+
+# ---------------------------------------------------------------- free fall (Zhang 2021, §IV-C)
+#: the weightless loss (Zhang 2021, eq. 19) below which a sample is falling [m/s²]
+FALL_THRESHOLD = 2.5
+#: the shortest fall kept [s]
+FALL_MIN_LENGTH = 0.05
