@@ -34,7 +34,7 @@ import numpy as np
 from imucalib.methods import calibrate
 from imucalib.scenarios import session
 
-DEFAULT_METHODS = ("poses/tedaldi2014,poses/ellipsoid,poses/zhang2021:linear,poses/zhang2021,"
+DEFAULT_METHODS = ("poses/tedaldi2014,poses/ellipsoid,poses/zhang2021:linear,poses/zhang2021,poses/zhang2021:all,"
                    "ferraris/six_position,ferraris/ferraris")
 #: the goal for every group's RMS z
 GOAL = (0.8, 1.25)
