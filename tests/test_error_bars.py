@@ -69,6 +69,8 @@ def _groups(method: str, procedure: str) -> dict[str, np.ndarray]:
     ("tedaldi2014", "poses", {"accelerometer.bias", "accelerometer.scale", "accelerometer.misalignment",
                               "gyroscope.bias", "gyroscope.scale", "gyroscope.misalignment",
                               "gyroscope.g_sensitivity"}),
+    ("zhang2021", "poses", {"accelerometer.bias", "accelerometer.scale", "accelerometer.misalignment",
+                            "gyroscope.bias", "gyroscope.scale", "gyroscope.misalignment"}),
     ("six_position", "ferraris", {"gyroscope.bias", "gyroscope.scale", "gyroscope.misalignment",
                                   "gyroscope.g_sensitivity"}),
 ])
