@@ -322,6 +322,8 @@ def accelerometer_errors(acc: TriadModel, means: np.ndarray, gravity: float) -> 
     return {k: float(v) for k, v in zip(lay.names("accelerometer"), _errors(*pose_covariance(j, r)), strict=True)}
 
 
+#: the sandwich of :func:`pose_covariance` needs at least this many poses per parameter (mean leverage ≤ 1/2)
+SANDWICH_POSES_PER_PARAMETER = 2
 #: a pose whose leverage is within this of 1 determines a direction alone: its residual says nothing of its noise
 LEVERAGE_ONE = 1e-6
 
@@ -343,6 +345,10 @@ def pose_covariance(jac: np.ndarray, residuals: np.ndarray, *, rcond: float = 1e
     variance to first order: a residual shrunk by a pose's own pull on the
     fit is inflated back. A pose with leverage 1 (it alone determines a
     direction, ``r_k = 0``) takes the common ``σ² = ‖r‖²/(M − P)`` instead.
+    With fewer than :data:`SANDWICH_POSES_PER_PARAMETER` poses per parameter
+    the mean leverage ``P/M`` exceeds 1/2 and the ``(1 − h_k)⁻²`` factors make
+    the sandwich noisier than what it corrects: the covariance is then
+    ``σ² (JᵀJ)⁻¹`` with that common ``σ²`` (the residuals' reduced χ²).
     The columns are scaled to unit norm and unobservable directions dropped
     as in :func:`imucalib.solve.covariance`; zero when ``M ≤ P`` (no residual
     to take a scatter from: the callers say the errors are unavailable).
@@ -357,8 +363,10 @@ def pose_covariance(jac: np.ndarray, residuals: np.ndarray, *, rcond: float = 1e
     if m <= p:  # the poses determine the parameters exactly: no residual to take a scatter from
         return np.zeros((p, p)), bad
     inv = (v[:, good] / w[good]) @ v[:, good].T
-    h = np.einsum("ij,jk,ik->i", js, inv, js)
     s2 = float(residuals @ residuals) / (m - p)
+    if m < SANDWICH_POSES_PER_PARAMETER * p:  # leverages near 1: each pose's own variance is not measurable
+        return s2 * inv / np.outer(col, col), bad
+    h = np.einsum("ij,jk,ik->i", js, inv, js)
     omega = np.where(h < 1 - LEVERAGE_ONE, residuals**2 / np.maximum(1 - h, LEVERAGE_ONE) ** 2, s2)
     cov_s = inv @ (js.T * omega) @ js @ inv
     return cov_s / np.outer(col, col), bad
