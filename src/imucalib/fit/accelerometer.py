@@ -22,11 +22,12 @@ import numpy as np
 
 from ..models import TriadModel
 from ..residuals import AccelLayout, gravity_norm_residuals
-from ..solve import covariance, levenberg_marquardt, standard_errors
+from ..solve import levenberg_marquardt
 
 __all__ = ["REDUCED_MODELS", "GravityNormFit", "accelerometer_covariance", "accelerometer_errors",
            "determined_figures", "faces_full", "fit_determined", "fit_ellipsoid", "fit_gravity_norm", "fit_sphere",
-           "full_from_sensitivity", "gravity_norm_fit", "newton_backtracking", "qureshi_cost", "six_position"]
+           "full_from_sensitivity", "gravity_norm_fit", "newton_backtracking", "pose_covariance", "qureshi_cost",
+           "six_position"]
 
 
 def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:
@@ -117,9 +118,10 @@ class GravityNormFit:
     iterations: int
 
     def errors(self, order: int) -> dict[str, float]:
-        """1σ errors of the parameters by name (:func:`~imucalib.solve.standard_errors`)."""
+        """1σ errors of the parameters by name, each pose's scatter from its own residual (:func:`pose_covariance`)."""
         names = AccelLayout("upper", order).names("accelerometer")
-        return {k: float(v) for k, v in zip(names, standard_errors(self.jacobian, self.residuals), strict=True)}
+        return {k: float(v) for k, v in zip(names, _errors(*pose_covariance(self.jacobian, self.residuals)),
+                                            strict=True)}
 
 
 def gravity_norm_fit(raw_means: np.ndarray, gravity: float, *, order: int = 1, initial: TriadModel | None = None,
@@ -261,7 +263,7 @@ def determined_figures(acc: TriadModel, means: np.ndarray, gravity: float, which
 
     ``accelerometer_model`` names the model; for a reduced one ``accelerometer_model_reduced`` says what the
     poses do not determine. ``uncertainty`` holds the 1σ errors of the parameters fitted (the delta method
-    through ``E``, :func:`imucalib.solve.standard_errors`), or, when the poses determine them exactly,
+    through ``E`` of :func:`pose_covariance`, each pose's own scatter), or, when the poses determine them exactly,
     ``uncertainty_unavailable`` says so.
     """
     name, p, left = which
@@ -280,7 +282,7 @@ def determined_figures(acc: TriadModel, means: np.ndarray, gravity: float, which
     expand = _expand(row[1])
     w = np.ones(m) if weights is None else np.asarray(weights, dtype=np.float64)
     r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
-    se = standard_errors(w[:, None] * j @ expand, w * r, transform=expand)
+    se = _errors(*pose_covariance(w[:, None] * j @ expand, w * r), transform=expand)
     fitted = np.any(expand != 0, axis=1)
     out["uncertainty"] = {k: float(v) for k, v, f in zip(lay.names("accelerometer"), se, fitted, strict=True) if f}
     return out
@@ -296,11 +298,11 @@ def accelerometer_covariance(acc: TriadModel, means: np.ndarray, gravity: float,
     lay = AccelLayout("upper", 1)
     r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
     if which is None:
-        cov, bad = covariance(j, r)
+        cov, bad = pose_covariance(j, r)
         cov[bad, bad] = np.inf
         return cov
     expand = _expand(next(row[1] for row in REDUCED_MODELS if row[0] == which[0]))
-    cov, bad = covariance(j @ expand, r)
+    cov, bad = pose_covariance(j @ expand, r)
     cov[bad, :] = 0.0
     cov[:, bad] = 0.0
     out = expand @ cov @ expand.T
@@ -310,10 +312,74 @@ def accelerometer_covariance(acc: TriadModel, means: np.ndarray, gravity: float,
 
 
 def accelerometer_errors(acc: TriadModel, means: np.ndarray, gravity: float) -> dict[str, float]:
-    """1σ errors of a linear upper-triangular accelerometer model from the gravity-norm fit at ``acc``."""
+    """1σ errors of a linear upper-triangular accelerometer model from the gravity-norm fit at ``acc``.
+
+    The square roots of the diagonal of :func:`pose_covariance` (each pose's own scatter), NaN where the poses
+    do not determine a parameter.
+    """
     lay = AccelLayout("upper", 1)
     r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
-    return {k: float(v) for k, v in zip(lay.names("accelerometer"), standard_errors(j, r), strict=True)}
+    return {k: float(v) for k, v in zip(lay.names("accelerometer"), _errors(*pose_covariance(j, r)), strict=True)}
+
+
+#: the sandwich of :func:`pose_covariance` needs at least this many poses per parameter (mean leverage ≤ 1/2)
+SANDWICH_POSES_PER_PARAMETER = 2
+#: a pose whose leverage is within this of 1 determines a direction alone: its residual says nothing of its noise
+LEVERAGE_ONE = 1e-6
+
+
+def pose_covariance(jac: np.ndarray, residuals: np.ndarray, *, rcond: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
+    """Covariance of a least-squares fit over static poses whose scatter differs from pose to pose, and which
+    parameters the poses do not determine.
+
+    The gravity-norm residual of a pose holds more than its samples' white
+    noise: tremor, a hand creeping into the pose, a transition's tail; and
+    how much more differs from pose to pose. ``σ² (JᵀJ)⁻¹`` with one common
+    ``σ²`` then misstates the errors (too small where the poses that scatter
+    most have the most leverage). The heteroskedasticity-consistent "sandwich"
+    ``(JᵀJ)⁻¹ Jᵀ diag(ω_k) J (JᵀJ)⁻¹`` takes each pose's variance from its own
+    residual; ``ω_k = r_k² / (1 − h_k)²`` with the leverage
+    ``h_k = [J (JᵀJ)⁻¹ Jᵀ]_kk`` is the HC3 estimator (MacKinnon & White 1985,
+    *J. Econometrics* 29, 305–325; recommended for small samples by
+    Long & Ervin 2000, *Am. Stat.* 54, 217–224), the jackknife's
+    variance to first order: a residual shrunk by a pose's own pull on the
+    fit is inflated back. A pose with leverage 1 (it alone determines a
+    direction, ``r_k = 0``) takes the common ``σ² = ‖r‖²/(M − P)`` instead.
+    With fewer than :data:`SANDWICH_POSES_PER_PARAMETER` poses per parameter
+    the mean leverage ``P/M`` exceeds 1/2 and the ``(1 − h_k)⁻²`` factors make
+    the sandwich noisier than what it corrects: the covariance is then
+    ``σ² (JᵀJ)⁻¹`` with that common ``σ²`` (the residuals' reduced χ²).
+    The columns are scaled to unit norm and unobservable directions dropped
+    as in :func:`imucalib.solve.covariance`; zero when ``M ≤ P`` (no residual
+    to take a scatter from: the callers say the errors are unavailable).
+    """
+    m, p = jac.shape
+    col = np.linalg.norm(jac, axis=0)
+    col = np.where(col > 0, col, 1.0)
+    js = jac / col
+    w, v = np.linalg.eigh(js.T @ js)
+    good = w > rcond * max(w[-1], np.finfo(float).tiny)
+    bad = np.any(np.abs(v[:, ~good]) > 1e-3, axis=1)  # loaded on an unobservable direction
+    if m <= p:  # the poses determine the parameters exactly: no residual to take a scatter from
+        return np.zeros((p, p)), bad
+    inv = (v[:, good] / w[good]) @ v[:, good].T
+    s2 = float(residuals @ residuals) / (m - p)
+    if m < SANDWICH_POSES_PER_PARAMETER * p:  # leverages near 1: each pose's own variance is not measurable
+        return s2 * inv / np.outer(col, col), bad
+    h = np.einsum("ij,jk,ik->i", js, inv, js)
+    omega = np.where(h < 1 - LEVERAGE_ONE, residuals**2 / np.maximum(1 - h, LEVERAGE_ONE) ** 2, s2)
+    cov_s = inv @ (js.T * omega) @ js @ inv
+    return cov_s / np.outer(col, col), bad
+
+
+def _errors(cov: np.ndarray, bad: np.ndarray, *, transform: np.ndarray | None = None) -> np.ndarray:
+    """1σ errors from a covariance (``transform``: the delta method, ``A C Aᵀ``), NaN where undetermined."""
+    if transform is not None:
+        bad = np.abs(transform) @ bad.astype(float) > 0
+        cov = transform @ cov @ transform.T
+    out = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    out[bad] = np.nan
+    return out
 
 
 def six_position(up: np.ndarray, down: np.ndarray, gravity: float, *, cos_up: np.ndarray | float = 1.0,

@@ -237,7 +237,7 @@ def _solve_direction(recording, intervals, accelerometer, bias, estimate_bias, w
 
 def errors_at(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, gyroscope: TriadModel,
               estimate_bias: bool, *, weights: np.ndarray | None = None, bias_cov: np.ndarray | None = None,
-              acc_cov: np.ndarray | None = None, bias_spread: np.ndarray | None = None) -> dict[str, float]:
+              acc_cov: np.ndarray | None = None) -> dict[str, float]:
     """1σ errors of a gravity-direction gyroscope fit at its solution ``gyroscope``, by name.
 
     From the Jacobian and residuals of eq. (14) (:func:`~imucalib.solve.standard_errors`;
@@ -249,7 +249,8 @@ def errors_at(recording: Recording, intervals: list[Interval], accelerometer: Tr
     (``acc_cov``, in :class:`~imucalib.residuals.AccelLayout` ``("upper", 1)``
     order; where the poses leave the accelerometer poorly determined, the
     gyroscope's errors say so instead of being falsely small). The bias's own
-    error adds ``bias_spread`` (per axis) to ``bias_cov``.
+    error is ``bias_cov``'s (the static poses' regression, their scatter
+    included: :func:`static_gyro`).
     """
     fun, jac, layout, dirs, _ = gravity_direction_problem(recording, intervals, accelerometer, gyroscope.bias, True,
                                                           weights, gyroscope.g_sensitivity)
@@ -274,8 +275,7 @@ def errors_at(recording: Recording, intervals: list[Interval], accelerometer: Tr
     if undetermined:  # the poses leave the gravity directions themselves undetermined
         errors = {k: float("nan") for k in errors}
     if bias_cov is not None and not estimate_bias:
-        var = np.diag(bias_cov) + (0.0 if bias_spread is None else np.asarray(bias_spread) ** 2)
-        errors |= {f"gyroscope.bias.{a}": float(s) for a, s in zip(AXES, np.sqrt(var), strict=True)}
+        errors |= {f"gyroscope.bias.{a}": float(s) for a, s in zip(AXES, np.sqrt(np.diag(bias_cov)), strict=True)}
     return errors
 
 
@@ -310,6 +310,7 @@ class StaticGyro:
     variances: np.ndarray | None = None  # (M, 3) each pose mean's variance [raw²], scatter included
     scatter: np.ndarray | None = None  # (3,) the scatter between poses beyond the white noise [raw]
     drift_se: np.ndarray | None = None  # (3,) 1σ of ``drift``
+    g_cov: np.ndarray | None = None  # (3, 3, 3) per gyroscope axis, the covariance of its row of ``g_sensitivity``
 
 
 def _weighted_regression(x: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, float,
@@ -370,9 +371,10 @@ def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: 
     (``n = 3M``; ``p`` counts 3 per coefficient and the 3 ``τ²``); a turn-on
     change or random walk scatters the means without a pattern in ``a`` or
     ``t`` and makes neither appear. ``G`` needs more than 8 poses and the drift
-    more than 5. The bias's covariance is the regression's; its reported 1σ
-    adds the scatter of one pose about the fit, since a bias that wanders is
-    that far from the fit at any moment.
+    more than 5. The bias (at ``t_ref``) has the regression's covariance,
+    which holds the scatter between poses through ``τ²``; ``spread`` (the
+    scatter of one pose's mean about the fit) is reported beside it, not
+    added to it.
     """
     u = interval_means(recording.gyro, intervals)
     a = accelerometer.forward(interval_means(recording.acc, intervals))
@@ -410,17 +412,18 @@ def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: 
     bias = coef[0]
     bias_cov = np.diag([c[0, 0] for c in covs])
     errors: dict[str, float] = {}
-    g = d = d_se = None
+    g = d = d_se = g_cov = None
     first_g = 2 if with_d else 1
     if with_d:
         d = coef[1].copy()
         d_se = np.sqrt([c[1, 1] for c in covs])
     if with_g:
         g = coef[first_g:].T  # row: gyroscope axis, column: accelerometer axis
-        se = np.sqrt(np.array([np.diag(c)[first_g:] for c in covs]))
+        g_cov = np.array([c[first_g:, first_g:] for c in covs])
+        se = np.sqrt(np.array([np.diag(c) for c in g_cov]))
         errors = {f"gyroscope.g_sensitivity.{AXES[i]}{AXES[j]}": float(se[i, j]) for i in range(3) for j in range(3)}
     return StaticGyro(bias, bias_cov, g, errors, spread, d, t_ref, times, u, a, v + tau2[None, :],
-                      np.sqrt(tau2), d_se)
+                      np.sqrt(tau2), d_se, g_cov)
 
 
 def joint_problem(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, static: StaticGyro,
@@ -533,9 +536,16 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
     two per kept rotation and three per pose, less the parameters), carried
     to ``T_g`` and ``k1`` by the delta method. The accelerometer's covariance
     ``acc_cov`` enters through the gravity directions to first order
-    (``∂θ̂/∂x = −J⁺ ∂r/∂x``, as in :func:`errors_at`). The bias's own error
-    adds the scatter of one pose about the fit (``static.spread``): a bias
-    that wanders is that far from the fit at any moment.
+    (``∂θ̂/∂x = −J⁺ ∂r/∂x``, as in :func:`errors_at`); so does the
+    g-sensitivity the joint fit holds at the static poses' estimate
+    (``static.g_cov``): its error moves the bias the poses show. The bias is the bias
+    at ``static.t_ref`` and its 1σ is the error of that: each pose's mean is
+    weighted by its white noise plus the scatter between poses
+    (``static.variances``, random effects: :func:`_weighted_regression`), so
+    tremor and a wandering bias are in it once. Adding the scatter of one pose
+    about the fit again (the bias at an arbitrary moment, not at ``t_ref``)
+    would count them twice: on the hand-held scenario that made the bias's 1σ
+    eight times its error.
     """
     j = jac_fun(theta)
     size = j.shape[1]
@@ -549,6 +559,13 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
         j_acc[:n_rot] = _direction_acc_jacobian(recording, intervals, accelerometer, model) * w[:, None]
         sens = -np.linalg.pinv(j) @ j_acc
         extra = sens @ acc_cov @ sens.T
+    if static.g_cov is not None and np.all(np.isfinite(static.g_cov)):
+        sens = -np.linalg.pinv(j) @ _g_sensitivity_jacobian(recording, intervals, accelerometer, static, weights,
+                                                           sigma_rot, theta)
+        c_g = np.zeros((9, 9))
+        for i in range(3):  # the rows of G come from independent regressions, one per gyroscope axis
+            c_g[3 * i:3 * i + 3, 3 * i:3 * i + 3] = static.g_cov[i]
+        extra = (0.0 if extra is None else extra) + sens @ c_g @ sens.T
     m = theta[:9].reshape(3, 3)
     off = [(i, k) for i in range(3) for k in range(3) if i != k]
     names = [f"gyroscope.misalignment.{AXES[i]}{AXES[k]}" for i, k in off]
@@ -560,13 +577,87 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
     for k in range(3):  # k1_k = M_kk
         a[6 + k, 4 * k] = 1.0
     a[9:12, 9:12] = np.eye(3)
-    se = standard_errors(j, res, dof=dof, transform=a, extra_cov=extra)
+    if dof <= 0:
+        se = np.full(12, np.nan)
+    else:
+        cov, bad = _joint_covariance(j, res, n_rot, weights)
+        if extra is not None:
+            cov = cov + extra
+        bad = np.abs(a) @ bad.astype(float) > 0
+        se = np.sqrt(np.clip(np.diag(a @ cov @ a.T), 0.0, None))
+        se[bad] = np.nan
     if undetermined:  # the poses leave the gravity directions themselves undetermined
         se = np.full_like(se, np.nan)
-    out = {k: float(v) for k, v in zip(names, se, strict=True)}
-    for i, ax in enumerate(AXES):
-        out[f"gyroscope.bias.{ax}"] = float(np.hypot(out[f"gyroscope.bias.{ax}"], static.spread[i]))
-    return out
+    return {k: float(v) for k, v in zip(names, se, strict=True)}
+
+
+def _g_sensitivity_jacobian(recording, intervals, accelerometer, static: StaticGyro, weights, sigma_rot,
+                            theta) -> np.ndarray:
+    """∂r/∂G of the joint residuals (:func:`joint_problem`) at ``theta``, ``G`` row-major, analytic.
+
+    ``G`` enters the static poses' targets, ``(ū_k − G a_k − …)/se_k``, so
+    ``∂r_{k,i}/∂G_ij = −a_{k,j}/se_{k,i}``, and every rotation sample's rate
+    ``ω = M (u − b − d τ − G a)``, so ``∂ω/∂G_ij = −M e_i a_j`` with ``a`` the
+    sample's calibrated specific force, through the same gravity-direction
+    Jacobian as the other parameters (:func:`~imucalib.residuals.gravity_direction_residuals_jac`).
+    """
+    acc = static.accel if static.accel is not None else accelerometer.forward(interval_means(recording.acc, intervals))
+    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
+    starts, stops = transition_bounds(intervals)
+    integrator = IntervalIntegrator(recording.t, starts, stops)
+    a_s = accelerometer.forward(recording.acc[integrator.samples])
+    raw = recording.gyro[integrator.samples] - a_s @ np.asarray(static.g_sensitivity).T
+    tau = recording.t[integrator.samples] - static.t_ref
+    m, b = theta[:9].reshape(3, 3), theta[9:12]
+    dr = theta[12:15] if static.drift is not None else np.zeros(3)
+    v = raw - b - tau[:, None] * dr
+    d = np.zeros((raw.shape[0], 3, 9))
+    for i in range(3):
+        for j in range(3):
+            d[:, :, 3 * i + j] = -m[None, :, i] * a_s[:, j, None]
+    w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
+    j_rot = gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1] * w[:, None]
+    mm = len(static.means)
+    se = np.sqrt(static.variances)
+    j_st = np.zeros((mm, 3, 9))
+    for i in range(3):
+        j_st[:, i, 3 * i:3 * i + 3] = -static.accel / se[:, i:i + 1]
+    return np.vstack([j_rot, j_st.reshape(3 * mm, 9)])
+
+
+def _joint_covariance(j: np.ndarray, res: np.ndarray, n_rot: int, weights: np.ndarray, *,
+                      rcond: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
+    """Covariance of the joint fit's parameters, each rotation's share from its own residual; which are undetermined.
+
+    The sandwich ``(JᵀJ)⁻¹ B (JᵀJ)⁻¹``. The static poses' rows are divided by
+    their standard errors (between-pose scatter included), so their part of
+    ``B`` is ``J_sᵀ J_s``. A rotation's gravity-direction error is not the
+    common white noise ``sigma_rot``: the longer, faster turns carry more of
+    the integration's and the hand's errors, and those are the turns that
+    pull the bias and the scales most. Its part of ``B`` is
+    ``J_kᵀ r_k r_kᵀ J_k`` from its own three residuals, one cluster per
+    rotation (the cluster-robust sandwich of Liang & Zeger 1986,
+    *Biometrika* 73, 13–22, §2; White 1980 for one residual per cluster),
+    times ``n/(n − 9/2)`` for the nine parameters of ``M`` that the ``n``
+    rotations' two components each fit. Columns scaled to unit norm and
+    unobservable directions dropped as in :func:`imucalib.solve.covariance`.
+    """
+    col = np.linalg.norm(j, axis=0)
+    col = np.where(col > 0, col, 1.0)
+    js = j / col
+    w, v = np.linalg.eigh(js.T @ js)
+    good = w > rcond * max(w[-1], np.finfo(float).tiny)
+    bad = np.any(np.abs(v[:, ~good]) > 1e-3, axis=1)
+    inv = (v[:, good] / w[good]) @ v[:, good].T
+    j_st = js[n_rot:]
+    meat = j_st.T @ j_st
+    kept = np.nonzero(np.asarray(weights) > 0)[0]
+    if kept.size:
+        g = np.einsum("kij,ki->kj", js[:n_rot].reshape(-1, 3, js.shape[1])[kept], res[:n_rot].reshape(-1, 3)[kept])
+        n = kept.size
+        meat = meat + (g.T @ g) * (n / max(n - 4.5, 0.5))
+    cov = inv @ meat @ inv
+    return cov / np.outer(col, col), bad
 
 
 def joint_errors_at(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
@@ -694,14 +785,13 @@ def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer
                                   sigma, static, acc_cov=acc_cov)
         else:
             errors = errors_at(recording, intervals, accelerometer, model, est, weights=weights,
-                               bias_cov=None if est else static.bias_cov, acc_cov=acc_cov,
-                               bias_spread=static.spread)
+                               bias_cov=None if est else static.bias_cov, acc_cov=acc_cov)
             if est and not all(np.isfinite(errors.get(f"gyroscope.bias.{a}", np.nan)) for a in AXES):
                 est = False  # the bias is not observable from these rotations
                 model, e = _solve_direction(recording, intervals, accelerometer, static.bias, False, weights,
                                             static.g_sensitivity, start)
                 errors = errors_at(recording, intervals, accelerometer, model, False, weights=weights,
-                                   bias_cov=static.bias_cov, acc_cov=acc_cov, bias_spread=static.spread)
+                                   bias_cov=static.bias_cov, acc_cov=acc_cov)
         if not robust:
             break
         kept = weights > 0

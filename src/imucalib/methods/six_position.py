@@ -27,7 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..calibration import Calibration, units_of
-from ..fit.accelerometer import six_position
+from ..fit.accelerometer import accelerometer_covariance as full_covariance
+from ..fit.accelerometer import fit_determined, six_position
 from ..fit.gyroscope import fit_gyroscope
 from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
@@ -48,7 +49,54 @@ METHOD = MethodInfo(
     accelerometer_only=True,
 )
 
-__all__ = ["calibrate"]
+__all__ = ["CROSS_AXIS", "accelerometer_covariance", "calibrate"]
+
+#: the cross-axis sensitivity a consumer MEMS accelerometer's datasheet bounds (MPU-6000/MPU-6050 Product
+#: Specification rev. 3.4, §6.2: ±2 %): what the misalignment the method holds at zero may be when the poses
+#: cannot measure it
+CROSS_AXIS = 0.02
+
+
+def accelerometer_covariance(recording, intervals, faces, acc, gravity: float) -> np.ndarray:
+    """Covariance of the six-position accelerometer in ``AccelLayout("upper", 1)`` order, for the gyroscope's errors.
+
+    The method holds the misalignment ``T_a`` at the identity; the accelerometer's
+    real cross-axis terms set the gravity directions the gyroscope is fitted
+    to, so holding them at zero is an error of the gyroscope's parameters
+    that its own residuals cannot show: each upper term ``T_ij`` enters with
+    the variance ``E[T_ij²]``, the mean squared error of holding it at zero.
+    A priori ``T_ij`` is uniform within ±:data:`CROSS_AXIS` (``c²/3``); where
+    the poses determine the linear model (:func:`imucalib.fit.accelerometer.fit_determined`,
+    nine or more poses in spread directions) its estimate ``T̂_ij ± σ``
+    (:func:`imucalib.fit.accelerometer.pose_covariance`) updates that: the
+    posterior is the normal ``N(T̂_ij, σ²)`` truncated to ``[−c, c]`` (Bayes'
+    rule with a uniform prior), whose second moment is taken. The bias and scale of
+    eqs. (8)–(9) carry each face mean's white noise (its samples' variance
+    over their number ``v``): ``var b = (v₊ + v₋)/4``, ``var s = (v₊ + v₋)/(2g)²``
+    and, with ``k1 = 1/s``, ``var k1 = k1⁴ var s``.
+    """
+    v = np.array([np.var(recording.acc[intervals[int(i)].slice], axis=0) / max(len(intervals[int(i)]) - 1, 1)
+                  for i in faces])
+    axes = np.arange(3)
+    pair = v[:3][axes, axes] + v[3:][axes, axes]
+    k = np.abs(acc.scale)
+    mis = np.full(3, CROSS_AXIS**2 / 3)
+    means = interval_means(recording.acc, intervals)
+    try:
+        full, _, which = fit_determined(means, gravity)
+    except ValueError:
+        which = None
+    if which is not None and which[0] == "linear":
+        cov = full_covariance(full, means, gravity)
+        sd = np.sqrt(np.diag(cov)[:3])
+        if np.all(np.isfinite(sd) & (sd > 0)):
+            from scipy.stats import truncnorm  # here: scipy.stats takes a while to import
+
+            t = full.misalignment
+            t_hat = np.array([t[0, 1], t[0, 2], t[1, 2]])
+            post = truncnorm((-CROSS_AXIS - t_hat) / sd, (CROSS_AXIS - t_hat) / sd, loc=t_hat, scale=sd)
+            mis = post.var() + post.mean() ** 2
+    return np.diag(np.concatenate([mis, k**4 * pair / (2 * gravity) ** 2, pair / 4]))
 
 
 def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15.0,
@@ -66,7 +114,8 @@ def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15
         acc = six_position(up, down, gravity, cos_up=cos_up, cos_down=cos_down)
     blocks = pose_blocks(recording) is not None
     gyro_fit = None if recording.gyro is None or blocks else fit_gyroscope(  # none without rotations recorded
-        recording, intervals, acc, exclude=unreliable_transitions(recording, intervals))
+        recording, intervals, acc, exclude=unreliable_transitions(recording, intervals),
+        acc_cov=accelerometer_covariance(recording, intervals, faces, acc, gravity))
     gyro, gyro_errors = (gyro_fit.model, gyro_fit.errors) if gyro_fit is not None else (None, {})
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="six_position",
                       model="linear", units=units_of(recording))

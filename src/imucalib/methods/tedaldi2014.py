@@ -99,8 +99,7 @@ def uncertainty(recording: Recording, intervals: list[Interval], calibration: Ca
     estimated = fit.get("gyroscope_bias_source") == "fit"
     static = static_gyro(recording, intervals, acc, g_sensitivity=bool(np.any(gyro.g_sensitivity)), drift=False)
     return (out | errors_at(recording, intervals, acc, gyro, estimated, weights=weights,
-                            bias_cov=None if estimated else static.bias_cov, acc_cov=acc_cov,
-                            bias_spread=static.spread) | static.errors)
+                            bias_cov=None if estimated else static.bias_cov, acc_cov=acc_cov) | static.errors)
 
 
 def calibrate(

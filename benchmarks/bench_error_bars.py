@@ -1,0 +1,166 @@
+"""Honesty of the reported 1σ errors on the hand-held scenario, per method and parameter group; prints JSON.
+
+For ``--runs`` seeds of ``imucalib.scenarios.session("handheld", ...)`` each
+method of ``--methods`` (``procedure/name`` or ``procedure/name:model``, the
+procedure ``poses`` or ``ferraris`` of the scenario) calibrates the recording
+with the declared gravity. For every parameter with a finite, positive 1σ in
+``fit["uncertainty"]`` and a true value, ``z = (estimate − truth)/1σ``; per
+method and parameter group (``accelerometer.bias``, ``gyroscope.scale``, …)
+the table gives the RMS of ``z`` (1 for an honest 1σ; the goal is 0.8–1.25),
+the share of ``|z| > 3`` (0.27 % for a Gaussian) and how many values went in.
+
+The truth of a drifting gyroscope bias: the scenario's truth holds the bias at
+the start of the session, and the bias then drifts (linearly and by a random
+walk). A fit's bias holds at its reference time ``fit["gyroscope_bias_time_s"]``
+(or, where the fit stores none, the mean of its static poses' mean times, the
+same definition): the truth is the session's bias at that time, the start's
+plus the drift there. The drift comes from a twin session of the same seed with
+the drift knobs at zero (it draws the same random numbers), as the difference of
+the two recordings' gyroscope readings averaged over ``±DRIFT_WINDOW_S`` around
+the reference time (quantisation leaves each difference a count off at most).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+import warnings
+from concurrent.futures import ProcessPoolExecutor
+from functools import partial
+
+import numpy as np
+
+from imucalib.methods import calibrate
+from imucalib.scenarios import session
+
+DEFAULT_METHODS = ("poses/tedaldi2014,poses/ellipsoid,poses/zhang2021:linear,poses/zhang2021,poses/zhang2021:all,"
+                   "ferraris/six_position,ferraris/ferraris")
+#: the goal for every group's RMS z
+GOAL = (0.8, 1.25)
+#: half-width [s] of the window over which the twin sessions' difference gives the bias drift at a time
+DRIFT_WINDOW_S = 1.0
+
+
+def bias_reference_time(recording, fit: dict) -> float:
+    """The time [s] at which a fit's gyroscope bias holds: its own, else the mean of its poses' mean times."""
+    t_ref = fit.get("gyroscope_bias_time_s")
+    if t_ref is not None:
+        return float(t_ref)
+    return float(np.mean([np.mean(recording.t[int(a):int(b)]) for a, b in fit["intervals"]]))
+
+
+def drift_at(sim, twin, t_ref: float) -> np.ndarray:
+    """The gyroscope bias's drift [raw] at ``t_ref`` since the start: ``sim − twin`` averaged near ``t_ref``."""
+    t = sim.recording.t
+    near = np.abs(t - t_ref) <= DRIFT_WINDOW_S
+    if not np.any(near):
+        near = np.argmin(np.abs(t - t_ref))
+    return np.atleast_2d(sim.recording.gyro[near] - twin.recording.gyro[near]).mean(axis=0)
+
+
+def normalised_errors(cal, truth, sim, twin) -> dict[str, float]:
+    """``(estimate − truth)/1σ`` of every parameter with a finite 1σ and a true value, the bias at its time."""
+    fit = cal.fit
+    tp, est = truth.parameters(), cal.parameters()
+    drift = None
+    z = {}
+    for k, s in (fit.get("uncertainty") or {}).items():
+        if s is None or not np.isfinite(s) or s <= 0 or k not in tp or k not in est:
+            continue
+        ref = tp[k]
+        if k.startswith("gyroscope.bias."):
+            if drift is None:
+                drift = drift_at(sim, twin, bias_reference_time(sim.recording, fit))
+            ref = ref + float(drift["xyz".index(k[-1])])
+        z[k] = float((est[k] - ref) / s)
+    return z
+
+
+def run_one(seed: int, methods: list[str], knobs: dict) -> dict:
+    """One seed: each procedure's session and its twin without drift, every method's normalised errors."""
+    out: dict = {"seed": seed, "methods": {}}
+    sims = {}
+    for spec in methods:
+        proc, _, rest = spec.partition("/")
+        name, _, model = rest.partition(":")
+        if proc not in sims:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                sims[proc] = (session("handheld", rng=seed, procedure=proc, **knobs),
+                              session("handheld", rng=seed, procedure=proc,
+                                      **{**knobs, "gyro_drift": 0.0, "gyro_rw": 0.0}))
+        sim, twin = sims[proc]
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                cal = calibrate(sim.recording, method=name, model=model or None, gravity=sim.truth.gravity)
+        except Exception as exc:  # a method that cannot calibrate this session says why
+            out["methods"][spec] = {"error": f"{type(exc).__name__}: {exc}"}
+            continue
+        out["methods"][spec] = {"model": cal.model, "verdict": cal.fit.get("verdict"),
+                                "z": normalised_errors(cal, sim.truth, sim, twin)}
+    return out
+
+
+def _r(x: float, digits: int = 3):
+    return None if x is None or not np.isfinite(x) else float(f"{x:.{digits}g}")
+
+
+def table(results: list[dict], methods: list[str]) -> dict:
+    """Per method and parameter group: RMS z, share |z| > 3, count, and whether the RMS is within :data:`GOAL`."""
+    out: dict = {}
+    for spec in methods:
+        groups: dict[str, list[float]] = {}
+        errors, models = {}, {}
+        for res in results:
+            r = res["methods"][spec]
+            if "error" in r:
+                errors[str(res["seed"])] = r["error"]
+                continue
+            models[r["model"]] = models.get(r["model"], 0) + 1
+            for name, z in r["z"].items():
+                groups.setdefault(name.rsplit(".", 1)[0], []).append(z)
+        rows = {}
+        for g, zs in sorted(groups.items()):
+            zs = np.asarray(zs)
+            rms = float(np.sqrt(np.mean(zs**2)))
+            rows[g] = {"rms_z": _r(rms), "share_abs_z_over_3": _r(float(np.mean(np.abs(zs) > 3))),
+                       "n": int(zs.size), "within_goal": bool(GOAL[0] <= rms <= GOAL[1])}
+        out[spec] = {"models": models, "groups": rows, "errors": errors,
+                     "outside_goal": [g for g, row in rows.items() if not row["within_goal"]]}
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--runs", type=int, default=30, help="number of seeds (from --first-seed)")
+    parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--methods", default=DEFAULT_METHODS,
+                        help="comma-separated, each 'procedure/name' or 'procedure/name:model'")
+    parser.add_argument("--scenario-knobs", default="{}", help="JSON object of handheld scenario knobs")
+    args = parser.parse_args()
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    for spec in methods:
+        if spec.partition("/")[0] not in ("poses", "ferraris") or not spec.partition("/")[2]:
+            parser.error(f"a method is 'poses/name' or 'ferraris/name' (optionally ':model'); got {spec!r}")
+    knobs = json.loads(args.scenario_knobs)
+    if not isinstance(knobs, dict):
+        parser.error("--scenario-knobs must be a JSON object")
+    seeds = list(range(args.first_seed, args.first_seed + args.runs))
+    t0 = time.perf_counter()
+    job = partial(run_one, methods=methods, knobs=knobs)
+    if args.workers > 1:
+        with ProcessPoolExecutor(args.workers) as ex:
+            results = list(ex.map(job, seeds))
+    else:
+        results = [job(s) for s in seeds]
+    doc = {"benchmark": "error_bars", "scenario": "handheld", "knobs": knobs, "runs": args.runs,
+           "seeds": [seeds[0], seeds[-1]], "goal_rms_z": list(GOAL),
+           "wall_s": round(time.perf_counter() - t0, 1), "methods": table(results, methods)}
+    print(json.dumps(doc))
+
+
+if __name__ == "__main__":
+    main()
