@@ -33,6 +33,8 @@ integration over time steps and over many intervals together.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 __all__ = [
@@ -626,27 +628,41 @@ class IntervalIntegrator:
         """(M,) position in :attr:`samples` of each interval's first sample; its others follow it there."""
         return self._first
 
-    def weighted_sum(self, weights: _SensitivityWeights, values: np.ndarray) -> np.ndarray:
+    def weighted_sum(self, weights: _SensitivityWeights,
+                     values: np.ndarray | Callable[[int, int], np.ndarray]) -> np.ndarray:
         """``Σ_j A_j v_j`` over each interval's samples: (M, 3, P) from the weights of :meth:`sensitivity`.
 
-        ``values`` (len(samples), 3, P) are per-sample Jacobians (e.g. ``∂ω/∂θ``).
+        ``values`` (len(samples), 3, P) are per-sample Jacobians (e.g. ``∂ω/∂θ``),
+        or a function giving those of the samples at positions ``a … b − 1`` of
+        :attr:`samples` (``values(a, b)``, (b − a, 3, P); the array it returns is
+        read before the next call, so it may reuse one buffer): then only one
+        interval's (or block's) Jacobian exists at a time, whatever the length
+        of the recording.
         Each interval's samples are consecutive in :attr:`samples`, so this is
         one (3 × 3n)·(3n × P) product per interval over its own samples, with
         no gathered copy and no work on padding; an interval of more than
         :data:`SUM_BLOCK` samples is summed block by block (its ``A_j`` formed a
-        block at a time).
+        block at a time). Both forms of ``values`` give the same products.
         """
-        out = np.empty((len(self.starts), 3, values.shape[2]))
+        get = values if callable(values) else (lambda a, b: values[a:b])
+        out = None
         for m, (p0, n) in enumerate(zip(self._first, self._nsteps + 1, strict=True)):
             if n <= SUM_BLOCK:
                 a = weights[m][:n].transpose(1, 0, 2).reshape(3, 3 * n)  # [A_0 A_1 …]
-                out[m] = a @ values[p0 : p0 + n].reshape(3 * n, -1)
+                v = get(p0, p0 + n)
+                if out is None:
+                    out = np.empty((len(self.starts), 3, v.shape[2]))
+                out[m] = a @ v.reshape(3 * n, -1)
                 continue
-            out[m] = 0.0
             for j in range(0, n, SUM_BLOCK):
                 k = min(n, j + SUM_BLOCK)
                 a = weights.block(m, j, k).transpose(1, 0, 2).reshape(3, 3 * (k - j))
-                out[m] += a @ values[p0 + j : p0 + k].reshape(3 * (k - j), -1)
+                v = get(p0 + j, p0 + k)
+                if out is None:
+                    out = np.empty((len(self.starts), 3, v.shape[2]))
+                if j == 0:
+                    out[m] = 0.0
+                out[m] += a @ v.reshape(3 * (k - j), -1)
         return out
 
 

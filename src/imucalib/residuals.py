@@ -20,6 +20,7 @@ __all__ = [
     "GyroLayout",
     "gravity_direction_residuals",
     "gravity_direction_residuals_jac",
+    "linear_rate_jacobian",
 ]
 
 
@@ -205,8 +206,10 @@ def gravity_direction_residuals_jac(
     ----------
     rates : (S, 3) ndarray
         Calibrated rates [rad/s] at ``integrator.samples``.
-    rate_jac : (S, 3, P) ndarray
-        ``∂ω_j/∂θ`` at those samples.
+    rate_jac : (S, 3, P) ndarray or callable
+        ``∂ω_j/∂θ`` at those samples, or a function of ``(a, b)`` giving those
+        of samples ``a … b − 1`` (:meth:`IntervalIntegrator.weighted_sum`;
+        e.g. :func:`linear_rate_jacobian`).
 
     Returns
     -------
@@ -218,4 +221,38 @@ def gravity_direction_residuals_jac(
     predicted = np.einsum("kji,kj->ki", r, gravity_dirs[:-1])
     summed = integrator.weighted_sum(weights, rate_jac)  # Σ_j A_j ∂ω_j/∂θ
     jac = -skew(predicted) @ np.swapaxes(r, 1, 2) @ summed
-    return (gravity_dirs[1:] - predicted).ravel(), jac.reshape(-1, rate_jac.shape[-1])
+    return (gravity_dirs[1:] - predicted).ravel(), jac.reshape(-1, summed.shape[-1])
+
+
+def linear_rate_jacobian(m: np.ndarray, v: np.ndarray, *, bias: bool = True,
+                         drift_time: np.ndarray | None = None):
+    """``∂ω_j/∂θ`` of the rates ``ω_j = M v_j``, ``v_j = u_j − b − τ_j d``, for a block of samples at a time.
+
+    The parameters are ``[M (9, row by row), b (3, when bias), d (3, with
+    drift_time τ)]`` (Zhang 2021, eq. 6 with the bias's linear drift):
+    ``∂ω_{j,i}/∂M_ik = v_{jk}``, ``∂ω_j/∂b = −M``, ``∂ω_j/∂d = −τ_j M``.
+    Returns a function of ``(a, b)`` giving the (b − a, 3, P) Jacobian of the
+    samples ``a … b − 1`` of ``v`` (S, 3) for
+    :meth:`IntervalIntegrator.weighted_sum`: one buffer as long as the longest
+    block asked for is reused, so the per-sample Jacobian (``24 P`` bytes a
+    sample) never exists for the whole recording. Its entries are those the
+    whole array would hold, so the sums are the same.
+    """
+    size = 9 + (3 if bias else 0) + (3 if drift_time is not None else 0)
+    buf = np.zeros((0, 3, size))
+
+    def block(a: int, b: int) -> np.ndarray:
+        nonlocal buf
+        n = b - a
+        if n > buf.shape[0]:
+            buf = np.zeros((n, 3, size))  # the entries never written stay 0
+        d = buf[:n]
+        for i in range(3):
+            d[:, i, 3 * i : 3 * i + 3] = v[a:b]  # ∂(M v)_i / ∂M_ik = v_k
+        if bias:
+            d[:, :, 9:12] = -m
+        if drift_time is not None:
+            d[:, :, 12:15] = -m[None] * drift_time[a:b, None, None]
+        return d
+
+    return block

@@ -24,7 +24,13 @@ from ..kinematics import IntervalIntegrator, angle_between, quat_from_rotvec, qu
 from ..metrics import interval_means, transition_bounds
 from ..models import AXES, TriadModel
 from ..recording import Interval, Recording
-from ..residuals import AccelLayout, GyroLayout, gravity_direction_residuals, gravity_direction_residuals_jac
+from ..residuals import (
+    AccelLayout,
+    GyroLayout,
+    gravity_direction_residuals,
+    gravity_direction_residuals_jac,
+    linear_rate_jacobian,
+)
 from ..solve import levenberg_marquardt, standard_errors
 from .accelerometer import full_from_sensitivity
 
@@ -172,7 +178,6 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
     if g_sensitivity is not None and np.any(g_sensitivity):
         raw = raw - accelerometer.forward(recording.acc[integrator.samples]) @ np.asarray(g_sensitivity).T
     layout = GyroLayout(estimate_bias)
-    d = np.zeros((raw.shape[0], 3, layout.size))
     w = None if weights is None else np.repeat(np.asarray(weights, dtype=float), 3)
 
     def split(th):
@@ -187,11 +192,8 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
     def jac(th):
         m, b = split(th)
         v = raw - b
-        for a in range(3):
-            d[:, a, 3 * a : 3 * a + 3] = v  # ∂(M v)_a / ∂M_aj = v_j
-        if estimate_bias:
-            d[:, :, 9:12] = -m
-        j = gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1]
+        j = gravity_direction_residuals_jac(v @ m.T, linear_rate_jacobian(m, v, bias=estimate_bias), integrator,
+                                            dirs)[1]
         return j if w is None else j * w[:, None]
 
     return fun, jac, layout, dirs, (starts, stops)
@@ -449,7 +451,6 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     tau = recording.t[integrator.samples] - static.t_ref
     with_d = static.drift is not None
     size = 15 if with_d else 12
-    d = np.zeros((raw.shape[0], 3, size))
     w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
     target = static.means - (0.0 if g_sens is None else static.accel @ np.asarray(g_sens).T)
     se = np.sqrt(static.variances)
@@ -468,12 +469,8 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     def jac(th):
         m, b, dr = split(th)
         v = raw - b - tau[:, None] * dr
-        for i in range(3):
-            d[:, i, 3 * i : 3 * i + 3] = v  # ∂(M v)_i / ∂M_ij = v_j
-        d[:, :, 9:12] = -m
-        if with_d:
-            d[:, :, 12:15] = -m[None] * tau[:, None, None]
-        j_rot = gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1] * w[:, None]
+        rate_jac = linear_rate_jacobian(m, v, drift_time=tau if with_d else None)
+        j_rot = gravity_direction_residuals_jac(v @ m.T, rate_jac, integrator, dirs)[1] * w[:, None]
         mm = len(static.means)
         j_st = np.zeros((mm, 3, size))
         for i in range(3):
