@@ -460,10 +460,11 @@ class IntervalIntegrator:
         used[steps] = True
         used[steps + 1] = True
         self.samples = np.flatnonzero(used)
-        #: positions in ``samples`` of each step's first and second sample
-        self._i0 = (np.cumsum(used, dtype=np.intp) - 1)[steps]
+        #: positions in ``samples`` of each step's first sample
+        #: (the second sample of a step follows its first there: ``_i0 + 1``)
+        self._i0 = np.cumsum(used, dtype=np.int32 if used.size < 2**31 else np.intp)[steps]
+        self._i0 -= 1
         del used
-        self._i1 = self._i0 + 1
         self._dt = t[steps + 1] - t[steps]
         self.starts, self.stops = starts, stops
         self._nsteps = nsteps
@@ -514,14 +515,29 @@ class IntervalIntegrator:
 
     def _steps(self, rates: np.ndarray) -> np.ndarray:
         """RK4 factors (4, steps + 1) of every step, then an identity column for the padding."""
-        w = np.ascontiguousarray(np.asarray(rates, dtype=np.float64).T)
+        rates = np.asarray(rates, dtype=np.float64)
         n = self._dt.size
         s = np.empty((4, n + 1))
         for a in range(0, n, RK4_CHUNK):  # the stages' temporaries RK4_CHUNK steps at a time
             b = min(n, a + RK4_CHUNK)
-            s[:, a:b] = _rk4_soa(w[:, self._i0[a:b]], w[:, self._i1[a:b]], self._dt[a:b])
+            i0 = self._i0[a:b]  # the rates component-first, a chunk at a time (no transposed copy of them all)
+            s[:, a:b] = _rk4_soa(np.ascontiguousarray(rates[i0].T), np.ascontiguousarray(rates[i0 + 1].T),
+                                 self._dt[a:b])
         s[:, n] = _IDENTITY
         return s
+
+    def _steps_at(self, rates: np.ndarray, gather: np.ndarray) -> np.ndarray:
+        """RK4 factors (4, *gather.shape) of the steps ``gather`` (identity past :attr:`_dt`), as :meth:`_steps`."""
+        flat = gather.ravel()
+        real = flat < self._dt.size
+        out = np.empty((4, flat.size))
+        out[:, ~real] = _IDENTITY[:, None]
+        idx = flat[real]
+        i0 = self._i0[idx]
+        rates = np.asarray(rates, dtype=np.float64)
+        w0, w1 = np.ascontiguousarray(rates[i0].T), np.ascontiguousarray(rates[i0 + 1].T)
+        out[:, real] = _rk4_soa(w0, w1, self._dt[idx])
+        return out.reshape((4, *gather.shape))
 
     def _block_chunks(self):
         """Ranges of long-interval blocks processed together (:data:`CHUNK` steps) and their factor columns."""
@@ -576,8 +592,9 @@ class IntervalIntegrator:
         weights : sequence of M (n_m + 1, 3, 3) ndarrays
             ``A_j`` for the ``n_m + 1`` samples of interval ``m``, in the
             order they have in :attr:`samples` from :attr:`first_sample`
-            (those of a long interval are formed when asked for, from its
-            attitudes: :meth:`weighted_sum` takes them block by block).
+            (those of a long interval are formed when asked for, from the
+            RK4 factors and the products of its blocks: :meth:`weighted_sum`
+            takes them block by block, and no attitude of every sample exists).
         """
         s = self._steps(rates)
         q_end = np.empty((len(self.starts), 4))
@@ -598,24 +615,10 @@ class IntervalIntegrator:
             for a, b, gather in self._block_chunks():
                 products[:, a:b] = _tree_product_soa(s[:, gather])
             prefix = self._block_prefix(products)
-            owner = np.repeat(np.arange(self._long.size), np.diff(self._block_first))
-            index = np.arange(owner.size) - self._block_first[owner]  # each block's place in its interval
-            att = [np.empty((4, self._nsteps[k] + 1)) for k in self._long]
-            for a, b, gather in self._block_chunks():
-                carry = np.empty((4, b - a))
-                for j in range(a, b):
-                    c = index[j]
-                    carry[:, j - a] = _IDENTITY if c == 0 else prefix[owner[j]][:, c - 1]
-                local = _prefix_product_soa(s[:, gather], carry)
-                for j in range(a, b):  # the last of a block continues the blocks' own prefix
-                    local[:, j - a, -1] = prefix[owner[j]][:, index[j]]
-                    k, c, n = owner[j], index[j], self._block_len[j]
-                    if c == 0:
-                        att[k][:, 0] = _IDENTITY
-                    att[k][:, 1 + c * BLOCK : 1 + c * BLOCK + n] = local[:, j - a, :n]
+            weights.rates = rates  # a long interval's attitudes are formed again from these when asked for
             for i, k in enumerate(self._long):
                 q_end[k] = prefix[i][:, -1]  # the product of all its blocks, as from_samples forms it
-                weights.attitudes[k] = att[i]
+                weights.prefix[k] = (i, prefix[i])
         return quat_normalize(q_end), weights
 
     def _trapezoid(self, k: int) -> np.ndarray:
@@ -678,7 +681,9 @@ class _SensitivityWeights:
     def __init__(self, integrator: IntervalIntegrator) -> None:
         self.integrator = integrator
         self.items: list[np.ndarray | None] = [None] * len(integrator.starts)
-        self.attitudes: dict[int, np.ndarray] = {}
+        #: per long interval: its place in ``integrator._long`` and the prefix products (4, blocks) of its blocks
+        self.prefix: dict[int, tuple[int, np.ndarray]] = {}
+        self.rates: np.ndarray | None = None  # the rates (len(samples), 3) the attitudes were integrated from
 
     def __len__(self) -> int:
         return len(self.items)
@@ -687,12 +692,43 @@ class _SensitivityWeights:
         item = self.items[m]
         return item if item is not None else self.block(m, 0, self.integrator._nsteps[m] + 1)
 
+    def attitudes(self, m: int, start: int, stop: int) -> np.ndarray:
+        """Attitudes (4, stop − start) of samples ``start … stop − 1`` of long interval ``m`` (relative to its start).
+
+        The RK4 factors of the blocks holding them and their prefix products,
+        each continuing from the product of the blocks before it (``carry``),
+        formed exactly as :meth:`IntervalIntegrator.sensitivity` formed every
+        block's: the same numbers as the attitudes of the whole interval,
+        without keeping the factors or attitudes of every step.
+        """
+        integ = self.integrator
+        i, prefix = self.prefix[m]
+        first = int(integ._block_first[i])
+        c0 = max(start - 1, 0) // BLOCK  # sample p ≥ 1 is the attitude after step p − 1
+        c1 = max(stop - 2, 0) // BLOCK + 1
+        blocks = np.arange(first + c0, first + c1)
+        gather, _ = integ._layout(integ._block_step0[blocks], integ._block_len[blocks], BLOCK)
+        carry = np.empty((4, c1 - c0))
+        for c in range(c0, c1):
+            carry[:, c - c0] = _IDENTITY if c == 0 else prefix[:, c - 1]
+        local = _prefix_product_soa(integ._steps_at(self.rates, gather), carry)
+        local[:, :, -1] = prefix[:, c0:c1]  # the last of a block continues the blocks' own prefix
+        out = np.empty((4, stop - start))
+        lo = start
+        if start == 0:
+            out[:, 0] = _IDENTITY
+            lo = 1
+        if stop > lo:
+            flat = local.reshape(4, -1)
+            out[:, lo - start :] = flat[:, lo - 1 - c0 * BLOCK : stop - 1 - c0 * BLOCK]
+        return out
+
     def block(self, m: int, start: int, stop: int) -> np.ndarray:
         """``A_j`` (stop − start, 3, 3) of samples ``start … stop − 1`` of interval ``m``."""
         item = self.items[m]
         if item is not None:
             return item[start:stop]
-        rot = quat_to_matrix(self.attitudes[m][:, start:stop].T)
+        rot = quat_to_matrix(self.attitudes(m, start, stop).T)
         rot *= self.integrator._trapezoid(m)[start:stop, None, None]
         return rot
 

@@ -161,6 +161,26 @@ def rough_scale(recording: Recording, intervals: list[Interval], accelerometer: 
     return _gyro_scale_guess(recording.gyro, bias, recording.t, *transition_bounds(intervals), dirs)
 
 
+#: samples whose g-sensitivity term :func:`_readings` forms at once
+READ_CHUNK = 1 << 16
+
+
+def _readings(recording: Recording, samples: np.ndarray, accelerometer: TriadModel,
+              g_sensitivity: np.ndarray | None) -> np.ndarray:
+    """The gyroscope's readings at ``samples`` less ``G a`` (Zhang 2021, eq. 6), ``a`` the calibrated specific force.
+
+    The calibration's temporaries exist for :data:`READ_CHUNK` samples at a time, not for every sample of the
+    motions (each row is computed alone, so the numbers are those of the whole at once).
+    """
+    raw = recording.gyro[samples]
+    if g_sensitivity is not None and np.any(g_sensitivity):
+        g = np.asarray(g_sensitivity).T
+        for a in range(0, samples.size, READ_CHUNK):
+            part = samples[a : a + READ_CHUNK]
+            raw[a : a + part.size] -= accelerometer.forward(recording.acc[part]) @ g
+    return raw
+
+
 def gravity_direction_problem(recording, intervals, accelerometer, bias, estimate_bias, weights=None,
                               g_sensitivity=None):
     """Residuals of Zhang 2021, eq. (14) in the :class:`GyroLayout` parameters, their Jacobian, the pose directions.
@@ -174,9 +194,7 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
     dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
     starts, stops = transition_bounds(intervals)
     integrator = IntervalIntegrator(recording.t, starts, stops)
-    raw = recording.gyro[integrator.samples]  # only the samples the integration reads
-    if g_sensitivity is not None and np.any(g_sensitivity):
-        raw = raw - accelerometer.forward(recording.acc[integrator.samples]) @ np.asarray(g_sensitivity).T
+    raw = _readings(recording, integrator.samples, accelerometer, g_sensitivity)  # only those the integration reads
     layout = GyroLayout(estimate_bias)
     w = None if weights is None else np.repeat(np.asarray(weights, dtype=float), 3)
 
@@ -444,10 +462,8 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
     starts, stops = transition_bounds(intervals)
     integrator = IntervalIntegrator(recording.t, starts, stops)
-    raw = recording.gyro[integrator.samples]
     g_sens = static.g_sensitivity
-    if g_sens is not None and np.any(g_sens):
-        raw = raw - accelerometer.forward(recording.acc[integrator.samples]) @ np.asarray(g_sens).T
+    raw = _readings(recording, integrator.samples, accelerometer, g_sens)
     tau = recording.t[integrator.samples] - static.t_ref
     with_d = static.drift is not None
     size = 15 if with_d else 12
@@ -461,14 +477,18 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
 
     def fun(th):
         m, b, dr = split(th)
-        rates = (raw - b - tau[:, None] * dr) @ m.T
+        v = raw - b
+        v -= tau[:, None] * dr  # in place: one temporary of the samples' size fewer
+        rates = v @ m.T
+        del v
         r_rot = gravity_direction_residuals(rates, integrator.from_samples, dirs) * w
         r_st = (target - b - dt_pose[:, None] * dr) / se
         return np.concatenate([r_rot, r_st.ravel()])
 
     def jac(th):
         m, b, dr = split(th)
-        v = raw - b - tau[:, None] * dr
+        v = raw - b
+        v -= tau[:, None] * dr
         rate_jac = linear_rate_jacobian(m, v, drift_time=tau if with_d else None)
         j_rot = gravity_direction_residuals_jac(v @ m.T, rate_jac, integrator, dirs)[1] * w[:, None]
         mm = len(static.means)
