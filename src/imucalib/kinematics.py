@@ -521,7 +521,7 @@ class IntervalIntegrator:
         for a in range(0, n, RK4_CHUNK):  # the stages' temporaries RK4_CHUNK steps at a time
             b = min(n, a + RK4_CHUNK)
             i0 = self._i0[a:b]  # the rates component-first, a chunk at a time (no transposed copy of them all)
-            s[:, a:b] = _rk4_soa(np.ascontiguousarray(rates[i0].T), np.ascontiguousarray(rates[i0 + 1].T),
+            s[:, a:b] = _rk4_soa(rates.take(i0, axis=0).T.copy(), rates.take(i0 + 1, axis=0).T.copy(),
                                  self._dt[a:b])
         s[:, n] = _IDENTITY
         return s
@@ -535,7 +535,7 @@ class IntervalIntegrator:
         idx = flat[real]
         i0 = self._i0[idx]
         rates = np.asarray(rates, dtype=np.float64)
-        w0, w1 = np.ascontiguousarray(rates[i0].T), np.ascontiguousarray(rates[i0 + 1].T)
+        w0, w1 = rates.take(i0, axis=0).T.copy(), rates.take(i0 + 1, axis=0).T.copy()
         out[:, real] = _rk4_soa(w0, w1, self._dt[idx])
         return out.reshape((4, *gather.shape))
 
