@@ -171,6 +171,9 @@ def test_long_intervals_integrate_in_blocks_to_the_same_bits(monkeypatch):
     for m in range(len(starts)):
         assert np.array_equal(weights_b[m], weights[m])
     assert np.array_equal(blocked.weighted_sum(weights_b, values), summed)
+    q_f, weights_f = blocked.sensitivity(ws, blocked.step_factors(ws))  # the factors given: the same numbers
+    assert np.array_equal(q_f, q_whole) and np.array_equal(blocked.from_samples(ws, blocked.step_factors(ws)), q_whole)
+    assert np.array_equal(blocked.weighted_sum(weights_f, values), summed)
     for i, (a, b) in enumerate(zip(starts, stops, strict=True)):  # and each is the RK4 trajectory's end
         np.testing.assert_allclose(np.abs(np.sum(q_b[i] * kin.integrate(t[a : b + 1], w[a : b + 1])[-1])), 1.0,
                                    atol=1e-12)

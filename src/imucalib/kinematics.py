@@ -513,8 +513,11 @@ class IntervalIntegrator:
         """Attitude change (M, 4) of every interval for rates (N, 3) [rad/s]."""
         return self.from_samples(np.asarray(rates, dtype=np.float64)[self.samples])
 
-    def _steps(self, rates: np.ndarray) -> np.ndarray:
-        """RK4 factors (4, steps + 1) of every step, then an identity column for the padding."""
+    def step_factors(self, rates: np.ndarray) -> np.ndarray:
+        """RK4 factors (4, steps + 1) of every step, then an identity column for the padding.
+
+        For :meth:`from_samples` and :meth:`sensitivity` (``steps``) when both integrate the same rates.
+        """
         rates = np.asarray(rates, dtype=np.float64)
         n = self._dt.size
         s = np.empty((4, n + 1))
@@ -527,7 +530,7 @@ class IntervalIntegrator:
         return s
 
     def _steps_at(self, rates: np.ndarray, gather: np.ndarray) -> np.ndarray:
-        """RK4 factors (4, *gather.shape) of the steps ``gather`` (identity past :attr:`_dt`), as :meth:`_steps`."""
+        """RK4 factors (4, *gather.shape) of the steps ``gather`` (identity past the last), as :meth:`step_factors`."""
         flat = gather.ravel()
         real = flat < self._dt.size
         out = np.empty((4, flat.size))
@@ -557,9 +560,12 @@ class IntervalIntegrator:
                 out[k] = pre[:, i]
         return out
 
-    def from_samples(self, rates: np.ndarray) -> np.ndarray:
-        """Attitude change (M, 4) from rates (len(samples), 3) at :attr:`samples` only."""
-        s = self._steps(rates)
+    def from_samples(self, rates: np.ndarray, steps: np.ndarray | None = None) -> np.ndarray:
+        """Attitude change (M, 4) from rates (len(samples), 3) at :attr:`samples` only.
+
+        ``steps``: their RK4 factors when already formed (:meth:`step_factors` of these rates).
+        """
+        s = self.step_factors(rates) if steps is None else steps
         q = np.empty((len(self.starts), 4))
         for members, gather, _ in self._groups:
             q[members] = _tree_product_soa(s[:, gather]).T
@@ -572,7 +578,8 @@ class IntervalIntegrator:
                 q[self._long[which]] = _tree_product_soa(products[:, gather]).T
         return quat_normalize(q)
 
-    def sensitivity(self, rates: np.ndarray) -> tuple[np.ndarray, _SensitivityWeights]:
+    def sensitivity(self, rates: np.ndarray, steps: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, _SensitivityWeights]:
         """End attitudes and the weights of the first-order attitude sensitivity.
 
         A perturbation ``δω`` of the rates turns the end attitude by
@@ -584,6 +591,8 @@ class IntervalIntegrator:
         ----------
         rates : (len(samples), 3) ndarray
             Rates [rad/s] at :attr:`samples`.
+        steps : ndarray, optional
+            Their RK4 factors when already formed (:meth:`step_factors`).
 
         Returns
         -------
@@ -596,7 +605,7 @@ class IntervalIntegrator:
             RK4 factors and the products of its blocks: :meth:`weighted_sum`
             takes them block by block, and no attitude of every sample exists).
         """
-        s = self._steps(rates)
+        s = self.step_factors(rates) if steps is None else steps
         q_end = np.empty((len(self.starts), 4))
         weights = _SensitivityWeights(self)
         for members, gather, trapezoid in self._groups:
@@ -615,7 +624,9 @@ class IntervalIntegrator:
             for a, b, gather in self._block_chunks():
                 products[:, a:b] = _tree_product_soa(s[:, gather])
             prefix = self._block_prefix(products)
-            weights.rates = rates  # a long interval's attitudes are formed again from these when asked for
+            # a long interval's attitudes are formed again when asked for: from the factors when the caller keeps
+            # them anyway, else from the rates
+            weights.rates, weights.steps = rates, steps
             for i, k in enumerate(self._long):
                 q_end[k] = prefix[i][:, -1]  # the product of all its blocks, as from_samples forms it
                 weights.prefix[k] = (i, prefix[i])
@@ -684,6 +695,7 @@ class _SensitivityWeights:
         #: per long interval: its place in ``integrator._long`` and the prefix products (4, blocks) of its blocks
         self.prefix: dict[int, tuple[int, np.ndarray]] = {}
         self.rates: np.ndarray | None = None  # the rates (len(samples), 3) the attitudes were integrated from
+        self.steps: np.ndarray | None = None  # their RK4 factors, when the caller passed them
 
     def __len__(self) -> int:
         return len(self.items)
@@ -711,7 +723,8 @@ class _SensitivityWeights:
         carry = np.empty((4, c1 - c0))
         for c in range(c0, c1):
             carry[:, c - c0] = _IDENTITY if c == 0 else prefix[:, c - 1]
-        local = _prefix_product_soa(integ._steps_at(self.rates, gather), carry)
+        factors = integ._steps_at(self.rates, gather) if self.steps is None else self.steps[:, gather]
+        local = _prefix_product_soa(factors, carry)
         local[:, :, -1] = prefix[:, c0:c1]  # the last of a block continues the blocks' own prefix
         out = np.empty((4, stop - start))
         lo = start

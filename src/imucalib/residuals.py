@@ -194,6 +194,7 @@ def gravity_direction_residuals_jac(
     rate_jac: np.ndarray,
     integrator: IntervalIntegrator,
     gravity_dirs: np.ndarray,
+    steps: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Residuals of :func:`gravity_direction_residuals` and their Jacobian.
 
@@ -211,12 +212,16 @@ def gravity_direction_residuals_jac(
         of samples ``a … b − 1`` (:meth:`IntervalIntegrator.weighted_sum`;
         e.g. :func:`linear_rate_jacobian`).
 
+    steps : ndarray, optional
+        The RK4 factors of ``rates`` when already formed
+        (:meth:`IntervalIntegrator.step_factors`).
+
     Returns
     -------
     residuals : (3·(M−1),) ndarray
     jacobian : (3·(M−1), P) ndarray
     """
-    q_end, weights = integrator.sensitivity(rates)
+    q_end, weights = integrator.sensitivity(rates, steps)
     r = quat_to_matrix(q_end)
     predicted = np.einsum("kji,kj->ki", r, gravity_dirs[:-1])
     summed = integrator.weighted_sum(weights, rate_jac)  # Σ_j A_j ∂ω_j/∂θ

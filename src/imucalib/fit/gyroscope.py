@@ -161,6 +161,33 @@ def rough_scale(recording: Recording, intervals: list[Interval], accelerometer: 
     return _gyro_scale_guess(recording.gyro, bias, recording.t, *transition_bounds(intervals), dirs)
 
 
+class _Factors:
+    """The RK4 factors of the rates a cost last integrated, for the Jacobian (or the cost) at the same parameters.
+
+    Levenberg–Marquardt evaluates the Jacobian where it last evaluated the
+    cost (the step it accepted): the rates there are the same numbers, so
+    their factors (:meth:`~imucalib.kinematics.IntervalIntegrator.step_factors`)
+    are formed once. Only the last point's are kept, and the Jacobian frees
+    them (``keep=False``): the next cost is at another point.
+    """
+
+    def __init__(self, integrator: IntervalIntegrator) -> None:
+        self.integrator = integrator
+        self.key: bytes | None = None
+        self.steps: np.ndarray | None = None
+
+    def of(self, theta: np.ndarray, rates: np.ndarray, keep: bool = True) -> np.ndarray:
+        """The factors of ``rates``, the rates at the parameters ``theta``."""
+        key = np.asarray(theta, dtype=np.float64).tobytes()
+        steps = self.steps if key == self.key else None
+        self.key = self.steps = None  # the old ones freed before new ones are formed
+        if steps is None:
+            steps = self.integrator.step_factors(rates)
+        if keep:
+            self.key, self.steps = key, steps
+        return steps
+
+
 #: samples whose g-sensitivity term :func:`_readings` forms at once
 READ_CHUNK = 1 << 16
 
@@ -201,17 +228,22 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
     def split(th):
         return th[:9].reshape(3, 3), (th[9:12] if estimate_bias else bias)
 
+    factors = _Factors(integrator)
+
     def fun(th, directions=None):
         m, b = split(th)
-        r = gravity_direction_residuals((raw - b) @ m.T, integrator.from_samples,
+        rates = (raw - b) @ m.T
+        steps = factors.of(th, rates)
+        r = gravity_direction_residuals(rates, lambda x: integrator.from_samples(x, steps),
                                         dirs if directions is None else directions)
         return r if w is None else r * w
 
     def jac(th):
         m, b = split(th)
         v = raw - b
-        j = gravity_direction_residuals_jac(v @ m.T, linear_rate_jacobian(m, v, bias=estimate_bias), integrator,
-                                            dirs)[1]
+        rates = v @ m.T
+        j = gravity_direction_residuals_jac(rates, linear_rate_jacobian(m, v, bias=estimate_bias), integrator,
+                                            dirs, factors.of(th, rates, keep=False))[1]
         return j if w is None else j * w[:, None]
 
     return fun, jac, layout, dirs, (starts, stops)
@@ -471,6 +503,7 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     target = static.means - (0.0 if g_sens is None else static.accel @ np.asarray(g_sens).T)
     se = np.sqrt(static.variances)
     dt_pose = static.times - static.t_ref
+    factors = _Factors(integrator)
 
     def split(th):
         return th[:9].reshape(3, 3), th[9:12], (th[12:15] if with_d else np.zeros(3))
@@ -481,7 +514,8 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
         v -= tau[:, None] * dr  # in place: one temporary of the samples' size fewer
         rates = v @ m.T
         del v
-        r_rot = gravity_direction_residuals(rates, integrator.from_samples, dirs) * w
+        steps = factors.of(th, rates)
+        r_rot = gravity_direction_residuals(rates, lambda x: integrator.from_samples(x, steps), dirs) * w
         r_st = (target - b - dt_pose[:, None] * dr) / se
         return np.concatenate([r_rot, r_st.ravel()])
 
@@ -490,7 +524,9 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
         v = raw - b
         v -= tau[:, None] * dr
         rate_jac = linear_rate_jacobian(m, v, drift_time=tau if with_d else None)
-        j_rot = gravity_direction_residuals_jac(v @ m.T, rate_jac, integrator, dirs)[1] * w[:, None]
+        rates = v @ m.T
+        j_rot = gravity_direction_residuals_jac(rates, rate_jac, integrator, dirs,
+                                                factors.of(th, rates, keep=False))[1] * w[:, None]
         mm = len(static.means)
         j_st = np.zeros((mm, 3, size))
         for i in range(3):
@@ -508,13 +544,14 @@ def _solve_joint(recording, intervals, accelerometer, static, weights, start: Tr
     Returns the model, θ, each transition's error norm [rad], ``sigma_rot`` and the final problem.
     """
     n_kept = int(np.count_nonzero(weights))
-    _, e0 = _transition_norms(recording, intervals, accelerometer, start, static, weights)
+    e0 = _transition_norms(recording, intervals, accelerometer, start, static, weights)[1]  # its problem freed
     sigma = _rotation_sigma(e0, weights, 9)
     theta = np.concatenate([GyroLayout(False).pack(start), static.bias,
                             static.drift if static.drift is not None else np.zeros(0)])
     for _ in range(2):
         fun, jac, dirs, size = joint_problem(recording, intervals, accelerometer, static, weights, sigma)
         sol = levenberg_marquardt(fun, jac, theta, xtol=1e-12, ftol=1e-12)
+        del fun, jac  # with what they hold, before the next problem is formed
         theta = sol.x
         e = np.linalg.norm(sol.fun[: 3 * (len(intervals) - 1)].reshape(-1, 3), axis=1) * sigma
         sigma = _rotation_sigma(e, weights, 9) if n_kept else sigma
