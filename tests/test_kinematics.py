@@ -171,6 +171,9 @@ def test_long_intervals_integrate_in_blocks_to_the_same_bits(monkeypatch):
     for m in range(len(starts)):
         assert np.array_equal(weights_b[m], weights[m])
     assert np.array_equal(blocked.weighted_sum(weights_b, values), summed)
+    q_f, weights_f = blocked.sensitivity(ws, blocked.step_factors(ws))  # the factors given: the same numbers
+    assert np.array_equal(q_f, q_whole) and np.array_equal(blocked.from_samples(ws, blocked.step_factors(ws)), q_whole)
+    assert np.array_equal(blocked.weighted_sum(weights_f, values), summed)
     for i, (a, b) in enumerate(zip(starts, stops, strict=True)):  # and each is the RK4 trajectory's end
         np.testing.assert_allclose(np.abs(np.sum(q_b[i] * kin.integrate(t[a : b + 1], w[a : b + 1])[-1])), 1.0,
                                    atol=1e-12)
@@ -188,3 +191,32 @@ def test_to_scipy_gives_the_same_rotation_and_from_scipy_undoes_it():
     np.testing.assert_allclose(rot.as_matrix(), kin.quat_to_matrix(q), atol=1e-14)
     back = kin.from_scipy(rot)
     np.testing.assert_allclose(back * np.sign(back[:, :1] * q[:, :1]), q, atol=1e-15)
+
+
+def test_rate_jacobian_by_blocks_gives_the_same_bits(monkeypatch):
+    """weighted_sum of the rates' Jacobian formed a block at a time equals the whole per-sample array's."""
+    from imucalib.residuals import gravity_direction_residuals_jac, linear_rate_jacobian
+
+    rng = np.random.default_rng(3)
+    n = 3000
+    t = np.cumsum(rng.uniform(0.009, 0.011, n))
+    integ = kin.IntervalIntegrator(t, np.array([0, 300, 1000, 2990]), np.array([200, 900, 2900, 2999]))
+    s = len(integ.samples)
+    v = rng.normal(size=(s, 3))
+    tau = rng.uniform(-50, 50, s)
+    m = np.eye(3) * 0.01 + rng.normal(scale=1e-4, size=(3, 3))
+    whole = np.zeros((s, 3, 15))  # ∂(M v)/∂θ written out: M row by row, then b, then d
+    for i in range(3):
+        whole[:, i, 3 * i : 3 * i + 3] = v
+    whole[:, :, 9:12] = -m
+    whole[:, :, 12:15] = -m[None] * tau[:, None, None]
+    dirs = rng.normal(size=(5, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    for sum_block in (kin.SUM_BLOCK, 500):  # one product per interval, then blocks of a long one
+        monkeypatch.setattr(kin, "SUM_BLOCK", sum_block)
+        r0, j0 = gravity_direction_residuals_jac(v @ m.T, whole, integ, dirs)
+        r1, j1 = gravity_direction_residuals_jac(v @ m.T, linear_rate_jacobian(m, v, drift_time=tau), integ, dirs)
+        assert np.array_equal(r0, r1) and np.array_equal(j0, j1)
+        _, j2 = gravity_direction_residuals_jac(v @ m.T, linear_rate_jacobian(m, v, bias=False), integ, dirs)
+        _, j3 = gravity_direction_residuals_jac(v @ m.T, np.ascontiguousarray(whole[:, :, :9]), integ, dirs)
+        assert np.array_equal(j2, j3)

@@ -33,6 +33,8 @@ integration over time steps and over many intervals together.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 __all__ = [
@@ -454,10 +456,11 @@ class IntervalIntegrator:
         used[steps] = True
         used[steps + 1] = True
         self.samples = np.flatnonzero(used)
-        #: positions in ``samples`` of each step's first and second sample
-        self._i0 = (np.cumsum(used, dtype=np.intp) - 1)[steps]
+        #: positions in ``samples`` of each step's first sample
+        #: (the second sample of a step follows its first there: ``_i0 + 1``)
+        self._i0 = np.cumsum(used, dtype=np.int32 if used.size < 2**31 else np.intp)[steps]
+        self._i0 -= 1
         del used
-        self._i1 = self._i0 + 1
         self._dt = t[steps + 1] - t[steps]
         self.starts, self.stops = starts, stops
         self._nsteps = nsteps
@@ -506,16 +509,34 @@ class IntervalIntegrator:
         """Attitude change (M, 4) of every interval for rates (N, 3) [rad/s]."""
         return self.from_samples(np.asarray(rates, dtype=np.float64)[self.samples])
 
-    def _steps(self, rates: np.ndarray) -> np.ndarray:
-        """RK4 factors (4, steps + 1) of every step, then an identity column for the padding."""
-        w = np.ascontiguousarray(np.asarray(rates, dtype=np.float64).T)
+    def step_factors(self, rates: np.ndarray) -> np.ndarray:
+        """RK4 factors (4, steps + 1) of every step, then an identity column for the padding.
+
+        For :meth:`from_samples` and :meth:`sensitivity` (``steps``) when both integrate the same rates.
+        """
+        rates = np.asarray(rates, dtype=np.float64)
         n = self._dt.size
         s = np.empty((4, n + 1))
         for a in range(0, n, RK4_CHUNK):  # the stages' temporaries RK4_CHUNK steps at a time
             b = min(n, a + RK4_CHUNK)
-            s[:, a:b] = _rk4_soa(w[:, self._i0[a:b]], w[:, self._i1[a:b]], self._dt[a:b])
+            i0 = self._i0[a:b]  # the rates component-first, a chunk at a time (no transposed copy of them all)
+            s[:, a:b] = _rk4_soa(rates.take(i0, axis=0).T.copy(), rates.take(i0 + 1, axis=0).T.copy(),
+                                 self._dt[a:b])
         s[:, n] = _IDENTITY
         return s
+
+    def _steps_at(self, rates: np.ndarray, gather: np.ndarray) -> np.ndarray:
+        """RK4 factors (4, *gather.shape) of the steps ``gather`` (identity past the last), as :meth:`step_factors`."""
+        flat = gather.ravel()
+        real = flat < self._dt.size
+        out = np.empty((4, flat.size))
+        out[:, ~real] = _IDENTITY[:, None]
+        idx = flat[real]
+        i0 = self._i0[idx]
+        rates = np.asarray(rates, dtype=np.float64)
+        w0, w1 = rates.take(i0, axis=0).T.copy(), rates.take(i0 + 1, axis=0).T.copy()
+        out[:, real] = _rk4_soa(w0, w1, self._dt[idx])
+        return out.reshape((4, *gather.shape))
 
     def _block_chunks(self):
         """Ranges of long-interval blocks processed together (:data:`CHUNK` steps) and their factor columns."""
@@ -535,9 +556,12 @@ class IntervalIntegrator:
                 out[k] = pre[:, i]
         return out
 
-    def from_samples(self, rates: np.ndarray) -> np.ndarray:
-        """Attitude change (M, 4) from rates (len(samples), 3) at :attr:`samples` only."""
-        s = self._steps(rates)
+    def from_samples(self, rates: np.ndarray, steps: np.ndarray | None = None) -> np.ndarray:
+        """Attitude change (M, 4) from rates (len(samples), 3) at :attr:`samples` only.
+
+        ``steps``: their RK4 factors when already formed (:meth:`step_factors` of these rates).
+        """
+        s = self.step_factors(rates) if steps is None else steps
         q = np.empty((len(self.starts), 4))
         for members, gather, _ in self._groups:
             q[members] = _tree_product_soa(s[:, gather]).T
@@ -550,7 +574,8 @@ class IntervalIntegrator:
                 q[self._long[which]] = _tree_product_soa(products[:, gather]).T
         return quat_normalize(q)
 
-    def sensitivity(self, rates: np.ndarray) -> tuple[np.ndarray, _SensitivityWeights]:
+    def sensitivity(self, rates: np.ndarray, steps: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, _SensitivityWeights]:
         """End attitudes and the weights of the first-order attitude sensitivity.
 
         A perturbation ``δω`` of the rates turns the end attitude by
@@ -562,6 +587,8 @@ class IntervalIntegrator:
         ----------
         rates : (len(samples), 3) ndarray
             Rates [rad/s] at :attr:`samples`.
+        steps : ndarray, optional
+            Their RK4 factors when already formed (:meth:`step_factors`).
 
         Returns
         -------
@@ -570,10 +597,11 @@ class IntervalIntegrator:
         weights : sequence of M (n_m + 1, 3, 3) ndarrays
             ``A_j`` for the ``n_m + 1`` samples of interval ``m``, in the
             order they have in :attr:`samples` from :attr:`first_sample`
-            (those of a long interval are formed when asked for, from its
-            attitudes: :meth:`weighted_sum` takes them block by block).
+            (those of a long interval are formed when asked for, from the
+            RK4 factors and the products of its blocks: :meth:`weighted_sum`
+            takes them block by block, and no attitude of every sample exists).
         """
-        s = self._steps(rates)
+        s = self.step_factors(rates) if steps is None else steps
         q_end = np.empty((len(self.starts), 4))
         weights = _SensitivityWeights(self)
         for members, gather, trapezoid in self._groups:
@@ -592,24 +620,12 @@ class IntervalIntegrator:
             for a, b, gather in self._block_chunks():
                 products[:, a:b] = _tree_product_soa(s[:, gather])
             prefix = self._block_prefix(products)
-            owner = np.repeat(np.arange(self._long.size), np.diff(self._block_first))
-            index = np.arange(owner.size) - self._block_first[owner]  # each block's place in its interval
-            att = [np.empty((4, self._nsteps[k] + 1)) for k in self._long]
-            for a, b, gather in self._block_chunks():
-                carry = np.empty((4, b - a))
-                for j in range(a, b):
-                    c = index[j]
-                    carry[:, j - a] = _IDENTITY if c == 0 else prefix[owner[j]][:, c - 1]
-                local = _prefix_product_soa(s[:, gather], carry)
-                for j in range(a, b):  # the last of a block continues the blocks' own prefix
-                    local[:, j - a, -1] = prefix[owner[j]][:, index[j]]
-                    k, c, n = owner[j], index[j], self._block_len[j]
-                    if c == 0:
-                        att[k][:, 0] = _IDENTITY
-                    att[k][:, 1 + c * BLOCK : 1 + c * BLOCK + n] = local[:, j - a, :n]
+            # a long interval's attitudes are formed again when asked for: from the factors when the caller keeps
+            # them anyway, else from the rates
+            weights.rates, weights.steps = rates, steps
             for i, k in enumerate(self._long):
                 q_end[k] = prefix[i][:, -1]  # the product of all its blocks, as from_samples forms it
-                weights.attitudes[k] = att[i]
+                weights.prefix[k] = (i, prefix[i])
         return quat_normalize(q_end), weights
 
     def _trapezoid(self, k: int) -> np.ndarray:
@@ -622,27 +638,41 @@ class IntervalIntegrator:
         """(M,) position in :attr:`samples` of each interval's first sample; its others follow it there."""
         return self._first
 
-    def weighted_sum(self, weights: _SensitivityWeights, values: np.ndarray) -> np.ndarray:
+    def weighted_sum(self, weights: _SensitivityWeights,
+                     values: np.ndarray | Callable[[int, int], np.ndarray]) -> np.ndarray:
         """``Σ_j A_j v_j`` over each interval's samples: (M, 3, P) from the weights of :meth:`sensitivity`.
 
-        ``values`` (len(samples), 3, P) are per-sample Jacobians (e.g. ``∂ω/∂θ``).
+        ``values`` (len(samples), 3, P) are per-sample Jacobians (e.g. ``∂ω/∂θ``),
+        or a function giving those of the samples at positions ``a … b − 1`` of
+        :attr:`samples` (``values(a, b)``, (b − a, 3, P); the array it returns is
+        read before the next call, so it may reuse one buffer): then only one
+        interval's (or block's) Jacobian exists at a time, whatever the length
+        of the recording.
         Each interval's samples are consecutive in :attr:`samples`, so this is
         one (3 × 3n)·(3n × P) product per interval over its own samples, with
         no gathered copy and no work on padding; an interval of more than
         :data:`SUM_BLOCK` samples is summed block by block (its ``A_j`` formed a
-        block at a time).
+        block at a time). Both forms of ``values`` give the same products.
         """
-        out = np.empty((len(self.starts), 3, values.shape[2]))
+        get = values if callable(values) else (lambda a, b: values[a:b])
+        out = None
         for m, (p0, n) in enumerate(zip(self._first, self._nsteps + 1, strict=True)):
             if n <= SUM_BLOCK:
                 a = weights[m][:n].transpose(1, 0, 2).reshape(3, 3 * n)  # [A_0 A_1 …]
-                out[m] = a @ values[p0 : p0 + n].reshape(3 * n, -1)
+                v = get(p0, p0 + n)
+                if out is None:
+                    out = np.empty((len(self.starts), 3, v.shape[2]))
+                out[m] = a @ v.reshape(3 * n, -1)
                 continue
-            out[m] = 0.0
             for j in range(0, n, SUM_BLOCK):
                 k = min(n, j + SUM_BLOCK)
                 a = weights.block(m, j, k).transpose(1, 0, 2).reshape(3, 3 * (k - j))
-                out[m] += a @ values[p0 + j : p0 + k].reshape(3 * (k - j), -1)
+                v = get(p0 + j, p0 + k)
+                if out is None:
+                    out = np.empty((len(self.starts), 3, v.shape[2]))
+                if j == 0:
+                    out[m] = 0.0
+                out[m] += a @ v.reshape(3 * (k - j), -1)
         return out
 
 
@@ -658,7 +688,10 @@ class _SensitivityWeights:
     def __init__(self, integrator: IntervalIntegrator) -> None:
         self.integrator = integrator
         self.items: list[np.ndarray | None] = [None] * len(integrator.starts)
-        self.attitudes: dict[int, np.ndarray] = {}
+        #: per long interval: its place in ``integrator._long`` and the prefix products (4, blocks) of its blocks
+        self.prefix: dict[int, tuple[int, np.ndarray]] = {}
+        self.rates: np.ndarray | None = None  # the rates (len(samples), 3) the attitudes were integrated from
+        self.steps: np.ndarray | None = None  # their RK4 factors, when the caller passed them
 
     def __len__(self) -> int:
         return len(self.items)
@@ -667,12 +700,44 @@ class _SensitivityWeights:
         item = self.items[m]
         return item if item is not None else self.block(m, 0, self.integrator._nsteps[m] + 1)
 
+    def attitudes(self, m: int, start: int, stop: int) -> np.ndarray:
+        """Attitudes (4, stop − start) of samples ``start … stop − 1`` of long interval ``m`` (relative to its start).
+
+        The RK4 factors of the blocks holding them and their prefix products,
+        each continuing from the product of the blocks before it (``carry``),
+        formed exactly as :meth:`IntervalIntegrator.sensitivity` formed every
+        block's: the same numbers as the attitudes of the whole interval,
+        without keeping the factors or attitudes of every step.
+        """
+        integ = self.integrator
+        i, prefix = self.prefix[m]
+        first = int(integ._block_first[i])
+        c0 = max(start - 1, 0) // BLOCK  # sample p ≥ 1 is the attitude after step p − 1
+        c1 = max(stop - 2, 0) // BLOCK + 1
+        blocks = np.arange(first + c0, first + c1)
+        gather, _ = integ._layout(integ._block_step0[blocks], integ._block_len[blocks], BLOCK)
+        carry = np.empty((4, c1 - c0))
+        for c in range(c0, c1):
+            carry[:, c - c0] = _IDENTITY if c == 0 else prefix[:, c - 1]
+        factors = integ._steps_at(self.rates, gather) if self.steps is None else self.steps[:, gather]
+        local = _prefix_product_soa(factors, carry)
+        local[:, :, -1] = prefix[:, c0:c1]  # the last of a block continues the blocks' own prefix
+        out = np.empty((4, stop - start))
+        lo = start
+        if start == 0:
+            out[:, 0] = _IDENTITY
+            lo = 1
+        if stop > lo:
+            flat = local.reshape(4, -1)
+            out[:, lo - start :] = flat[:, lo - 1 - c0 * BLOCK : stop - 1 - c0 * BLOCK]
+        return out
+
     def block(self, m: int, start: int, stop: int) -> np.ndarray:
         """``A_j`` (stop − start, 3, 3) of samples ``start … stop − 1`` of interval ``m``."""
         item = self.items[m]
         if item is not None:
             return item[start:stop]
-        rot = quat_to_matrix(self.attitudes[m][:, start:stop].T)
+        rot = quat_to_matrix(self.attitudes(m, start, stop).T)
         rot *= self.integrator._trapezoid(m)[start:stop, None, None]
         return rot
 

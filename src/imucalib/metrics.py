@@ -34,6 +34,9 @@ __all__ = [
     "gravity_noise_floor",
 ]
 
+#: samples whose rates :func:`predicted_gravity` calibrates at once (the calibration's temporaries, not the motion's)
+RATE_CHUNK = 1 << 16
+
 
 def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
     """Mean of ``x`` (N, K) over each interval → (M, K), in float64.
@@ -88,7 +91,10 @@ def predicted_gravity(
     if integrator is None:
         integrator = IntervalIntegrator(recording.t, *transition_bounds(intervals))
     used = integrator.samples  # only the samples the rotations are integrated over are calibrated
-    rates = calibration.gyroscope_si(recording.gyro[used], recording.acc[used])
+    rates = np.empty((used.size, 3))
+    for a in range(0, used.size, RATE_CHUNK):  # the calibration's temporaries a chunk at a time
+        part = used[a : a + RATE_CHUNK]
+        rates[a : a + part.size] = calibration.gyroscope_si(recording.gyro[part], recording.acc[part])
     r = quat_to_matrix(integrator.from_samples(rates))
     predicted = np.einsum("kji,kj->ki", r, u[:-1])  # Rᵀ · g_{k-1}
     return u[1:], predicted

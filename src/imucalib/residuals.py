@@ -21,6 +21,7 @@ __all__ = [
     "GyroLayout",
     "gravity_direction_residuals",
     "gravity_direction_residuals_jac",
+    "linear_rate_jacobian",
 ]
 
 
@@ -194,6 +195,7 @@ def gravity_direction_residuals_jac(
     rate_jac: np.ndarray,
     integrator: IntervalIntegrator,
     gravity_dirs: np.ndarray,
+    steps: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Residuals of :func:`gravity_direction_residuals` and their Jacobian.
 
@@ -206,17 +208,57 @@ def gravity_direction_residuals_jac(
     ----------
     rates : (S, 3) ndarray
         Calibrated rates [rad/s] at ``integrator.samples``.
-    rate_jac : (S, 3, P) ndarray
-        ``∂ω_j/∂θ`` at those samples.
+    rate_jac : (S, 3, P) ndarray or callable
+        ``∂ω_j/∂θ`` at those samples, or a function of ``(a, b)`` giving those
+        of samples ``a … b − 1`` (:meth:`IntervalIntegrator.weighted_sum`;
+        e.g. :func:`linear_rate_jacobian`).
+
+    steps : ndarray, optional
+        The RK4 factors of ``rates`` when already formed
+        (:meth:`IntervalIntegrator.step_factors`).
 
     Returns
     -------
     residuals : (3·(M−1),) ndarray
     jacobian : (3·(M−1), P) ndarray
     """
-    q_end, weights = integrator.sensitivity(rates)
+    q_end, weights = integrator.sensitivity(rates, steps)
     r = quat_to_matrix(q_end)
     predicted = np.einsum("kji,kj->ki", r, gravity_dirs[:-1])
     summed = integrator.weighted_sum(weights, rate_jac)  # Σ_j A_j ∂ω_j/∂θ
     jac = -skew(predicted) @ np.swapaxes(r, 1, 2) @ summed
-    return (gravity_dirs[1:] - predicted).ravel(), jac.reshape(-1, rate_jac.shape[-1])
+    return (gravity_dirs[1:] - predicted).ravel(), jac.reshape(-1, summed.shape[-1])
+
+
+def linear_rate_jacobian(m: np.ndarray, v: np.ndarray, *, bias: bool = True,
+                         drift_time: np.ndarray | None = None):
+    """``∂ω_j/∂θ`` of the rates ``ω_j = M v_j``, ``v_j = u_j − b − τ_j d``, for a block of samples at a time.
+
+    The parameters are ``[M (9, row by row), b (3, when bias), d (3, with
+    drift_time τ)]`` (Zhang 2021, eq. 6 with the bias's linear drift):
+    ``∂ω_{j,i}/∂M_ik = v_{jk}``, ``∂ω_j/∂b = −M``, ``∂ω_j/∂d = −τ_j M``.
+    Returns a function of ``(a, b)`` giving the (b − a, 3, P) Jacobian of the
+    samples ``a … b − 1`` of ``v`` (S, 3) for
+    :meth:`IntervalIntegrator.weighted_sum`: one buffer as long as the longest
+    block asked for is reused, so the per-sample Jacobian (``24 P`` bytes a
+    sample) never exists for the whole recording. Its entries are those the
+    whole array would hold, so the sums are the same.
+    """
+    size = 9 + (3 if bias else 0) + (3 if drift_time is not None else 0)
+    buf = np.zeros((0, 3, size))
+
+    def block(a: int, b: int) -> np.ndarray:
+        nonlocal buf
+        n = b - a
+        if n > buf.shape[0]:
+            buf = np.zeros((n, 3, size))  # the entries never written stay 0
+        d = buf[:n]
+        for i in range(3):
+            d[:, i, 3 * i : 3 * i + 3] = v[a:b]  # ∂(M v)_i / ∂M_ik = v_k
+        if bias:
+            d[:, :, 9:12] = -m
+        if drift_time is not None:
+            d[:, :, 12:15] = -m[None] * drift_time[a:b, None, None]
+        return d
+
+    return block

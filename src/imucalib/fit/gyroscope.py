@@ -24,7 +24,13 @@ from ..kinematics import IntervalIntegrator, angle_between, quat_from_rotvec, qu
 from ..metrics import interval_means, transition_bounds
 from ..models import AXES, TriadModel
 from ..recording import Interval, Recording
-from ..residuals import AccelLayout, GyroLayout, gravity_direction_residuals, gravity_direction_residuals_jac
+from ..residuals import (
+    AccelLayout,
+    GyroLayout,
+    gravity_direction_residuals,
+    gravity_direction_residuals_jac,
+    linear_rate_jacobian,
+)
 from ..solve import levenberg_marquardt, standard_errors
 from .accelerometer import full_from_sensitivity
 
@@ -155,6 +161,53 @@ def rough_scale(recording: Recording, intervals: list[Interval], accelerometer: 
     return _gyro_scale_guess(recording.gyro, bias, recording.t, *transition_bounds(intervals), dirs)
 
 
+class _Factors:
+    """The RK4 factors of the rates a cost last integrated, for the Jacobian (or the cost) at the same parameters.
+
+    Levenberg–Marquardt evaluates the Jacobian where it last evaluated the
+    cost (the step it accepted): the rates there are the same numbers, so
+    their factors (:meth:`~imucalib.kinematics.IntervalIntegrator.step_factors`)
+    are formed once. Only the last point's are kept, and the Jacobian frees
+    them (``keep=False``): the next cost is at another point.
+    """
+
+    def __init__(self, integrator: IntervalIntegrator) -> None:
+        self.integrator = integrator
+        self.key: bytes | None = None
+        self.steps: np.ndarray | None = None
+
+    def of(self, theta: np.ndarray, rates: np.ndarray, keep: bool = True) -> np.ndarray:
+        """The factors of ``rates``, the rates at the parameters ``theta``."""
+        key = np.asarray(theta, dtype=np.float64).tobytes()
+        steps = self.steps if key == self.key else None
+        self.key = self.steps = None  # the old ones freed before new ones are formed
+        if steps is None:
+            steps = self.integrator.step_factors(rates)
+        if keep:
+            self.key, self.steps = key, steps
+        return steps
+
+
+#: samples whose g-sensitivity term :func:`_readings` forms at once
+READ_CHUNK = 1 << 16
+
+
+def _readings(recording: Recording, samples: np.ndarray, accelerometer: TriadModel,
+              g_sensitivity: np.ndarray | None) -> np.ndarray:
+    """The gyroscope's readings at ``samples`` less ``G a`` (Zhang 2021, eq. 6), ``a`` the calibrated specific force.
+
+    The calibration's temporaries exist for :data:`READ_CHUNK` samples at a time, not for every sample of the
+    motions (each row is computed alone, so the numbers are those of the whole at once).
+    """
+    raw = recording.gyro[samples]
+    if g_sensitivity is not None and np.any(g_sensitivity):
+        g = np.asarray(g_sensitivity).T
+        for a in range(0, samples.size, READ_CHUNK):
+            part = samples[a : a + READ_CHUNK]
+            raw[a : a + part.size] -= accelerometer.forward(recording.acc[part]) @ g
+    return raw
+
+
 def gravity_direction_problem(recording, intervals, accelerometer, bias, estimate_bias, weights=None,
                               g_sensitivity=None):
     """Residuals of Zhang 2021, eq. (14) in the :class:`GyroLayout` parameters, their Jacobian, the pose directions.
@@ -168,30 +221,29 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
     dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
     starts, stops = transition_bounds(intervals)
     integrator = IntervalIntegrator(recording.t, starts, stops)
-    raw = recording.gyro[integrator.samples]  # only the samples the integration reads
-    if g_sensitivity is not None and np.any(g_sensitivity):
-        raw = raw - accelerometer.forward(recording.acc[integrator.samples]) @ np.asarray(g_sensitivity).T
+    raw = _readings(recording, integrator.samples, accelerometer, g_sensitivity)  # only those the integration reads
     layout = GyroLayout(estimate_bias)
-    d = np.zeros((raw.shape[0], 3, layout.size))
     w = None if weights is None else np.repeat(np.asarray(weights, dtype=float), 3)
 
     def split(th):
         return th[:9].reshape(3, 3), (th[9:12] if estimate_bias else bias)
 
+    factors = _Factors(integrator)
+
     def fun(th, directions=None):
         m, b = split(th)
-        r = gravity_direction_residuals((raw - b) @ m.T, integrator.from_samples,
+        rates = (raw - b) @ m.T
+        steps = factors.of(th, rates)
+        r = gravity_direction_residuals(rates, lambda x: integrator.from_samples(x, steps),
                                         dirs if directions is None else directions)
         return r if w is None else r * w
 
     def jac(th):
         m, b = split(th)
         v = raw - b
-        for a in range(3):
-            d[:, a, 3 * a : 3 * a + 3] = v  # ∂(M v)_a / ∂M_aj = v_j
-        if estimate_bias:
-            d[:, :, 9:12] = -m
-        j = gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1]
+        rates = v @ m.T
+        j = gravity_direction_residuals_jac(rates, linear_rate_jacobian(m, v, bias=estimate_bias), integrator,
+                                            dirs, factors.of(th, rates, keep=False))[1]
         return j if w is None else j * w[:, None]
 
     return fun, jac, layout, dirs, (starts, stops)
@@ -445,38 +497,39 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
     starts, stops = transition_bounds(intervals)
     integrator = IntervalIntegrator(recording.t, starts, stops)
-    raw = recording.gyro[integrator.samples]
     g_sens = static.g_sensitivity
-    if g_sens is not None and np.any(g_sens):
-        raw = raw - accelerometer.forward(recording.acc[integrator.samples]) @ np.asarray(g_sens).T
+    raw = _readings(recording, integrator.samples, accelerometer, g_sens)
     tau = recording.t[integrator.samples] - static.t_ref
     with_d = static.drift is not None
     size = 15 if with_d else 12
-    d = np.zeros((raw.shape[0], 3, size))
     w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
     target = static.means - (0.0 if g_sens is None else static.accel @ np.asarray(g_sens).T)
     se = np.sqrt(static.variances)
     dt_pose = static.times - static.t_ref
+    factors = _Factors(integrator)
 
     def split(th):
         return th[:9].reshape(3, 3), th[9:12], (th[12:15] if with_d else np.zeros(3))
 
     def fun(th):
         m, b, dr = split(th)
-        rates = (raw - b - tau[:, None] * dr) @ m.T
-        r_rot = gravity_direction_residuals(rates, integrator.from_samples, dirs) * w
+        v = raw - b
+        v -= tau[:, None] * dr  # in place: one temporary of the samples' size fewer
+        rates = v @ m.T
+        del v
+        steps = factors.of(th, rates)
+        r_rot = gravity_direction_residuals(rates, lambda x: integrator.from_samples(x, steps), dirs) * w
         r_st = (target - b - dt_pose[:, None] * dr) / se
         return np.concatenate([r_rot, r_st.ravel()])
 
     def jac(th):
         m, b, dr = split(th)
-        v = raw - b - tau[:, None] * dr
-        for i in range(3):
-            d[:, i, 3 * i : 3 * i + 3] = v  # ∂(M v)_i / ∂M_ij = v_j
-        d[:, :, 9:12] = -m
-        if with_d:
-            d[:, :, 12:15] = -m[None] * tau[:, None, None]
-        j_rot = gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1] * w[:, None]
+        v = raw - b
+        v -= tau[:, None] * dr
+        rate_jac = linear_rate_jacobian(m, v, drift_time=tau if with_d else None)
+        rates = v @ m.T
+        j_rot = gravity_direction_residuals_jac(rates, rate_jac, integrator, dirs,
+                                                factors.of(th, rates, keep=False))[1] * w[:, None]
         mm = len(static.means)
         j_st = np.zeros((mm, 3, size))
         for i in range(3):
@@ -494,13 +547,14 @@ def _solve_joint(recording, intervals, accelerometer, static, weights, start: Tr
     Returns the model, θ, each transition's error norm [rad], ``sigma_rot`` and the final problem.
     """
     n_kept = int(np.count_nonzero(weights))
-    _, e0 = _transition_norms(recording, intervals, accelerometer, start, static, weights)
+    e0 = _transition_norms(recording, intervals, accelerometer, start, static, weights)[1]  # its problem freed
     sigma = _rotation_sigma(e0, weights, 9)
     theta = np.concatenate([GyroLayout(False).pack(start), static.bias,
                             static.drift if static.drift is not None else np.zeros(0)])
     for _ in range(2):
         fun, jac, dirs, size = joint_problem(recording, intervals, accelerometer, static, weights, sigma)
         sol = levenberg_marquardt(fun, jac, theta, xtol=1e-12, ftol=1e-12)
+        del fun, jac  # with what they hold, before the next problem is formed
         theta = sol.x
         e = np.linalg.norm(sol.fun[: 3 * (len(intervals) - 1)].reshape(-1, 3), axis=1) * sigma
         sigma = _rotation_sigma(e, weights, 9) if n_kept else sigma
