@@ -260,7 +260,7 @@ def test_prompt_lines_cut_blocks(capsys, faces, tmp_path):
     code, out, err = run(capsys, "calibrate", d / "prompts.csv", "--method", "six_position", "--json",
                          "-o", tmp_path / "c.json")
     assert code == 0, err
-    assert "12 lines with no number inside the data (a logger's prompts) cut the rows into 6 blocks" in err
+    assert "12 lines inside the data that are not rows (a logger's prompts) cut the rows into 6 blocks" in err
     assert "the time restarts in 5 of the 6 blocks" in err
     doc = json.loads(out)
     assert doc["fit"]["static_intervals"] == 6
@@ -408,3 +408,27 @@ def test_validate_takes_an_accelerometer_only_calibration(capsys, acc_only, tmp_
     assert code == 0, err
     doc = json.loads(out)
     assert doc["verdict"] == "accepted"
+
+
+def test_prompts_with_numbers_in_a_blank_separated_log_are_block_boundaries(tmp_path, faces):
+    """A logger's prompt that holds numbers ("Gathering data for 10 seconds", "pose 3 of 6, 10 s") is a boundary
+    in a blank-separated log too: the same six blocks, the same numbers as the comma-separated file."""
+    from imucalib.io import read
+
+    d, sim, ivs, plain, files = faces
+    path = tmp_path / "prompts.txt"
+    with open(path, "w") as log:
+        for i, iv in enumerate(ivs):
+            part = sim.recording[iv]
+            log.write(f">>> Pose {i + 1} of 6, hold still. Gathering data for 10 seconds...\n")
+            np.savetxt(log, np.column_stack([part.t - part.t[0], part.acc, part.gyro]), fmt="%.10g", delimiter=" ")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ImucalibWarning)
+        rec = read(path)
+    assert any("6 lines inside the data that are not rows" in str(w.message) and "cut the rows into 6 blocks"
+               in str(w.message) for w in caught), [str(w.message) for w in caught]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        cal = calibrate(rec, method="six_position")
+    np.testing.assert_allclose(cal.accelerometer.scale, plain.accelerometer.scale, rtol=1e-12)
+    np.testing.assert_allclose(cal.accelerometer.bias, plain.accelerometer.bias, rtol=1e-12)

@@ -635,12 +635,14 @@ _DECIMAL_COMMA = re.compile(r'^"?[+-]?\d*,\d+(?:[eE][+-]?\d+)?"?$')
 
 
 def _is_prompt(line: str, sep: str | None) -> bool:
-    """A line inside the rows with no number in it: a logger's prompt (``>>> Gathering data…``, ``--- pose 2 ---``)
-    or a repeated header; a comment (``#``) and a blank line are not prompts."""
+    """A line inside the rows that is not a row: a logger's prompt (``>>> Gathering data for 10 seconds...``,
+    ``--- pose 2 ---``) or a repeated header — its first cell is not a number, whatever numbers follow (a row
+    of numbers always starts with one); a comment (``#``) and a blank line are not prompts."""
     text = line.strip()
     if not text or text.startswith("#"):
         return False
-    return all(_not_number(c.strip('"\'').replace(",", ".")) for c in _cells(text, sep) if c)
+    cells = [c for c in _cells(text, sep) if c]
+    return not cells or _not_number(cells[0].strip('"\'').replace(",", "."))
 
 
 def _prompt_blocks(path: Path, table: _Table) -> tuple[np.ndarray, list[list[int]]]:
@@ -684,7 +686,7 @@ def _prompt_blocks(path: Path, table: _Table) -> tuple[np.ndarray, list[list[int
     close()
     if not parts:
         raise ReaderError(f"{path}: no data rows between the prompt lines")
-    warnings.warn(f"{path}: {prompts} line{'s' if prompts > 1 else ''} with no number inside the data (a logger's "
+    warnings.warn(f"{path}: {prompts} line{'s' if prompts > 1 else ''} inside the data that are not rows (a logger's "
                   f"prompts) cut the rows into {len(blocks)} blocks: each block is read as one pose",
                   ImucalibWarning, stacklevel=5)
     return np.concatenate(parts), blocks
