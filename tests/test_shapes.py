@@ -425,7 +425,8 @@ def test_prompts_with_numbers_in_a_blank_separated_log_are_block_boundaries(tmp_
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ImucalibWarning)
         rec = read(path)
-    assert any("6 lines inside the data that are not rows" in str(w.message) and "cut the rows into 6 blocks"
+    # the first prompt stands before the data (a preamble); the five others cut the rows into six blocks
+    assert any("5 lines inside the data that are not rows (a logger's prompts) cut the rows into 6 blocks"
                in str(w.message) for w in caught), [str(w.message) for w in caught]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ImucalibWarning)
