@@ -18,12 +18,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import statistics
 import tempfile
 import time
 import warnings
 from pathlib import Path
+
+from _common import machine_busy_s, own_cpu_s
 
 from imucalib.batch import Row, dask_client, run_batch, run_row
 from imucalib.scenarios import session, write_session
@@ -39,31 +40,15 @@ def _fleet(directory: Path, devices: int) -> Path:
     return manifest
 
 
-def _machine_busy_s() -> float | None:
-    """CPU seconds the whole machine has been busy (all cores; Linux /proc/stat), or None elsewhere."""
-    try:
-        fields = [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
-    except (OSError, ValueError):
-        return None
-    user, nice, system, _idle, _iowait, irq, softirq, steal = fields[:8]
-    return (user + nice + system + irq + softirq + steal) / os.sysconf("SC_CLK_TCK")
-
-
-def _own_cpu_s() -> float:
-    """CPU seconds of this process and its ended children (pool workers, the cluster's processes)."""
-    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
-
-
 def _time_batch(manifest: Path, where: dict) -> tuple[float, float | None]:
     """Wall time [s] of one batch of ``manifest`` into a new store, and the CPU seconds other programs
     used on the machine meanwhile (what makes the figure noisy)."""
     with tempfile.TemporaryDirectory(dir=manifest.parent) as tmp:
-        busy0, own0 = _machine_busy_s(), _own_cpu_s()
+        busy0, own0 = machine_busy_s(), own_cpu_s()
         t0 = time.perf_counter()
         result = run_batch(manifest, Path(tmp) / "store.sqlite", **where)
         elapsed = time.perf_counter() - t0
-        busy1, own1 = _machine_busy_s(), _own_cpu_s()
+        busy1, own1 = machine_busy_s(), own_cpu_s()
     if result["calibrated"] + result["failed"] != result["rows"]:
         raise SystemExit(f"a run skipped rows: {result}")
     other = None if busy0 is None else max(0.0, (busy1 - busy0) - (own1 - own0))

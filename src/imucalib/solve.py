@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LMResult", "levenberg_marquardt", "standard_errors"]
+__all__ = ["LMResult", "errors_from_covariance", "levenberg_marquardt", "standard_errors"]
 
 
 @dataclass
@@ -176,6 +176,12 @@ def standard_errors(jac: np.ndarray, residuals: np.ndarray, *, dof: float | None
     cov, bad = covariance(jac, residuals, dof=dof, rcond=rcond)
     if extra_cov is not None:
         cov = cov + extra_cov
+    return errors_from_covariance(cov, bad, transform=transform)
+
+
+def errors_from_covariance(cov: np.ndarray, bad: np.ndarray, *, transform: np.ndarray | None = None) -> np.ndarray:
+    """1σ errors from a covariance (``transform``: the delta method, ``A C Aᵀ``), NaN where ``bad`` (undetermined,
+    as :func:`covariance` marks them) or where a reported parameter draws on one."""
     if transform is not None:
         bad = np.abs(transform) @ bad.astype(float) > 0
         cov = transform @ cov @ transform.T

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..models import TriadModel
 from ..residuals import AccelLayout, gravity_norm_residuals
-from ..solve import levenberg_marquardt
+from ..solve import errors_from_covariance, levenberg_marquardt
 
 __all__ = ["REDUCED_MODELS", "GravityNormFit", "accelerometer_covariance", "accelerometer_errors",
            "determined_figures", "faces_full", "fit_determined", "fit_ellipsoid", "fit_gravity_norm", "fit_sphere",
@@ -120,8 +120,8 @@ class GravityNormFit:
     def errors(self, order: int) -> dict[str, float]:
         """1σ errors of the parameters by name, each pose's scatter from its own residual (:func:`pose_covariance`)."""
         names = AccelLayout("upper", order).names("accelerometer")
-        return {k: float(v) for k, v in zip(names, _errors(*pose_covariance(self.jacobian, self.residuals)),
-                                            strict=True)}
+        se = errors_from_covariance(*pose_covariance(self.jacobian, self.residuals))
+        return {k: float(v) for k, v in zip(names, se, strict=True)}
 
 
 def gravity_norm_fit(raw_means: np.ndarray, gravity: float, *, order: int = 1, initial: TriadModel | None = None,
@@ -282,7 +282,7 @@ def determined_figures(acc: TriadModel, means: np.ndarray, gravity: float, which
     expand = _expand(row[1])
     w = np.ones(m) if weights is None else np.asarray(weights, dtype=np.float64)
     r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
-    se = _errors(*pose_covariance(w[:, None] * j @ expand, w * r), transform=expand)
+    se = errors_from_covariance(*pose_covariance(w[:, None] * j @ expand, w * r), transform=expand)
     fitted = np.any(expand != 0, axis=1)
     out["uncertainty"] = {k: float(v) for k, v, f in zip(lay.names("accelerometer"), se, fitted, strict=True) if f}
     return out
@@ -319,7 +319,8 @@ def accelerometer_errors(acc: TriadModel, means: np.ndarray, gravity: float) -> 
     """
     lay = AccelLayout("upper", 1)
     r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
-    return {k: float(v) for k, v in zip(lay.names("accelerometer"), _errors(*pose_covariance(j, r)), strict=True)}
+    se = errors_from_covariance(*pose_covariance(j, r))
+    return {k: float(v) for k, v in zip(lay.names("accelerometer"), se, strict=True)}
 
 
 #: the sandwich of :func:`pose_covariance` needs at least this many poses per parameter (mean leverage ≤ 1/2)
@@ -372,14 +373,6 @@ def pose_covariance(jac: np.ndarray, residuals: np.ndarray, *, rcond: float = 1e
     return cov_s / np.outer(col, col), bad
 
 
-def _errors(cov: np.ndarray, bad: np.ndarray, *, transform: np.ndarray | None = None) -> np.ndarray:
-    """1σ errors from a covariance (``transform``: the delta method, ``A C Aᵀ``), NaN where undetermined."""
-    if transform is not None:
-        bad = np.abs(transform) @ bad.astype(float) > 0
-        cov = transform @ cov @ transform.T
-    out = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    out[bad] = np.nan
-    return out
 
 
 def six_position(up: np.ndarray, down: np.ndarray, gravity: float, *, cos_up: np.ndarray | float = 1.0,
