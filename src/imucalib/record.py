@@ -609,6 +609,9 @@ def record(stream, output: str | Path, recorder: Recorder, *, poll: float = 0.2)
     finally:
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
+    # Ctrl-C while the stream was ending (the handler runs as soon as it arrives, the loop sees it at its next
+    # turn): the session was still interrupted by the user
+    interrupted = interrupted or stop.is_set()
     try:
         recorder.close()
     finally:
