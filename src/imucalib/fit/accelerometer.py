@@ -25,9 +25,9 @@ from ..residuals import AccelLayout, gravity_norm_residuals
 from ..solve import errors_from_covariance, levenberg_marquardt
 
 __all__ = ["REDUCED_MODELS", "GravityNormFit", "accelerometer_covariance", "accelerometer_errors",
-           "determined_figures", "faces_full", "fit_determined", "fit_ellipsoid", "fit_gravity_norm", "fit_sphere",
-           "full_from_sensitivity", "gravity_norm_fit", "newton_backtracking", "pose_covariance", "qureshi_cost",
-           "six_position"]
+           "accelerometer_figures", "determined_figures", "faces_full", "fit_determined", "fit_ellipsoid",
+           "fit_gravity_norm", "fit_sphere", "full_from_sensitivity", "gravity_norm_fit", "newton_backtracking",
+           "pose_covariance", "qureshi_cost", "six_position"]
 
 
 def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:
@@ -255,6 +255,15 @@ def _expand(shape: str | None) -> np.ndarray:
     expand[3:6, 0] = 1.0
     expand[6:, 1:] = np.eye(3)
     return expand
+
+
+def accelerometer_figures(acc: TriadModel, means: np.ndarray, gravity: float,
+                          which: tuple[str, int, str] | None) -> dict:
+    """The accelerometer's ``fit`` entries: its 1σ errors in ``uncertainty`` (:func:`accelerometer_errors`), or for
+    a model from :func:`fit_determined` (``which`` not None) :func:`determined_figures`."""
+    if which is None:
+        return {"uncertainty": accelerometer_errors(acc, means, gravity)}
+    return determined_figures(acc, means, gravity, which)
 
 
 def determined_figures(acc: TriadModel, means: np.ndarray, gravity: float, which: tuple[str, int, str], *,

@@ -13,8 +13,7 @@ from __future__ import annotations
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import (
     accelerometer_covariance,
-    accelerometer_errors,
-    determined_figures,
+    accelerometer_figures,
     fit_determined,
     fit_ellipsoid,
     fit_gravity_norm,
@@ -85,9 +84,6 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
         fit["gyroscope_not_calibrated"] = why_not
         if exclude:
             fit["rotations_left_out"] = {str(k): w for k, w in sorted(exclude.items())}
-    if which is None:
-        fit["uncertainty"] = accelerometer_errors(acc, means, gravity) | gyro_errors
-    else:
-        fit |= determined_figures(acc, means, gravity, which)
-        fit["uncertainty"] = fit["uncertainty"] | gyro_errors
+    fit |= accelerometer_figures(acc, means, gravity, which)
+    fit["uncertainty"] = fit["uncertainty"] | gyro_errors
     return cal.with_(fit=fit)

@@ -37,7 +37,7 @@ from ..calibration import Calibration, units_of
 from ..fit.accelerometer import (
     accelerometer_covariance,
     accelerometer_errors,
-    determined_figures,
+    accelerometer_figures,
     fit_determined,
     fit_gravity_norm,
 )
@@ -194,11 +194,8 @@ def calibrate(
     fit["threshold_multiplier"] = mult
     fit |= gyro.summary()
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
-    if which is None:
-        fit["uncertainty"] = accelerometer_errors(acc_model, means, gravity) | gyro_errors
-    else:
-        fit |= determined_figures(acc_model, means, gravity, which)
-        fit["uncertainty"] = fit["uncertainty"] | gyro_errors
+    fit |= accelerometer_figures(acc_model, means, gravity, which)
+    fit["uncertainty"] = fit["uncertainty"] | gyro_errors
     return cal.with_(fit=fit)
 
 
@@ -221,8 +218,5 @@ def _accelerometer_alone(recording: Recording, intervals: list[Interval], acc_mo
     elif recording.gyro is not None:
         fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
                                            "the rotations that calibrate the gyroscope were not recorded")
-    if which is None:
-        fit["uncertainty"] = accelerometer_errors(acc_model, means, gravity)
-    else:
-        fit |= determined_figures(acc_model, means, gravity, which)
+    fit |= accelerometer_figures(acc_model, means, gravity, which)
     return cal.with_(fit=fit)
