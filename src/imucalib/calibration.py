@@ -24,8 +24,9 @@ from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, Imuca
 from .reportfields import undeclared
 from .thermal import ThermalModel
 
-__all__ = ["DEVICE_MAX_CHARS", "FULL_SCALE", "Calibration", "CalibrationFileError", "FORMAT", "FORMAT_VERSION",
-           "GRAVITY_LIMITS", "check_device", "check_document", "check_magnitudes"]
+__all__ = ["BIAS_DRIFT", "DEVICE_MAX_CHARS", "DRIFT_NOTICE_DEG_S", "FULL_SCALE", "Calibration", "CalibrationFileError",
+           "FORMAT", "FORMAT_VERSION", "GRAVITY_LIMITS", "SESSION_CHECK_SAMPLES", "check_device", "check_document",
+           "check_magnitudes", "with_bias_session"]
 
 #: the longest device name a calibration holds [characters]
 DEVICE_MAX_CHARS = 256
@@ -33,6 +34,12 @@ DEVICE_MAX_CHARS = 256
 FORMAT = "imucalib.calibration"
 FORMAT_VERSION = 1
 _BLOCK = 1 << 16  # samples calibrated at a time by apply
+#: what :meth:`Calibration.apply` takes for ``bias_drift``
+BIAS_DRIFT = ("auto", "on", "off")
+#: how many of the calibrated recording's samples recognise it (:meth:`Calibration.is_own_session`)
+SESSION_CHECK_SAMPLES = 16
+#: a drift not applied is said when it would move the calibrated rate at rest by more than this [°/s]
+DRIFT_NOTICE_DEG_S = 0.02
 #: the largest calibration file read (one is a few kilobytes; its fit figures a few hundred at most)
 MAX_FILE_BYTES = 16 << 20
 
@@ -121,7 +128,7 @@ class Calibration:
             a = self.accelerometer_si(raw_acc)
         return self.gyroscope.forward(raw_gyro, a)
 
-    def apply(self, recording, **read_options):
+    def apply(self, recording, *, bias_drift: str = "auto", **read_options):
         """The recording with calibrated accelerometer [m/s²] and gyroscope [rad/s].
 
         The recording must be in the raw units this calibration was made for.
@@ -133,25 +140,50 @@ class Calibration:
         a copy of it is returned with the calibrated columns added:
         ``acc_x_cal [m/s^2]`` … ``gyro_z_cal [rad/s]``, as ``imucalib apply``
         adds them to a CSV file.
+
+        Parameters
+        ----------
+        recording : Recording or pandas.DataFrame
+            Raw readings.
+        bias_drift : {"auto", "on", "off"}
+            Whether the gyroscope bias drifts as the calibration's fit found it,
+            ``b(t) = b + d (t − t_ref)`` (Zhang 2021, eq. 11 with the linear drift
+            of :func:`imucalib.fit.gyroscope.static_gyro`; ``d`` is
+            ``fit["gyroscope_bias_drift_per_s"]``, ``t_ref``
+            ``fit["gyroscope_bias_time_s"]``), or is the constant ``b``.
+            ``"auto"`` (the default) applies the drift to the recording the
+            calibration was made from, or a part of it (:meth:`is_own_session`),
+            and keeps the constant bias on any other: a drift is not
+            extrapolated to another recording, whose bias has moved by an
+            amount the calibration does not know (a warning says so when the
+            drift found would move the rest reading by more than
+            :data:`DRIFT_NOTICE_DEG_S` over that recording). ``"on"`` applies it
+            to any recording, in that recording's time base; ``"off"`` never.
+            A calibration without a drift is the same under the three.
+            ``metadata["gyroscope_bias_drift"]`` of the result says which was
+            done: ``"applied"`` or ``"constant"``.
         """
         if not isinstance(recording, Recording):
-            return self._apply_frame(recording, read_options)
+            return self._apply_frame(recording, read_options, bias_drift)
         if read_options:
             raise TypeError(f"apply takes reading options ({', '.join(read_options)}) only with a DataFrame")
+        drifting = self._drift_applies(recording, bias_drift)
         self.check_units(recording)
         if self.thermal is not None:  # compensated to the reference temperature, then as below (thermal.py, T2)
             from .thermal import compensate
 
             base, compensated = compensate(self, recording)
-            return base.apply(compensated)
+            return base.apply(compensated, bias_drift="on" if drifting else "off")
         n = len(recording)
         has_gyro = recording.gyro is not None and self.gyroscope is not None
+        offset = self.bias_offset(recording.t) if drifting and has_gyro else None
         acc, gyro = np.empty((n, 3)), (np.empty((n, 3)) if has_gyro else None)
         for a in range(0, n, _BLOCK):  # the models' temporaries stay the size of a block
             b = min(a + _BLOCK, n)
             acc[a:b] = self.accelerometer_si(recording.acc[a:b])
             if has_gyro:
-                gyro[a:b] = self.gyroscope.forward(recording.gyro[a:b], acc[a:b])
+                raw = recording.gyro[a:b] if offset is None else recording.gyro[a:b] - offset[a:b]
+                gyro[a:b] = self.gyroscope.forward(raw, acc[a:b])
         mag, mag_unit = recording.mag, recording.mag_unit
         if mag is not None and self.magnetometer is not None:
             mag, mag_unit = self.magnetometer.forward(mag), self.magnetometer.unit
@@ -163,19 +195,119 @@ class Calibration:
             gyro_unit="rad/s",
             temperature=recording.temperature,
             extra=dict(recording.extra),
-            metadata={**recording.metadata, "calibration": self.method},
+            metadata={**recording.metadata, "calibration": self.method,
+                      "gyroscope_bias_drift": "applied" if offset is not None else "constant"},
             mag=mag,
             mag_unit=mag_unit,
         )
 
-    def _apply_frame(self, frame, read_options: dict):
+    # ------------------------------------------------------------ bias drift
+    @property
+    def bias_drift(self) -> np.ndarray | None:
+        """The gyroscope bias's linear drift ``d`` [raw units per s] the fit found, or None (constant bias)."""
+        d = (self.fit or {}).get("gyroscope_bias_drift_per_s")
+        if d is None or self.gyroscope is None:
+            return None
+        return np.asarray(d, dtype=np.float64).reshape(3)
+
+    def bias_offset(self, t: np.ndarray) -> np.ndarray:
+        """``d (t − t_ref)`` (N, 3) [raw]: what the drifting bias adds to the stored one at the times ``t`` [s].
+
+        ``b(t) = b + d (t − t_ref)``: the static poses' gyroscope means with a
+        bias that drifts linearly (Zhang 2021, eq. 11; the drift as
+        :func:`imucalib.fit.gyroscope.static_gyro` fits it), ``t_ref`` the time
+        at which the stored bias holds (``fit["gyroscope_bias_time_s"]``, the
+        mean of the poses' times in the calibrated recording's time base).
+        Zeros for a calibration without a drift.
+        """
+        t = np.asarray(t, dtype=np.float64).reshape(-1)
+        d = self.bias_drift
+        if d is None:
+            return np.zeros((t.size, 3))
+        t_ref = float(self.fit.get("gyroscope_bias_time_s", 0.0))
+        return (t - t_ref)[:, None] * d[None, :]
+
+    def drift_rate(self) -> np.ndarray | None:
+        """The bias drift as the calibrated rate at rest moves with it, per axis [rad/s per s]; None without.
+
+        A bias off by ``δ`` reads ``T diag(k1) δ`` at rest (the linear term of
+        the model about the bias, ``ω = T f(u − b − G a)``).
+        """
+        d = self.bias_drift
+        if d is None:
+            return None
+        g = self.gyroscope
+        return (g.misalignment * g.scale[None, :]) @ d
+
+    def is_own_session(self, recording: Recording) -> bool:
+        """Whether ``recording`` is the recording this calibration was made from, or a part of it.
+
+        Both must hold:
+
+        * its first and last times lie within the calibrated recording's
+          (``fit["gyroscope_bias_session_s"]``, in that recording's time base),
+          give or take half a sample period;
+        * of the calibrated recording's check samples
+          (``fit["gyroscope_bias_session_check"]``: the time and raw gyroscope
+          reading of :data:`SESSION_CHECK_SAMPLES` samples spread evenly over
+          it), at least one falls within its time span, and every one that
+          does is found in it at the same time with the same reading.
+
+        Another recording with the same time base (a logger's clock that
+        starts at zero each time) fails the second. A part shorter than the
+        check samples' spacing (the calibrated span over
+        ``SESSION_CHECK_SAMPLES − 1``) holds none of them and is not
+        recognised: ``apply(…, bias_drift="on")`` applies the drift to it.
+        False for a calibration without these fields (made before they
+        existed, or without a drift) and for a recording without a gyroscope.
+        """
+        fit = self.fit or {}
+        span, check = fit.get("gyroscope_bias_session_s"), fit.get("gyroscope_bias_session_check")
+        if span is None or check is None or recording.gyro is None or len(recording) == 0:
+            return False
+        t = np.asarray(recording.t, dtype=np.float64)
+        tol = 0.5 / recording.rate if len(recording) > 1 and recording.rate > 0 else 0.0
+        if t[0] < span[0] - tol or t[-1] > span[1] + tol:
+            return False
+        check = np.asarray(check, dtype=np.float64).reshape(-1, 4)
+        inside = check[(check[:, 0] >= t[0]) & (check[:, 0] <= t[-1])]
+        if inside.size == 0:
+            return False
+        k = np.clip(np.searchsorted(t, inside[:, 0]), 0, len(t) - 1)
+        k = np.where((k > 0) & (np.abs(t[k - 1] - inside[:, 0]) < np.abs(t[k] - inside[:, 0])), k - 1, k)
+        same_time = np.isclose(t[k], inside[:, 0], rtol=1e-12, atol=1e-9)
+        same_reading = np.all(np.isclose(recording.gyro[k], inside[:, 1:], rtol=1e-9, atol=0.0), axis=1)
+        return bool(np.all(same_time & same_reading))
+
+    def _drift_applies(self, recording: Recording, bias_drift) -> bool:
+        """Whether :meth:`apply` corrects ``recording`` with the drifting bias (see its ``bias_drift``)."""
+        if bias_drift not in BIAS_DRIFT:
+            raise ValueError(f"bias_drift must be one of {', '.join(map(repr, BIAS_DRIFT))}; got {bias_drift!r}")
+        rate = self.drift_rate()
+        if bias_drift == "off" or rate is None or recording.gyro is None:
+            return False
+        if bias_drift == "on" or self.is_own_session(recording):
+            return True
+        span = float(recording.t[-1] - recording.t[0]) if len(recording) > 1 else 0.0
+        moved = math.degrees(float(np.max(np.abs(rate)))) * span
+        if moved > DRIFT_NOTICE_DEG_S:
+            warnings.warn(f"this is not the recording the calibration was made from: its gyroscope bias is taken as "
+                          f"the constant one stored, and the drift found in that session "
+                          f"({60 * math.degrees(float(np.max(np.abs(rate)))):.3g} °/s per minute) is not "
+                          f"extrapolated; a bias drifting as much would move the rest reading by {moved:.2g} °/s "
+                          f"over this recording's {span:.0f} s. Take this recording's bias from a rest of its own, "
+                          "or apply with bias_drift='on' (--bias-drift on) if it is part of the calibrated session",
+                          ImucalibWarning, stacklevel=3)
+        return False
+
+    def _apply_frame(self, frame, read_options: dict, bias_drift: str = "auto"):
         from .io.readers import is_frame, read
         from .io.writers import calibrated_columns
 
         if not is_frame(frame):
             raise TypeError(f"apply takes a Recording or a pandas DataFrame; got {type(frame).__name__}")
         rec = read(frame, **read_options)
-        out = self.apply(rec)
+        out = self.apply(rec, bias_drift=bias_drift)
         mag = out.mag if self.magnetometer is not None and rec.mag is not None else None
         added = calibrated_columns(out.acc, out.gyro, mag, out.mag_unit)
         clash = [name for name in added if name in frame.columns]
@@ -652,6 +784,33 @@ def _worst(values: np.ndarray) -> str:
     v = np.asarray(values, dtype=float).reshape(-1)
     bad = v[~np.isfinite(v)]
     return "not finite" if bad.size else f"{np.max(v):.3g}"
+
+
+def with_bias_session(calibration: Calibration, recording: Recording) -> Calibration:
+    """``calibration`` with the fit fields that tie its gyroscope bias drift to ``recording``, the one it came from.
+
+    For a calibration whose fit found a drifting gyroscope bias
+    (``fit["gyroscope_bias_drift_per_s"]``): ``gyroscope_bias_session_s``, the
+    recording's first and last times, and ``gyroscope_bias_session_check``,
+    :data:`SESSION_CHECK_SAMPLES` of its samples (time and raw gyroscope
+    reading) spread evenly over it, which :meth:`Calibration.is_own_session`
+    recognises it by; and ``gyroscope_bias_drift_over_session_deg_s``, the
+    calibrated rate at rest the drift adds to the stored bias's at the
+    recording's start and at its end (two rows of three axes, °/s): how far a
+    constant bias is off at either end, and what a new recording's bias may
+    differ by. Other calibrations are returned as they are.
+    """
+    rate = calibration.drift_rate()
+    if rate is None or recording.gyro is None or len(recording) == 0:
+        return calibration
+    t = np.asarray(recording.t, dtype=np.float64)
+    k = np.unique(np.round(np.linspace(0, len(t) - 1, SESSION_CHECK_SAMPLES)).astype(int))
+    t_ref = float(calibration.fit.get("gyroscope_bias_time_s", 0.0))
+    ends = np.degrees(np.outer([t[0] - t_ref, t[-1] - t_ref], rate))
+    fields = {"gyroscope_bias_session_s": [float(t[0]), float(t[-1])],
+              "gyroscope_bias_session_check": [[float(t[i]), *(float(v) for v in recording.gyro[i])] for i in k],
+              "gyroscope_bias_drift_over_session_deg_s": ends.tolist()}
+    return calibration.with_(fit={**calibration.fit, **fields})
 
 
 def units_of(recording: Recording) -> dict:

@@ -87,6 +87,12 @@ FIELDS: tuple[FieldInfo, ...] = (
     _F("gyroscope_bias_drift_per_s", "raw/s", "the gyroscope bias's linear drift, per axis", "gyroscope"),
     _F("gyroscope_bias_drift_se_per_s", "raw/s", "1σ error of the bias drift, per axis", "gyroscope"),
     _F("gyroscope_bias_time_s", "s", "the time at which the drifting bias is the bias stated", "gyroscope"),
+    _F("gyroscope_bias_session_s", "s", "the first and last time of the recording the bias drift was fitted on, "
+       "in its time base", "gyroscope"),
+    _F("gyroscope_bias_session_check", "", "a few samples of that recording ([time s, raw gyroscope x, y, z]) that "
+       "apply recognises it by", "gyroscope"),
+    _F("gyroscope_bias_drift_over_session_deg_s", "deg/s", "the calibrated rate at rest the bias drift adds to the "
+       "stored bias's at the session's start and end (two rows, per axis)", "gyroscope"),
     _F("gyroscope_g_sensitivity", "", "whether the g-sensitivity was estimated ('estimated' or 'none')",
        "gyroscope"),
     _F("gyroscope_rotation_sigma_rad", "rad", "the rotations' residual scatter the gyroscope fit weighs by",

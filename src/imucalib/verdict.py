@@ -580,6 +580,28 @@ def _worse_than_nominal(calibration, unc: dict, params: dict) -> list[Check]:
     return out
 
 
+def _gyroscope_bias_drift(calibration) -> list[Check]:
+    """A note on how far the gyroscope bias drifted over the session, when the fit found it drifting.
+
+    From ``fit["gyroscope_bias_drift_over_session_deg_s"]``
+    (:func:`imucalib.calibration.with_bias_session`): the calibrated rate at
+    rest the drift adds to the stored (constant) bias's at the session's start
+    and end. Never a reason: the fit models the drift, and ``apply`` corrects
+    the calibrated session with it; the note tells that another recording's
+    bias is off by as much unless taken from a rest of its own.
+    """
+    ends = (calibration.fit or {}).get("gyroscope_bias_drift_over_session_deg_s")
+    if ends is None:
+        return []
+    start, end = (np.asarray(row, dtype=float) for row in ends)
+    j = int(np.argmax(np.maximum(np.abs(start), np.abs(end))))
+    return [Check(0, f"the gyroscope bias drifted over the session: against the bias stored (at the poses' mean "
+                     f"time) the rate at rest reads {start[j]:+.3g} °/s about {'xyz'[j]} at the start and "
+                     f"{end[j]:+.3g} °/s at the end (x, y, z at the start: {', '.join(f'{v:+.2g}' for v in start)}; "
+                     f"at the end: {', '.join(f'{v:+.2g}' for v in end)}); apply corrects this recording with the "
+                     "drift, but another recording keeps the constant bias: take its bias from a rest of its own")]
+
+
 def _magnetometer(calibration) -> list[Check]:
     fit = calibration.fit or {}
     if fit.get("magnetometer_error"):
@@ -689,6 +711,8 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
             checks += rest_checks
             figures |= rest_figures
         checks += _known_turns(calibration, recording)
+    if calibration.gyroscope is not None:
+        checks += _gyroscope_bias_drift(calibration)
     checks += _magnetometer(calibration)
     checks += _non_finite(calibration, figures)
     level = max((c.level for c in checks), default=0)

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..calibration import Calibration
+from ..calibration import Calibration, with_bias_session
 from ..methodinfo import DEFAULT_METHOD, MethodInfo, accelerometer_only, declared
 from ..recording import STANDARD_GRAVITY, Recording
 from ..thermal import calibrate_ramp, compensate
@@ -138,6 +138,7 @@ def calibrate(
         recording = None
     if recording is not None:
         check_rate(recording)
+    raw = recording  # the recording as read: what apply recognises the calibrated session by
     if temperature_model == "linear":
         if recording is None:
             raise ValueError("a temperature model is fitted on a recording of samples with a temperature column")
@@ -148,6 +149,8 @@ def calibrate(
     if recording is not None and recording.mag is not None and mag_options.get("magnetometer", True):
         cal = with_magnetometer(cal, recording, field=mag_options.get("mag_field"),
                                 hemisphere=mag_options.get("mag_hemisphere", "north"))
+    if raw is not None:
+        cal = with_bias_session(cal, raw)
     return with_verdict(cal, recording)
 
 
