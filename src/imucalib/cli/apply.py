@@ -12,6 +12,7 @@ from pathlib import Path
 
 from ..io.atomic import refuse_overwriting_inputs
 from ._common import (
+    CliError,
     add_force_option,
     add_reader_options,
     check_verdict,
@@ -43,9 +44,14 @@ def cmd_apply(args: argparse.Namespace) -> int:
         from ..io.rosbag import write_calibrated_bag
 
         if len(args.data) != 1:
-            from ._common import CliError
-
             raise CliError(f"a ROS bag is one input; got {len(args.data)}: {', '.join(args.data)}")
+        if args.bias_drift == "on" and cal.bias_drift is not None:
+            raise CliError("a ROS bag is calibrated message by message with the constant gyroscope bias: "
+                           "--bias-drift on needs a CSV output (-o FILE.csv)")
+        if args.bias_drift == "auto" and cal.bias_drift is not None:
+            show_warning("the calibration's gyroscope bias drifts (its fit found it): a ROS bag is calibrated with "
+                         "the constant bias stored; for the drifting bias on the calibrated session write a CSV "
+                         "(-o FILE.csv)")
         with reading_progress(args, f"calibrating {args.data[0]}") as bar:
             summary = write_calibrated_bag(args.data[0], args.output, cal, topic=args.topic, progress=bar)
         summary["calibration"] = str(args.calibration)
@@ -56,7 +62,7 @@ def cmd_apply(args: argparse.Namespace) -> int:
               f"{summary['copied']} other messages copied unchanged")
         return 0
     rec = read_recording(args, args.data)
-    out = cal.apply(rec)
+    out = cal.apply(rec, bias_drift=args.bias_drift)
     if cal.gyroscope is None and rec.gyro is not None:
         show_warning("the calibration has no gyroscope (its recording had none, or no rotations between poses): "
                      "the gyroscope columns are copied uncalibrated")
@@ -72,8 +78,11 @@ def cmd_apply(args: argparse.Namespace) -> int:
     source = args.data[0] if len(args.data) == 1 else list(args.data)
     if args.json:
         return print_json({"input": source, "output": str(args.output), "samples": len(rec),
-                           "calibration": str(args.calibration), "method": cal.method, "verdict": verdict})
-    print(f"wrote {len(rec)} calibrated samples to {args.output}")
+                           "calibration": str(args.calibration), "method": cal.method, "verdict": verdict,
+                           "gyroscope_bias_drift": out.metadata["gyroscope_bias_drift"] if out.gyro is not None
+                           else None})
+    drift = " (gyroscope bias drifting as fitted)" if out.metadata["gyroscope_bias_drift"] == "applied" else ""
+    print(f"wrote {len(rec)} calibrated samples to {args.output}{drift}")
     return 0
 
 
@@ -90,6 +99,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("data", nargs="+", help="data file(s) to correct, as for calibrate")
     p.add_argument("-o", "--output", required=True, help="output CSV file (or, for a ROS bag, the calibrated bag)")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    p.add_argument("--bias-drift", choices=("auto", "on", "off"), default="auto",
+                   help="correct the gyroscope bias with the drift the calibration found, b + d (t - t_ref): "
+                   "auto (default) on the recording the calibration was made from (or a part of it), the "
+                   "constant bias on any other; on: always, in the data's time base; off: never")
     add_force_option(p)
     add_reader_options(p)
     p.set_defaults(func=cmd_apply)
