@@ -211,3 +211,13 @@ def test_cli_bias_drift_round_trip(capsys, tmp_path):
     code, out, err = _cli(capsys, "apply", tmp_path / "c.json", other, "-o", tmp_path / "o.csv")
     assert code == 0 and err.count("not extrapolated") == 1
     assert "drifting as fitted" not in out
+
+
+def test_cli_bag_output_takes_the_constant_bias(capsys, tmp_path, drifting):
+    _, cal = drifting
+    cal.save(tmp_path / "c.json")
+    bag = tmp_path / "run.bag"
+    bag.write_bytes(b"#ROSBAG V2.0\n")  # recognised as a bag; refused before it is read
+    code, out, err = _cli(capsys, "apply", tmp_path / "c.json", bag, "-o", tmp_path / "out.bag", "--bias-drift", "on")
+    assert code == 2 and "--bias-drift on needs a CSV output" in err and "Traceback" not in err
+    assert not (tmp_path / "out.bag").exists()
