@@ -566,8 +566,24 @@ def _pose_budget(layout: ZhangLayout, poses: int) -> bool:
     return poses / layout.n_acc > THRESHOLDS["poses_per_parameter"][1]
 
 
+def _held_drift(recording: Recording, static: list[Interval], samples: np.ndarray,
+                drift: tuple[np.ndarray, float] | None) -> tuple[np.ndarray, np.ndarray]:
+    """The static poses' gyroscope means and the motion samples' readings, less a held bias drift.
+
+    ``drift``: ``(d, t_ref)`` as :func:`imucalib.fit.gyroscope.static_gyro`
+    found it (eq. 11 with ``b + d (t − t_ref)``), or None: the readings as
+    recorded. A pose's time is its samples' mean time, as there.
+    """
+    means, motion = interval_means(recording.gyro, static), recording.gyro[samples]
+    if drift is None:
+        return means, motion
+    d, t_ref = drift
+    times = np.array([float(np.mean(recording.t[iv.slice])) for iv in static])
+    return means - np.outer(times - t_ref, d), motion - np.outer(recording.t[samples] - t_ref, d)
+
+
 def _gyro_problem(layout: ZhangLayout, recording: Recording, static: list[Interval], gravity: float,
-                  left_out: dict[int, str]) -> _Problem:
+                  left_out: dict[int, str], drift: tuple[np.ndarray, float] | None = None) -> _Problem:
     """The eq. (14) term of eq. (21) alone: every other term and the rotations ``left_out`` weighted 0."""
     m = len(static)
     kept = np.ones(m - 1)
@@ -576,9 +592,10 @@ def _gyro_problem(layout: ZhangLayout, recording: Recording, static: list[Interv
     integ = IntervalIntegrator(recording.t, starts, stops)
     none = np.zeros(0, dtype=int)
     c = {"C1": np.zeros(m), "C2": np.zeros(m), "C3": kept, "C4": np.float64(0.0)}
+    static_gyro, motion_gyro = _held_drift(recording, static, integ.samples, drift)
     return _Problem(replace(layout, with_r=False), gravity, interval_means(recording.acc, static),
-                    interval_means(recording.gyro, static), integ, recording.acc[integ.samples],
-                    recording.gyro[integ.samples], None, None, none, none, 1.0 / recording.rate, c)
+                    static_gyro, integ, recording.acc[integ.samples],
+                    motion_gyro, None, None, none, none, 1.0 / recording.rate, c)
 
 
 def _fitted_layout(layout: ZhangLayout, gyroscope: TriadModel) -> ZhangLayout:
@@ -593,12 +610,16 @@ def _rotation_rows(m: int) -> slice:
 
 def _solve_joint(recording: Recording, static: list[Interval], rest: Interval, layout: ZhangLayout, gravity: float,
                  acc0: TriadModel, gyro0: TriadModel, left_out: dict[int, str], tosses, *, initial: str = "step1",
-                 noise_weights: bool = True, max_iter: int = 200):
+                 noise_weights: bool = True, max_iter: int = 200, drift: tuple[np.ndarray, float] | None = None):
     """Eq. (21) by Levenberg–Marquardt from ``acc0``, ``gyro0`` (Step 2), the rotations ``left_out`` weighted 0.
 
     ``tosses``: ``(acc, gyro, starts, stops, r0, segments)`` of :func:`_tosses`,
     or None (no eq. 19 term, ``C4 = 0``). Weights ``C1…C4`` from eqs. (25)–(30)
-    with ``noise_weights``, else 1. Returns the solution and the weights.
+    with ``noise_weights``, else 1. ``drift``: ``(d, t_ref)``, the gyroscope
+    bias's linear drift the shared stage found (:func:`imucalib.fit.gyroscope.static_gyro`),
+    held: the readings enter eqs. (11) and (14) as ``u − d (t − t_ref)``, so
+    the bias (at ``t_ref``) and ``G`` are not pulled by the drift. Returns the
+    solution and the weights.
     """
     dt = 1.0 / recording.rate
     if tosses is None:
@@ -610,7 +631,7 @@ def _solve_joint(recording: Recording, static: list[Interval], rest: Interval, l
     starts, stops = transition_bounds(static)
     integ = IntervalIntegrator(recording.t, starts, stops)
     motion_acc = recording.acc[integ.samples]
-    motion_gyro = recording.gyro[integ.samples]
+    static_gyro, motion_gyro = _held_drift(recording, static, integ.samples, drift)
     cal0 = Calibration(accelerometer=acc0, gyroscope=gyro0)
     m = len(static)
     if noise_weights:
@@ -633,7 +654,7 @@ def _solve_joint(recording: Recording, static: list[Interval], rest: Interval, l
         c["C4"] = np.float64(0.0)
     c["C3"] = np.array(c["C3"], dtype=float)
     c["C3"][[int(k) for k in left_out]] = 0.0  # the rotations the shared stage left out
-    problem = _Problem(layout, gravity, interval_means(recording.acc, static), interval_means(recording.gyro, static),
+    problem = _Problem(layout, gravity, interval_means(recording.acc, static), static_gyro,
                        integ, motion_acc, motion_gyro, wl_acc, wl_gyro, wl_starts, wl_stops, dt, c)
     if initial == "step1":
         th0 = layout.pack(acc0, gyro0 if layout.with_g else gyro0.with_(g_sensitivity=np.zeros((3, 3))), r0)
@@ -642,6 +663,11 @@ def _solve_joint(recording: Recording, static: list[Interval], rest: Interval, l
     sol = levenberg_marquardt(problem.residuals, lambda th: problem.residuals(th, jac=True)[1], th0,
                               max_iter=max_iter, stol=1e-4 if noise_weights else 0.0)
     return sol, problem, c
+
+
+def _drift(gyro: GyroFit) -> tuple[np.ndarray, float] | None:
+    """The bias drift the shared stage kept, with its reference time, for :func:`_solve_joint`; None without."""
+    return None if gyro.drift is None else (np.asarray(gyro.drift, dtype=float), float(gyro.t_ref))
 
 
 def _joint_errors(layout: ZhangLayout, sol, problem: _Problem, c: dict, m: int) -> dict[str, float]:
@@ -687,7 +713,7 @@ def _stages(layout: ZhangLayout, recording: Recording, static: list[Interval], r
                        linear.converged, linear.iterations)
     lay = _fitted_layout(layout, gyro.model)
     sol, problem, c = _solve_joint(recording, static, rest, lay, gravity, linear.model, gyro.model, gyro.left_out,
-                                   None, noise_weights=noise_weights, max_iter=max_iter)
+                                   None, noise_weights=noise_weights, max_iter=max_iter, drift=_drift(gyro))
     acc, gyroscope, _ = lay.models(sol.x)
     residuals = np.linalg.norm(acc.forward(means), axis=1) - gravity
     errors = _joint_errors(lay, sol, problem, c, len(static))
@@ -710,10 +736,10 @@ def _criterion(st: _Stages, recording: Recording, static: list[Interval], gravit
     """
     lay = _fitted_layout(st.layout, st.gyroscope)
     m = len(static)
-    prob = _gyro_problem(lay, recording, static, gravity, {k: "" for k in left_out})
+    prob = _gyro_problem(lay, recording, static, gravity, {k: "" for k in left_out}, _drift(st.gyro))
     res = prob.residuals(lay.pack(st.acc, st.gyroscope, None))[_rotation_rows(m)]
     a = st.acc.forward(interval_means(recording.acc, static))
-    e11 = interval_means(recording.gyro, static) - st.gyroscope.bias - a @ st.gyroscope.g_sensitivity.T
+    e11 = prob.static_gyro - st.gyroscope.bias - a @ st.gyroscope.g_sensitivity.T
     p14 = 6 + 3 * lay.order + (3 if st.gyro.bias_source == "fit" else 0)
     blocks = [(st.acc_residuals, m, lay.n_acc), (e11.ravel(), 3 * m, lay.n_gyro - p14),
               (res, 2 * (len(prob.w3) // 3 - len(left_out)), p14)]
@@ -954,7 +980,7 @@ def _joint(recording: Recording, static: list[Interval], rest: Interval, layout:
     dt = 1.0 / recording.rate
     sol, problem, c = _solve_joint(recording, static, rest, layout, gravity, step1.acc, step1.gyroscope,
                                    step1.gyro.left_out, tosses, initial=initial, noise_weights=noise_weights,
-                                   max_iter=max_iter)
+                                   max_iter=max_iter, drift=_drift(step1.gyro))
     m = len(static)
     acc, gyro, r = layout.models(sol.x)
     cal = Calibration(accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity, method="zhang2021",
