@@ -240,8 +240,9 @@ def noise_parameters(x: np.ndarray, rate: float) -> dict[str, np.ndarray]:
 
     N and K are averaged over their region with weights ``1/δ_t²``, where
     ``δ_t = δ σ²/σ_t²`` is the relative 1σ of the term read at that cluster
-    time: ``δ = 1/√(2ν)`` from the term's degrees of freedom ν
-    (:func:`allan_dof`), magnified by the share ``σ_t²/σ²`` of the curve the
+    time: ``δ = 1/√(2ν)`` with ν the term's degrees of freedom
+    (:func:`allan_dof`) or the clusters' ``K − 1`` where fewer (the safe
+    side, :func:`allan_confidence`), magnified by the share ``σ_t²/σ²`` of the curve the
     term holds there (at the short end of a random walk's region the white
     noise still holds most of ``σ²`` and all of its scatter). The region's
     cluster times share their data, so a figure is about as precise as its

@@ -666,7 +666,6 @@ def _prompt_not_header(lines: Sequence[str], start: int, columns: Sequence[str] 
     return any(ln.strip().startswith(word) for ln in lines[start + 1:] if _is_prompt(ln, sep))
 
 
-
 def _is_prompt(line: str, sep: str | None) -> bool:
     """A line inside the rows that is not a row: a logger's prompt (``>>> Gathering data for 10 seconds...``,
     ``--- pose 2 ---``) or a repeated header — its first cell is not a number, whatever numbers follow (a row
