@@ -255,3 +255,39 @@ def test_no_overflow_warning_reaches_the_terminal(tmp_path):
     err = proc.stderr.replace(str(path), "FILE")
     assert "RuntimeWarning" not in err and "overflow" not in err and plain(err), err
     assert "FILE: sample 102: an accelerometer reading of 1e+200 is beyond any sensor's range" in err
+
+
+# ------------------------------------------------------ small files read whole
+def test_small_files_are_read_by_one_bounded_reader(tmp_path):
+    """A calibration, a sections file and a noise file are each read at most to their limit (/dev/zero is
+    refused, not read), and each fault is told in the same words, behind the file's name or option."""
+    import time
+
+    from imucalib.calibration import CalibrationFileError
+    from imucalib.cli._common import CliError
+    from imucalib.cli.calibration import _sections
+    from imucalib.export import ExportError, read_noise
+    from imucalib.io.jsontext import SmallFileError, read_json, read_small_text
+
+    (tmp_path / "binary").write_bytes(b"\xff\xfe\x00\x81" * 10)
+    (tmp_path / "broken.json").write_text('{"a": [1, 2}')
+    readers = [(Calibration.load, CalibrationFileError, "{p}: "), (_sections, CliError, "--sections {p}: "),
+               (read_noise, ExportError, "--noise {p}: ")]
+    cases = [("/dev/zero", "larger than"), (str(tmp_path), "is a directory, not a"),
+             (str(tmp_path / "none.json"), "file not found"), (str(tmp_path / "binary"), "not a text file")]
+    for load, error, prefix in readers:
+        for path, words in cases:
+            if not Path(path).exists() and path == "/dev/zero":
+                continue
+            start = time.perf_counter()
+            with pytest.raises(error) as info:
+                load(path)
+            assert str(info.value).startswith(prefix.format(p=path)) and words in str(info.value), str(info.value)
+            assert time.perf_counter() - start < 5  # bounded: never /dev/zero read whole
+    for load, error, _ in readers[:2]:  # the two JSON ones
+        with pytest.raises(error, match=r"not valid JSON \(Expecting ',' delimiter at line 1, column 12\)"):
+            load(str(tmp_path / "broken.json"))
+    (tmp_path / "ok.json").write_bytes(b'\xef\xbb\xbf{"a": 1}')  # a byte-order mark is dropped
+    assert read_json(tmp_path / "ok.json", 100, "test file") == {"a": 1}
+    with pytest.raises(SmallFileError, match="^larger than 10 bytes, not a test file: tiny$"):
+        read_small_text(tmp_path / "ok.json", 10, "test file", "tiny")

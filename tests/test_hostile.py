@@ -254,15 +254,33 @@ def test_dev_zero_and_sparse_files_are_binary_not_utf16(files, tmp_path):
         assert r.returncode == 2 and words in r.stderr and "UTF-16" not in r.stderr and plain(r.stderr), r.stderr
 
 
-@pytest.mark.parametrize("opener, name", [(gzip.open, "gzip"), (None, "bzip2")])
-def test_compressed_files_are_called_compressed(files, tmp_path, opener, name):
+@pytest.mark.parametrize("name", ["bzip2", "xz"])
+def test_compressed_files_are_called_compressed(files, tmp_path, name):
+    """Compressions the CSV reader does not decompress as it reads (gzip it does) are named, with the command."""
     import bz2
+    import lzma
 
-    path = tmp_path / f"s.csv.{'gz' if name == 'gzip' else 'bz2'}"
-    with (opener or bz2.open)(path, "wb") as f:
+    path = tmp_path / f"s.csv.{'bz2' if name == 'bzip2' else 'xz'}"
+    with (bz2.open if name == "bzip2" else lzma.open)(path, "wb") as f:
         f.write((files / "s.csv").read_bytes())
     r = cli("calibrate", path)
     assert r.returncode == 2 and f"{name}-compressed; decompress it first" in r.stderr and plain(r.stderr)
+
+
+def test_gzip_cut_short_or_corrupt_is_exit_2(files, tmp_path):
+    """A .csv.gz is read as it decompresses; one whose stream stops early (an interrupted copy) or whose bytes
+    were damaged is an error naming the file and what is wrong with it, exit 2, no traceback."""
+    raw = gzip.compress((files / "s.csv").read_bytes())
+    (tmp_path / "cut.csv.gz").write_bytes(raw[: len(raw) * 2 // 3])
+    damaged = bytearray(raw)
+    damaged[len(raw) // 2] ^= 0xFF
+    (tmp_path / "bad.csv.gz").write_bytes(bytes(damaged))
+    r = cli("calibrate", tmp_path / "cut.csv.gz")
+    assert r.returncode == 2 and "cut.csv.gz: the gzip-compressed file is cut short" in r.stderr, r.stderr
+    assert plain(r.stderr)
+    r = cli("calibrate", tmp_path / "bad.csv.gz")
+    assert r.returncode == 2 and "bad.csv.gz: the gzip-compressed file is corrupt" in r.stderr, r.stderr
+    assert plain(r.stderr)
 
 
 def test_utf16_is_still_called_utf16(tmp_path):

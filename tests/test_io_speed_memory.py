@@ -182,3 +182,65 @@ def test_whitespace_rows_with_an_extra_cell_are_errors(tmp_path, engine, extra):
     (tmp_path / "w.txt").write_text("\n".join(lines))
     with pytest.raises(ReaderError, match=r"line 2: expected 7 values, found 8"):
         read(tmp_path / "w.txt")
+
+
+# ------------------------------------------------------------------ gzip
+def _gzip(path, out):
+    import gzip
+    import shutil
+
+    with open(path, "rb") as f, gzip.open(out, "wb") as g:
+        shutil.copyfileobj(f, g)
+    return out
+
+
+def test_gzip_copy_of_a_simulated_session_is_the_same_recording(tmp_path, engine):
+    """A .csv.gz (and a whitespace-separated .txt.gz) of a simulated session reads to the recording its plain
+    file gives: every sample bit for bit, the units, the columns; nothing of it lands on disk decompressed."""
+    from imucalib.io import write_csv
+    from imucalib.scenarios import session
+
+    sim = session("handheld", rng=3, n_poses=8)
+    write_csv(tmp_path / "s.csv", sim.recording)
+    before = set(tmp_path.iterdir())
+    for plain, packed in ((tmp_path / "s.csv", tmp_path / "s.csv.gz"), (tmp_path / "s.txt", tmp_path / "s.txt.gz")):
+        if plain.suffix == ".txt":
+            plain.write_text((tmp_path / "s.csv").read_text().replace(" [", "[").replace(",", " "))  # t[s] ax[…]
+        _gzip(plain, packed)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ImucalibWarning)
+            a, b = read(plain), read(packed)
+        assert len(a) == len(b) == len(sim.recording)
+        np.testing.assert_array_equal(b.t, a.t)
+        np.testing.assert_array_equal(b.acc, a.acc)
+        np.testing.assert_array_equal(b.gyro, a.gyro)
+        assert (b.acc_unit, b.gyro_unit) == (a.acc_unit, a.gyro_unit)
+        for key in ("columns", "column_names", "header", "time_unit"):
+            assert b.metadata.get(key) == a.metadata.get(key), key
+        assert "source_layout" not in b.metadata  # apply writes a compressed source's rows from the values
+    np.testing.assert_allclose(read(tmp_path / "s.csv.gz").acc, sim.recording.acc, rtol=1e-15)
+    assert set(tmp_path.iterdir()) - before == {tmp_path / n for n in ("s.csv.gz", "s.txt", "s.txt.gz")}
+
+
+def test_gzip_streams_in_bounded_memory(tmp_path, monkeypatch):
+    """A .csv.gz of 200 000 rows (26 MB of text, beyond the 1 MB head: its length and last line are found by
+    decompressing it through once) peaks at the plain file's bound: the arrays and a chunk, never the text."""
+    monkeypatch.setattr(csvparse, "ENGINE", "numpy")
+    monkeypatch.setattr(csvparse, "CHUNK_BYTES", 1 << 20)
+    t, a, g = _table(n=200_000)
+    path = tmp_path / "big.csv"
+    path.write_text(_text(t, a, g))
+    packed = _gzip(path, tmp_path / "big.csv.gz")
+    size = path.stat().st_size
+    path.unlink()
+    arrays = 7 * 8 * len(t)
+    tracemalloc.start()
+    try:
+        rec = read(packed)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    np.testing.assert_array_equal(rec.t, t)
+    np.testing.assert_array_equal(rec.gyro, g)
+    assert size > 1.5 * arrays and packed.stat().st_size < size
+    assert peak < arrays + 12 * (1 << 20), f"peak {peak / 1e6:.1f} MB for {arrays / 1e6:.1f} MB of samples"

@@ -433,3 +433,84 @@ def test_prompts_with_numbers_in_a_blank_separated_log_are_block_boundaries(tmp_
         cal = calibrate(rec, method="six_position")
     np.testing.assert_allclose(cal.accelerometer.scale, plain.accelerometer.scale, rtol=1e-12)
     np.testing.assert_allclose(cal.accelerometer.bias, plain.accelerometer.bias, rtol=1e-12)
+
+
+@pytest.mark.parametrize("sep, prompt", [
+    (" ", ">>> Pose {i}: gathering data for 10s..."),  # seven words, like the seven numbers of a row
+    (",", "Pose {i},hold,it,still,then,press,enter"),  # seven cells, no prose marks: begins as the later prompts do
+])
+def test_a_first_prompt_as_wide_as_the_rows_is_not_a_header(tmp_path, faces, sep, prompt):
+    """A headerless log whose first line is a prompt that splits into as many cells as the rows: none of its
+    cells names a column, so it is skipped like any line before the data, not taken for a header (which named
+    no sensor column and stopped the read); the six blocks give the plain result."""
+    from imucalib.io import read
+
+    d, sim, ivs, plain, files = faces
+    path = tmp_path / "prompts.log"
+    with open(path, "w") as log:
+        for i, iv in enumerate(ivs):
+            part = sim.recording[iv]
+            log.write(prompt.format(i=i + 1) + "\n")
+            np.savetxt(log, np.column_stack([part.t - part.t[0], part.acc, part.gyro]), fmt="%.10g", delimiter=sep)
+    assert len(prompt.format(i=1).split(sep if sep != " " else None)) == 7
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ImucalibWarning)
+        rec = read(path)
+    messages = [str(w.message) for w in caught]
+    assert any("skipped 1 line before the data" in m for m in messages), messages
+    assert any("5 lines inside the data that are not rows (a logger's prompts) cut the rows into 6 blocks" in m
+               for m in messages), messages
+    assert not rec.metadata["header"] and len(rec) == sum(len(iv) for iv in ivs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        cal = calibrate(rec, method="six_position")
+    np.testing.assert_allclose(cal.accelerometer.scale, plain.accelerometer.scale, rtol=1e-12)
+    np.testing.assert_allclose(cal.accelerometer.bias, plain.accelerometer.bias, rtol=1e-12)
+
+
+@pytest.mark.parametrize("header, columns", [
+    ("t,ax,ay,az,gx,gy,gz", None),  # the reader's own vocabulary
+    ("stamp,x,y,z,wx,wy,wz", ["stamp", "x", "y", "z", "wx", "wy", "wz"]),  # names only --columns knows
+])
+def test_a_real_header_before_prompt_blocks_stays_a_header(tmp_path, faces, header, columns):
+    from imucalib.io import read
+
+    d, sim, ivs, plain, files = faces
+    path = tmp_path / "log.csv"
+    with open(path, "w") as log:
+        log.write(header + "\n")
+        for i, iv in enumerate(ivs):
+            part = sim.recording[iv]
+            if i:
+                log.write(f">>> Pose {i + 1}: gathering data for 10s...\n")
+            np.savetxt(log, np.column_stack([part.t - part.t[0], part.acc, part.gyro]), fmt="%.10g", delimiter=",")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        rec = read(path, columns=columns)
+    assert rec.metadata["header"] and rec.metadata["column_names"] == header.split(",")
+    assert len(rec.metadata["blocks"]) == 6
+    np.testing.assert_array_equal(rec.acc, np.concatenate([sim.recording[iv].acc for iv in ivs]))
+
+
+@pytest.mark.parametrize("gyro", [False, True])
+def test_joined_face_files_are_said_once_not_flagged_as_gaps(capsys, faces, tmp_path, gyro):
+    """Six files, one per face (accelerometer only, or with the gyroscope that separate blocks cannot
+    calibrate): the gaps at the file boundaries are where they were joined, said once as such, with no
+    "sampling gap" quality flag per boundary; a prompt-cut log the same."""
+    d, sim, ivs, plain, files = faces
+    if gyro:
+        files = []
+        for k, iv in zip(FACES, ivs, strict=True):
+            part = sim.recording[iv]
+            files.append(tmp_path / f"{k}.csv")
+            np.savetxt(files[-1], np.column_stack([part.t - part.t[0], part.acc, part.gyro]), fmt="%.10g",
+                       delimiter=",", header="t,ax,ay,az,gx,gy,gz", comments="")
+    code, out, err = run(capsys, "calibrate", *files, "--method", "six_position", "--json")
+    assert code == 0, err
+    assert err.count("6 files joined: the gaps between them are not used for integration") == 1, err
+    doc = json.loads(out)
+    assert not [f for f in doc["fit"].get("quality_flags", []) if "sampling gap" in f]
+    assert "sampling gap" not in err
+    code, out, err = run(capsys, "calibrate", d / "prompts.csv", "--method", "six_position", "--json")
+    assert code == 0 and "the gaps between blocks are not used for integration" in err, err
+    assert not [f for f in json.loads(out)["fit"].get("quality_flags", []) if "sampling gap" in f]

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .io.atomic import atomic_write
-from .io.jsontext import JsonTextError, dumps, jsonable, loads
+from .io.jsontext import SmallFileError, dumps, jsonable, read_json
 from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
 from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, ImucalibWarning, Recording
 from .reportfields import undeclared
@@ -441,26 +441,11 @@ class Calibration:
         the entry when it is missing, not JSON, or not a calibration.
         """
         path = Path(path)
-        if path.is_dir():
-            raise CalibrationFileError(f"{path}: is a directory, not a calibration file (JSON)")
         try:
-            with path.open("rb") as fh:
-                raw = fh.read(MAX_FILE_BYTES + 1)  # bounded: /dev/zero or a huge file is refused, not read whole
-        except FileNotFoundError:
-            raise CalibrationFileError(f"{path}: calibration file not found") from None
-        if len(raw) > MAX_FILE_BYTES:
-            raise CalibrationFileError(f"{path}: larger than {MAX_FILE_BYTES >> 20} MB, not a calibration file "
-                                       "(one is a few kilobytes of JSON)")
-        try:
-            data = loads(raw.decode("utf-8-sig"))
-        except UnicodeDecodeError:
-            raise CalibrationFileError(f"{path}: not a text file; a calibration file is JSON, as "
-                                       "'imucalib calibrate -o FILE.json' writes it") from None
-        except json.JSONDecodeError as exc:
-            raise CalibrationFileError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno}, column "
-                                       f"{exc.colno})") from None
-        except JsonTextError as exc:
-            raise CalibrationFileError(f"{path}: not a calibration file: {exc}") from None
+            data = read_json(path, MAX_FILE_BYTES, "calibration file", "one is a few kilobytes of JSON, as "
+                             "'imucalib calibrate -o FILE.json' writes it")
+        except SmallFileError as exc:
+            raise CalibrationFileError(f"{path}: {exc}") from None
         try:
             return cls.from_dict(data)
         except ValueError as exc:

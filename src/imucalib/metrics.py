@@ -177,12 +177,17 @@ def gap_flags(recording: Recording, intervals: Sequence[Interval], *, factor: fl
 
     The attitude change of a rotation is integrated sample to sample (RK4,
     Zhang 2021 eq. 23); across a gap the rate is only interpolated, so that
-    rotation's gravity-direction residual (eq. 14) is unreliable.
+    rotation's gravity-direction residual (eq. 14) is unreliable. Where blocks
+    recorded apart were joined (``metadata["blocks"]``: one file per pose,
+    blocks cut by a logger's prompts) the gap is no fault: no motion was
+    recorded there and nothing is integrated across it (the reader says so
+    once). Without a gyroscope nothing is integrated at all.
     """
-    if len(recording) < 3 or len(intervals) < 2:
+    if len(recording) < 3 or len(intervals) < 2 or recording.gyro is None:
         return []
     dt = np.diff(recording.t)
-    big = np.nonzero(dt > factor * np.median(dt))[0]
+    joins = [int(stop) - 1 for _, stop in (recording.metadata.get("blocks") or [])[:-1]]
+    big = np.setdiff1d(np.nonzero(dt > factor * np.median(dt))[0], joins)
     if big.size == 0:
         return []
     starts, stops = transition_bounds(intervals)

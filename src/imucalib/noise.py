@@ -12,7 +12,8 @@ minimum, ``σ_min ≈ 0.664 B``, and rate random walk ``K`` has slope +½ with
 ``σ(τ) = K √(τ/3)``.
 
 A term is a figure only where the curve shows its slope within the
-confidence its number of clusters gives (:func:`noise_parameters`); elsewhere
+confidence its number of clusters gives, and only when the clusters there
+read it within ``FIGURE_PRECISION`` (:func:`noise_parameters`); elsewhere
 only its upper bound holds, and the files written from it say so
 (:func:`kalibr_yaml`). A bump of the curve (a vibration, a filter's
 ringing) therefore never becomes a random walk.
@@ -29,8 +30,8 @@ from .recording import STANDARD_GRAVITY
 if TYPE_CHECKING:
     from .recording import Recording
 
-__all__ = ["BOUND_MARK", "allan_confidence", "allan_deviation", "check_rest", "kalibr_noise", "kalibr_yaml",
-           "local_slopes", "noise_parameters", "noise_summary", "random_walk_bound"]
+__all__ = ["BOUND_MARK", "allan_confidence", "allan_deviation", "allan_dof", "check_rest", "chi2_limits",
+           "kalibr_noise", "kalibr_yaml", "local_slopes", "noise_parameters", "noise_summary", "random_walk_bound"]
 
 
 def allan_deviation(x: np.ndarray, rate: float, taus: np.ndarray | None = None,
@@ -95,6 +96,9 @@ SLOPE_TOLERANCE = 0.1
 #: σ(τ) of bias instability on its flat floor, ``σ = √(2 ln 2 / π) B`` (IEEE Std 952, Table C.1)
 FLOOR = np.sqrt(2 * np.log(2) / np.pi)  # 0.664
 
+#: a term's figure is stated only when, at ``CONFIDENCE``, it lies within this fraction of the truth
+FIGURE_PRECISION = 0.2
+
 #: log-log slope of each term (IEEE Std 952, Annex C): white noise −½, bias instability 0, random walk +½
 _SLOPES = {"white_noise_density": -0.5, "bias_instability": 0.0, "random_walk": 0.5}
 
@@ -111,6 +115,76 @@ def allan_confidence(taus: np.ndarray, rate: float, samples: int) -> np.ndarray:
     """
     clusters = samples / np.maximum(np.round(np.asarray(taus, dtype=float) * rate), 1)
     return 1 / np.sqrt(2 * np.maximum(clusters - 1, 1e-12))
+
+
+def allan_dof(taus: np.ndarray, rate: float, samples: int, term: str) -> np.ndarray:
+    """Equivalent degrees of freedom of the overlapping Allan variance at each cluster time, for one noise term.
+
+    The approximations of NIST SP 1065 (Riley 2008, Table 5, after Howe,
+    Allan and Barnes 1981), with ``M = samples + 1`` integrated points and
+    ``m = τ f_s``:
+
+    * white noise (white frequency noise, the −½ slope):
+      ``ν = (3(M−1)/(2m) − 2(M−2)/M) · 4m²/(4m² + 5)``;
+    * bias instability (flicker frequency noise, flat):
+      ``ν = 5M² / (4m(M + 3m))``;
+    * random walk (random-walk frequency noise, the +½ slope):
+      ``ν = (M−2)/m · ((M−1)² − 3m(M−1) + 4m²)/(M−3)²``.
+
+    The variance estimate is then distributed as ``σ² χ²_ν / ν``
+    (:func:`chi2_limits`). Over the cluster times a term is read at (tens of
+    samples and more) these agree with Greenhall's algorithm to a few per cent
+    (tests/test_noise.py compares them with allantools' ``edf_greenhall``).
+
+    Parameters
+    ----------
+    taus : array_like
+        Cluster times [s].
+    rate : float
+        Sampling rate [Hz].
+    samples : int
+        Number of rate samples.
+    term : {"white_noise_density", "bias_instability", "random_walk"}
+        The noise term whose statistics apply.
+
+    Returns
+    -------
+    ndarray
+        ``ν`` per cluster time (at least 1).
+    """
+    m = np.maximum(np.round(np.asarray(taus, dtype=float) * rate), 1)
+    big = float(samples) + 1
+    if term == "white_noise_density":
+        nu = (3 * (big - 1) / (2 * m) - 2 * (big - 2) / big) * 4 * m**2 / (4 * m**2 + 5)
+    elif term == "bias_instability":
+        nu = 5 * big**2 / (4 * m * (big + 3 * m))
+    elif term == "random_walk":
+        nu = (big - 2) / m * ((big - 1) ** 2 - 3 * m * (big - 1) + 4 * m**2) / (big - 3) ** 2
+    else:
+        raise ValueError(f"unknown noise term {term!r}")
+    return np.maximum(nu, 1.0)
+
+
+def chi2_limits(dof: np.ndarray, confidence: float = CONFIDENCE) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper confidence limits of a deviation over its estimate, from its degrees of freedom.
+
+    A variance estimated with ``ν`` degrees of freedom is distributed as
+    ``σ² χ²_ν / ν`` (IEEE Std 952, Annex C; NIST SP 1065, §5.3), so the
+    deviation lies between ``σ̂ √(ν / χ²_ν(1 − p))`` and ``σ̂ √(ν / χ²_ν(p))`` with
+    ``p`` the normal tail beyond ``confidence`` standard deviations (2: 2.3 %
+    each side). With few clusters the upper limit is well above the linear
+    ``1 + confidence·δ``: a long cluster time's low reading is likely.
+
+    Returns
+    -------
+    lower, upper : ndarray
+        The factors that multiply the estimate.
+    """
+    from scipy.stats import chi2, norm
+
+    dof = np.asarray(dof, dtype=float)
+    p = norm.sf(confidence)
+    return np.sqrt(dof / chi2.isf(p, dof)), np.sqrt(dof / chi2.ppf(p, dof))
 
 
 def local_slopes(taus: np.ndarray, adev: np.ndarray, delta: np.ndarray,
@@ -162,12 +236,26 @@ def noise_parameters(x: np.ndarray, rate: float) -> dict[str, np.ndarray]:
     * ``N² = τ σ² − K² τ²/3`` (the random walk subtracted where it is a figure),
     * ``K² = 3 (σ² − N²/τ) / τ`` (the white noise subtracted where it is a figure),
     * ``B = √(σ² − N²/τ − K²τ/3) / 0.664`` at the minimum of the flat region, a
-      figure only when that floor exceeds the confidence of ``σ²`` (``4δσ²``),
+      figure only when that floor exceeds the confidence of ``σ²`` (``4δσ²``).
 
-    each averaged over the region with weights ``1/δ²``. Elsewhere (and where B
-    or K would exceed its own bound) the figure
-    is NaN and only its upper bound holds, from every cluster time: each term
-    alone cannot exceed the whole curve, so with ``σ⁺ = σ (1 + 2δ)``
+    N and K are averaged over their region with weights ``1/δ_t²``, where
+    ``δ_t = δ σ²/σ_t²`` is the relative 1σ of the term read at that cluster
+    time: ``δ = 1/√(2ν)`` with ν the term's degrees of freedom
+    (:func:`allan_dof`) or the clusters' ``K − 1`` where fewer (the safe
+    side, :func:`allan_confidence`), magnified by the share ``σ_t²/σ²`` of the curve the
+    term holds there (at the short end of a random walk's region the white
+    noise still holds most of ``σ²`` and all of its scatter). The region's
+    cluster times share their data, so a figure is about as precise as its
+    best cluster time, ``min δ_t``; it is stated only when its χ² confidence
+    interval (:func:`chi2_limits`, at ``CONFIDENCE``) puts it within
+    ``FIGURE_PRECISION`` of the truth. A region that shows the slope only at
+    the longest cluster times, with ten to forty clusters, therefore gives a
+    bound: a reading there is off by a fifth one time in twenty.
+
+    Elsewhere (and where B or K would exceed its own bound) the figure is NaN
+    and only its upper bound holds, from every cluster time: each term alone
+    cannot exceed the whole curve, so with ``σ⁺`` the χ² upper limit of ``σ``
+    at ``CONFIDENCE`` for that term's degrees of freedom,
     ``N ≤ min σ⁺ √τ``, ``B ≤ min σ⁺ / 0.664`` and ``K ≤ min σ⁺ √(3/τ)``.
 
     Parameters
@@ -196,13 +284,16 @@ def noise_parameters(x: np.ndarray, rate: float) -> dict[str, np.ndarray]:
     adev = adev if adev.ndim == 2 else adev[:, None]
     delta = allan_confidence(taus, rate, n)
     end, slope, sigma = local_slopes(taus, adev, delta)
-    upper = adev * (1 + CONFIDENCE * delta)[:, None]
+    # each term's own degrees of freedom per cluster time, or the clusters' K − 1 where fewer (the safe side;
+    # a bound is the least over many cluster times): the 1σ of its reading and the χ² upper limit of σ
+    dof = {name: np.minimum(allan_dof(taus, rate, n, name), 0.5 / delta**2) for name in _SLOPES}
+    rel = {name: 1 / np.sqrt(2 * nu) for name, nu in dof.items()}
+    upper = {name: adev * chi2_limits(nu)[1][:, None] for name, nu in dof.items()}
     out = {name: np.full(k, np.nan) for name in _SLOPES}
-    out["white_noise_density_bound"] = np.min(upper * np.sqrt(taus)[:, None], axis=0)
-    out["bias_instability_bound"] = np.min(upper, axis=0) / FLOOR
-    out["random_walk_bound"] = np.min(upper * np.sqrt(3 / taus)[:, None], axis=0)
+    out["white_noise_density_bound"] = np.min(upper["white_noise_density"] * np.sqrt(taus)[:, None], axis=0)
+    out["bias_instability_bound"] = np.min(upper["bias_instability"], axis=0) / FLOOR
+    out["random_walk_bound"] = np.min(upper["random_walk"] * np.sqrt(3 / taus)[:, None], axis=0)
     constant = np.ptp(x, axis=0) == 0
-    w = 1 / delta**2
     for j in range(k):
         if constant[j]:
             continue
@@ -214,24 +305,34 @@ def noise_parameters(x: np.ndarray, rate: float) -> dict[str, np.ndarray]:
                 pts[i : end[i] + 1] = True
             region[name] = pts
         s2 = adev[:, j] ** 2
+        spread = {}
         # two passes: each term read with the other's share taken out once that one is known
         for _ in range(2):
-            kk = out["random_walk"][j]
-            nn = out["white_noise_density"][j]
-            if region["white_noise_density"].any():
-                r = region["white_noise_density"]
-                n2 = taus[r] * s2[r] - (kk**2 * taus[r] ** 2 / 3 if np.isfinite(kk) else 0.0)
-                out["white_noise_density"][j] = np.sqrt(max(np.average(n2, weights=w[r]), 0.0))
-            if region["random_walk"].any():
-                r = region["random_walk"]
-                k2 = 3 * (s2[r] - (nn**2 / taus[r] if np.isfinite(nn) else 0.0)) / taus[r]
-                out["random_walk"][j] = np.sqrt(max(np.average(k2, weights=w[r]), 0.0))
+            kk = np.nan_to_num(out["random_walk"][j])
+            nn = np.nan_to_num(out["white_noise_density"][j])
+            own = {"white_noise_density": s2 - kk**2 * taus / 3, "random_walk": s2 - nn**2 / taus}
+            for name, scale in (("white_noise_density", taus), ("random_walk", 3 / taus)):
+                r = region[name] & (own[name] > 0)
+                if not r.any():
+                    continue
+                # the term's share of σ² carries all of the scatter of σ²: its relative 1σ is δ / share
+                spread_r = rel[name][r] * s2[r] / own[name][r]
+                out[name][j] = np.sqrt(np.average(scale[r] * own[name][r], weights=spread_r**-2))
+                spread[name] = float(np.min(spread_r))
+        read = {name: float(np.nan_to_num(out[name][j])) for name in ("white_noise_density", "random_walk")}
+        for name, d in spread.items():
+            # the region's cluster times share their data: the figure is about as precise as its best one, and
+            # is stated only when it lies within FIGURE_PRECISION of the truth at CONFIDENCE: the truth over the
+            # figure between 1/(1 + P) and 1/(1 − P)
+            lower, upper_f = chi2_limits(1 / (2 * d**2))
+            if lower < 1 / (1 + FIGURE_PRECISION) or upper_f > 1 / (1 - FIGURE_PRECISION):
+                out[name][j] = np.nan
         if region["bias_instability"].any():
             # the floor is a term of its own only where it stands out of the other two beyond its confidence
             # (white noise meeting a random walk also has a flat minimum, of (2NK/√3)^½)
             r = np.nonzero(region["bias_instability"])[0]
             i = r[np.argmin(adev[r, j])]
-            nn, kk = (np.nan_to_num(out[key][j]) for key in ("white_noise_density", "random_walk"))
+            nn, kk = read["white_noise_density"], read["random_walk"]  # their shares, stated or not
             floor2 = s2[i] - nn**2 / taus[i] - kk**2 * taus[i] / 3
             if floor2 > 2 * CONFIDENCE * delta[i] * s2[i]:  # the relative 1σ of σ² is 2δ
                 out["bias_instability"][j] = np.sqrt(floor2) / FLOOR
@@ -369,7 +470,8 @@ def _notes(name: str, p: dict, unit: str) -> tuple[list[str], list[str]]:
         if missing:
             bound = ", ".join(f"{p[key + '_bound'][j]:.3g}" for j, a in enumerate("xyz") if a in missing)
             bounds.append(f"{name} {', '.join(missing)}: the Allan curve shows no {slope} slope of the {what} "
-                          f"within its confidence: only its upper bound {bound} {u}")
+                          f"within its confidence, or over too few clusters to read it within "
+                          f"{100 * FIGURE_PRECISION:.0f} %: only its upper bound {bound} {u}")
     return notes, bounds
 
 

@@ -66,7 +66,8 @@ def cmd_noise(args: argparse.Namespace) -> int:
         print(f"Kalibr noise file written to {args.kalibr}")
     print(f"noise over {result['seconds']:.1f} s of rest ({result['samples']} samples, "
           f"{result['rate_hz']:.4g} Hz), Allan deviation (IEEE 952 slopes; '<' an upper bound where the curve "
-          "does not show the term's slope, 'const' a column below the resolution):")
+          "does not show the term's slope or too few clusters read it within 20 %, 'const' a column below the "
+          "resolution):")
     for name in ("accelerometer", "gyroscope"):
         if name not in result:
             print(f"  {name}: none in this recording (accelerometer-only)")

@@ -10,7 +10,6 @@ import argparse
 import json
 import sys
 import warnings
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..io.atomic import refuse_overwriting_inputs
@@ -113,28 +112,14 @@ _SECTIONS_BYTES = 1 << 16  # a sections file is nine pairs of integers: a few hu
 
 def _sections(path: str) -> dict:
     """The named Ferraris sections in the JSON file ``path``: ``{"x_p": [start, stop], …}``, checked."""
-    from ..io.jsontext import JsonTextError, loads
+    from ..io.jsontext import SmallFileError, read_json
     from ..methods.ferraris import SECTION_NAMES
 
     try:
-        with Path(path).open("rb") as fh:
-            raw = fh.read(_SECTIONS_BYTES + 1)  # bounded: /dev/zero or a huge file is refused, not read whole
-    except FileNotFoundError:
-        raise CliError(f"--sections {path}: file not found") from None
-    except OSError as exc:
-        raise CliError(f"--sections {path}: cannot be read ({exc.strerror or exc})") from None
-    if len(raw) > _SECTIONS_BYTES:
-        raise CliError(f"--sections {path}: larger than {_SECTIONS_BYTES >> 10} kB; a sections file is nine "
-                       'pairs of sample indices {"x_p": [start, stop], …}')
-    try:
-        doc = loads(raw.decode("utf-8-sig"))
-    except UnicodeDecodeError:
-        raise CliError(f"--sections {path}: not a text file; expected JSON") from None
-    except json.JSONDecodeError as exc:
-        raise CliError(f"--sections {path}: not valid JSON ({exc.msg} at line {exc.lineno}, "
-                       f"column {exc.colno})") from None
-    except JsonTextError as exc:
-        raise CliError(f"--sections {path}: not a sections file: {exc}") from None
+        doc = read_json(path, _SECTIONS_BYTES, "sections file",
+                        'nine pairs of sample indices {"x_p": [start, stop], …} in JSON')
+    except SmallFileError as exc:
+        raise CliError(f"--sections {path}: {exc}") from None
     example = '{"x_p": [start, stop], …}'
     if not isinstance(doc, dict):
         raise CliError(f"--sections {path}: expected a JSON object {example}; got a {type(doc).__name__}")

@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from ..calibration import MAX_FILE_BYTES, Calibration
-from ..io.jsontext import loads
+from ..io.jsontext import SmallFileError, loads, read_small_text
 from ..noise import BOUND_MARK, kalibr_noise
 from .linear import (
     ExportError,
@@ -103,15 +103,10 @@ def read_noise(path: str | Path) -> tuple[dict, list[str]]:
     """
     path = Path(path)
     try:
-        with path.open("rb") as fh:
-            raw = fh.read(MAX_FILE_BYTES + 1)  # bounded: a noise file is a few lines
-        text = raw.decode("utf-8")
-    except FileNotFoundError:
-        raise ExportError(f"--noise {path}: file not found") from None
-    except UnicodeDecodeError:
-        raise ExportError(f"--noise {path}: not a text file") from None
-    if len(raw) > MAX_FILE_BYTES:
-        raise ExportError(f"--noise {path}: larger than {MAX_FILE_BYTES >> 20} MB, not a noise file")
+        text = read_small_text(path, MAX_FILE_BYTES, "noise file",
+                               "one is a few lines: Kalibr's imu.yaml, or the JSON of imucalib noise --json")
+    except SmallFileError as exc:
+        raise ExportError(f"--noise {path}: {exc}") from None
     if text.lstrip().startswith("{"):
         return _noise_from_json(path, text)
     found: dict[str, list[str]] = {}

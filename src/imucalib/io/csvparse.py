@@ -43,11 +43,19 @@ they are counted.
 Quoting: cells may be quoted with ``"`` (a separator inside quotes belongs to
 the cell). Decimal commas: with ``;`` or tab separators, ``,`` is read as the
 decimal mark (:attr:`Layout.decimal_comma`).
+
+Gzip-compressed files (``.csv.gz``, ``.txt.gz``; recognised from their first
+bytes, not their name) are read the same way through :func:`open_binary`,
+which decompresses as it reads: byte offsets are those of the decompressed
+text, :attr:`Layout.size` its length, and memory stays that of a chunk. A
+truncated or corrupt stream is a :class:`~.errors.ReaderError`.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import gzip
 import hashlib
 import io
 import re
@@ -62,7 +70,8 @@ import numpy as np
 from .errors import ReaderError
 
 __all__ = ["CHUNK_BYTES", "ENGINE", "Chunk", "Head", "Layout", "PANDAS_MIN_BYTES", "Plan", "chunks", "column_kinds",
-           "digest", "plan", "engine_for", "fingerprint", "pandas_available", "parse", "read_head", "split_cells"]
+           "digest", "plan", "engine_for", "fingerprint", "is_gzip", "open_binary", "pandas_available", "parse",
+           "read_head", "split_cells"]
 
 #: body text parsed at a time [bytes] (about 100 000 rows of 7 columns)
 CHUNK_BYTES = 1 << 23
@@ -78,6 +87,62 @@ INT_DIGITS = 16
 _INT = re.compile(r"^[+-]?\d+$")
 _COMMENT = re.compile(rb"(?m)^[ \t]*#")
 _HEAD_BYTES = 1 << 20
+
+
+# ------------------------------------------------------------------ opening
+#: the first bytes of a gzip stream (RFC 1952, §2.3.1)
+GZIP_MAGIC = b"\x1f\x8b"
+
+
+def is_gzip(path: Path) -> bool:
+    """Whether ``path`` is a gzip-compressed file (from its first two bytes)."""
+    try:
+        with Path(path).open("rb") as f:
+            return f.read(2) == GZIP_MAGIC
+    except (IsADirectoryError, FileNotFoundError):
+        return False
+
+
+@contextlib.contextmanager
+def open_binary(path: Path) -> Iterator[io.BufferedIOBase]:
+    """``path`` opened for reading bytes; a gzip-compressed file decompressed as it is read.
+
+    A gzip stream seeks forwards by decompressing and backwards by starting
+    over, so the readers read it front to back. A stream that ends early (a
+    copy cut short) or whose data or checksum is wrong raises a
+    :class:`~.errors.ReaderError` naming the file, whichever read meets it.
+    """
+    path = Path(path)
+    if not is_gzip(path):
+        with path.open("rb") as f:
+            yield f
+        return
+    try:
+        with gzip.open(path, "rb") as f:
+            yield f
+    except EOFError:
+        raise ReaderError(f"{path}: the gzip-compressed file is cut short (its stream ends before its end "
+                          "marker): the copy or download is incomplete; compress the recording again or give "
+                          "the uncompressed file") from None
+    except (gzip.BadGzipFile, zlib.error) as exc:
+        raise ReaderError(f"{path}: the gzip-compressed file is corrupt ({exc}); compress the recording again or "
+                          "give the uncompressed file") from None
+
+
+def _size_and_tail(f, size: int | None, tail_bytes: int, head: bytes) -> tuple[int, bytes, int]:
+    """The length of the open file ``f`` whose first bytes ``head`` were just read (``size`` when known, else
+    read to the end: a decompressed stream) and its last ``tail_bytes`` with their offset."""
+    if size is not None:
+        tail_start = max(0, size - tail_bytes)
+        f.seek(tail_start)
+        return size, f.read(), tail_start
+    pos, tail = len(head), head[-tail_bytes:]
+    while True:
+        block = f.read(CHUNK_BYTES)
+        if not block:
+            return pos, tail, pos - len(tail)
+        pos += len(block)
+        tail = (tail + block)[-tail_bytes:]
 
 
 # ------------------------------------------------------------------ the file's parts
@@ -104,18 +169,21 @@ class Head:
 def read_head(path: Path, max_bytes: int = _HEAD_BYTES) -> Head:
     """The first ``max_bytes`` of ``path`` split into lines, and its last non-blank line."""
     st = path.stat()
-    with path.open("rb") as f:
+    size = None if is_gzip(path) else st.st_size  # a compressed file's text is as long as its stream decompresses
+    with open_binary(path) as f:
         head = f.read(max_bytes)
         if head.startswith((b"\xff\xfe", b"\xfe\xff")) or (len(head) > 1 and head.count(b"\x00") > len(head) // 4):
             raise ReaderError(f"{path}: the file is UTF-16 (or binary) text; save it as UTF-8 (or plain ASCII) text")
         bom = 3 if head.startswith(b"\xef\xbb\xbf") else 0
-        complete = len(head) >= st.st_size
+        complete = len(head) < max_bytes or (size is not None and len(head) >= size)
         if complete:
             tail, tail_start = head, 0
+            size = len(head) if size is None else size
         else:
-            tail_start = max(0, st.st_size - (1 << 16))
-            f.seek(tail_start)
-            tail = f.read()
+            size, tail, tail_start = _size_and_tail(f, size, 1 << 16, head)
+            complete = size <= len(head)
+            if complete:
+                tail, tail_start = head, 0
     # the end of the last non-blank line
     stripped = tail.rstrip()
     if not stripped or tail_start + len(stripped) <= bom:
@@ -142,7 +210,7 @@ def read_head(path: Path, max_bytes: int = _HEAD_BYTES) -> Head:
         offsets.append(pos)
         pos += len(ln) + 1
     lines = [_decode(ln.rstrip(b"\r")) for ln in raw_lines]
-    return Head(lines, offsets, complete, last, end, st.st_size, st.st_mtime_ns, bom)
+    return Head(lines, offsets, complete, last, end, size, st.st_mtime_ns, bom)
 
 
 def _decode(raw: bytes) -> str:
@@ -249,7 +317,7 @@ def chunks(layout: Layout, chunk_bytes: int | None = None, plan: Plan | None = N
     start, end = layout.body
     line = layout.first_line
     known = iter(plan.pieces) if plan is not None else None
-    with layout.path.open("rb") as f:
+    with open_binary(layout.path) as f:
         if digest is not None:
             _feed(digest, f, start)
         f.seek(start)

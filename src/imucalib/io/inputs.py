@@ -4,7 +4,8 @@
   a FIFO, a socket or a device is an error naming what it is (a FIFO would
   block the reader forever);
 * :func:`check_text`: a text input that is UTF-16, compressed or binary (NUL
-  bytes) is an error saying so (the text readers read UTF-8 and ASCII);
+  bytes) is an error saying so (the text readers read UTF-8 and ASCII; the
+  CSV reader also gzip-compressed text);
 * :func:`check_distinct_columns`: one column named for two fields is an error;
 * :func:`check_against_header`: a unit option that contradicts the unit the
   header writes is an error;
@@ -22,6 +23,7 @@
 from __future__ import annotations
 
 import errno
+import io
 import os
 import re
 import stat
@@ -32,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..recording import ImucalibWarning, Recording
+from . import csvparse
 from .errors import ReaderError
 
 __all__ = ["check_against_header", "check_distinct_columns", "check_input_path", "check_magnitudes", "check_text",
@@ -90,11 +93,16 @@ def check_input_path(path: str | Path, what: str = "file") -> os.stat_result:
     return st
 
 
-def check_text(path: Path) -> None:
-    """Refuse UTF-16, compressed and binary files before a text reader garbles them."""
+def check_text(path: Path, *, gzip_ok: bool = False) -> None:
+    """Refuse UTF-16, compressed and binary files before a text reader garbles them.
+
+    With ``gzip_ok`` (a reader that decompresses gzip as it reads:
+    :func:`.csvparse.open_binary`) a gzip-compressed file's decompressed text is
+    checked instead; the other compressions are refused all the same.
+    """
     if path.is_dir():
         return
-    with path.open("rb") as f:
+    with csvparse.open_binary(path) if gzip_ok else path.open("rb") as f:
         head = f.read(4096)
     for magic, name, command in _COMPRESSED:
         if head.startswith(magic):
@@ -201,7 +209,7 @@ def xsens_header(path: Path) -> list[str] | None:
     """The column names of an MT Manager text export (after its ``//`` lines), or None when it is not one."""
     if path.is_dir() or path.suffix.lower() == ".mat":
         return None
-    with path.open("r", encoding="utf-8-sig", errors="replace") as f:
+    with csvparse.open_binary(path) as raw, io.TextIOWrapper(raw, encoding="utf-8-sig", errors="replace") as f:
         for _ in range(200):
             line = f.readline(_LONGEST_HEADER)
             if not line:

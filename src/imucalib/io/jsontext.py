@@ -5,6 +5,11 @@ same unless told not to, and strict parsers (JavaScript's ``JSON.parse``,
 ``jq``, most other languages) reject the result. Everything the package
 prints or writes as JSON goes through :func:`dumps`, where a number that is
 not available (not finite) is ``null``.
+
+The small files the package reads whole (a calibration, a sections file, a
+noise file) are read by :func:`read_small_text` and :func:`read_json`: at most
+a given size (``/dev/zero`` or a recording given by mistake is refused, not
+read whole), as UTF-8 text, and for JSON strictly (:func:`loads`).
 """
 
 from __future__ import annotations
@@ -12,11 +17,13 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Iterable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["MAX_DEPTH", "JsonTextError", "dumps", "jsonable", "loads"]
+__all__ = ["MAX_DEPTH", "JsonTextError", "SmallFileError", "dumps", "jsonable", "loads", "read_json",
+           "read_small_text"]
 
 #: nesting a document read with :func:`loads` may have (a calibration file has 5 levels)
 MAX_DEPTH = 64
@@ -94,3 +101,74 @@ def loads(text: str | bytes, *, max_depth: int = MAX_DEPTH) -> Any:
     if _depth(value, max_depth) > max_depth:
         raise JsonTextError(f"nested more than {max_depth} levels deep")
     return value
+
+
+class SmallFileError(ValueError):
+    """A small input file that cannot be read whole: the message says why, without the file's name (the caller
+    puts it, or the option that gave it, in front)."""
+
+
+def _size(n: int) -> str:
+    return f"{n >> 20} MB" if n >= 1 << 20 else f"{n >> 10} kB" if n >= 1 << 10 else f"{n} bytes"
+
+
+def read_small_text(path: str | Path, max_bytes: int, name: str, about: str = "") -> str:
+    """The text of a small file, read whole but never beyond ``max_bytes``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    max_bytes : int
+        The largest file taken; one byte more is read to tell a larger one.
+    name : str
+        What the file is, for the messages (``"calibration file"``).
+    about : str, optional
+        What such a file holds, said when the file is too large or not text.
+
+    Returns
+    -------
+    str
+        The text (UTF-8, a byte-order mark dropped).
+
+    Raises
+    ------
+    SmallFileError
+        A directory, a missing or unreadable file, one larger than
+        ``max_bytes``, or one that is not UTF-8 text.
+    """
+    path = Path(path)
+    why = f": {about}" if about else ""
+    if path.is_dir():
+        raise SmallFileError(f"is a directory, not a {name}")
+    try:
+        with path.open("rb") as fh:
+            raw = fh.read(max_bytes + 1)  # bounded: /dev/zero or a huge file is refused, not read whole
+    except FileNotFoundError:
+        raise SmallFileError(f"{name} not found") from None
+    except OSError as exc:
+        raise SmallFileError(f"cannot be read ({exc.strerror or exc})") from None
+    if len(raw) > max_bytes:
+        raise SmallFileError(f"larger than {_size(max_bytes)}, not a {name}{why}")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise SmallFileError(f"not a text file{why}") from None
+
+
+def read_json(path: str | Path, max_bytes: int, name: str, about: str = "") -> Any:
+    """A small JSON file (:func:`read_small_text`) parsed strictly (:func:`loads`).
+
+    Raises
+    ------
+    SmallFileError
+        As :func:`read_small_text`, and for text that is not JSON (the line
+        and column named) or not strict JSON (:class:`JsonTextError`'s reason).
+    """
+    text = read_small_text(path, max_bytes, name, about)
+    try:
+        return loads(text)
+    except json.JSONDecodeError as exc:
+        raise SmallFileError(f"not valid JSON ({exc.msg} at line {exc.lineno}, column {exc.colno})") from None
+    except JsonTextError as exc:
+        raise SmallFileError(f"not a {name}: {exc}") from None

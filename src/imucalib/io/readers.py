@@ -119,7 +119,7 @@ def read(
         raise ReaderError(f"the {reader} reader takes {what}; got {len(paths)}")
     if reader in ("csv", "imutk", "phone"):
         for p in paths:
-            inputs.check_text(p)
+            inputs.check_text(p, gzip_ok=reader == "csv")
     inputs.check_distinct_columns(columns)
     if reader == "rosbag":
         ignored = [name for name, v in (("columns", columns), ("acc_unit", acc_unit), ("gyro_unit", gyro_unit),
@@ -284,7 +284,8 @@ def _read_file_blocks(paths: Sequence[Path], reader: str, columns, acc_unit, gyr
             "block_files": len(paths)}
     meta.pop("source_layout", None)
     warnings.warn(f"read {len(paths)} files as blocks of one recording, one pose each, in the order given (each "
-                  "with its own time base)", ImucalibWarning, stacklevel=3)
+                  f"with its own time base); {len(paths)} files joined: the gaps between them are not used for "
+                  "integration", ImucalibWarning, stacklevel=3)
     return Recording(
         t=np.concatenate(times), acc=np.concatenate([r.acc for r in recs]),
         gyro=None if first.gyro is None else np.concatenate([r.gyro for r in recs]),
@@ -589,17 +590,21 @@ class _Table:
         return _cells(line, self.sep)
 
 
-def _split_table(path: Path) -> _Table:
+def _split_table(path: Path, columns: Sequence[str] | None = None) -> _Table:
     """Find ``path``'s preamble (skipped with a note), header and rows from its first lines and its last.
 
     Only the head of the file (1 MB) and its last line are read here; the rows
-    are parsed by :func:`_parse_table`, a chunk at a time.
+    are parsed by :func:`_parse_table`, a chunk at a time. A first line that
+    is a logger's prompt rather than a header (:func:`_prompt_not_header`) is
+    part of the preamble even when it has as many cells as the rows.
     """
     head = csvparse.read_head(path)
     if not head.lines:
         raise ReaderError(f"{path}: empty file")
     lines = head.lines if head.complete else [*head.lines, head.last]
     start = _table_start(lines)
+    if start + 2 < len(lines) and _prompt_not_header(lines, start, columns):
+        start += 1  # a logger's first prompt, as wide as the rows by chance: skipped as a preamble line
     preamble = lines[:start]
     sep = _sniff_separator(lines[start])
     first = _cells(lines[start], sep)
@@ -632,6 +637,33 @@ def _split_table(path: Path) -> _Table:
 
 
 _DECIMAL_COMMA = re.compile(r'^"?[+-]?\d*,\d+(?:[eE][+-]?\d+)?"?$')
+#: how a line of prose starts or ends: a run of marks (``>>>``, ``---``, ``***``), a sentence's last mark
+_PROSE = re.compile(r"^[^\w\s\"'#\[\(]{2,}|[.!?:…]$")
+
+
+def _prompt_not_header(lines: Sequence[str], start: int, columns: Sequence[str] | None) -> bool:
+    """Whether the line ``lines[start]`` before rows of numbers is a logger's prompt, not the rows' header.
+
+    A header names columns; a prompt (``>>> Pose 1: gathering data for 10s...``) is text that happens to split
+    into as many cells as the rows have. It is a prompt when none of its cells is a column name this reader
+    knows (time, accelerometer, gyroscope, temperature) or one ``--columns`` gives, the next line is a row
+    (numbers), and it reads as prose (starts with a run of marks, ends like a sentence, or has a cell of three
+    words or more) or begins with the word a prompt line inside the rows begins with (the logger's next
+    prompts).
+    """
+    text = lines[start].strip()
+    sep = _sniff_separator(lines[start + 1])
+    cells = [c.strip('"\'').strip() for c in _cells(text, sep)]
+    if not cells or not _not_number(cells[0]) or any(_not_number(c) for c in _cells(lines[start + 1], sep)):
+        return False
+    known = {c.strip().lower() for c in columns or ()}
+    if any(_TIME.match(c) or _TEMP.match(c) or any(p.match(c) for p in _PATTERNS.values()) or c.lower() in known
+           for c in cells):
+        return False
+    if _PROSE.search(text) or any(len(c.split()) >= 3 for c in cells):
+        return True
+    word = cells[0].split()[0]
+    return any(ln.strip().startswith(word) for ln in lines[start + 1:] if _is_prompt(ln, sep))
 
 
 def _is_prompt(line: str, sep: str | None) -> bool:
@@ -653,7 +685,7 @@ def _prompt_blocks(path: Path, table: _Table) -> tuple[np.ndarray, list[list[int
     elsewhere. The rows are parsed line by line (such logs are short) and checked as every row is.
     """
     start, end = table.layout.body
-    with path.open("rb") as f:
+    with csvparse.open_binary(path) as f:
         f.seek(start)
         text = f.read(end - start).decode("utf-8", errors="replace")
     lines = text.splitlines()
@@ -709,7 +741,8 @@ def _block_times(path: Path, t: np.ndarray, blocks: list[list[int]]) -> np.ndarr
             moved += 1
     if moved:
         warnings.warn(f"{path}: the time restarts in {moved} of the {len(blocks)} blocks: each such block was put "
-                      f"{BLOCK_GAP_STEPS} sampling steps after the one before (each keeps its own time base)",
+                      f"{BLOCK_GAP_STEPS} sampling steps after the one before (each keeps its own time base; the "
+                      "gaps between blocks are not used for integration)",
                       ImucalibWarning, stacklevel=5)
     return t
 
@@ -747,7 +780,7 @@ def _time_column(col: np.ndarray) -> tuple[np.ndarray, int]:
 
 
 def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=None) -> Recording:
-    table = _split_table(path) if frame is None else _frame_table(frame)
+    table = _split_table(path, columns) if frame is None else _frame_table(frame)
     has_header = table.header is not None
     first_line, names = table.first_line, table.names
     mapping = _map_columns(path, names, columns, has_header)
@@ -831,7 +864,7 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
         extra[name if name not in extra else f"{name} (column {j + 1})"] = col
     rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
                     extra=extra, metadata=meta)
-    if "digest" in parsed:  # what apply needs to copy the file's own text (io.writers)
+    if "digest" in parsed and not csvparse.is_gzip(path):  # what apply needs to copy the file's own text (io.writers)
         meta["source_layout"] = {**table.layout.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec),
                                  "digest": parsed["digest"]}
     return rec
@@ -1010,8 +1043,8 @@ def _head_names(path: Path) -> list[str] | None:
     """The cells of the first line when they name columns (not all numbers), else None."""
     if path.is_dir():
         return None
-    with path.open("r", encoding="utf-8-sig", errors="replace") as f:
-        line = f.readline()
+    with csvparse.open_binary(path) as f:
+        line = f.readline(1 << 16).decode("utf-8-sig", errors="replace")
     cells = [c.strip('"\'').strip() for c in _cells(line, _sniff_separator(line))]
     return cells if any(_not_number(c) for c in cells) else None
 
