@@ -117,3 +117,26 @@ def test_handheld_without_z_is_rejected_and_the_truth_agrees(seed):
     assert thin.fit["accelerometer_unvisited_sigma_to_noise"] > REJECT
     floor = thin.fit["accelerometer_noise_floor"]
     assert _true_error_with_z_up_or_down(thin, sim.truth, floor) > THRESHOLDS["residual_to_noise_high"][0]
+
+
+def test_the_command_line_rejects_a_recording_without_z_with_exit_3(capsys, tmp_path):
+    """A recording whose 24 poses all have |u_z| < 0.1 (turned about z, tilted by at most 6°, never on the z faces;
+    white noise only): calibrate exits 3 and its reasons name ±z; the same with six more poses on the z faces is
+    accepted."""
+    from imucalib.cli import EXIT_REJECTED, main
+    from imucalib.io import write_csv
+    from synth import linear_truth, tedaldi_session
+
+    truth = linear_truth()
+    rng = np.random.default_rng(11)
+    flat = _directions_without_z(rng, 24, limit=0.1)
+    faces = np.array([[0, 0, 1.0], [0.2, 0, 0.98], [0, -0.2, -0.98], [0, 0, -1.0], [0.1, 0.1, 0.99], [0, 0.2, -0.98]])
+    for name, dirs, code in (("flat", flat, EXIT_REJECTED), ("faces", np.vstack([flat, faces]), 0)):
+        dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
+        rec, _, _ = tedaldi_session(truth, seed=2, noise_acc=0.02, noise_gyro=0.003, directions=dirs)
+        write_csv(tmp_path / f"{name}.csv", rec)
+        got = main(["calibrate", str(tmp_path / f"{name}.csv"), "--method", "tedaldi2014", "-o",
+                    str(tmp_path / f"{name}.json")])
+        out = capsys.readouterr().out
+        assert got == code, out
+        assert ("the poses do not visit ±z" in out) == (code == EXIT_REJECTED), out
