@@ -731,7 +731,8 @@ def _unvisited(calibration, recording: Recording, intervals: list[Interval]) -> 
     found = unvisited_sigma(calibration, recording, intervals)
     if found is None:
         return [], {}
-    figures = {"accelerometer_unvisited_sigma_to_noise": found["ratio"]}
+    # a JSON number, or None where a parameter the poses do not determine moves |a| there (an infinite 1σ)
+    figures = {"accelerometer_unvisited_sigma_to_noise": found["ratio"] if np.isfinite(found["ratio"]) else None}
     limits = THRESHOLDS["residual_to_noise_high"]
     level = _level(found["ratio"], limits)
     if not level:
