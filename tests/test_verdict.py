@@ -8,6 +8,7 @@ import pytest
 from imucalib.io import read
 from imucalib.methods import calibrate
 from imucalib.recording import Recording
+from imucalib.validation import validate
 from imucalib.verdict import THRESHOLDS, predicted_direction_error
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "xsens_imu_tk"
@@ -153,22 +154,35 @@ def test_session_without_the_z_faces_is_rejected():
 
 @needs_data
 def test_real_session_halves_and_its_poses_without_z(xsens):
-    """The shared session's first half still covers z (−0.98 to +1 g): accepted, and what it leaves out changes
-    no linear scale by more than 0.03 %. Its poses with |u_z| < 0.3 (z from −0.07 to +0.21 g): tedaldi2014's
-    z scale keeps a 1σ of 0.6 % and is accepted (its error, 0.3 %, is within it); zhang2021's cubic z term, kept
-    whole, moves the output by metres per second squared at 1 g: rejected (its selection takes a smaller variant)."""
+    """The shared session's halves both visit every axis up and down: accepted, and what the first leaves out
+    changes no linear scale by more than 0.03 %. Its poses with |u_z| < 0.3 from the first half on (no pose within
+    60° of z up or down): tedaldi2014's z scale has a 1σ of about 1 % and its |a| with z up or down a 1σ of
+    ~0.1 m/s², hundreds of times the noise floor: rejected, naming ±z, and validate on the whole session agrees
+    (45× the floor, rejected). zhang2021's cubic z term, kept whole, moves the output by metres per second
+    squared at 1 g: rejected for it; the variant its selection takes is rejected for ±z."""
     full = calibrate(xsens, method="tedaldi2014")
-    half = calibrate(xsens[slice(0, len(xsens) // 2)], method="tedaldi2014")
-    assert half.fit["verdict"] == "accepted", half.fit["verdict_reasons"]
-    np.testing.assert_allclose(half.accelerometer.scale, full.accelerometer.scale, rtol=3e-4)
+    n = len(xsens)
+    for part in (slice(0, n // 2), slice(n // 2, n)):
+        half = calibrate(xsens[part], method="tedaldi2014")
+        assert half.fit["verdict"] == "accepted", half.fit["verdict_reasons"]
+        assert half.fit["accelerometer_unvisited_sigma_to_noise"] == 0.0
+        if part.start == 0:
+            np.testing.assert_allclose(half.accelerometer.scale, full.accelerometer.scale, rtol=3e-4)
     weak, _ = _poses_away_from_z(full, xsens)
-    weak = [iv for iv in weak if iv.stop < len(xsens) // 2 + 20_000]
+    weak = [iv for iv in weak if iv.stop < n // 2 + 20_000]
     linear = calibrate(xsens, method="tedaldi2014", intervals=weak)
-    assert linear.fit["verdict"] == "accepted", linear.fit["verdict_reasons"]
+    assert linear.fit["verdict"] == "rejected"
+    assert any(r.startswith("the poses do not visit ±z") for r in linear.fit["verdict_reasons"]), \
+        linear.fit["verdict_reasons"]
+    assert linear.fit["accelerometer_unvisited_sigma_to_noise"] > THRESHOLDS["residual_to_noise_high"][1]
+    held_out = validate(linear, xsens)
+    assert held_out["verdict"] == "rejected"
+    assert held_out["accelerometer_residual_to_noise"] > THRESHOLDS["residual_to_noise_high"][1]
     # the cubic variant kept whole (no selection) is rejected for its z term; zhang2021's own selection never
-    # takes a variant the verdict would reject, and what it takes is accepted
+    # takes a variant the verdict rejects for too few poses per parameter, and what it takes is rejected for ±z
     cubic = calibrate(xsens, method="zhang2021", model="cubic", select=False, intervals=weak)
     assert cubic.fit["verdict"] == "rejected"
     assert any(r.startswith("accelerometer.scale_cubic.z: its 1σ") for r in cubic.fit["verdict_reasons"])
     selected = calibrate(xsens, method="zhang2021", intervals=weak)
-    assert selected.model != "cubic" and selected.fit["verdict"] == "accepted", selected.fit["verdict_reasons"]
+    assert selected.model != "cubic" and selected.fit["verdict"] == "rejected"
+    assert any(r.startswith("the poses do not visit ±z") for r in selected.fit["verdict_reasons"])

@@ -32,7 +32,12 @@ __all__ = [
     "pose_coverage",
     "gap_flags",
     "gravity_noise_floor",
+    "COVERAGE_CONE_DEG",
 ]
+
+#: a pose visits the directions within this angle [deg] of its gravity direction: an axis no pose points within it
+#: of up (or down) leaves that side's bias and scale to the other side alone (:func:`pose_coverage`)
+COVERAGE_CONE_DEG = 60.0
 
 #: samples whose rates :func:`predicted_gravity` calibrates at once (the calibration's temporaries, not the motion's)
 RATE_CHUNK = 1 << 16
@@ -202,7 +207,7 @@ def gap_flags(recording: Recording, intervals: Sequence[Interval], *, factor: fl
     return flags
 
 
-def pose_coverage(acc_means: np.ndarray, *, cone_deg: float = 60.0) -> tuple[dict, list[str]]:
+def pose_coverage(acc_means: np.ndarray, *, cone_deg: float = COVERAGE_CONE_DEG) -> tuple[dict, list[str]]:
     """How the static poses cover each axis's up and down, and advice where they do not.
 
     For each body axis, the range of the gravity direction's component over

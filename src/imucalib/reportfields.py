@@ -67,6 +67,9 @@ FIELDS: tuple[FieldInfo, ...] = (
     _F("accelerometer_noise_floor", "m/s^2", "the residual RMS the white noise alone leaves", "accelerometer"),
     _F("accelerometer_residual_to_noise", "", "accelerometer_residual_rms over accelerometer_noise_floor",
        "accelerometer"),
+    _F("accelerometer_unvisited_sigma_to_noise", "", "the largest 1σ of the calibrated |a| over the directions no "
+       "pose visited, over accelerometer_noise_floor (0: every axis visited up and down; null: not determined)",
+       "accelerometer"),
     _F("accelerometer_model", "", "the accelerometer model fitted (the full one or a reduced one)", "accelerometer"),
     _F("accelerometer_model_reduced", "", "why the poses determine a reduced accelerometer model, in words",
        "accelerometer"),

@@ -27,6 +27,11 @@ the fit did not minimise, or that it cannot change:
 * **usefulness** — parameters whose 1σ is too large to be of use, or undetermined;
   an accelerometer parameter whose 1σ costs more than its nominal value would
   rejects the calibration;
+* **directions the poses did not visit** — the 1σ of the calibrated ``|a|``
+  the fit's covariance predicts where no pose pointed (an axis never up or
+  down), against the noise floor ``validate`` judges by and its limits
+  (:func:`unvisited_sigma`): a calibration ``validate`` would reject there
+  is rejected now;
 * **the magnetometer** — the calibrated field's norm and its dip to gravity must be
   the same in every pose, and its direction must turn as the gyroscope says;
 * **finite numbers** — a NaN or infinite parameter or figure rejects: no limit trips on NaN.
@@ -41,6 +46,17 @@ residual against the noise floor, 3.5× and 5× on the cross-axis terms,
 over 10× on the 1σ, 1.5× on the over-fit check and 1.3× (zhang2021's 15
 accelerometer parameters on 31 poses) on poses per parameter; the real Xsens
 session is accepted by every method that models its sensor.
+
+The directions check sets no limit of its own: its figure is the ratio
+``validate`` would find on poses in the unvisited directions, judged by
+``validate``'s ``residual_to_noise_high``; its cone is the one
+:func:`imucalib.metrics.pose_coverage` advises by. Every good session above
+visits each axis up and down (figure 0), and so do the Xsens session's two
+halves. Its poses with ``|u_z| < 0.3`` predict 281× (``validate`` on the whole
+session finds 45×: rejected); the 30 hand-held sessions calibrated on their
+poses with ``|u_z| < 0.3`` are rejected (27) or suspect (3), their true ``|a|``
+with z up or down off by 7-5500× the floor
+(``python benchmarks/bench_coverage.py``).
 """
 
 from __future__ import annotations
@@ -51,15 +67,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from .constants import GRAVITY_RANGE
-from .fit.accelerometer import REDUCED_MODELS, fit_sphere
+from .fit.accelerometer import REDUCED_MODELS, accelerometer_covariance, fit_sphere, pose_covariance
 from .fit.magnetometer import WEAK_DIP_DEG
 from .methodinfo import needing
-from .metrics import gravity_direction_errors, interval_means, transition_bounds
+from .metrics import COVERAGE_CONE_DEG, gravity_direction_errors, gravity_noise_floor, interval_means, transition_bounds
 from .recording import Interval, Recording
+from .residuals import AccelLayout, gravity_norm_residuals
+from .solve import covariance
 
 __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibility", "plausible",
            "predicted_direction_error", "rest_noise", "rest_rates", "time_unit_hint", "turn_speed",
-           "white_noise_variance", "with_verdict"]
+           "unvisited_sigma", "white_noise_variance", "with_verdict"]
 
 LEVELS = ("accepted", "suspect", "rejected")
 
@@ -109,6 +127,11 @@ THRESHOLDS = {
     # than holding it at its nominal value would, makes the calibration worse than the nominal one: rejected
     # (2 % of g: the scale limit above, in the output's terms, for every kind of parameter)
     "parameter_effect_g": 0.02,
+    # a pose visits the gravity directions within this angle [deg] of its own (metrics.pose_coverage's cone: an
+    # axis never within it of up or down leaves that side to the other side alone, Ru 2022 §3.1); over the
+    # directions outside every pose's cone, the 1σ of the calibrated |a| the fit's covariance predicts is set
+    # against residual_to_noise_high, the limits validate judges a new recording by (unvisited_sigma)
+    "coverage_cone_deg": COVERAGE_CONE_DEG,
     # magnetometer: relative spread of the calibrated field's norm over the poses; spread of its dip [deg];
     # mean error of the field direction carried by the gyroscope from pose to pose [deg]. A good calibration
     # in a uniform field leaves ~0.1 % and ~0.05° (noise and the gyroscope's own error); a plain ellipsoid
@@ -602,6 +625,159 @@ def _gyroscope_bias_drift(calibration) -> list[Check]:
                      "drift, but another recording keeps the constant bias: take its bias from a rest of its own")]
 
 
+def _sphere_directions(n: int) -> np.ndarray:
+    """``n`` unit vectors spread evenly over the sphere (a Fibonacci lattice: equal areas, no pole crowding)."""
+    k = np.arange(n) + 0.5
+    z = 1 - 2 * k / n
+    phi = np.pi * (1 + np.sqrt(5.0)) * k
+    r = np.sqrt(1 - z * z)
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+
+
+#: the directions :func:`unvisited_sigma` evaluates the calibrated |a|'s 1σ at (4.5° apart on average)
+_SPHERE = _sphere_directions(2000)
+
+
+def _accelerometer_covariances(calibration, means: np.ndarray, floor: float
+                                ) -> tuple[AccelLayout, np.ndarray, np.ndarray]:
+    """The accelerometer's parameter layout and two covariances of the gravity-norm fit at ``means``.
+
+    The fit's: the covariance the methods' 1σ come from (:func:`imucalib.fit.accelerometer.pose_covariance`,
+    each pose's scatter from its own residual; a reduced model, ``fit["accelerometer_model"]``, has none on
+    the terms it holds). The noise's: ``floor² (JᵀJ)⁻¹`` of the model with every term
+    (:func:`imucalib.solve.covariance`, the Gauss–Markov covariance of least squares with pose errors of
+    variance ``floor²``): each pose mean's white noise alone, the least any pose carries, with the terms a
+    reduced model held at none counted as unknown. The fit's scatter comes from the ``M − P`` residual degrees
+    of freedom — none where the poses determine the parameters exactly, two or three on a thin session, where a
+    small χ² makes it arbitrarily small — so neither bounds the other. Both infinite on the diagonal of a
+    parameter the poses do not determine.
+    """
+    acc = calibration.accelerometer
+    g = calibration.gravity
+    order = 3 if np.any(acc.scale_cubic) else 2 if np.any(acc.scale_quadratic) else 1
+    layout = AccelLayout("upper", order)
+    r, j = gravity_norm_residuals(layout.pack(acc), layout, means, g, jacobian=True)
+    if order == 1:
+        name = (calibration.fit or {}).get("accelerometer_model")
+        row = next((r for r in REDUCED_MODELS if r[0] == name and name != "linear"), None)
+        fitted = accelerometer_covariance(acc, means, g, which=None if row is None else (row[0], row[2], row[3]))
+    else:
+        fitted, bad = pose_covariance(j, r)
+        fitted[bad, bad] = np.inf
+    noise, bad = covariance(j, np.full(len(means), floor), dof=len(means))
+    noise[bad, bad] = np.inf
+    return layout, fitted, noise
+
+
+def unvisited_sigma(calibration, recording: Recording, intervals: list[Interval]) -> dict | None:
+    """The 1σ of the calibrated ``|a|`` over the gravity directions no pose visited, against the noise floor.
+
+    A static pose visits the directions within :data:`THRESHOLDS` ``["coverage_cone_deg"]`` of its gravity
+    direction. An axis side (``+z``: z up) that no pose visits (:func:`imucalib.metrics.pose_coverage`: Ru 2022,
+    §3.1, each axis is calibrated from both orientations) leaves the directions in its cone that no pose's
+    cone reaches unvisited. Over those directions ``u`` of an even grid on the sphere, the raw reading ``x_u``
+    the calibration maps to ``g u`` and
+
+    ``σ(u)² = j(u)ᵀ C j(u)``,   ``j(u) = ∂‖h(x_u, θ)‖/∂θ``
+
+    (the delta method: first-order propagation of the parameters' covariance ``C`` through ``‖h‖``, the
+    norm of the accelerometer model ``h`` of Zhang 2021, eqs. (1)-(2), whose residual ``‖h(x_k, θ)‖ − g``
+    eq. (10) fits), with ``C`` the HC3 sandwich of the gravity-norm fit at the calibration's own parameters
+    (:func:`imucalib.fit.accelerometer.pose_covariance`; MacKinnon & White 1985), or the poses' white noise
+    alone where that gives more (``floor² (JᵀJ)⁻¹``: a fit with few residual degrees of freedom can
+    find a scatter below what the noise allows). ``σ(u)`` is the RMS of
+    the error ``‖h(x_u)‖ − g`` a pose in direction ``u`` would show, so ``σ(u)`` over the noise floor
+    (:func:`imucalib.metrics.gravity_noise_floor` on the calibration's poses, the floor ``validate``
+    divides the residual of a new recording by) is the ratio ``validate`` would find on poses there.
+
+    Returns
+    -------
+    dict or None
+        ``{"ratio", "sigma", "floor", "direction", "unvisited"}``: the largest ``σ(u)`` over the unvisited
+        directions [m/s²] and its ratio to the floor (infinite where a parameter the poses do not determine
+        moves ``|a|``), the floor [m/s²], that direction (unit vector) and the fraction of the sphere
+        unvisited; ``ratio`` 0 when every direction is visited. None with fewer than four poses, without a
+        noise floor, or for a polynomial model that does not invert over gravity's range.
+    """
+    if len(intervals) < 4:
+        return None
+    means = interval_means(recording.acc, intervals)
+    up = calibration.accelerometer_si(means)
+    up = up / np.linalg.norm(up, axis=1, keepdims=True)
+    lim = np.cos(np.radians(THRESHOLDS["coverage_cone_deg"]))
+    # the axis sides no pose points within the cone of (metrics.pose_coverage), and in their cones the
+    # directions no pose's cone reaches
+    sides = [(i, s) for i in range(3) for s in (1.0, -1.0) if np.max(s * up[:, i]) < lim]
+    cap = np.zeros(len(_SPHERE), dtype=bool)
+    for i, s in sides:
+        cap |= s * _SPHERE[:, i] >= lim
+    far = cap & (np.max(_SPHERE @ up.T, axis=1) < lim)
+    floor = gravity_noise_floor(calibration, recording, intervals)
+    if not floor > 0:
+        return None
+    if not np.any(far):
+        return {"ratio": 0.0, "sigma": 0.0, "floor": floor, "direction": None, "unvisited": 0.0}
+    u = _SPHERE[far]
+    try:
+        raw = calibration.accelerometer.inverse(calibration.gravity * u)
+    except ValueError:  # a polynomial the gravity's range does not invert: the model check says why
+        return None
+    layout, *covariances = _accelerometer_covariances(calibration, means, floor)
+    _, j = gravity_norm_residuals(layout.pack(calibration.accelerometer), layout, raw, calibration.gravity,
+                                  jacobian=True)
+    sigma = np.zeros(len(u))
+    for cov in covariances:
+        undetermined = ~np.isfinite(np.diag(cov))
+        finite = np.where(np.isfinite(cov), cov, 0.0)
+        s = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", j, finite, j), 0.0))
+        s[np.any(np.abs(j[:, undetermined]) > 0, axis=1)] = np.inf
+        sigma = np.maximum(sigma, s)
+    k = int(np.argmax(sigma))
+    return {"ratio": float(sigma[k] / floor), "sigma": float(sigma[k]), "floor": float(floor),
+            "direction": u[k].tolist(), "unvisited": float(np.mean(far))}
+
+
+def _unvisited(calibration, recording: Recording, intervals: list[Interval]) -> tuple[list[Check], dict]:
+    """Rejected when, in a direction no pose visited, the fit's own 1σ of ``|a|`` is what ``validate`` rejects.
+
+    The limits are ``validate``'s (:data:`THRESHOLDS` ``["residual_to_noise_high"]``): a calibration whose
+    ``|a|`` has, where the poses did not look, a 1σ above the rejecting limit × the noise floor would be
+    rejected by ``validate`` on a recording with poses there, so it is rejected now, naming the direction.
+    Above the suspect limit, suspect. No parameter is held at a nominal value instead: the combination the
+    poses leave undetermined mixes the axis's scale, bias and misalignment, and a nominal scale (the unit's
+    factor, or the other axes' mean for counts) is itself off by tenths of a per cent to per cents, far
+    above the floor, so the reduced model would fail the same test.
+    """
+    if calibration.accelerometer is None:
+        return [], {}
+    found = unvisited_sigma(calibration, recording, intervals)
+    if found is None:
+        return [], {}
+    # a JSON number, or None where a parameter the poses do not determine moves |a| there (an infinite 1σ)
+    figures = {"accelerometer_unvisited_sigma_to_noise": found["ratio"] if np.isfinite(found["ratio"]) else None}
+    limits = THRESHOLDS["residual_to_noise_high"]
+    level = _level(found["ratio"], limits)
+    if not level:
+        return [], figures
+    u = np.asarray(found["direction"])
+    i = int(np.argmax(np.abs(u)))
+    up = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    c = up[:, i] / np.linalg.norm(up, axis=1)
+    cone = THRESHOLDS["coverage_cone_deg"]
+    lim = np.cos(np.radians(cone))
+    both = c.max() < lim and c.min() > -lim
+    side = ("±" if both else "+" if u[i] > 0 else "−") + "xyz"[i]
+    where = "up or down" if both else "up" if u[i] > 0 else "down"
+    how = ("a parameter the poses do not determine moves |a| there" if not np.isfinite(found["ratio"]) else
+           f"the fit leaves |a| a 1σ of {found['sigma']:.2g} m/s² there, {found['ratio']:.3g}× the "
+           f"{found['floor']:.2g} m/s² noise floor validate judges by (limit {limits[level - 1]:g}×)")
+    text = (f"the poses do not visit {side} (the gravity direction's {'xyz'[i]} component spans {c.min():+.2f}.."
+            f"{c.max():+.2f}, none within {cone:g}° of {'xyz'[i]} {where}): {how}; with {'xyz'[i]} {where} the "
+            f"calibration {'would not' if level == 2 else 'may not'} hold: record poses with {'xyz'[i]} pointing "
+            f"{'up and down' if both else where}")
+    return [Check(level, text)], figures
+
+
 def _magnetometer(calibration) -> list[Check]:
     fit = calibration.fit or {}
     if fit.get("magnetometer_error"):
@@ -695,6 +871,10 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     checks += _redundancy(calibration, fitted)
     if fitted:
         checks += _usefulness(calibration)
+        if recording is not None:
+            unvisited_checks, unvisited_figures = _unvisited(calibration, recording, intervals)
+            checks += unvisited_checks
+            figures |= unvisited_figures
         if calibration.gyroscope is not None:
             checks += _rotations_used(calibration, intervals)
     if fit.get("accelerometer_model_reduced"):
@@ -704,8 +884,9 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
         why = fit.get("gyroscope_not_calibrated") or "no gyroscope (an accelerometer-only recording)"
         checks.append(Check(0, f"{why}; the calibration has no gyroscope, and the gyroscope checks are skipped"))
     elif recording is not None:
-        gyro_checks, figures = _gyroscope(calibration, recording, intervals)
+        gyro_checks, gyro_figures = _gyroscope(calibration, recording, intervals)
         checks += gyro_checks
+        figures |= gyro_figures
         if fitted:
             rest_checks, rest_figures = _rest_rate(calibration, recording, intervals)
             checks += rest_checks
