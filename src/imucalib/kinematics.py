@@ -210,17 +210,62 @@ def from_scipy(rotation) -> np.ndarray:
 
 # --------------------------------------------------------------------------- RK4
 def _qmul_soa(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product of quaternions stored component-first, shape (4, ...)."""
+    """Hamilton product of quaternions stored component-first, shape (4, ...).
+
+    Written into one output with one reused temporary (the terms in the order
+    of :func:`quat_multiply`, so the same numbers): the integrators call it on
+    many small arrays, where allocations cost as much as the arithmetic.
+    """
     pw, px, py, pz = p
     qw, qx, qy, qz = q
-    return np.stack(
-        [
-            pw * qw - px * qx - py * qy - pz * qz,
-            pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw,
-        ]
-    )
+    out = np.empty((4, *np.broadcast_shapes(pw.shape, qw.shape)))
+    t = np.empty(out.shape[1:])
+    w, x, y, z = out
+    mul = np.multiply
+    mul(pw, qw, out=w)
+    w -= mul(px, qx, out=t)
+    w -= mul(py, qy, out=t)
+    w -= mul(pz, qz, out=t)
+    mul(pw, qx, out=x)
+    x += mul(px, qw, out=t)
+    x += mul(py, qz, out=t)
+    x -= mul(pz, qy, out=t)
+    mul(pw, qy, out=y)
+    y -= mul(px, qz, out=t)
+    y += mul(py, qw, out=t)
+    y += mul(pz, qx, out=t)
+    mul(pw, qz, out=z)
+    z += mul(px, qy, out=t)
+    z -= mul(py, qx, out=t)
+    z += mul(pz, qw, out=t)
+    return out
+
+
+def _weighted_rotations_soa(q: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """``weight · R(q)`` for quaternions stored component-first (4, ..., L) and weights (..., L).
+
+    Returns an (..., L, 3, 3) view of an array laid out (..., 3, L, 3), so that
+    one quaternion sequence's matrices side by side, ``[A_0 A_1 …]`` (3, 3L),
+    are contiguous rows (:meth:`IntervalIntegrator.weighted_sum`). The numbers
+    are those of ``quat_to_matrix(np.moveaxis(q, 0, -1)) * weight[..., None, None]``
+    (the same normalisation and terms, Zhang 2021, eq. 13), formed from
+    contiguous components instead of strided ones.
+    """
+    w, x, y, z = q
+    norm = np.sqrt(w * w + x * x + y * y + z * z)
+    w, x, y, z = w / norm, x / norm, y / norm, z / norm
+    r = np.empty(w.shape[:-1] + (3, w.shape[-1], 3))
+    r[..., 0, :, 0] = 1 - 2 * (y * y + z * z)
+    r[..., 0, :, 1] = 2 * (x * y - w * z)
+    r[..., 0, :, 2] = 2 * (x * z + w * y)
+    r[..., 1, :, 0] = 2 * (x * y + w * z)
+    r[..., 1, :, 1] = 1 - 2 * (x * x + z * z)
+    r[..., 1, :, 2] = 2 * (y * z - w * x)
+    r[..., 2, :, 0] = 2 * (x * z - w * y)
+    r[..., 2, :, 1] = 2 * (y * z + w * x)
+    r[..., 2, :, 2] = 1 - 2 * (x * x + y * y)
+    r *= weight[..., None, :, None]
+    return np.swapaxes(r, -3, -2)
 
 
 def _cross_soa(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -610,8 +655,7 @@ class IntervalIntegrator:
             att = np.empty((4, m, width + 1))
             att[:, :, 0] = _IDENTITY[:, None]
             att[:, :, 1:] = pre
-            rot = quat_to_matrix(np.moveaxis(att, 0, -1))
-            rot *= trapezoid[:, :, None, None]
+            rot = _weighted_rotations_soa(att, trapezoid)
             q_end[members] = pre[:, :, -1].T
             for i, k in enumerate(members):
                 weights.items[k] = rot[i, : self._nsteps[k] + 1]
@@ -737,9 +781,7 @@ class _SensitivityWeights:
         item = self.items[m]
         if item is not None:
             return item[start:stop]
-        rot = quat_to_matrix(self.attitudes(m, start, stop).T)
-        rot *= self.integrator._trapezoid(m)[start:stop, None, None]
-        return rot
+        return _weighted_rotations_soa(self.attitudes(m, start, stop), self.integrator._trapezoid(m)[start:stop])
 
 
 def five_point_derivative(x: np.ndarray, dt: float) -> np.ndarray:
