@@ -199,14 +199,16 @@ def _variance_norm_rows(x: np.ndarray, centre: np.ndarray, half: int, a: int, b:
 
     The running sums start at the blocks of :data:`BLOCK` samples counted from
     sample 0 whatever ``a`` is, so any split of a record into spans gives the
-    statistic of the whole-record pass bit for bit.
+    statistic of the whole-record pass bit for bit; they stop at the last
+    window the span reads (a running sum's first terms do not depend on where
+    it stops), so a span costs what lies between its block's start and its end.
     """
     n = x.shape[0]
     s = a
     while s < b:
         anchor = s - s % BLOCK
         e = min(anchor + BLOCK, b)
-        var = _block_variance(x, centre, s, e, max(anchor - half, 0), min(anchor + BLOCK + half, n), half)
+        var = _block_variance(x, centre, s, e, max(anchor - half, 0), min(e + half, n), half)
         out[s - a:e - a] = np.sqrt(np.einsum("ij,ij->i", var, var))
         s = e
 
@@ -349,11 +351,24 @@ def _first_motion(recording: Recording, win: int, n_level: int, factor: float) -
     for signal in (recording.acc, recording.gyro):
         if signal is None:
             continue
-        stat = variance_norm(signal, win)
-        level = float(np.median(stat[:n_level]))
-        moving = np.nonzero(stat > factor * max(level, np.finfo(float).tiny))[0]
-        if moving.size:
-            first = min(first, int(moving[0]))
+        # the statistic of :func:`variance_norm`, formed span by span (the same numbers) only as far as the
+        # search reads it: the level's samples, then spans of doubling length up to the first movement
+        x = np.asarray(signal, dtype=np.float64)
+        x = x[:, None] if x.ndim == 1 else x
+        half, centre = max(int(win) // 2, 1), x.mean(axis=0)
+        stat = np.empty(x.shape[0])
+        a, b = 0, min(max(n_level, 1), x.shape[0])
+        _variance_norm_rows(x, centre, half, a, b, stat[a:b])
+        threshold = factor * max(float(np.median(stat[:n_level])), np.finfo(float).tiny)
+        while True:
+            moving = np.nonzero(stat[a:b] > threshold)[0]
+            if moving.size:
+                first = min(first, a + int(moving[0]))
+                break
+            if b >= min(x.shape[0], first):  # the end, or past the first movement the other sensor showed
+                break
+            a, b = b, min(x.shape[0], b + max(b, 4096))
+            _variance_norm_rows(x, centre, half, a, b, stat[a:b])
     return first
 
 
