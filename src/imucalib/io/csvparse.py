@@ -9,7 +9,7 @@ parser:
 * a whitespace-separated table of numbers written with fixed widths (every
   line the same length, as MATLAB and many loggers write them, imu_tk's files
   among them) by array arithmetic over its bytes (:func:`_fixed_chunk`:
-  the correctly rounded numbers, 3–4 times as fast as ``numpy.loadtxt``);
+  the correctly rounded numbers, about 3.5 times as fast as ``numpy.loadtxt``);
 * ``numpy.loadtxt`` (numpy ≥ 1.23 parses in C) always;
 * pandas' C parser (``pandas.read_csv(engine="c")``) for large files when
   pandas is installed (the ``pandas`` extra).
@@ -542,19 +542,27 @@ def _fixed_cell(cells: np.ndarray, first: np.ndarray, digit: np.ndarray, sign: n
             i += 1
         if i >= n or not digit[i:].all() or n - i > 3:
             return None
-        powers = 10 ** np.arange(n - i - 1, -1, -1)
-        exponent = (cells[:, i:].astype(np.int64) - 48) @ powers
+        exponent = np.zeros(cells.shape[0], dtype=np.int64)
+        for k in range(i, n):
+            exponent *= 10
+            exponent += cells[:, k]
+            exponent -= 48
         if exp_negative is not None:
-            exponent = np.where(exp_negative, -exponent, exponent)
-    powers = 10 ** np.arange(len(mant) - 1, -1, -1, dtype=np.int64)
-    m = ((cells[:, mant].astype(np.int64) - 48) @ powers).astype(np.float64)  # exact: below 2⁵³
-    e = -scale if exponent is None else exponent - scale
-    e = np.broadcast_to(np.asarray(e, dtype=np.int64), m.shape)
-    if np.any(np.abs(e) > 22):
+            np.negative(exponent, out=exponent, where=exp_negative)
+    # the digits' weighted sum: integers below 2⁵³ at every step, so exact in float64 whatever the order of the sum
+    m = (cells[:, mant] - 48).astype(np.float64) @ _POW10[len(mant) - 1 :: -1]
+    e = np.asarray(-scale if exponent is None else exponent - scale)
+    low, high = int(e.min()), int(e.max())
+    if low < -22 or high > 22:
         return None
-    value = np.where(e >= 0, m * _POW10[np.maximum(e, 0)], m / _POW10[np.maximum(-e, 0)])
+    if high <= 0:  # m / 10^−e: one correctly rounded division of exact numbers
+        value = m / _POW10[-e]
+    elif low >= 0:
+        value = m * _POW10[e]
+    else:
+        value = np.where(e >= 0, m * _POW10[np.maximum(e, 0)], m / _POW10[np.maximum(-e, 0)])
     if negative is not None:
-        value[negative] = -value[negative]
+        np.negative(value, out=value, where=negative)
     return value
 
 
