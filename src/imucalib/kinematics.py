@@ -339,6 +339,26 @@ def _tree_product_soa(f: np.ndarray) -> np.ndarray:
     return f[..., 0]
 
 
+def _tree_products_by_width(f: np.ndarray, gathers: list[np.ndarray]) -> np.ndarray:
+    """:func:`_tree_product_soa` of ``f[:, g]`` for each column layout ``g`` (widths powers of two, widest first),
+    (4, rows of all of them) in that order.
+
+    The widest are paired level by level until they are as narrow as the next
+    ones, then both go on together: every row is paired exactly as on its own
+    (the same numbers), with one set of products per level instead of one per
+    width.
+    """
+    out = None
+    for gather in gathers:
+        part = f[:, gather]
+        if out is not None:
+            while out.shape[-1] > part.shape[-1]:
+                out = _qmul_soa(out[..., 0::2], out[..., 1::2])
+            part = np.concatenate([out, part], axis=1)
+        out = part
+    return _tree_product_soa(out)
+
+
 def _prefix_product_soa(f: np.ndarray, carry: np.ndarray | None = None) -> np.ndarray:
     """Inclusive ordered prefix products along the last axis of (4, ..., L), L a power of two.
 
@@ -608,8 +628,9 @@ class IntervalIntegrator:
         """
         s = self.step_factors(rates) if steps is None else steps
         q = np.empty((len(self.starts), 4))
-        for members, gather, _ in self._groups:
-            q[members] = _tree_product_soa(s[:, gather]).T
+        if self._groups:
+            order = np.concatenate([members for members, _, _ in reversed(self._groups)])
+            q[order] = _tree_products_by_width(s, [gather for _, gather, _ in reversed(self._groups)]).T
         if self._long.size:
             products = np.empty((4, self._block_step0.size))
             for a, b, gather in self._block_chunks():
