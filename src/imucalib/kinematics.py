@@ -382,6 +382,36 @@ def _prefix_product_soa(f: np.ndarray, carry: np.ndarray | None = None) -> np.nd
     return out
 
 
+def _prefix_products_by_width(fs: list[np.ndarray]) -> list[np.ndarray]:
+    """:func:`_prefix_product_soa` of each (4, m_i, W_i) of ``fs`` (widths powers of two, widest first).
+
+    The recursion pairs the widest alone until they are as narrow as the next
+    ones, then goes on with both together: every row's products are those it
+    has on its own (the same numbers), with one set of products per level
+    instead of one per width.
+    """
+    width = fs[0].shape[-1]
+    k = 1
+    while k < len(fs) and fs[k].shape[-1] == width:
+        k += 1
+    f = fs[0] if k == 1 else np.concatenate(fs[:k], axis=1)
+    rest = fs[k:]
+    if width == 1:
+        out, inner = f.copy(), []
+    else:
+        if width % 2:
+            raise ValueError("the prefix product needs a power-of-two length")
+        pairs, *inner = _prefix_products_by_width([_qmul_soa(f[..., 0::2], f[..., 1::2]), *rest])
+        out = np.empty_like(f)
+        out[..., 1::2] = pairs
+        out[..., 0] = f[..., 0]
+        out[..., 2::2] = _qmul_soa(pairs[..., :-1], f[..., 2::2])
+    if k == 1:
+        return [out, *inner]
+    rows = np.cumsum([g.shape[1] for g in fs[:k]])[:-1]
+    return [*np.split(out, rows, axis=1), *inner]
+
+
 def _tree_product(f: np.ndarray) -> np.ndarray:
     """Ordered product along axis -2 of (..., L, 4)."""
     return np.moveaxis(_tree_product_soa(np.moveaxis(f, -1, 0)), 0, -1)
@@ -670,8 +700,9 @@ class IntervalIntegrator:
         s = self.step_factors(rates) if steps is None else steps
         q_end = np.empty((len(self.starts), 4))
         weights = _SensitivityWeights(self)
-        for members, gather, trapezoid in self._groups:
-            pre = _prefix_product_soa(s[:, gather])  # attitude after each step
+        groups = self._groups[::-1]  # widest first
+        prefixes = _prefix_products_by_width([s[:, gather] for _, gather, _ in groups]) if groups else []
+        for (members, _, trapezoid), pre in zip(groups, prefixes, strict=True):  # pre: the attitude after each step
             m, width = pre.shape[1], pre.shape[2]
             att = np.empty((4, m, width + 1))
             att[:, :, 0] = _IDENTITY[:, None]
