@@ -210,17 +210,62 @@ def from_scipy(rotation) -> np.ndarray:
 
 # --------------------------------------------------------------------------- RK4
 def _qmul_soa(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product of quaternions stored component-first, shape (4, ...)."""
+    """Hamilton product of quaternions stored component-first, shape (4, ...).
+
+    Written into one output with one reused temporary (the terms in the order
+    of :func:`quat_multiply`, so the same numbers): the integrators call it on
+    many small arrays, where allocations cost as much as the arithmetic.
+    """
     pw, px, py, pz = p
     qw, qx, qy, qz = q
-    return np.stack(
-        [
-            pw * qw - px * qx - py * qy - pz * qz,
-            pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw,
-        ]
-    )
+    out = np.empty((4, *np.broadcast_shapes(pw.shape, qw.shape)))
+    t = np.empty(out.shape[1:])
+    w, x, y, z = out
+    mul = np.multiply
+    mul(pw, qw, out=w)
+    w -= mul(px, qx, out=t)
+    w -= mul(py, qy, out=t)
+    w -= mul(pz, qz, out=t)
+    mul(pw, qx, out=x)
+    x += mul(px, qw, out=t)
+    x += mul(py, qz, out=t)
+    x -= mul(pz, qy, out=t)
+    mul(pw, qy, out=y)
+    y -= mul(px, qz, out=t)
+    y += mul(py, qw, out=t)
+    y += mul(pz, qx, out=t)
+    mul(pw, qz, out=z)
+    z += mul(px, qy, out=t)
+    z -= mul(py, qx, out=t)
+    z += mul(pz, qw, out=t)
+    return out
+
+
+def _weighted_rotations_soa(q: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """``weight · R(q)`` for quaternions stored component-first (4, ..., L) and weights (..., L).
+
+    Returns an (..., L, 3, 3) view of an array laid out (..., 3, L, 3), so that
+    one quaternion sequence's matrices side by side, ``[A_0 A_1 …]`` (3, 3L),
+    are contiguous rows (:meth:`IntervalIntegrator.weighted_sum`). The numbers
+    are those of ``quat_to_matrix(np.moveaxis(q, 0, -1)) * weight[..., None, None]``
+    (the same normalisation and terms, Zhang 2021, eq. 13), formed from
+    contiguous components instead of strided ones.
+    """
+    w, x, y, z = q
+    norm = np.sqrt(w * w + x * x + y * y + z * z)
+    w, x, y, z = w / norm, x / norm, y / norm, z / norm
+    r = np.empty(w.shape[:-1] + (3, w.shape[-1], 3))
+    r[..., 0, :, 0] = 1 - 2 * (y * y + z * z)
+    r[..., 0, :, 1] = 2 * (x * y - w * z)
+    r[..., 0, :, 2] = 2 * (x * z + w * y)
+    r[..., 1, :, 0] = 2 * (x * y + w * z)
+    r[..., 1, :, 1] = 1 - 2 * (x * x + z * z)
+    r[..., 1, :, 2] = 2 * (y * z - w * x)
+    r[..., 2, :, 0] = 2 * (x * z - w * y)
+    r[..., 2, :, 1] = 2 * (y * z + w * x)
+    r[..., 2, :, 2] = 1 - 2 * (x * x + y * y)
+    r *= weight[..., None, :, None]
+    return np.swapaxes(r, -3, -2)
 
 
 def _cross_soa(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -294,6 +339,26 @@ def _tree_product_soa(f: np.ndarray) -> np.ndarray:
     return f[..., 0]
 
 
+def _tree_products_by_width(f: np.ndarray, gathers: list[np.ndarray]) -> np.ndarray:
+    """:func:`_tree_product_soa` of ``f[:, g]`` for each column layout ``g`` (widths powers of two, widest first),
+    (4, rows of all of them) in that order.
+
+    The widest are paired level by level until they are as narrow as the next
+    ones, then both go on together: every row is paired exactly as on its own
+    (the same numbers), with one set of products per level instead of one per
+    width.
+    """
+    out = None
+    for gather in gathers:
+        part = f[:, gather]
+        if out is not None:
+            while out.shape[-1] > part.shape[-1]:
+                out = _qmul_soa(out[..., 0::2], out[..., 1::2])
+            part = np.concatenate([out, part], axis=1)
+        out = part
+    return _tree_product_soa(out)
+
+
 def _prefix_product_soa(f: np.ndarray, carry: np.ndarray | None = None) -> np.ndarray:
     """Inclusive ordered prefix products along the last axis of (4, ..., L), L a power of two.
 
@@ -315,6 +380,36 @@ def _prefix_product_soa(f: np.ndarray, carry: np.ndarray | None = None) -> np.nd
     out[..., 0] = f[..., 0] if carry is None else _qmul_soa(carry, f[..., 0])
     out[..., 2::2] = _qmul_soa(pairs[..., :-1], f[..., 2::2])
     return out
+
+
+def _prefix_products_by_width(fs: list[np.ndarray]) -> list[np.ndarray]:
+    """:func:`_prefix_product_soa` of each (4, m_i, W_i) of ``fs`` (widths powers of two, widest first).
+
+    The recursion pairs the widest alone until they are as narrow as the next
+    ones, then goes on with both together: every row's products are those it
+    has on its own (the same numbers), with one set of products per level
+    instead of one per width.
+    """
+    width = fs[0].shape[-1]
+    k = 1
+    while k < len(fs) and fs[k].shape[-1] == width:
+        k += 1
+    f = fs[0] if k == 1 else np.concatenate(fs[:k], axis=1)
+    rest = fs[k:]
+    if width == 1:
+        out, inner = f.copy(), []
+    else:
+        if width % 2:
+            raise ValueError("the prefix product needs a power-of-two length")
+        pairs, *inner = _prefix_products_by_width([_qmul_soa(f[..., 0::2], f[..., 1::2]), *rest])
+        out = np.empty_like(f)
+        out[..., 1::2] = pairs
+        out[..., 0] = f[..., 0]
+        out[..., 2::2] = _qmul_soa(pairs[..., :-1], f[..., 2::2])
+    if k == 1:
+        return [out, *inner]
+    rows = np.cumsum([g.shape[1] for g in fs[:k]])[:-1]
+    return [*np.split(out, rows, axis=1), *inner]
 
 
 def _tree_product(f: np.ndarray) -> np.ndarray:
@@ -563,8 +658,9 @@ class IntervalIntegrator:
         """
         s = self.step_factors(rates) if steps is None else steps
         q = np.empty((len(self.starts), 4))
-        for members, gather, _ in self._groups:
-            q[members] = _tree_product_soa(s[:, gather]).T
+        if self._groups:
+            order = np.concatenate([members for members, _, _ in reversed(self._groups)])
+            q[order] = _tree_products_by_width(s, [gather for _, gather, _ in reversed(self._groups)]).T
         if self._long.size:
             products = np.empty((4, self._block_step0.size))
             for a, b, gather in self._block_chunks():
@@ -604,14 +700,14 @@ class IntervalIntegrator:
         s = self.step_factors(rates) if steps is None else steps
         q_end = np.empty((len(self.starts), 4))
         weights = _SensitivityWeights(self)
-        for members, gather, trapezoid in self._groups:
-            pre = _prefix_product_soa(s[:, gather])  # attitude after each step
+        groups = self._groups[::-1]  # widest first
+        prefixes = _prefix_products_by_width([s[:, gather] for _, gather, _ in groups]) if groups else []
+        for (members, _, trapezoid), pre in zip(groups, prefixes, strict=True):  # pre: the attitude after each step
             m, width = pre.shape[1], pre.shape[2]
             att = np.empty((4, m, width + 1))
             att[:, :, 0] = _IDENTITY[:, None]
             att[:, :, 1:] = pre
-            rot = quat_to_matrix(np.moveaxis(att, 0, -1))
-            rot *= trapezoid[:, :, None, None]
+            rot = _weighted_rotations_soa(att, trapezoid)
             q_end[members] = pre[:, :, -1].T
             for i, k in enumerate(members):
                 weights.items[k] = rot[i, : self._nsteps[k] + 1]
@@ -737,9 +833,7 @@ class _SensitivityWeights:
         item = self.items[m]
         if item is not None:
             return item[start:stop]
-        rot = quat_to_matrix(self.attitudes(m, start, stop).T)
-        rot *= self.integrator._trapezoid(m)[start:stop, None, None]
-        return rot
+        return _weighted_rotations_soa(self.attitudes(m, start, stop), self.integrator._trapezoid(m)[start:stop])
 
 
 def five_point_derivative(x: np.ndarray, dt: float) -> np.ndarray:

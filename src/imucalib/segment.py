@@ -110,18 +110,43 @@ def _window_bounds(a: int, b: int, lo: int, half: int, n: int) -> tuple[np.ndarr
     return np.clip(idx - half, 0, n) - lo, np.clip(idx + half + 1, 0, n) - lo
 
 
+def _window_diff(c: np.ndarray, a: int, b: int, lo: int, half: int, n: int) -> np.ndarray:
+    """``c[whi] − c[wlo]`` for the windows of :func:`_window_bounds` (running sums ``c`` from sample ``lo``).
+
+    The rows whose window is not truncated are one subtraction of two slices
+    (no gathered copies of ``c``); the few at the record's ends are gathered.
+    """
+    out = np.empty((b - a,) + c.shape[1:])
+    m0, m1 = max(a, half), min(b, n - half)  # samples whose window lies inside the record
+    if m1 <= m0:
+        m0 = m1 = b
+    np.subtract(c[m0 + half + 1 - lo : m1 + half + 1 - lo], c[m0 - half - lo : m1 - half - lo],
+                out=out[m0 - a : m1 - a])
+    for s, e in ((a, m0), (m1, b)):
+        if e > s:
+            wlo, whi = _window_bounds(s, e, lo, half, n)
+            out[s - a : e - a] = c[whi] - c[wlo]
+    return out
+
+
 def _block_variance(x: np.ndarray, centre: np.ndarray, a: int, b: int, lo: int, hi: int, half: int) -> np.ndarray:
     """Population variance over the centred window of each sample of ``[a, b)``, per column (running sums)."""
     seg = x[lo:hi] - centre  # centred for a numerically safe running sum of squares
-    c1 = np.zeros((seg.shape[0] + 1, seg.shape[1]))
-    c2 = np.zeros_like(c1)
+    c1 = np.empty((seg.shape[0] + 1, seg.shape[1]))
+    c2 = np.empty_like(c1)
+    c1[0] = c2[0] = 0.0
     np.cumsum(seg, axis=0, out=c1[1:])
     np.square(seg, out=seg)
     np.cumsum(seg, axis=0, out=c2[1:])
-    wlo, whi = _window_bounds(a, b, lo, half, x.shape[0])
+    del seg
+    n = x.shape[0]
+    wlo, whi = _window_bounds(a, b, lo, half, n)
     cnt = (whi - wlo)[:, None].astype(np.float64)
-    mean = (c1[whi] - c1[wlo]) / cnt
-    var = (c2[whi] - c2[wlo]) / cnt - mean * mean
+    mean = _window_diff(c1, a, b, lo, half, n)
+    mean /= cnt
+    var = _window_diff(c2, a, b, lo, half, n)
+    var /= cnt
+    var -= np.multiply(mean, mean, out=mean)
     return np.maximum(var, 0.0, out=var)
 
 
@@ -174,14 +199,16 @@ def _variance_norm_rows(x: np.ndarray, centre: np.ndarray, half: int, a: int, b:
 
     The running sums start at the blocks of :data:`BLOCK` samples counted from
     sample 0 whatever ``a`` is, so any split of a record into spans gives the
-    statistic of the whole-record pass bit for bit.
+    statistic of the whole-record pass bit for bit; they stop at the last
+    window the span reads (a running sum's first terms do not depend on where
+    it stops), so a span costs what lies between its block's start and its end.
     """
     n = x.shape[0]
     s = a
     while s < b:
         anchor = s - s % BLOCK
         e = min(anchor + BLOCK, b)
-        var = _block_variance(x, centre, s, e, max(anchor - half, 0), min(anchor + BLOCK + half, n), half)
+        var = _block_variance(x, centre, s, e, max(anchor - half, 0), min(e + half, n), half)
         out[s - a:e - a] = np.sqrt(np.einsum("ij,ij->i", var, var))
         s = e
 
@@ -324,11 +351,24 @@ def _first_motion(recording: Recording, win: int, n_level: int, factor: float) -
     for signal in (recording.acc, recording.gyro):
         if signal is None:
             continue
-        stat = variance_norm(signal, win)
-        level = float(np.median(stat[:n_level]))
-        moving = np.nonzero(stat > factor * max(level, np.finfo(float).tiny))[0]
-        if moving.size:
-            first = min(first, int(moving[0]))
+        # the statistic of :func:`variance_norm`, formed span by span (the same numbers) only as far as the
+        # search reads it: the level's samples, then spans of doubling length up to the first movement
+        x = np.asarray(signal, dtype=np.float64)
+        x = x[:, None] if x.ndim == 1 else x
+        half, centre = max(int(win) // 2, 1), x.mean(axis=0)
+        stat = np.empty(x.shape[0])
+        a, b = 0, min(max(n_level, 1), x.shape[0])
+        _variance_norm_rows(x, centre, half, a, b, stat[a:b])
+        threshold = factor * max(float(np.median(stat[:n_level])), np.finfo(float).tiny)
+        while True:
+            moving = np.nonzero(stat[a:b] > threshold)[0]
+            if moving.size:
+                first = min(first, a + int(moving[0]))
+                break
+            if b >= min(x.shape[0], first):  # the end, or past the first movement the other sensor showed
+                break
+            a, b = b, min(x.shape[0], b + max(b, 4096))
+            _variance_norm_rows(x, centre, half, a, b, stat[a:b])
     return first
 
 
@@ -461,10 +501,13 @@ def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int) -> np.ndarray:
     for s in range(a, b, BLOCK):
         e = min(s + BLOCK, b)
         lo, hi = max(s - half, 0), min(e + half, n)
-        c = np.zeros((hi - lo + 1, x.shape[1]))
+        c = np.empty((hi - lo + 1, x.shape[1]))
+        c[0] = 0.0
         np.cumsum(x[lo:hi] - ref, axis=0, out=c[1:])
         wlo, whi = _window_bounds(s, e, lo, half, n)
-        out[s - a:e - a] = (c[whi] - c[wlo]) / (whi - wlo)[:, None] + ref
+        part = _window_diff(c, s, e, lo, half, n)
+        part /= (whi - wlo)[:, None]
+        out[s - a:e - a] = part + ref
     return out
 
 

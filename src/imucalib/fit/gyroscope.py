@@ -665,10 +665,14 @@ def _g_sensitivity_jacobian(recording, intervals, accelerometer, static: StaticG
     m, b = theta[:9].reshape(3, 3), theta[9:12]
     dr = theta[12:15] if static.drift is not None else np.zeros(3)
     v = raw - b - tau[:, None] * dr
-    d = np.zeros((raw.shape[0], 3, 9))
-    for i in range(3):
-        for j in range(3):
-            d[:, :, 3 * i + j] = -m[None, :, i] * a_s[:, j, None]
+
+    def d(lo: int, hi: int) -> np.ndarray:  # ∂ω/∂G of samples lo … hi − 1: no (S, 3, 9) array of every sample
+        out = np.empty((hi - lo, 3, 9))
+        for i in range(3):
+            for j in range(3):
+                out[:, :, 3 * i + j] = -m[None, :, i] * a_s[lo:hi, j, None]
+        return out
+
     w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
     j_rot = gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1] * w[:, None]
     mm = len(static.means)

@@ -29,13 +29,16 @@ import os
 import re
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..recording import ImucalibWarning, Recording
-from . import bagraw
 from .atomic import atomic_create
 from .errors import ReaderError
+
+if TYPE_CHECKING:
+    from . import bagraw
 
 __all__ = ["MAG_TYPE", "add_magnetic_field", "is_rosbag", "read_rosbag", "write_calibrated_bag"]
 
@@ -127,6 +130,7 @@ def _storage_files(path: Path, suffix: str) -> list[Path]:
 
 def _fast_blocks(reader, path: Path, topic: str):
     """Raw blocks from the bag's own indexes (:mod:`.bagraw`), or None when this bag needs rosbags' reader."""
+    from . import bagraw  # the bag's own index readers: loaded when a bag is read
     if not reader.is2:
         index = reader.index if isinstance(reader, _LightBag) else bagraw.ros1_index(path)
         return None if index is None else bagraw.ros1_blocks(path, index, topic)
@@ -158,6 +162,7 @@ class _LightBag:
 def _open_for_reading(path: Path):
     """A light reader for an indexed ROS 1 bag or an uncompressed SQLite rosbag2 whose IMU topics are
     standard, else rosbags' own reader."""
+    from . import bagraw  # the bag's own index readers: loaded when a bag is read
     try:
         import rosbags.highlevel  # noqa: F401  (the reader of everything else; the same extra)
         from rosbags.typesys import Stores, get_typestore
@@ -180,6 +185,7 @@ def _open_for_reading(path: Path):
 
 def _library_blocks(reader, conns, seen: list[int] | None = None):
     """Raw blocks through rosbags' own iteration (any bag it reads); ``seen[0]`` counts the messages met."""
+    from . import bagraw  # the bag's own index readers: loaded when a bag is read
     seen = [0] if seen is None else seen
     raws, logged = [], []
     for _conn, log_ns, raw in reader.messages(connections=conns):
@@ -196,6 +202,7 @@ def _library_blocks(reader, conns, seen: list[int] | None = None):
 def _decoded(reader, block: bagraw.Block, msgtype: str, first: int, path: Path, topic: str) -> bagraw.ImuBlock:
     """The block's readings: numpy over the fixed layout, checked against the deserialiser on its first and
     last message; message by message through the deserialiser when the layout is not the standard one."""
+    from . import bagraw  # the bag's own index readers: loaded when a bag is read
     fast = bagraw.decode_imu(block, not reader.is2)
     if fast is not None:
         try:

@@ -1,0 +1,60 @@
+"""Windowed statistics formed in pieces give the numbers of the whole-record pass, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from imucalib import segment
+from imucalib.recording import Recording
+
+
+def _first_motion_whole(recording: Recording, win: int, n_level: int, factor: float) -> int:
+    """The definition: the statistic of the whole record, its median over ``n_level`` samples, the first exceedance."""
+    first = len(recording)
+    for signal in (recording.acc, recording.gyro):
+        if signal is None:
+            continue
+        stat = segment.variance_norm(signal, win)
+        level = float(np.median(stat[:n_level]))
+        moving = np.nonzero(stat > factor * max(level, np.finfo(float).tiny))[0]
+        if moving.size:
+            first = min(first, int(moving[0]))
+    return first
+
+
+@pytest.mark.parametrize("n", [5, 700, 70_000, 140_001])
+@pytest.mark.parametrize("window", [1, 3, 101, 2001])
+def test_variance_norm_in_any_spans_is_the_whole_pass(n: int, window: int) -> None:
+    rng = np.random.default_rng(n + window)
+    x = rng.normal(size=(n, 3)) * 100 + 3e4
+    whole = segment.variance_norm(x, window)
+    cuts = sorted({0, n, *rng.integers(0, n, size=6).tolist()})
+    parts = np.empty(n)
+    for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+        segment._variance_norm_rows(x, x.mean(axis=0), max(window // 2, 1), a, b, parts[a:b])
+    assert np.array_equal(parts, whole)
+    # the moving variance's windows inside the record come from slices, those at its ends are gathered: both
+    # are E[x²] − E[x]² over the truncated window
+    var = segment.moving_variance(x, window)
+    half = max(window // 2, 1)
+    for i in {0, n // 2, n - 1}:
+        w = x[max(i - half, 0) : min(i + half + 1, n)]
+        np.testing.assert_allclose(var[i], w.var(axis=0), rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.parametrize("acc_moves, gyro_moves", [(150_000, 250_000), (250_000, 150_000), (None, 9000),
+                                                   (3000, None), (None, None), (10, 20)])
+def test_first_motion_reads_the_statistic_only_as_far_as_it_needs(acc_moves, gyro_moves) -> None:
+    rng = np.random.default_rng(1)
+    n = 300_000
+    acc, gyro = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    if acc_moves is not None:
+        acc[acc_moves:] *= 50
+    if gyro_moves is not None:
+        gyro[gyro_moves:] *= 50
+    rec = Recording(np.arange(n) * 1e-3, acc, gyro)
+    for win, n_level, factor in [(101, 1000, 3.0), (11, 7, 2.0), (2001, 5000, 10.0)]:
+        assert segment._first_motion(rec, win, n_level, factor) == _first_motion_whole(rec, win, n_level, factor)
+    alone = Recording(np.arange(n) * 1e-3, acc, None)
+    assert segment._first_motion(alone, 101, 1000, 3.0) == _first_motion_whole(alone, 101, 1000, 3.0)
