@@ -31,6 +31,16 @@ def _text(t, a, g, sep=",", fmt=repr, header="t,ax,ay,az,gx,gy,gz", end="\n"):
     return end.join(lines) + end
 
 
+def _read_peak(path):
+    """The recording read from ``path`` and the peak memory [bytes] traced while reading it."""
+    tracemalloc.start()
+    try:
+        rec = read(path)
+        return rec, tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
 def test_engines_read_the_same_doubles(tmp_path, engine):
     t, a, g = _table()
     path = tmp_path / "d.csv"
@@ -145,12 +155,7 @@ def test_reading_streams_into_the_recording_arrays(tmp_path, monkeypatch):
     path.write_text(_text(t, a, g))
     size = path.stat().st_size
     arrays = 7 * 8 * len(t)  # t, acc, gyro in float64
-    tracemalloc.start()
-    try:
-        rec = read(path)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    rec, peak = _read_peak(path)
     assert len(rec) == len(t)
     # the arrays, one chunk of text and what the C parser makes of it; the whole text alone is 2× the arrays
     assert size > 1.5 * arrays
@@ -234,12 +239,7 @@ def test_gzip_streams_in_bounded_memory(tmp_path, monkeypatch):
     size = path.stat().st_size
     path.unlink()
     arrays = 7 * 8 * len(t)
-    tracemalloc.start()
-    try:
-        rec = read(packed)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    rec, peak = _read_peak(packed)
     np.testing.assert_array_equal(rec.t, t)
     np.testing.assert_array_equal(rec.gyro, g)
     assert size > 1.5 * arrays and packed.stat().st_size < size
