@@ -79,7 +79,10 @@ MISALIGNMENT_STEPS, MISALIGNMENT_TOL = 6, 1e-6
 def accelerometer_covariance(recording, intervals, faces, acc, gravity: float) -> np.ndarray:
     """Covariance of the six-position accelerometer in ``AccelLayout("upper", 1)`` order, for the gyroscope's errors.
 
-    The method holds the misalignment ``T_a`` at the identity; the accelerometer's
+    Where the rotations estimate the misalignment with the gyroscope, its
+    entries here are not used (:func:`imucalib.fit.gyroscope.joint_errors`
+    takes them from the joint fit). Where they do not, the method holds
+    ``T_a`` at the identity; the accelerometer's
     real cross-axis terms set the gravity directions the gyroscope is fitted
     to, so holding them at zero is an error of the gyroscope's parameters
     that its own residuals cannot show: each upper term ``T_ij`` enters with
@@ -90,9 +93,10 @@ def accelerometer_covariance(recording, intervals, faces, acc, gravity: float) -
     (:func:`imucalib.fit.accelerometer.pose_covariance`) updates that: the
     posterior is the normal ``N(T̂_ij, σ²)`` truncated to ``[−c, c]`` (Bayes'
     rule with a uniform prior), whose second moment is taken. The bias and scale of
-    eqs. (8)–(9) carry each face mean's white noise (its samples' variance
-    over their number ``v``): ``var b = (v₊ + v₋)/4``, ``var s = (v₊ + v₋)/(2g)²``
-    and, with ``k1 = 1/s``, ``var k1 = k1⁴ var s``.
+    eqs. (8)–(9) carry each face mean's noise (the variance of its mean
+    ``v`` by batch means, :func:`~imucalib.fit.accelerometer.mean_variance`):
+    ``var b = (v₊ + v₋)/4``, ``var s = (v₊ + v₋)/(2g)²`` and, with
+    ``k1 = 1/s``, ``var k1 = k1⁴ var s``.
     """
     v = np.array([mean_variance(recording.acc[intervals[int(i)].slice]) for i in faces])
     axes = np.arange(3)
