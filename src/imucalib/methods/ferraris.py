@@ -154,13 +154,16 @@ def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[
     * a face mean's noise: the variance of its mean by batch means
       (:func:`~imucalib.fit.accelerometer.mean_variance`, tremor included);
     * a face set down tilted by ``δ`` off its axis: the other two axes read
-      ``g δ`` (first order) where the equations expect zero. The faces are 18
+      ``g δ`` (first order) where the equations expect zero, and its own axis
+      ``g cos δ`` for ``g`` (second order; a degree or two moves a 16-bit
+      accelerometer's bias by counts). The faces are 18
       readings for 12 unknowns of ``u = S (g d) + b`` (``d = ±e_i``); the six
       left over are the pairs' centres ``(ū₊ᵢ,ⱼ + ū₋ᵢ,ⱼ)/2``, which should all
       equal ``b_j``. Their scatter, less what the faces' noise explains
       (``E Σ_i (c_ij − c̄_j)² = ⅔ Σ_i var c_ij``), gives the tilts' variance
       ``σ_δ²`` (one for the faces, moment estimate, ≥ 0): each off-axis
-      reading then has ``σ_δ² (g/k_j)²`` more;
+      reading then has ``σ_δ² (g/k_j)²`` more, each own-axis reading
+      ``σ_δ⁴ (g/k_j)²`` (``δ²`` is ``σ_δ² χ²₂``);
     * the gyroscope's bias, which moves between the faces (drift, a random
       walk): the same centres of the gyroscope's pairs give its variance
       ``τ²`` beyond the faces' noise; it enters each face and, as the bias's
@@ -201,6 +204,10 @@ def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[
         return 2 / 3 * np.sum((v[:3] + v[3:]) / 4, axis=0)
 
     tilt = max(float(np.sum(pair_scatter(acc_m) - pair_variance(a_faces)) / np.sum(pair_variance(q))), 0.0)
+    # and the face's own axis by g (1 − cos δ)/k ≈ g δ²/(2k) (second order): δ² = σ_δ² χ²₂ has the variance 4σ_δ⁴
+    k_a = np.abs(1.0 / np.diag(s_a))
+    q_tilt = tilt * q
+    q_tilt[np.arange(6), face_axis] += (gravity / k_a[face_axis]) ** 2 * tilt**2
     # the gyroscope's bias drifts between the faces: u = b + d (t − t_ref) + G g d_f + ε, 15 unknowns in 18
     # readings per axis-triad; the closed form leaves d out (b holds at t_ref, the faces' mean time), which
     # moves G by d (t₊ − t₋)/(2g) and each turn's bias by d (t_turn − t_ref): d's mean squared error
@@ -249,13 +256,14 @@ def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[
             tilt_turn = float(np.sum((after / np.linalg.norm(after) - before / np.linalg.norm(before)) ** 2)) / 2
             tilts.append(tilt_turn)
             var_turn.append(rate_var * dt * x["duration"][-1])
-    tilt_turns = float(np.mean(tilts)) if tilts else 0.0  # pooled: one hand made them all
-    var_turn = [(v_int, np.where(np.arange(3) == axis, 2 * wander[axis], tilt_turns) / np.asarray(gyro_scale) ** 2)
-                for v_int, axis in zip(var_turn, x["axis"], strict=True)]
+    # each turn's own tilt: measured (to the accelerometer's noise), only how it splits between the two
+    # off-axis integrals is not
+    var_turn = [(v_int, np.where(np.arange(3) == axis, 2 * wander[axis], tilt) / np.asarray(gyro_scale) ** 2)
+                for v_int, axis, tilt in zip(var_turn, x["axis"], tilts, strict=True)]
     base = _closed_form(x, gravity, angle)
     names = list(base)
     parts: dict[str, np.ndarray] = {}  # variance of every parameter from each group of inputs' errors
-    dof = {"tilt": 6.0, "tau": 3.0, "turn": 2.0 * len(var_turn)}  # the estimated variances' degrees of freedom
+    dof = {"tilt": 6.0, "tau": 3.0}  # the estimated variances' degrees of freedom (the others' are measured)
 
     def add(group, key, index, var):  # central differences of the closed form in one input, times its variance
         h = float(np.sqrt(var)) if var > 0 else 0.0
@@ -276,7 +284,7 @@ def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[
     for f in range(6):
         for j in range(3):
             add("noise", "acc", (f, j), a_faces[f, j])
-            add("tilt", "acc", (f, j), tilt * q[f, j])
+            add("tilt", "acc", (f, j), q_tilt[f, j])
             add("noise", "gyro", (f, j), g_faces[f, j])
             add("tau", "gyro", (f, j), tau2)
     for j in range(3):
