@@ -171,7 +171,11 @@ def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[
       (``τ² T²``);
     * a turn's integral: the rate's white noise over the turn,
       ``σ_ω² T dt`` per axis (``σ_ω²`` the per-sample variance at the initial
-      rest, else at the faces).
+      rest, else at the faces), and the timestamps' jitter ``σ_t`` (half the
+      variance of the regular steps), which moves the trapezoid's integral by
+      ``Σ_k ε_k (u_{k−1} − u_{k+1})/2``: ``σ_t² Σ_k ((u_{k−1} − u_{k+1})/2)²``,
+      large on a fast turn (a ±1 ms logger moves a 360° hand turn by a few
+      tenths of a degree).
 
     The errors are carried to the canonical parameters by the closed form's
     Jacobian (central differences of :func:`_closed_form`, which is linear
@@ -230,7 +234,11 @@ def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[
         drift[j], drift_var[j] = coef[1], cov[1, 1]
     tau2 = max(leftover / 3.0, 0.0)  # one left over per axis, pooled
     drift_ms = drift**2 + drift_var + tau2 / max(float(np.sum((times - t_ref) ** 2)), 1e-300)
-    dt = float(np.median(np.diff(recording.t)))
+    steps = np.diff(recording.t)
+    dt = float(np.median(steps))
+    # timestamp jitter: a step is the clock's period plus the difference of two jitters, var = 2 σ_t² (gaps left out)
+    regular = steps[steps < 1.5 * dt]
+    jitter_var = float(np.var(regular)) / 2 if regular.size > 2 else 0.0
     # the hand's wander about each axis while it holds a face [rad²]: the variance of the integrated rate
     wander = np.median([_wander(recording.gyro[iv.slice], dt) for iv in faces], axis=0) * np.asarray(gyro_scale) ** 2
     x = {"acc": acc_m, "gyro": gyr_m, "integral": [], "duration": [], "force": [], "axis": [], "sign": [],
@@ -255,7 +263,10 @@ def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[
             after = acc_si[tr.stop:tr.stop + window + 1].mean(axis=0)
             tilt_turn = float(np.sum((after / np.linalg.norm(after) - before / np.linalg.norm(before)) ** 2)) / 2
             tilts.append(tilt_turn)
-            var_turn.append(rate_var * dt * x["duration"][-1])
+            # the trapezoid ∫ ≈ Σ u_k (t_{k+1} − t_{k−1})/2 on jittered stamps: Σ_k σ_t² ((u_{k−1} − u_{k+1})/2)²
+            u = recording.gyro[sl]
+            jitter = jitter_var * np.sum(((u[:-2] - u[2:]) / 2) ** 2, axis=0)
+            var_turn.append(rate_var * dt * x["duration"][-1] + jitter)
     # each turn's own tilt: measured (to the accelerometer's noise), only how it splits between the two
     # off-axis integrals is not
     var_turn = [(v_int, np.where(np.arange(3) == axis, 2 * wander[axis], tilt) / np.asarray(gyro_scale) ** 2)
