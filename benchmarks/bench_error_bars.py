@@ -18,6 +18,21 @@ plus the drift there. The drift comes from a twin session of the same seed with
 the drift knobs at zero (it draws the same random numbers), as the difference of
 the two recordings' gyroscope readings averaged over ``±DRIFT_WINDOW_S`` around
 the reference time (quantisation leaves each difference a count off at most).
+
+The procedure ``tosses`` is the ``zhang2021`` scenario instead (Zhang 2021,
+§IV-A: 40 poses and spinning weightless tosses, no drift): ``tosses/zhang2021``
+calibrates it with its tosses (the eq. 21 joint fit and the lever arm).
+
+``real_halves``: the shared Xsens session (``../shared/data/xsens_imu_tk``,
+skipped where absent) cut in two at ``--split-s`` (in the middle of a pose,
+so that each half has poses with gravity along ±x, ±y and ±z and a rest to
+start from), each half calibrated by every method of ``--real-methods``; per
+parameter with a 1σ in both, ``z = (p₁ − p₂)/√(σ₁² + σ₂²)`` (the two halves'
+errors are independent; honest error bars give ``|z| < 2`` in 95 % of
+them). The table: per method and group the RMS ``z``, the largest ``|z|``,
+the share of ``|z| > 2`` and each half's poses and verdict. The gyroscope bias
+is compared as each fit states it (at its own time: where a half shows no
+drift, the bias is taken to be constant).
 """
 
 from __future__ import annotations
@@ -30,12 +45,21 @@ from concurrent.futures import ProcessPoolExecutor
 from functools import partial
 
 import numpy as np
+from _common import DATA
 
 from imucalib.methods import calibrate
 from imucalib.scenarios import session
 
 DEFAULT_METHODS = ("poses/tedaldi2014,poses/ellipsoid,poses/zhang2021:linear,poses/zhang2021,poses/zhang2021:all,"
-                   "ferraris/six_position,ferraris/ferraris")
+                   "ferraris/six_position,ferraris/ferraris,tosses/zhang2021")
+#: the procedures: the hand-held scenario's two, and the zhang2021 scenario with its tosses
+PROCEDURES = ("poses", "ferraris", "tosses")
+#: methods calibrated on each half of the shared session
+REAL_METHODS = "tedaldi2014,ellipsoid,zhang2021:linear,zhang2021"
+#: where the shared session is cut [s from its start]: the middle of the pose held from 244.9 to 251.3 s
+SPLIT_S = 248.1
+#: the shared session's local gravity [m/s²] (imu_tk's test app)
+XSENS_GRAVITY = 9.81744
 #: the goal for every group's RMS z
 GOAL = (0.8, 1.25)
 #: half-width [s] of the window over which the twin sessions' difference gives the bias drift at a time
@@ -69,7 +93,7 @@ def normalised_errors(cal, truth, sim, twin) -> dict[str, float]:
         if s is None or not np.isfinite(s) or s <= 0 or k not in tp or k not in est:
             continue
         ref = tp[k]
-        if k.startswith("gyroscope.bias."):
+        if k.startswith("gyroscope.bias.") and twin is not None:
             if drift is None:
                 drift = drift_at(sim, twin, bias_reference_time(sim.recording, fit))
             ref = ref + float(drift["xyz".index(k[-1])])
@@ -87,19 +111,66 @@ def run_one(seed: int, methods: list[str], knobs: dict) -> dict:
         if proc not in sims:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                sims[proc] = (session("handheld", rng=seed, procedure=proc, **knobs),
-                              session("handheld", rng=seed, procedure=proc,
-                                      **{**knobs, "gyro_drift": 0.0, "gyro_rw": 0.0}))
+                if proc == "tosses":  # no drift in this scenario: no twin
+                    sims[proc] = (session("zhang2021", rng=seed), None)
+                else:
+                    sims[proc] = (session("handheld", rng=seed, procedure=proc, **knobs),
+                                  session("handheld", rng=seed, procedure=proc,
+                                          **{**knobs, "gyro_drift": 0.0, "gyro_rw": 0.0}))
         sim, twin = sims[proc]
+        extra = {"weightless": sim.weightless} if proc == "tosses" else {}
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                cal = calibrate(sim.recording, method=name, model=model or None, gravity=sim.truth.gravity)
+                cal = calibrate(sim.recording, method=name, model=model or None, gravity=sim.truth.gravity, **extra)
         except Exception as exc:  # a method that cannot calibrate this session says why
             out["methods"][spec] = {"error": f"{type(exc).__name__}: {exc}"}
             continue
         out["methods"][spec] = {"model": cal.model, "verdict": cal.fit.get("verdict"),
                                 "z": normalised_errors(cal, sim.truth, sim, twin)}
+    return out
+
+
+def real_halves(methods: list[str], split_s: float) -> dict:
+    """The shared session cut at ``split_s``: each method on both halves, ``z`` of their difference per group."""
+    from imucalib.io import read
+    from imucalib.recording import Interval
+
+    path = DATA / "xsens_imu_tk"
+    if not (path / "xsens_acc.mat").is_file():
+        return {"skipped": f"{path} not present (needs ../shared/data)"}
+    rec = read([path / "xsens_acc.mat", path / "xsens_gyro.mat"], reader="imutk")
+    k = int(np.searchsorted(rec.t - rec.t[0], split_s))
+    halves = [rec[Interval(0, k)], rec[Interval(k, len(rec))]]
+    out: dict = {"session": "xsens_imu_tk", "split_s": split_s, "gravity": XSENS_GRAVITY,
+                 "samples": [len(h) for h in halves], "methods": {}}
+    for spec in methods:
+        name, _, model = spec.partition(":")
+        cals = []
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                cals = [calibrate(h, method=name, model=model or None, gravity=XSENS_GRAVITY) for h in halves]
+        except Exception as exc:  # a method that cannot calibrate a half says why
+            out["methods"][spec] = {"error": f"{type(exc).__name__}: {exc}"}
+            continue
+        (p1, p2), (u1, u2) = ([c.parameters() for c in cals], [c.fit.get("uncertainty") or {} for c in cals])
+        groups: dict[str, list[float]] = {}
+        for key, s1 in u1.items():
+            s2 = u2.get(key)
+            if key not in p1 or key not in p2 or s2 is None or not (np.isfinite(s1) and np.isfinite(s2)):
+                continue
+            if s1 <= 0 or s2 <= 0:
+                continue
+            groups.setdefault(key.rsplit(".", 1)[0], []).append(float((p1[key] - p2[key]) / np.hypot(s1, s2)))
+        rows = {}
+        for g, zs in sorted(groups.items()):
+            z = np.asarray(zs)
+            rows[g] = {"rms_z": _r(float(np.sqrt(np.mean(z**2)))), "max_abs_z": _r(float(np.max(np.abs(z)))),
+                       "share_abs_z_over_2": _r(float(np.mean(np.abs(z) > 2))), "n": int(z.size),
+                       "z": [_r(v, 2) for v in z]}
+        out["methods"][spec] = {"models": [c.model for c in cals], "verdicts": [c.fit.get("verdict") for c in cals],
+                                "poses": [len(c.fit["intervals"]) for c in cals], "groups": rows}
     return out
 
 
@@ -140,11 +211,17 @@ def main() -> None:
     parser.add_argument("--methods", default=DEFAULT_METHODS,
                         help="comma-separated, each 'procedure/name' or 'procedure/name:model'")
     parser.add_argument("--scenario-knobs", default="{}", help="JSON object of handheld scenario knobs")
+    parser.add_argument("--real-methods", default=REAL_METHODS,
+                        help="comma-separated methods ('name' or 'name:model') on the shared session's halves "
+                             "('' for none)")
+    parser.add_argument("--split-s", type=float, default=SPLIT_S,
+                        help="where the shared session is cut [s from its start]")
     args = parser.parse_args()
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     for spec in methods:
-        if spec.partition("/")[0] not in ("poses", "ferraris") or not spec.partition("/")[2]:
-            parser.error(f"a method is 'poses/name' or 'ferraris/name' (optionally ':model'); got {spec!r}")
+        if spec.partition("/")[0] not in PROCEDURES or not spec.partition("/")[2]:
+            parser.error(f"a method is 'procedure/name' (optionally ':model'), the procedure one of "
+                         f"{', '.join(PROCEDURES)}; got {spec!r}")
     knobs = json.loads(args.scenario_knobs)
     if not isinstance(knobs, dict):
         parser.error("--scenario-knobs must be a JSON object")
@@ -156,9 +233,12 @@ def main() -> None:
             results = list(ex.map(job, seeds))
     else:
         results = [job(s) for s in seeds]
-    doc = {"benchmark": "error_bars", "scenario": "handheld", "knobs": knobs, "runs": args.runs,
+    real_methods = [m.strip() for m in args.real_methods.split(",") if m.strip()]
+    real = real_halves(real_methods, args.split_s) if real_methods else None
+    doc = {"benchmark": "error_bars", "scenario": "handheld (tosses: zhang2021)", "knobs": knobs, "runs": args.runs,
            "seeds": [seeds[0], seeds[-1]], "goal_rms_z": list(GOAL),
-           "wall_s": round(time.perf_counter() - t0, 1), "methods": table(results, methods)}
+           "wall_s": round(time.perf_counter() - t0, 1), "methods": table(results, methods),
+           "real_halves": real}
     print(json.dumps(doc))
 
 

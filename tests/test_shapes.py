@@ -217,7 +217,11 @@ FACES = ("x_p", "x_a", "y_p", "y_a", "z_p", "z_a")  # x up, x down, … as MATLA
 @pytest.fixture(scope="module")
 def faces(tmp_path_factory):
     """The six faces of a hand-held session as six files, as one file of prompt-separated blocks, and the plain
-    result: six_position on the same samples given as intervals of the whole recording."""
+    result: six_position on the same samples given as intervals of the whole recording's accelerometer (with
+    the rotations between the faces, six_position also estimates the accelerometer's misalignment, which the
+    blocks, recorded without them, cannot)."""
+    from dataclasses import replace
+
     from imucalib.recording import Interval
 
     d = tmp_path_factory.mktemp("faces")
@@ -226,7 +230,8 @@ def faces(tmp_path_factory):
     ivs = [Interval(*sim.options["sections"][k]) for k in FACES]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ImucalibWarning)
-        plain = calibrate(rec, method="six_position", intervals=sorted(ivs, key=lambda iv: iv.start))
+        plain = calibrate(replace(rec, gyro=None), method="six_position",
+                          intervals=sorted(ivs, key=lambda iv: iv.start))
     files = []
     with open(d / "prompts.csv", "w") as log:
         log.write("t,ax,ay,az,gx,gy,gz\n")

@@ -122,17 +122,24 @@ def test_qureshi_and_ellipsoid_errors_match_the_spread():
     assert len(cal.fit["uncertainty"]) == 9 + 12 and all(np.isfinite(list(cal.fit["uncertainty"].values())))
 
 
-def test_exactly_determined_methods_say_why_they_have_no_errors():
+def test_closed_form_methods_give_their_errors_or_say_why_not():
+    """ferraris: a 1σ for every parameter (its equations' leftovers); six_position: its accelerometer's biases
+    and scales are exactly determined (said so), the misalignment it estimates with the gyroscope has one."""
     from imucalib.scenarios import ferraris_session
     from synth import linear_truth
 
     truth = linear_truth()
     rec, iv, _ = ferraris_session(truth, 1)
     cal = calibrate(rec, method="ferraris", gravity=truth.gravity, intervals=iv)
-    assert "no residual" in cal.fit["uncertainty_unavailable"] and "uncertainty" not in cal.fit
+    unc = cal.fit["uncertainty"]
+    assert "uncertainty_unavailable" not in cal.fit
+    linear = {k for k in cal.parameters() if k.split(".")[1] in ("misalignment", "scale", "bias")}
+    assert linear <= set(unc) and all(np.isfinite(v) and v >= 0 for v in unc.values())
+    g_sens = {f"gyroscope.g_sensitivity.{a}{b}" for a in "xyz" for b in "xyz"}
+    assert {k for k in unc if ".g_sensitivity." in k} == g_sens
     cal = calibrate(rec, method="six_position", gravity=truth.gravity, intervals=iv)
     assert "six faces determine" in cal.fit["uncertainty_unavailable"]
-    assert all(k.startswith("gyroscope.") for k in cal.fit["uncertainty"])
+    assert all(k.startswith(("gyroscope.", "accelerometer.misalignment.")) for k in cal.fit["uncertainty"])
 
 
 def test_gyroscope_errors_carry_the_accelerometers_when_poses_are_confined_to_a_cone():

@@ -73,6 +73,8 @@ FIELDS: tuple[FieldInfo, ...] = (
     _F("accelerometer_model", "", "the accelerometer model fitted (the full one or a reduced one)", "accelerometer"),
     _F("accelerometer_model_reduced", "", "why the poses determine a reduced accelerometer model, in words",
        "accelerometer"),
+    _F("accelerometer_misalignment", "", "six_position: whether the accelerometer's misalignment was estimated "
+       "(from the rotations) or held at zero, in words", "accelerometer"),
     # gyroscope
     _F("gyroscope_angle_error_mean_deg", "deg", "mean gravity-direction error after integrating each rotation",
        "gyroscope"),

@@ -27,7 +27,7 @@ from ..solve import errors_from_covariance, levenberg_marquardt
 __all__ = ["REDUCED_MODELS", "GravityNormFit", "accelerometer_covariance", "accelerometer_errors",
            "accelerometer_figures", "determined_figures", "faces_full", "fit_determined", "fit_ellipsoid",
            "fit_gravity_norm", "fit_sphere", "full_from_sensitivity", "gravity_norm_fit", "newton_backtracking",
-           "pose_covariance", "qureshi_cost", "six_position"]
+           "mean_variance", "pose_covariance", "qureshi_cost", "six_position"]
 
 
 def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:
@@ -382,6 +382,28 @@ def pose_covariance(jac: np.ndarray, residuals: np.ndarray, *, rcond: float = 1e
     return cov_s / np.outer(col, col), bad
 
 
+
+
+#: batches a pose's samples are cut into for the variance of its mean
+BATCHES = 10
+
+
+def mean_variance(x: np.ndarray) -> np.ndarray:
+    """Variance of the mean of a pose's samples (per column) by batch means, which hand tremor's correlation keeps.
+
+    The samples of a hand-held pose are not independent (the postural sway of 0.5–2 Hz moves the sensor for
+    many samples at a time), so ``var/n`` understates the variance of their mean. Cut into ``B`` = :data:`BATCHES`
+    consecutive batches, the batch means are nearly independent and their variance over ``B`` is that of the
+    mean (the method of batch means; with white noise it is ``var/n`` again). A pose too short for batches
+    takes ``var/(n − 1)``.
+    """
+    x = np.asarray(x, dtype=float)
+    n = len(x)
+    size = n // BATCHES
+    if size < 2:
+        return np.var(x, axis=0) / max(n - 1, 1)
+    means = x[: size * BATCHES].reshape(BATCHES, size, *x.shape[1:]).mean(axis=1)
+    return np.var(means, axis=0, ddof=1) / BATCHES
 
 
 def six_position(up: np.ndarray, down: np.ndarray, gravity: float, *, cos_up: np.ndarray | float = 1.0,

@@ -34,10 +34,10 @@ from ..residuals import (
 from ..solve import levenberg_marquardt, standard_errors
 from .accelerometer import full_from_sensitivity
 
-__all__ = ["MIN_POSES", "SIGNED_PERMUTATIONS", "GyroFit", "StaticGyro", "axes_disagreement", "errors_at",
-           "fit_gravity_direction", "fit_gyroscope", "fit_known_turns", "fit_measured_rotations",
-           "gravity_direction_problem", "gyroscope_errors", "joint_errors", "joint_errors_at", "joint_problem",
-           "rotation_angles", "rough_scale", "static_gyro", "transition_errors"]
+__all__ = ["MIN_POSES", "SIGNED_PERMUTATIONS", "GyroFit", "StaticGyro", "accelerometer_joint_step",
+           "axes_disagreement", "errors_at", "fit_gravity_direction", "fit_gyroscope", "fit_known_turns",
+           "fit_measured_rotations", "gravity_direction_problem", "gyroscope_errors", "joint_errors",
+           "joint_errors_at", "joint_problem", "rotation_angles", "rough_scale", "static_gyro", "transition_errors"]
 
 #: the fewest static poses a gravity-direction fit takes
 MIN_POSES = 4
@@ -582,7 +582,7 @@ def _transition_norms(recording, intervals, accelerometer, model, static, weight
 
 
 def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res, weights, sigma_rot, static, *,
-                 acc_cov=None) -> dict[str, float]:
+                 acc_cov=None, acc_joint=None) -> dict[str, float]:
     """1σ errors of the joint fit (:func:`joint_problem`) from its Jacobian, by name.
 
     ``C = s² (JᵀJ)⁻¹`` with ``s² = ‖r‖²/dof`` (:func:`~imucalib.solve.standard_errors`;
@@ -600,22 +600,43 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
     about the fit again (the bias at an arbitrary moment, not at ``t_ref``)
     would count them twice: on the hand-held scenario that made the bias's 1σ
     eight times its error.
+
+    ``acc_joint = (which, prior_var)``: the accelerometer parameters ``which``
+    (indices in ``AccelLayout("upper", 1)`` order) were estimated with the
+    gyroscope from the same rotations (:func:`accelerometer_joint_step`), each
+    with a zero-mean prior of variance ``prior_var``. They are then columns of
+    the Jacobian (``∂r/∂x`` of the rotations, one prior row ``x/σ_p`` each),
+    so the gyroscope's errors are the marginals of the joint covariance, and
+    their own 1σ is returned too; ``acc_cov`` then carries only the others.
     """
     j = jac_fun(theta)
     size = j.shape[1]
     n_rot = 3 * (len(intervals) - 1)
     dof = 2 * int(np.count_nonzero(weights)) + 3 * len(static.means) - size
-    undetermined = acc_cov is not None and not np.all(np.isfinite(np.diag(acc_cov)))
-    extra = None
-    if acc_cov is not None and not undetermined:
-        j_acc = np.zeros((j.shape[0], acc_cov.shape[0]))
+    lay = AccelLayout("upper", 1)
+    which = [] if acc_joint is None else [int(i) for i in acc_joint[0]]
+    fixed = [i for i in range(lay.size) if i not in which]
+    undetermined = acc_cov is not None and not np.all(np.isfinite(np.diag(acc_cov)[fixed]))
+    j_acc = None
+    if which or (acc_cov is not None and not undetermined):
+        j_acc = np.zeros((j.shape[0], lay.size))
         w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
         j_acc[:n_rot] = _direction_acc_jacobian(recording, intervals, accelerometer, model) * w[:, None]
-        sens = -np.linalg.pinv(j) @ j_acc
-        extra = sens @ acc_cov @ sens.T
+    n_joint = len(which)
+    if n_joint:
+        prior_sd = np.sqrt(np.asarray(acc_joint[1], dtype=float))
+        j = np.block([[j, j_acc[:, which]], [np.zeros((n_joint, size)), np.diag(1.0 / prior_sd)]])
+        res = np.concatenate([res, lay.pack(accelerometer)[which] / prior_sd])
+        j_acc = np.vstack([j_acc, np.zeros((n_joint, lay.size))])
+    extra = None
+    pinv = None
+    if acc_cov is not None and not undetermined and fixed:
+        pinv = np.linalg.pinv(j)
+        sens = -pinv @ j_acc[:, fixed]
+        extra = sens @ np.asarray(acc_cov)[np.ix_(fixed, fixed)] @ sens.T
     if static.g_cov is not None and np.all(np.isfinite(static.g_cov)):
-        sens = -np.linalg.pinv(j) @ _g_sensitivity_jacobian(recording, intervals, accelerometer, static, weights,
-                                                           sigma_rot, theta)
+        j_g = _g_sensitivity_jacobian(recording, intervals, accelerometer, static, weights, sigma_rot, theta[:size])
+        sens = -(np.linalg.pinv(j) if pinv is None else pinv) @ np.vstack([j_g, np.zeros((n_joint, 9))])
         c_g = np.zeros((9, 9))
         for i in range(3):  # the rows of G come from independent regressions, one per gyroscope axis
             c_g[3 * i:3 * i + 3, 3 * i:3 * i + 3] = static.g_cov[i]
@@ -624,21 +645,25 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
     off = [(i, k) for i in range(3) for k in range(3) if i != k]
     names = [f"gyroscope.misalignment.{AXES[i]}{AXES[k]}" for i, k in off]
     names += [f"gyroscope.scale.{ax}" for ax in AXES] + [f"gyroscope.bias.{ax}" for ax in AXES]
-    a = np.zeros((12, size))
+    names += [lay.names("accelerometer")[i] for i in which]
+    a = np.zeros((12 + n_joint, size + n_joint))
     for row, (i, k) in enumerate(off):  # T_ik = M_ik / M_kk
         a[row, 3 * i + k] = 1.0 / m[k, k]
         a[row, 4 * k] = -m[i, k] / m[k, k] ** 2
     for k in range(3):  # k1_k = M_kk
         a[6 + k, 4 * k] = 1.0
     a[9:12, 9:12] = np.eye(3)
+    a[12:, size:] = np.eye(n_joint)
     if dof <= 0:
-        se = np.full(12, np.nan)
+        se = np.full(len(names), np.nan)
     else:
-        cov, bad = _joint_covariance(j, res, n_rot, weights)
+        cov, bad = _joint_covariance(j, res, n_rot, weights, leverage=n_joint > 0)
         if extra is not None:
             cov = cov + extra
         bad = np.abs(a) @ bad.astype(float) > 0
         se = np.sqrt(np.clip(np.diag(a @ cov @ a.T), 0.0, None))
+        if n_joint:
+            se *= _small_sample_factor(j, n_rot, weights, a, 0.0 if extra is None else np.diag(a @ extra @ a.T))
         se[bad] = np.nan
     if undetermined:  # the poses leave the gravity directions themselves undetermined
         se = np.full_like(se, np.nan)
@@ -683,8 +708,61 @@ def _g_sensitivity_jacobian(recording, intervals, accelerometer, static: StaticG
     return np.vstack([j_rot, j_st.reshape(3 * mm, 9)])
 
 
+def _inverse_sqrt(a: np.ndarray) -> np.ndarray:
+    """``a^(−1/2)`` of a symmetric positive semi-definite matrix; directions with no variance are left as they are."""
+    w, v = np.linalg.eigh(a)
+    return (v / np.sqrt(np.where(w > 1e-8, w, 1.0))) @ v.T
+
+
+def _small_sample_factor(j: np.ndarray, n_rot: int, weights: np.ndarray, a: np.ndarray, known,
+                         *, rcond: float = 1e-10) -> np.ndarray:
+    """Per parameter ``√(ν/(ν − 2))``: the 1σ of a variance estimated from ``ν`` effective degrees of freedom.
+
+    A variance ``V̂`` estimated from few residuals is unbiased, yet the error
+    over ``√V̂`` follows Student's t with ``ν`` degrees of freedom, whose
+    variance is ``ν/(ν − 2)``, not 1: a 1σ that says how far the estimate
+    is from the truth on average is ``√V̂`` times that. For the rotations'
+    cluster sandwich with the bias-reduced residuals of
+    :func:`_joint_covariance` (``leverage``), ``ν`` is Satterthwaite's for the
+    contrast ``c`` (a row of ``a``), as Bell & McCaffrey (2002, §4) give it:
+    with every residual of unit variance, ``V̂ = εᵀ Q ε`` with
+    ``Q = (I − H) W Wᵀ (I − H)``, ``W``'s columns the rotations' weights
+    ``(I − H_kk)^(−1/2) J_k (JᵀJ)⁻¹ c`` on their rows, and
+    ``ν = 2 E[V]² / Var[V] = (v₀ + tr Q)² / tr Q²``, where ``v₀`` is the
+    part known without residuals (the static poses', the prior's and
+    ``known``, the variance the accelerometer's and g-sensitivity's
+    covariances add). ``ν`` is held at 3 at least (a factor of √3 at most).
+    """
+    col = np.linalg.norm(j, axis=0)
+    col = np.where(col > 0, col, 1.0)
+    js = j / col
+    w, v = np.linalg.eigh(js.T @ js)
+    good = w > rcond * max(w[-1], np.finfo(float).tiny)
+    inv = (v[:, good] / w[good]) @ v[:, good].T
+    proj = np.eye(js.shape[0]) - js @ inv @ js.T
+    kept = np.nonzero(np.asarray(weights) > 0)[0]
+    cs = (a / col).T  # contrasts in the scaled parameters, one per column
+    u = js @ inv @ cs  # (rows, contrasts)
+    j_st = js[n_rot:]
+    v0 = np.einsum("pc,pq,qc->c", cs, inv @ j_st.T @ j_st @ inv, cs) + np.asarray(known, dtype=float)
+    wmat = np.zeros((js.shape[0], len(kept), cs.shape[1]))
+    for col_k, k in enumerate(kept):
+        rows = slice(3 * k, 3 * k + 3)
+        hk = proj[rows, rows]
+        wmat[rows, col_k, :] = _inverse_sqrt(0.5 * (hk + hk.T)) @ u[rows]
+    out = np.ones(cs.shape[1])
+    for c in range(cs.shape[1]):
+        mw = proj @ wmat[:, :, c]
+        tr_q = float(np.sum(mw**2))
+        tr_q2 = float(np.sum((mw.T @ mw) ** 2))
+        if tr_q2 > 0:
+            nu = max((v0[c] + tr_q) ** 2 / tr_q2, 3.0)
+            out[c] = np.sqrt(nu / (nu - 2.0))
+    return out
+
+
 def _joint_covariance(j: np.ndarray, res: np.ndarray, n_rot: int, weights: np.ndarray, *,
-                      rcond: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
+                      rcond: float = 1e-10, leverage: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Covariance of the joint fit's parameters, each rotation's share from its own residual; which are undetermined.
 
     The sandwich ``(JᵀJ)⁻¹ B (JᵀJ)⁻¹``. The static poses' rows are divided by
@@ -699,6 +777,16 @@ def _joint_covariance(j: np.ndarray, res: np.ndarray, n_rot: int, weights: np.nd
     times ``n/(n − 9/2)`` for the nine parameters of ``M`` that the ``n``
     rotations' two components each fit. Columns scaled to unit norm and
     unobservable directions dropped as in :func:`imucalib.solve.covariance`.
+
+    ``leverage``: each rotation's residuals are first scaled up for its own
+    pull on the fit, ``r̃_k = (I − H_kk)^(−1/2) r_k`` with ``H_kk = J_k (JᵀJ)⁻¹ J_kᵀ``
+    its block of the hat matrix (the bias-reduced linearisation of Bell &
+    McCaffrey 2002, *Survey Methodology* 28, 169–181, "CR2": unbiased for a
+    common variance; the jackknife's ``(I − H_kk)⁻¹`` overstates), instead of the
+    ``n/(n − 9/2)`` factor: for a fit whose rotations determine more than
+    ``M`` (the accelerometer's misalignment with it, :func:`joint_errors`)
+    on a dozen rotations, each rotation's leverage is near one half and the
+    plain sandwich would shrink the errors by as much.
     """
     col = np.linalg.norm(j, axis=0)
     col = np.where(col > 0, col, 1.0)
@@ -711,21 +799,20 @@ def _joint_covariance(j: np.ndarray, res: np.ndarray, n_rot: int, weights: np.nd
     meat = j_st.T @ j_st
     kept = np.nonzero(np.asarray(weights) > 0)[0]
     if kept.size:
-        g = np.einsum("kij,ki->kj", js[:n_rot].reshape(-1, 3, js.shape[1])[kept], res[:n_rot].reshape(-1, 3)[kept])
+        jk = js[:n_rot].reshape(-1, 3, js.shape[1])[kept]
+        rk = res[:n_rot].reshape(-1, 3)[kept]
+        if leverage:
+            h = np.einsum("kij,jl,kml->kim", jk, inv, jk)
+            rk = np.stack([_inverse_sqrt(np.eye(3) - 0.5 * (hk + hk.T)) @ r for hk, r in zip(h, rk, strict=True)])
+        g = np.einsum("kij,ki->kj", jk, rk)
         n = kept.size
-        meat = meat + (g.T @ g) * (n / max(n - 4.5, 0.5))
+        meat = meat + (g.T @ g) * (1.0 if leverage else n / max(n - 4.5, 0.5))
     cov = inv @ meat @ inv
     return cov / np.outer(col, col), bad
 
 
-def joint_errors_at(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
-                    gyroscope: TriadModel, fit: dict, *, acc_cov: np.ndarray | None = None) -> dict[str, float]:
-    """The 1σ errors :func:`fit_gyroscope` gave a joint fit, again from a calibration's ``fit`` entries.
-
-    The static poses' regression is repeated with the choices the fit made
-    (g-sensitivity, drift), the rotations left out and their noise
-    (``gyroscope_rotation_sigma_rad``) are the fit's.
-    """
+def _joint_at(recording, intervals, accelerometer, gyroscope, fit):
+    """The joint problem of a fit again, from its ``fit`` entries: static poses, weights, σ, θ, residuals, Jacobian."""
     drift = fit.get("gyroscope_bias_drift_per_s")
     static = static_gyro(recording, intervals, accelerometer, g_sensitivity=bool(np.any(gyroscope.g_sensitivity)),
                          drift=drift is not None)
@@ -734,8 +821,58 @@ def joint_errors_at(recording: Recording, intervals: list[Interval], acceleromet
     sigma = float(fit["gyroscope_rotation_sigma_rad"])
     theta = np.concatenate([GyroLayout(True).pack(gyroscope), np.asarray(drift if drift is not None else [])])
     fun, jac, _, _ = joint_problem(recording, intervals, accelerometer, static, weights, sigma)
+    return static, weights, sigma, theta, fun, jac
+
+
+def joint_errors_at(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
+                    gyroscope: TriadModel, fit: dict, *, acc_cov: np.ndarray | None = None,
+                    acc_joint: tuple | None = None) -> dict[str, float]:
+    """The 1σ errors :func:`fit_gyroscope` gave a joint fit, again from a calibration's ``fit`` entries.
+
+    The static poses' regression is repeated with the choices the fit made
+    (g-sensitivity, drift), the rotations left out and their noise
+    (``gyroscope_rotation_sigma_rad``) are the fit's. ``acc_joint``: as in
+    :func:`joint_errors`.
+    """
+    static, weights, sigma, theta, fun, jac = _joint_at(recording, intervals, accelerometer, gyroscope, fit)
     return joint_errors(recording, intervals, accelerometer, gyroscope, theta, jac, fun(theta), weights, sigma,
-                        static, acc_cov=acc_cov) | static.errors
+                        static, acc_cov=acc_cov, acc_joint=acc_joint) | static.errors
+
+
+def accelerometer_joint_step(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
+                             gyroscope: TriadModel, fit: dict, which, prior_var) -> np.ndarray:
+    """A Gauss–Newton step for accelerometer parameters the rotations determine along with the gyroscope.
+
+    The rotations carry gravity from one pose to the next (Zhang 2021, eq. 14):
+    the directions at both ends come from the accelerometer, so its
+    parameters enter the residuals ``r`` of the joint problem
+    (:func:`joint_problem`) as the gyroscope's do. A rigid rotation cannot
+    carry one sheared set of directions into another, and the gyroscope's
+    ``M = T_g diag(k1)`` (any linear map of the rates) does not make up for
+    it: rotations about axes between the sensor's axes measure the
+    accelerometer's misalignment, which gravity's norm at poses near the
+    axes does not (its first-order change there, ``2 a_i a_j T_ij``, is
+    nil). With the gyroscope's ``θ`` at its optimum for the present
+    accelerometer, the step ``δ`` for the parameters ``which`` (indices in
+    ``AccelLayout("upper", 1)`` order) solves ``[J_θ J_x; 0 P] [δθ; δ] ≈
+    −[r; x/σ_p]`` in least squares, ``P = diag(1/σ_p)`` a zero-mean prior of
+    variance ``prior_var`` per parameter (what a datasheet bounds; it
+    decides only where the rotations do not). Returns ``δ``.
+    """
+    static, weights, sigma, theta, fun, jac = _joint_at(recording, intervals, accelerometer, gyroscope, fit)
+    which = [int(i) for i in which]
+    j, r = jac(theta), fun(theta)
+    n_rot = 3 * (len(intervals) - 1)
+    w = np.repeat(weights, 3) / sigma
+    j_x = np.zeros((j.shape[0], len(which)))
+    j_x[:n_rot] = _direction_acc_jacobian(recording, intervals, accelerometer, gyroscope)[:, which] * w[:, None]
+    prior_sd = np.sqrt(np.asarray(prior_var, dtype=float))
+    x = AccelLayout("upper", 1).pack(accelerometer)[which]
+    big = np.block([[j, j_x], [np.zeros((len(which), j.shape[1])), np.diag(1.0 / prior_sd)]])
+    col = np.linalg.norm(big, axis=0)
+    col = np.where(col > 0, col, 1.0)
+    step = -np.linalg.lstsq(big / col, np.concatenate([r, x / prior_sd]), rcond=None)[0] / col
+    return step[j.shape[1]:]
 
 
 def _direction_acc_jacobian(recording, intervals, accelerometer, gyroscope) -> np.ndarray:

@@ -37,7 +37,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..calibration import Calibration, units_of
-from ..fit.accelerometer import faces_full
+from ..fit.accelerometer import faces_full, full_from_sensitivity, mean_variance
 from ..fit.gyroscope import fit_known_turns, rough_scale
 from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
@@ -71,7 +71,7 @@ METHOD = MethodInfo(
           "docstring)",
 )
 
-__all__ = ["SECTION_NAMES", "calibrate", "sections_from_ranges"]
+__all__ = ["SECTION_NAMES", "calibrate", "closed_form_errors", "sections_from_ranges"]
 
 #: the named sections of a Ferraris session: each axis up (``_p``) and down (``_a``), and its turn
 SECTION_NAMES = ("x_p", "y_p", "z_p", "x_a", "y_a", "z_a", "x_rot", "y_rot", "z_rot")
@@ -104,6 +104,215 @@ def sections_from_ranges(recording: Recording, ranges: dict, bias: np.ndarray | 
         phi = np.trapezoid(recording.gyro[s0:s1] - b, recording.t[s0:s1], axis=0)
         turns[axis] = [Turn(axis, s0, s1 - 1, int(np.sign(phi[axis])), float("nan"), True)]
     return faces, turns
+
+
+#: the parameter groups the closed form estimates (the linear model's, g-sensitivity for the gyroscope)
+ESTIMATED = ("misalignment", "scale", "bias", "g_sensitivity")
+
+
+def _wander(rate: np.ndarray, dt: float) -> np.ndarray:
+    """Variance [raw² s²] of the angle a hand wanders by while holding still: the integral of the rate less its
+    straight line (the bias and its drift), per axis."""
+    t = np.arange(len(rate)) * dt
+    design = np.column_stack([np.ones_like(t), t - t.mean()])
+    coef = np.linalg.lstsq(design, rate, rcond=None)[0]
+    return np.var(np.cumsum((rate - design @ coef) * dt, axis=0), axis=0)
+
+
+def _closed_form(x: dict, gravity: float, angle: float) -> dict[str, float]:
+    """The closed form (module docstring) from its inputs, as named canonical parameters.
+
+    ``x``: the faces' raw means ``acc`` and ``gyro`` (+x, +y, +z, −x, −y, −z), and per turn
+    ``integral`` (∫u_g dt), ``duration``, ``force`` (∫a dt, calibrated), ``axis``, ``sign`` and
+    ``bias_shift`` (the bias at the turn less the faces' mean, 0 as estimated), ``turn_dt`` (its mean time
+    less the faces'); ``drift`` (0 as estimated: the closed form has none) moves the faces' readings by
+    ``drift · face_dt`` and each turn's bias by ``drift · turn_dt``.
+    """
+    acc = faces_full(x["acc"], gravity)
+    g_f = x["gyro"] + np.outer(x["face_dt"], x["drift"])
+    g_sens = (g_f[:3] - g_f[3:]).T / (2 * gravity)
+    b_g = g_f.mean(axis=0)
+    s_g = np.zeros((3, 3))
+    count = np.zeros(3)
+    for integral, duration, force, axis, sign, shift, dt in zip(x["integral"], x["duration"], x["force"], x["axis"],
+                                                               x["sign"], x["bias_shift"], x["turn_dt"], strict=True):
+        s_g[:, axis] += sign * (integral - (b_g + shift + x["drift"] * dt) * duration - g_sens @ force) / angle
+        count[axis] += 1
+    gyro = full_from_sensitivity(s_g / count[None, :], b_g, g_sensitivity=g_sens)
+    out = acc.parameters("accelerometer") | gyro.parameters("gyroscope")
+    return {k: v for k, v in out.items() if k.split(".")[1] in ESTIMATED and not k.startswith("accelerometer.g_")}
+
+
+def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[int, list[Turn]], angle: float,
+                       acc_si: np.ndarray, gravity: float, gyro_scale: np.ndarray,
+                       rest: Interval | None = None) -> dict[str, float]:
+    """1σ of every parameter of the closed form from the scatter its own equations leave.
+
+    The closed form is linear in its inputs: the six faces' mean readings of
+    both sensors and each turn's integral ``∫u_g dt``. Their errors:
+
+    * a face mean's noise: the variance of its mean by batch means
+      (:func:`~imucalib.fit.accelerometer.mean_variance`, tremor included);
+    * a face set down tilted by ``δ`` off its axis: the other two axes read
+      ``g δ`` (first order) where the equations expect zero, and its own axis
+      ``g cos δ`` for ``g`` (second order; a degree or two moves a 16-bit
+      accelerometer's bias by counts). The faces are 18
+      readings for 12 unknowns of ``u = S (g d) + b`` (``d = ±e_i``); the six
+      left over are the pairs' centres ``(ū₊ᵢ,ⱼ + ū₋ᵢ,ⱼ)/2``, which should all
+      equal ``b_j``. Their scatter, less what the faces' noise explains
+      (``E Σ_i (c_ij − c̄_j)² = ⅔ Σ_i var c_ij``), gives the tilts' variance
+      ``σ_δ²`` (one for the faces, moment estimate, ≥ 0): each off-axis
+      reading then has ``σ_δ² (g/k_j)²`` more, each own-axis reading
+      ``σ_δ⁴ (g/k_j)²`` (``δ²`` is ``σ_δ² χ²₂``);
+    * the gyroscope's bias, which moves between the faces (drift, a random
+      walk): the same centres of the gyroscope's pairs give its variance
+      ``τ²`` beyond the faces' noise; it enters each face and, as the bias's
+      deviation at a turn from the faces' mean, each turn's integral
+      (``τ² T²``);
+    * a turn's integral: the rate's white noise over the turn,
+      ``σ_ω² T dt`` per axis (``σ_ω²`` the per-sample variance at the initial
+      rest, else at the faces), and the timestamps' jitter ``σ_t`` (half the
+      variance of the regular steps), which moves the trapezoid's integral by
+      ``Σ_k ε_k (u_{k−1} − u_{k+1})/2``: ``σ_t² Σ_k ((u_{k−1} − u_{k+1})/2)²``,
+      large on a fast turn (a ±1 ms logger moves a 360° hand turn by a few
+      tenths of a degree).
+
+    The errors are carried to the canonical parameters by the closed form's
+    Jacobian (central differences of :func:`_closed_form`, which is linear
+    in them but for ``S⁻¹``). The turn's angle is taken as known, as the method
+    assumes (the verdict rejects a turn that does not match it). The
+    accelerometer's errors in ``∫a dt`` (the g-sensitivity term) are left out:
+    a second-order term.
+    """
+    noise = recording.gyro[rest.slice] if rest is not None and len(rest) > 2 else None
+    if noise is not None:  # the rate's white noise (the rest lies on a table); the hand's wander is in τ² below
+        rate_var = np.var(noise, axis=0, ddof=1)
+        g_faces = np.array([rate_var / len(iv) for iv in faces])
+    else:
+        g_faces = np.array([mean_variance(recording.gyro[iv.slice]) for iv in faces])
+        rate_var = np.median([np.var(recording.gyro[iv.slice], axis=0, ddof=1) for iv in faces], axis=0)
+    a_faces = np.array([mean_variance(recording.acc[iv.slice]) for iv in faces])
+    acc_m = interval_means(recording.acc, faces)
+    gyr_m = interval_means(recording.gyro, faces)
+    s_a = (acc_m[:3] - acc_m[3:]).T / (2 * gravity)
+    face_axis = np.tile(np.arange(3), 2)
+    # a tilt δ of face f moves reading j by g Σ_m S_jm δ_m over the two directions m off the face's axis
+    q = np.array([[gravity**2 * sum(s_a[j, m] ** 2 for m in range(3) if m != face_axis[f]) for j in range(3)]
+                  for f in range(6)])
+
+    def pair_scatter(m):  # Σ_i (c_ij − c̄_j)² of the pairs' centres c_ij = (ū₊ᵢ,ⱼ + ū₋ᵢ,ⱼ)/2, per component j
+        c = (m[:3] + m[3:]) / 2
+        return np.sum((c - c.mean(axis=0)) ** 2, axis=0)
+
+    def pair_variance(v):  # ⅔ Σ_i var c_ij: what the scatter's expectation is
+        return 2 / 3 * np.sum((v[:3] + v[3:]) / 4, axis=0)
+
+    tilt = max(float(np.sum(pair_scatter(acc_m) - pair_variance(a_faces)) / np.sum(pair_variance(q))), 0.0)
+    # and the face's own axis by g (1 − cos δ)/k ≈ g δ²/(2k) (second order): δ² = σ_δ² χ²₂ has the variance 4σ_δ⁴
+    k_a = np.abs(1.0 / np.diag(s_a))
+    q_tilt = tilt * q
+    q_tilt[np.arange(6), face_axis] += (gravity / k_a[face_axis]) ** 2 * tilt**2
+    # the gyroscope's bias drifts between the faces: u = b + d (t − t_ref) + G g d_f + ε, 15 unknowns in 18
+    # readings per axis-triad; the closed form leaves d out (b holds at t_ref, the faces' mean time), which
+    # moves G by d (t₊ − t₋)/(2g) and each turn's bias by d (t_turn − t_ref): d's mean squared error
+    # d̂² + var d̂ is carried; the three readings left over give the faces' scatter τ² beyond their noise
+    times = np.array([np.mean(recording.t[iv.slice]) for iv in faces])
+    t_ref = float(times.mean())
+    design = np.zeros((6, 5))
+    design[:, 0] = 1.0
+    design[:, 1] = times - t_ref
+    design[np.arange(6), 2 + face_axis] = np.where(np.arange(6) < 3, gravity, -gravity)
+    drift, drift_var, tau2 = np.zeros(3), np.zeros(3), 0.0
+    leftover = 0.0
+    for j in range(3):
+        w = 1.0 / g_faces[:, j]
+        cov = np.linalg.pinv(design.T @ (design * w[:, None]))
+        coef = cov @ (design.T @ (w * gyr_m[:, j]))
+        r = gyr_m[:, j] - design @ coef
+        h = np.einsum("ij,jk,ik->i", design, cov, design * w[:, None])
+        leftover += float(np.sum(r**2 - (1 - h) * g_faces[:, j]))
+        drift[j], drift_var[j] = coef[1], cov[1, 1]
+    tau2 = max(leftover / 3.0, 0.0)  # one left over per axis, pooled
+    drift_ms = drift**2 + drift_var + tau2 / max(float(np.sum((times - t_ref) ** 2)), 1e-300)
+    steps = np.diff(recording.t)
+    dt = float(np.median(steps))
+    # timestamp jitter: a step is the clock's period plus the difference of two jitters, var = 2 σ_t² (gaps left out)
+    regular = steps[steps < 1.5 * dt]
+    jitter_var = float(np.var(regular)) / 2 if regular.size > 2 else 0.0
+    # the hand's wander about each axis while it holds a face [rad²]: the variance of the integrated rate
+    wander = np.median([_wander(recording.gyro[iv.slice], dt) for iv in faces], axis=0) * np.asarray(gyro_scale) ** 2
+    x = {"acc": acc_m, "gyro": gyr_m, "integral": [], "duration": [], "force": [], "axis": [], "sign": [],
+         "bias_shift": [], "drift": np.zeros(3), "face_dt": times - t_ref, "turn_dt": []}
+    var_turn, tilts = [], []
+    window = max(int(round(0.25 * recording.rate)), 3)
+    for i in range(3):
+        for tr in turns[i]:
+            sl = slice(tr.start, tr.stop + 1)
+            t = recording.t[sl]
+            x["integral"].append(np.trapezoid(recording.gyro[sl], t, axis=0))
+            x["duration"].append(float(t[-1] - t[0]))
+            x["force"].append(np.trapezoid(acc_si[sl], t, axis=0))
+            x["axis"].append(i)
+            x["sign"].append(int(tr.sign))
+            x["bias_shift"].append(np.zeros(3))
+            x["turn_dt"].append(float(np.mean(t)) - t_ref)
+            # the hand turns about the vertical only on average: the tilt gravity shows across the turn
+            # (rests before and after) is the turn's rotation off its axis, which the off-axis integrals hold;
+            # about the axis, the angle differs from the known one by the hand's wander at either end
+            before = acc_si[max(tr.start - window, 0):tr.start + 1].mean(axis=0)
+            after = acc_si[tr.stop:tr.stop + window + 1].mean(axis=0)
+            tilt_turn = float(np.sum((after / np.linalg.norm(after) - before / np.linalg.norm(before)) ** 2)) / 2
+            tilts.append(tilt_turn)
+            # the trapezoid ∫ ≈ Σ u_k (t_{k+1} − t_{k−1})/2 on jittered stamps: Σ_k σ_t² ((u_{k−1} − u_{k+1})/2)²
+            u = recording.gyro[sl]
+            jitter = jitter_var * np.sum(((u[:-2] - u[2:]) / 2) ** 2, axis=0)
+            var_turn.append(rate_var * dt * x["duration"][-1] + jitter)
+    # each turn's own tilt: measured (to the accelerometer's noise), only how it splits between the two
+    # off-axis integrals is not
+    var_turn = [(v_int, np.where(np.arange(3) == axis, 2 * wander[axis], tilt) / np.asarray(gyro_scale) ** 2)
+                for v_int, axis, tilt in zip(var_turn, x["axis"], tilts, strict=True)]
+    base = _closed_form(x, gravity, angle)
+    names = list(base)
+    parts: dict[str, np.ndarray] = {}  # variance of every parameter from each group of inputs' errors
+    dof = {"tilt": 6.0, "tau": 3.0}  # the estimated variances' degrees of freedom (the others' are measured)
+
+    def add(group, key, index, var):  # central differences of the closed form in one input, times its variance
+        h = float(np.sqrt(var)) if var > 0 else 0.0
+        if h == 0.0:
+            return
+        out = []
+        for sgn in (1.0, -1.0):
+            y = {k: (v.copy() if isinstance(v, np.ndarray) else
+                     [a.copy() if isinstance(a, np.ndarray) else a for a in v]) for k, v in x.items()}
+            if isinstance(y[key], list):
+                y[key][index[0]][index[1]] += sgn * h
+            else:
+                y[key][index] += sgn * h
+            out.append(_closed_form(y, gravity, angle))
+        d = np.array([(out[0][n] - out[1][n]) / 2 for n in names])
+        parts[group] = parts.get(group, 0.0) + d**2
+
+    for f in range(6):
+        for j in range(3):
+            add("noise", "acc", (f, j), a_faces[f, j])
+            add("tilt", "acc", (f, j), q_tilt[f, j])
+            add("noise", "gyro", (f, j), g_faces[f, j])
+            add("tau", "gyro", (f, j), tau2)
+    for j in range(3):
+        add("noise", "drift", j, drift_ms[j])
+    for n, (v_int, v_off) in enumerate(var_turn):
+        for j in range(3):
+            add("noise", "integral", (n, j), v_int[j])
+            add("turn", "integral", (n, j), v_off[j])
+            add("tau", "bias_shift", (n, j), tau2)
+    total = sum(parts.values())
+    # Satterthwaite's degrees of freedom of the sum, and the 1σ of a t with them (as for the joint fit's
+    # rotations, imucalib.fit.gyroscope): estimated from a handful of leftovers, the variance is right on
+    # average, yet the error over its root has the variance ν/(ν − 2)
+    spread = sum(parts[g] ** 2 / dof[g] for g in parts if g in dof)
+    nu = np.maximum(total**2 / np.where(spread > 0, spread, 1.0), 3.0)
+    factor = np.where(spread > 0, np.sqrt(nu / (nu - 2.0)), 1.0)
+    return {n: float(v) for n, v in zip(names, np.sqrt(total) * factor, strict=True)}
 
 
 def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0,
@@ -168,6 +377,8 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
     fit["turn_angle_deg"] = float(angle)
     fit["turn_sections"] = [tr.to_dict() for i in range(3) for tr in turns[i]]
     fit["sections"] = "given" if sections is not None else "found"
-    fit["uncertainty_unavailable"] = ("the closed form determines every parameter exactly from the six faces "
-                                      "and the turns, which leaves no residual to estimate the noise from")
+    fit["uncertainty"] = closed_form_errors(recording, faces, turns, theta, acc.forward(recording.acc), gravity,
+                                            gyro.scale, rest=None if sections is not None else rest)
+    # the bias is the six faces' mean: with a drifting bias, the bias at their mean time
+    fit["gyroscope_bias_time_s"] = float(np.mean([np.mean(recording.t[iv.slice]) for iv in faces]))
     return cal.with_(fit=fit)

@@ -6,8 +6,8 @@ readings ``u_up`` and ``u_down`` of that axis::
     b = (u_up + u_down) / 2                          (eq. 8)
     s = (u_up − u_down) / (2 g)   (raw per m/s²)     (eq. 9)
 
-so the canonical scale is ``k1 = 1/s`` and the bias ``b``; the method ignores
-misalignment (``T_a = I``) and nonlinearity. The six faces are found
+so the canonical scale is ``k1 = 1/s`` and the bias ``b``; the review's method
+ignores misalignment (``T_a = I``) and nonlinearity. The six faces are found
 automatically among the static poses: after a sphere fit centres the data, the
 pose whose direction is closest to ``+x`` (``−x``, …) is that face, and it must
 lie within ``max_tilt`` degrees of the axis — otherwise the recording does not
@@ -20,6 +20,21 @@ comes from the static poses and the rotations between them together
 (:func:`imucalib.fit.gyroscope.fit_gyroscope`: the poses' means fix the bias,
 the rotations' gravity directions the scales and misalignment; the review
 calibrates gyroscopes on a rate table, which free-hand data does not have).
+
+The accelerometer's misalignment ``T_a`` (upper triangular) is estimated
+where a gyroscope recorded the rotations, and held at the identity otherwise.
+Gravity's norm at the six faces does not measure it (its first-order change
+``2 a_i a_j T_ij`` is nil with gravity along an axis), nor do the faces'
+readings unless they are exact faces of a cube (held by hand they are a
+degree or two off, as much as ``T_a`` itself); but a rigid rotation cannot
+carry one sheared set of gravity directions into another, so the rotations
+between the poses measure it along with the gyroscope
+(:func:`imucalib.fit.gyroscope.accelerometer_joint_step`, a zero-mean prior
+of the datasheet's cross-axis bound deciding only where they do not). The
+faces' tilts and eqs. (8)–(9) are then taken with that ``T_a``. Held at the
+identity, ``T_a`` would set the gravity directions the gyroscope is fitted
+to wrong by ``T_ij`` (a 90° turn between two faces reads ``90° − T_ij``),
+an error of the gyroscope's scales that no residual shows.
 """
 
 from __future__ import annotations
@@ -28,16 +43,16 @@ import numpy as np
 
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import accelerometer_covariance as full_covariance
-from ..fit.accelerometer import fit_determined, six_position
-from ..fit.gyroscope import fit_gyroscope
+from ..fit.accelerometer import fit_determined, mean_variance, six_position
+from ..fit.gyroscope import accelerometer_joint_step, fit_gyroscope, joint_errors_at
 from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
 from ..segment import FACE_NAMES, find_faces, pose_blocks, static_poses, unreliable_transitions
 
 METHOD = MethodInfo(
     name="six_position",
-    summary="accelerometer biases and scales from each axis up and down (no misalignment); gyroscope on the "
-            "poses and rotations",
+    summary="accelerometer biases and scales from each axis up and down, its misalignment from the rotations "
+            "(none without a gyroscope); gyroscope on the poses and rotations",
     needs=("static poses", "six faces", "rotations"),
     models=("linear",),
     options=(
@@ -52,15 +67,22 @@ METHOD = MethodInfo(
 __all__ = ["CROSS_AXIS", "accelerometer_covariance", "calibrate"]
 
 #: the cross-axis sensitivity a consumer MEMS accelerometer's datasheet bounds (MPU-6000/MPU-6050 Product
-#: Specification rev. 3.4, §6.2: ±2 %): what the misalignment the method holds at zero may be when the poses
-#: cannot measure it
+#: Specification rev. 3.4, §6.2: ±2 %): what the misalignment may be when neither the poses nor the rotations
+#: measure it (a uniform prior within ±c, variance c²/3)
 CROSS_AXIS = 0.02
+#: the accelerometer's misalignment entries (``AccelLayout("upper", 1)`` order) the rotations estimate
+MISALIGNMENT = (0, 1, 2)
+#: Gauss–Newton steps for the misalignment at most, and the step [rad] below which it has converged
+MISALIGNMENT_STEPS, MISALIGNMENT_TOL = 6, 1e-6
 
 
 def accelerometer_covariance(recording, intervals, faces, acc, gravity: float) -> np.ndarray:
     """Covariance of the six-position accelerometer in ``AccelLayout("upper", 1)`` order, for the gyroscope's errors.
 
-    The method holds the misalignment ``T_a`` at the identity; the accelerometer's
+    Where the rotations estimate the misalignment with the gyroscope, its
+    entries here are not used (:func:`imucalib.fit.gyroscope.joint_errors`
+    takes them from the joint fit). Where they do not, the method holds
+    ``T_a`` at the identity; the accelerometer's
     real cross-axis terms set the gravity directions the gyroscope is fitted
     to, so holding them at zero is an error of the gyroscope's parameters
     that its own residuals cannot show: each upper term ``T_ij`` enters with
@@ -71,12 +93,12 @@ def accelerometer_covariance(recording, intervals, faces, acc, gravity: float) -
     (:func:`imucalib.fit.accelerometer.pose_covariance`) updates that: the
     posterior is the normal ``N(T̂_ij, σ²)`` truncated to ``[−c, c]`` (Bayes'
     rule with a uniform prior), whose second moment is taken. The bias and scale of
-    eqs. (8)–(9) carry each face mean's white noise (its samples' variance
-    over their number ``v``): ``var b = (v₊ + v₋)/4``, ``var s = (v₊ + v₋)/(2g)²``
-    and, with ``k1 = 1/s``, ``var k1 = k1⁴ var s``.
+    eqs. (8)–(9) carry each face mean's noise (the variance of its mean
+    ``v`` by batch means, :func:`~imucalib.fit.accelerometer.mean_variance`):
+    ``var b = (v₊ + v₋)/4``, ``var s = (v₊ + v₋)/(2g)²`` and, with
+    ``k1 = 1/s``, ``var k1 = k1⁴ var s``.
     """
-    v = np.array([np.var(recording.acc[intervals[int(i)].slice], axis=0) / max(len(intervals[int(i)]) - 1, 1)
-                  for i in faces])
+    v = np.array([mean_variance(recording.acc[intervals[int(i)].slice]) for i in faces])
     axes = np.arange(3)
     pair = v[:3][axes, axes] + v[3:][axes, axes]
     k = np.abs(acc.scale)
@@ -99,23 +121,92 @@ def accelerometer_covariance(recording, intervals, faces, acc, gravity: float) -
     return np.diag(np.concatenate([mis, k**4 * pair / (2 * gravity) ** 2, pair / 4]))
 
 
+def _faces(up, down, means, faces, gravity, misalignment=None):
+    """Eqs. (8)–(9) for each axis with its faces' tilts by the calibrated directions, to a fixed point.
+
+    With a misalignment ``T``, an axis reads ``k_i (u_i − b_i) = (T⁻¹ a)_i``: the
+    "cosines" of eqs. (8)–(9) are the components of ``T⁻¹ d`` (``d`` the calibrated
+    gravity direction). Returns the model and the faces' tilt cosines (of ``d``).
+    """
+    t = np.eye(3) if misalignment is None else np.asarray(misalignment)
+    axes = np.arange(3)
+    acc = six_position(up, down, gravity).with_(misalignment=t)  # eqs. (8)-(9)
+    for _ in range(5):
+        d = acc.forward(means)
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        v = np.linalg.solve(t, d.T).T
+        acc = six_position(up, down, gravity, cos_up=v[faces[:3], axes],
+                           cos_down=-v[faces[3:], axes]).with_(misalignment=t)
+    d = acc.forward(means)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return acc, d[faces[:3], axes], -d[faces[3:], axes]
+
+
+def _with_misalignment(recording, intervals, acc, exclude, up, down, means, faces, gravity):
+    """The gyroscope and the accelerometer's misalignment from the rotations together (module docstring).
+
+    The misalignment is iterated to its fixed point with every rotation the
+    data leave usable, before any is judged an outlier: held at zero, the
+    shear makes the rotations that measure it look like outliers, and leaving
+    those out would leave it unmeasured. The outliers of the converged fit
+    (:data:`imucalib.fit.gyroscope.OUTLIER_SIGMA`) are then left out and the
+    fixed point taken again, at most twice. Returns the accelerometer, the
+    gyroscope's fit and whether the misalignment was estimated.
+    """
+    gyro_fit = fit_gyroscope(recording, intervals, acc, exclude=exclude)
+    if gyro_fit.bias_source != "joint" or gyro_fit.rotation_sigma is None:
+        return acc, gyro_fit, False
+    prior = np.full(len(MISALIGNMENT), CROSS_AXIS**2 / 3)
+    left_out = dict(exclude or {})
+    for _ in range(2):
+        gyro_fit = fit_gyroscope(recording, intervals, acc, exclude=left_out, robust=False)
+        t = acc.misalignment.copy()
+        for _ in range(MISALIGNMENT_STEPS):
+            if gyro_fit.bias_source != "joint":
+                return acc, fit_gyroscope(recording, intervals, acc, exclude=exclude), False
+            step = accelerometer_joint_step(recording, intervals, acc, gyro_fit.model, gyro_fit.summary(),
+                                            MISALIGNMENT, prior)
+            t[0, 1] += step[0]
+            t[0, 2] += step[1]
+            t[1, 2] += step[2]
+            acc = _faces(up, down, means, faces, gravity, t)[0]
+            gyro_fit = fit_gyroscope(recording, intervals, acc, exclude=left_out, robust=False)
+            if np.max(np.abs(step)) < MISALIGNMENT_TOL:
+                break
+        robust = fit_gyroscope(recording, intervals, acc, exclude=left_out)
+        if set(robust.left_out) == set(left_out):
+            break
+        left_out = robust.left_out
+    return acc, fit_gyroscope(recording, intervals, acc, exclude=left_out), True
+
+
 def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15.0,
               init_static: float | None = None) -> Calibration:
-    """Six-position accelerometer calibration (eqs. 8–9) with the gravity-direction gyroscope fit."""
+    """Six-position accelerometer calibration (eqs. 8–9) with the gravity-direction gyroscope fit.
+
+    Where the rotations were recorded, the accelerometer's misalignment is estimated with the gyroscope
+    (module docstring) and its 1σ is reported with the gyroscope's.
+    """
     intervals = static_poses(recording, gravity, intervals, init_static=init_static)
     means = interval_means(recording.acc, intervals)
     faces = find_faces(means, gravity, max_tilt=max_tilt)
     up, down = means[faces[:3], np.arange(3)], means[faces[3:], np.arange(3)]
-    acc = six_position(up, down, gravity)  # eqs. (8)-(9)
-    for _ in range(5):  # each face's tilt from its axis by the calibrated direction, then eqs. (8)-(9) for it
-        d = acc.forward(means)
-        d /= np.linalg.norm(d, axis=1, keepdims=True)
-        cos_up, cos_down = d[faces[:3], np.arange(3)], -d[faces[3:], np.arange(3)]
-        acc = six_position(up, down, gravity, cos_up=cos_up, cos_down=cos_down)
+    acc, cos_up, cos_down = _faces(up, down, means, faces, gravity)
     blocks = pose_blocks(recording) is not None
-    gyro_fit = None if recording.gyro is None or blocks else fit_gyroscope(  # none without rotations recorded
-        recording, intervals, acc, exclude=unreliable_transitions(recording, intervals),
-        acc_cov=accelerometer_covariance(recording, intervals, faces, acc, gravity))
+    gyro_fit, estimated = None, False
+    if recording.gyro is not None and not blocks:  # none without rotations recorded
+        exclude = unreliable_transitions(recording, intervals)
+        acc, gyro_fit, estimated = _with_misalignment(recording, intervals, acc, exclude, up, down, means, faces,
+                                                      gravity)
+        if estimated:
+            acc, cos_up, cos_down = _faces(up, down, means, faces, gravity, acc.misalignment)
+            gyro_fit.errors = joint_errors_at(
+                recording, intervals, acc, gyro_fit.model, gyro_fit.summary(),
+                acc_cov=accelerometer_covariance(recording, intervals, faces, acc, gravity),
+                acc_joint=(MISALIGNMENT, np.full(len(MISALIGNMENT), CROSS_AXIS**2 / 3)))
+        else:
+            gyro_fit = fit_gyroscope(recording, intervals, acc, exclude=exclude,
+                                     acc_cov=accelerometer_covariance(recording, intervals, faces, acc, gravity))
     gyro, gyro_errors = (gyro_fit.model, gyro_fit.errors) if gyro_fit is not None else (None, {})
     cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="six_position",
                       model="linear", units=units_of(recording))
@@ -125,10 +216,12 @@ def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15
     if blocks and recording.gyro is not None:
         fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
                                            "the rotations that calibrate the gyroscope were not recorded")
+    fit["accelerometer_misalignment"] = ("estimated from the rotations with the gyroscope" if estimated else
+                                         "held at zero (eqs. 8-9): no rotations to measure it")
     fit["faces"] = {name: int(i) for name, i in zip(FACE_NAMES, faces, strict=True)}
     fit["faces_tilt_deg"] = {name: float(np.degrees(np.arccos(np.clip(c, -1, 1))))
                              for name, c in zip(FACE_NAMES, np.concatenate([cos_up, cos_down]), strict=True)}
     fit["uncertainty"] = gyro_errors
-    fit["uncertainty_unavailable"] = ("accelerometer: the six faces determine its six parameters exactly "
+    fit["uncertainty_unavailable"] = ("accelerometer: the six faces determine its biases and scales exactly "
                                       "(eqs. 8-9), which leaves no residual to estimate the noise from")
     return cal.with_(fit=fit)
