@@ -279,7 +279,8 @@ class _Problem:
         if not jac:
             return w, None
         n = raw_g.shape[0]
-        jw = np.zeros((n, 3, lay.size))  # the lever-arm columns stay zero: r does not enter ω
+        jw = np.empty((n, 3, lay.size))
+        jw[:, :, lay.n_acc + lay.n_gyro :] = 0.0  # the lever-arm columns: r does not enter ω
         np.matmul(dwdx @ -g, ja, out=jw[:, :, : lay.n_acc])  # through G·a
         s = lay.n_acc
         o = lay.order
