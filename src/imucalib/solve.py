@@ -13,10 +13,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["LMResult", "errors_from_covariance", "levenberg_marquardt", "standard_errors"]
+__all__ = ["LMResult", "ScaledInverse", "errors_from_covariance", "levenberg_marquardt", "scaled_inverse",
+           "standard_errors"]
 
 
 @dataclass
@@ -190,6 +192,34 @@ def errors_from_covariance(cov: np.ndarray, bad: np.ndarray, *, transform: np.nd
     return out
 
 
+class ScaledInverse(NamedTuple):
+    """``(JᵀJ)⁻¹`` in unit-norm columns (:func:`scaled_inverse`)."""
+
+    col: np.ndarray  # (P,) the columns' norms (1 where a column is zero)
+    js: np.ndarray  # (M, P) the Jacobian with its columns scaled to unit norm
+    inv: np.ndarray  # (P, P) the pseudo-inverse of ``jsᵀ js`` over its observable directions
+    bad: np.ndarray  # (P,) bool: a parameter with a visible share of an unobservable direction
+
+
+def scaled_inverse(jac: np.ndarray, rcond: float = 1e-10) -> ScaledInverse:
+    """The inverse of the normal matrix of ``jac`` with its columns scaled to unit norm.
+
+    Parameters spanning many orders of magnitude keep their accuracy; an
+    eigen-direction of the scaled ``JᵀJ`` below ``rcond`` times the largest
+    is unobservable: dropped from the inverse, and every parameter loaded on
+    it (a component above 1e-3) flagged ``bad``. The parameters' covariance
+    is ``σ² inv / outer(col, col)``.
+    """
+    col = np.linalg.norm(jac, axis=0)
+    col = np.where(col > 0, col, 1.0)
+    js = jac / col
+    w, v = np.linalg.eigh(js.T @ js)
+    good = w > rcond * max(w[-1], np.finfo(float).tiny)
+    bad = np.any(np.abs(v[:, ~good]) > 1e-3, axis=1)
+    inv = (v[:, good] / w[good]) @ v[:, good].T
+    return ScaledInverse(col, js, inv, bad)
+
+
 def covariance(jac: np.ndarray, residuals: np.ndarray, *, dof: float | None = None,
                rcond: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
     """``σ² (JᵀJ)⁻¹`` of a least-squares fit at its minimum, and which parameters it does not determine.
@@ -200,11 +230,5 @@ def covariance(jac: np.ndarray, residuals: np.ndarray, *, dof: float | None = No
     m, p = jac.shape
     dof = m - p if dof is None else dof
     s2 = float(residuals @ residuals) / max(dof, 1)
-    col = np.linalg.norm(jac, axis=0)
-    col = np.where(col > 0, col, 1.0)
-    js = jac / col
-    w, v = np.linalg.eigh(js.T @ js)
-    good = w > rcond * max(w[-1], np.finfo(float).tiny)
-    cov_s = (v[:, good] / w[good]) @ v[:, good].T
-    bad = np.any(np.abs(v[:, ~good]) > 1e-3, axis=1)  # loaded on an unobservable direction
-    return s2 * cov_s / np.outer(col, col), bad
+    si = scaled_inverse(jac, rcond)
+    return s2 * si.inv / np.outer(si.col, si.col), si.bad

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..models import TriadModel
 from ..residuals import AccelLayout, gravity_norm_residuals
-from ..solve import errors_from_covariance, levenberg_marquardt
+from ..solve import errors_from_covariance, levenberg_marquardt, scaled_inverse
 
 __all__ = ["REDUCED_MODELS", "GravityNormFit", "accelerometer_covariance", "accelerometer_errors",
            "accelerometer_figures", "determined_figures", "faces_full", "fit_determined", "fit_ellipsoid",
@@ -364,15 +364,9 @@ def pose_covariance(jac: np.ndarray, residuals: np.ndarray, *, rcond: float = 1e
     to take a scatter from: the callers say the errors are unavailable).
     """
     m, p = jac.shape
-    col = np.linalg.norm(jac, axis=0)
-    col = np.where(col > 0, col, 1.0)
-    js = jac / col
-    w, v = np.linalg.eigh(js.T @ js)
-    good = w > rcond * max(w[-1], np.finfo(float).tiny)
-    bad = np.any(np.abs(v[:, ~good]) > 1e-3, axis=1)  # loaded on an unobservable direction
+    col, js, inv, bad = scaled_inverse(jac, rcond)
     if m <= p:  # the poses determine the parameters exactly: no residual to take a scatter from
         return np.zeros((p, p)), bad
-    inv = (v[:, good] / w[good]) @ v[:, good].T
     s2 = float(residuals @ residuals) / (m - p)
     if m < SANDWICH_POSES_PER_PARAMETER * p:  # leverages near 1: each pose's own variance is not measurable
         return s2 * inv / np.outer(col, col), bad

@@ -31,7 +31,7 @@ from ..residuals import (
     gravity_direction_residuals_jac,
     linear_rate_jacobian,
 )
-from ..solve import levenberg_marquardt, standard_errors
+from ..solve import levenberg_marquardt, scaled_inverse, standard_errors
 from .accelerometer import full_from_sensitivity
 
 __all__ = ["MIN_POSES", "SIGNED_PERMUTATIONS", "GyroFit", "StaticGyro", "accelerometer_joint_step",
@@ -733,12 +733,7 @@ def _small_sample_factor(j: np.ndarray, n_rot: int, weights: np.ndarray, a: np.n
     ``known``, the variance the accelerometer's and g-sensitivity's
     covariances add). ``ν`` is held at 3 at least (a factor of √3 at most).
     """
-    col = np.linalg.norm(j, axis=0)
-    col = np.where(col > 0, col, 1.0)
-    js = j / col
-    w, v = np.linalg.eigh(js.T @ js)
-    good = w > rcond * max(w[-1], np.finfo(float).tiny)
-    inv = (v[:, good] / w[good]) @ v[:, good].T
+    col, js, inv, _ = scaled_inverse(j, rcond)
     proj = np.eye(js.shape[0]) - js @ inv @ js.T
     kept = np.nonzero(np.asarray(weights) > 0)[0]
     cs = (a / col).T  # contrasts in the scaled parameters, one per column
@@ -788,13 +783,7 @@ def _joint_covariance(j: np.ndarray, res: np.ndarray, n_rot: int, weights: np.nd
     on a dozen rotations, each rotation's leverage is near one half and the
     plain sandwich would shrink the errors by as much.
     """
-    col = np.linalg.norm(j, axis=0)
-    col = np.where(col > 0, col, 1.0)
-    js = j / col
-    w, v = np.linalg.eigh(js.T @ js)
-    good = w > rcond * max(w[-1], np.finfo(float).tiny)
-    bad = np.any(np.abs(v[:, ~good]) > 1e-3, axis=1)
-    inv = (v[:, good] / w[good]) @ v[:, good].T
+    col, js, inv, bad = scaled_inverse(j, rcond)
     j_st = js[n_rot:]
     meat = j_st.T @ j_st
     kept = np.nonzero(np.asarray(weights) > 0)[0]
