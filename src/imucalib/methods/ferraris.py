@@ -214,8 +214,9 @@ def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[
     q_tilt[np.arange(6), face_axis] += (gravity / k_a[face_axis]) ** 2 * tilt**2
     # the gyroscope's bias drifts between the faces: u = b + d (t − t_ref) + G g d_f + ε, 15 unknowns in 18
     # readings per axis-triad; the closed form leaves d out (b holds at t_ref, the faces' mean time), which
-    # moves G by d (t₊ − t₋)/(2g) and each turn's bias by d (t_turn − t_ref): d's mean squared error
-    # d̂² + var d̂ is carried; the three readings left over give the faces' scatter τ² beyond their noise
+    # moves G by d (t₊ − t₋)/(2g) and each turn's bias by d (t_turn − t_ref): d² is carried, estimated without
+    # bias by d̂² − var d̂ (E d̂² = d² + var d̂; at least 0), var d̂ the fit's plus what the faces' scatter adds;
+    # the three readings left over give that scatter τ² beyond their noise
     times = np.array([np.mean(recording.t[iv.slice]) for iv in faces])
     t_ref = float(times.mean())
     design = np.zeros((6, 5))
@@ -233,7 +234,7 @@ def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[
         leftover += float(np.sum(r**2 - (1 - h) * g_faces[:, j]))
         drift[j], drift_var[j] = coef[1], cov[1, 1]
     tau2 = max(leftover / 3.0, 0.0)  # one left over per axis, pooled
-    drift_ms = drift**2 + drift_var + tau2 / max(float(np.sum((times - t_ref) ** 2)), 1e-300)
+    drift_ms = np.maximum(drift**2 - drift_var - tau2 / max(float(np.sum((times - t_ref) ** 2)), 1e-300), 0.0)
     steps = np.diff(recording.t)
     dt = float(np.median(steps))
     # timestamp jitter: a step is the clock's period plus the difference of two jitters, var = 2 σ_t² (gaps left out)
