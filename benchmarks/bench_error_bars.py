@@ -205,7 +205,9 @@ def table(results: list[dict], methods: list[str]) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--runs", type=int, default=30, help="number of seeds (from --first-seed)")
+    # 60 seeds: an RMS over 30 seeds × 3 axes still scatters by about ±0.08 (1σ) about its value (six_position's
+    # gyroscope bias reads 0.75 on seeds 0-29 and 0.99 on seeds 30-59), too much to judge a 0.8-1.25 band by
+    parser.add_argument("--runs", type=int, default=60, help="number of seeds (from --first-seed)")
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--methods", default=DEFAULT_METHODS,
