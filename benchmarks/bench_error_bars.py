@@ -41,12 +41,11 @@ import argparse
 import json
 import time
 import warnings
-from concurrent.futures import ProcessPoolExecutor
-from functools import partial
 
 import numpy as np
 from _common import DATA
 
+from imucalib.experiments.verdict_thresholds import over_seeds, scenario_knobs
 from imucalib.methods import calibrate
 from imucalib.scenarios import session
 
@@ -224,17 +223,10 @@ def main() -> None:
         if spec.partition("/")[0] not in PROCEDURES or not spec.partition("/")[2]:
             parser.error(f"a method is 'procedure/name' (optionally ':model'), the procedure one of "
                          f"{', '.join(PROCEDURES)}; got {spec!r}")
-    knobs = json.loads(args.scenario_knobs)
-    if not isinstance(knobs, dict):
-        parser.error("--scenario-knobs must be a JSON object")
+    knobs = scenario_knobs(args.scenario_knobs, parser)
     seeds = list(range(args.first_seed, args.first_seed + args.runs))
     t0 = time.perf_counter()
-    job = partial(run_one, methods=methods, knobs=knobs)
-    if args.workers > 1:
-        with ProcessPoolExecutor(args.workers) as ex:
-            results = list(ex.map(job, seeds))
-    else:
-        results = [job(s) for s in seeds]
+    results = over_seeds(run_one, seeds, args.workers, methods=methods, knobs=knobs)
     real_methods = [m.strip() for m in args.real_methods.split(",") if m.strip()]
     real = real_halves(real_methods, args.split_s) if real_methods else None
     doc = {"benchmark": "error_bars", "scenario": "handheld (tosses: zhang2021)", "knobs": knobs, "runs": args.runs,

@@ -254,6 +254,26 @@ def summarise(results: list[dict], methods: list[str]) -> dict:
     return out
 
 
+def scenario_knobs(text: str, parser: argparse.ArgumentParser) -> dict:
+    """The hand-held scenario's knobs from ``--scenario-knobs`` (a JSON object), or the parser's error."""
+    try:
+        knobs = json.loads(text)
+    except json.JSONDecodeError as exc:
+        parser.error(f"--scenario-knobs is not JSON: {exc}")
+    if not isinstance(knobs, dict):
+        parser.error("--scenario-knobs must be a JSON object")
+    return knobs
+
+
+def over_seeds(run_one, seeds: list[int], workers: int, **options) -> list:
+    """``run_one(seed, **options)`` for every seed, in ``workers`` processes (in this one for 1), in order."""
+    job = partial(run_one, **options)
+    if workers > 1:
+        with ProcessPoolExecutor(workers) as ex:
+            return list(ex.map(job, seeds))
+    return [job(s) for s in seeds]
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run the study and print its JSON (``python -m imucalib.experiments.verdict_thresholds --help``)."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -265,17 +285,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--per-run", action="store_true", help="also print every run's figures")
     args = parser.parse_args(argv)
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-    knobs = json.loads(args.scenario_knobs)
-    if not isinstance(knobs, dict):
-        parser.error("--scenario-knobs must be a JSON object")
+    knobs = scenario_knobs(args.scenario_knobs, parser)
     seeds = list(range(args.first_seed, args.first_seed + args.runs))
     t0 = time.perf_counter()
-    job = partial(run_one, methods=methods, knobs=knobs)
-    if args.workers > 1:
-        with ProcessPoolExecutor(args.workers) as ex:
-            results = list(ex.map(job, seeds))
-    else:
-        results = [job(s) for s in seeds]
+    results = over_seeds(run_one, seeds, args.workers, methods=methods, knobs=knobs)
     doc = {
         "benchmark": "verdict_thresholds",
         "scenario": "handheld", "knobs": knobs, "runs": args.runs, "seeds": [seeds[0], seeds[-1]],
