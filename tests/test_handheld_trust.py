@@ -339,9 +339,9 @@ def test_gyro_gate_keeps_turning_samples_out_of_the_poses(knobs):
         assert _max_rate_inside(sim, twin, ungated) > 1.0, seed
 
 
-def test_saturated_and_spiking_rotations_are_left_out_not_fitted():
+def test_saturated_and_spiking_rotations_are_left_out_not_fitted(spiky_handheld):
     """Rotations through a clipped gyroscope, or holding a spike, are left out of the fit and said so."""
-    from imucalib.recording import ImucalibWarning, Recording
+    from imucalib.recording import ImucalibWarning
 
     with pytest.warns(ImucalibWarning, match="clipped"):  # fast turns: the ±250 °/s range clips
         sim = session("handheld", rng=4, max_rate=None, move=(0.4, 0.8))
@@ -353,13 +353,7 @@ def test_saturated_and_spiking_rotations_are_left_out_not_fitted():
     assert cal.fit["verdict"] != "rejected" and cal.fit["gyroscope_angle_error_kept_mean_deg"] < 0.25
     assert any("left out" in note for note in cal.fit["verdict_notes"])
 
-    sim = session("handheld", rng=5)
-    rec = sim.recording
-    poses = calibrate(rec, method="tedaldi2014", gravity=sim.truth.gravity).fit["intervals"]
-    gyro = rec.gyro.copy()
-    for k in range(5):  # five spikes, each in the middle of a different rotation
-        gyro[(poses[3 + 4 * k][1] + poses[4 + 4 * k][0]) // 2, k % 3] += 8000
-    spiky = Recording(rec.t, rec.acc, gyro, acc_unit=rec.acc_unit, gyro_unit=rec.gyro_unit)
+    sim, spiky = spiky_handheld(5)  # five spikes, each in the middle of a different rotation
     cal = calibrate(spiky, method="tedaldi2014", gravity=sim.truth.gravity)
     assert sum("spike" in why for why in cal.fit["rotations_left_out"].values()) == 5
     np.testing.assert_allclose(cal.gyroscope.scale, sim.truth.gyroscope.scale, rtol=0.002)

@@ -64,16 +64,8 @@ def test_linear_variant_is_the_shared_stages():
     np.testing.assert_allclose([p[k] for k in q], list(q.values()), rtol=1e-9, atol=1e-12)
 
 
-def test_unreliable_rotations_are_left_out_as_the_shared_stage_finds_them():
-    from imucalib.recording import Recording
-
-    sim = session("handheld", rng=5)
-    rec = sim.recording
-    poses = calibrate(rec, method="tedaldi2014", gravity=sim.truth.gravity).fit["intervals"]
-    gyro = rec.gyro.copy()
-    for k in range(4):  # four spikes, each in the middle of a different rotation
-        gyro[(poses[3 + 4 * k][1] + poses[4 + 4 * k][0]) // 2, k % 3] += 8000
-    spiky = Recording(rec.t, rec.acc, gyro, acc_unit=rec.acc_unit, gyro_unit=rec.gyro_unit)
+def test_unreliable_rotations_are_left_out_as_the_shared_stage_finds_them(spiky_handheld):
+    sim, spiky = spiky_handheld(4)  # four spikes, each in the middle of a different rotation
     cal = _quiet(spiky, method="zhang2021", gravity=sim.truth.gravity)
     assert sum("spike" in why for why in cal.fit["rotations_left_out"].values()) == 4
     np.testing.assert_allclose(cal.gyroscope.scale, sim.truth.gyroscope.scale, rtol=0.002)
