@@ -23,16 +23,27 @@ __all__ = ["LMResult", "ScaledInverse", "errors_from_covariance", "levenberg_mar
 
 @dataclass
 class LMResult:
-    """Outcome of :func:`levenberg_marquardt` (fields as in scipy's ``OptimizeResult``)."""
+    """Outcome of :func:`levenberg_marquardt` (fields as in scipy's ``OptimizeResult``).
+
+    ``jac`` is the Jacobian at ``x``. Where the last accepted step ended the
+    iterations, it is evaluated when first read (most callers read only ``x``
+    and ``fun``); ``njev`` counts it either way.
+    """
 
     x: np.ndarray
     cost: float  # ½‖r‖²
     fun: np.ndarray
-    jac: np.ndarray
+    _jac: np.ndarray | Callable[[], np.ndarray]
     nfev: int
     njev: int
     status: int
     message: str
+
+    @property
+    def jac(self) -> np.ndarray:
+        if callable(self._jac):
+            self._jac = np.asarray(self._jac(), dtype=np.float64)
+        return self._jac
 
     @property
     def success(self) -> bool:
@@ -135,10 +146,10 @@ def levenberg_marquardt(
             if lam > 1e16:
                 status, message = 3, "no further decrease is possible (damping saturated)"
                 break
-    if j is None:
-        j = np.asarray(jac(x), dtype=np.float64)
+    if j is None:  # the Jacobian at the last accepted point, formed only if read
+        j = (lambda at=x: jac(at))
         njev += 1
-    return LMResult(x=x, cost=cost, fun=r, jac=j, nfev=nfev, njev=njev, status=status,
+    return LMResult(x=x, cost=cost, fun=r, _jac=j, nfev=nfev, njev=njev, status=status,
                     message=message)
 
 

@@ -557,6 +557,7 @@ def _solve_joint(recording, intervals, accelerometer, static, weights, start: Tr
         del fun, jac  # with what they hold, before the next problem is formed
         theta = sol.x
         e = np.linalg.norm(sol.fun[: 3 * (len(intervals) - 1)].reshape(-1, 3), axis=1) * sigma
+        del sol  # and the problem its Jacobian would be formed from
         sigma = _rotation_sigma(e, weights, 9) if n_kept else sigma
     model = GyroLayout(True).unpack(theta[:12], theta[9:12])
     if static.g_sensitivity is not None:
