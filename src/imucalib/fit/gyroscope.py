@@ -365,6 +365,68 @@ class StaticGyro:
     g_cov: np.ndarray | None = None  # (3, 3, 3) per gyroscope axis, the covariance of its row of ``g_sensitivity``
 
 
+def _regression_solve(x: np.ndarray, u: np.ndarray, v: np.ndarray, tau2: float):
+    """One axis's weighted least squares of ``u ≈ x c`` with weights ``1/(v + τ²)``: ``c``, its covariance, χ², the
+    residuals."""
+    w = 1.0 / (v + tau2)
+    xw = x * w[:, None]
+    cov = np.linalg.pinv(x.T @ xw)
+    c = cov @ (xw.T @ u)
+    r = u - x @ c
+    return c, cov, float(np.sum(w * r * r)), r
+
+
+def _weighted_regressions(problems: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> list[tuple]:
+    """:func:`_weighted_regression` of each ``(x, u, v)``, the searches for ``τ²`` run side by side.
+
+    Each search is the bisection :func:`_weighted_regression` describes, with
+    the same brackets, midpoints and stopping test; only the χ² that decides
+    each step is formed for all of them at once (one stacked pseudo-inverse,
+    the regressors padded with zero columns, which leave the fit as it is).
+    The χ² at ``τ² = 0`` that decides whether to search, and every returned
+    fit, are computed one by one as in the single case, so a search can only
+    end elsewhere if a step's χ² lies within rounding of the degrees of
+    freedom.
+    """
+    first = [_regression_solve(x, u, v, 0.0) for x, u, v in problems]
+    dofs = [max(x.shape[0] - x.shape[1], 1) for x, _, _ in problems]
+    tau2 = [0.0] * len(problems)
+    todo = [k for k, (f, dof) in enumerate(zip(first, dofs, strict=True)) if f[2] > dof]
+    if todo:
+        width = max(problems[k][0].shape[1] for k in todo)
+        m = problems[todo[0]][0].shape[0]
+        x = np.zeros((len(todo), m, width))
+        for i, k in enumerate(todo):
+            x[i, :, : problems[k][0].shape[1]] = problems[k][0]
+        u = np.array([problems[k][1] for k in todo])
+        v = np.array([problems[k][2] for k in todo])
+        dof = np.array([dofs[k] for k in todo], dtype=float)
+        lo = np.zeros(len(todo))
+        hi = np.array([float(np.max(first[k][3] * first[k][3])) * 10 + 1e-300 for k in todo])
+        active = np.ones(len(todo), bool)
+        for _ in range(100):
+            mid = 0.5 * (lo + hi)
+            w = 1.0 / (v + mid[:, None])
+            xw = x * w[:, :, None]
+            c = np.linalg.pinv(np.swapaxes(x, 1, 2) @ xw) @ (np.swapaxes(xw, 1, 2) @ u[:, :, None])
+            r = u - (x @ c)[:, :, 0]
+            above = np.sum(w * r * r, axis=1) > dof
+            lo = np.where(active & above, mid, lo)
+            hi = np.where(active & ~above, mid, hi)
+            active &= ~(hi - lo <= 1e-10 * hi)
+            if not active.any():
+                break
+        for i, k in enumerate(todo):
+            tau2[k] = float(hi[i])
+    out = []
+    for (x, u, v), f, t in zip(problems, first, tau2, strict=True):
+        c, cov, _, r = f if t == 0.0 else _regression_solve(x, u, v, t)
+        var = v + t
+        loglik = -0.5 * float(np.sum(np.log(2 * np.pi * var) + r * r / var))
+        out.append((c, cov, t, np.array([loglik])))
+    return out
+
+
 def _weighted_regression(x: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, float,
                                                                                  np.ndarray]:
     """One axis: least squares of ``u ≈ x c`` weighted by ``1/(v + τ²)``, ``τ²`` by Paule & Mandel.
@@ -372,37 +434,11 @@ def _weighted_regression(x: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[n
     ``τ²`` ≥ 0 is the between-pose variance that makes the weighted residuals'
     χ² equal their degrees of freedom (Paule & Mandel 1982, the random-effects
     estimator of meta-analysis); 0 when the white noise ``v`` already explains
-    the scatter. Returns the coefficients, their covariance, ``τ²`` and the
-    log-likelihood of the pose means.
+    the scatter. It is found by bisection on ``[0, 10 max r²]`` (χ² decreases
+    with ``τ²``) to a relative 1e-10. Returns the coefficients, their
+    covariance, ``τ²`` and the log-likelihood of the pose means.
     """
-    m, p = x.shape
-    dof = max(m - p, 1)
-
-    def solve(tau2):
-        w = 1.0 / (v + tau2)
-        xw = x * w[:, None]
-        cov = np.linalg.pinv(x.T @ xw)
-        c = cov @ (xw.T @ u)
-        r = u - x @ c
-        return c, cov, float(np.sum(w * r * r)), r
-
-    c, cov, q, r = solve(0.0)
-    tau2 = 0.0
-    if q > dof:
-        lo, hi = 0.0, float(np.max(r * r)) * 10 + 1e-300
-        for _ in range(100):  # χ²(τ²) decreases with τ²: bisection on a log scale near the root
-            mid = 0.5 * (lo + hi)
-            if solve(mid)[2] > dof:
-                lo = mid
-            else:
-                hi = mid
-            if hi - lo <= 1e-10 * hi:
-                break
-        tau2 = hi
-        c, cov, q, r = solve(tau2)
-    var = v + tau2
-    loglik = -0.5 * float(np.sum(np.log(2 * np.pi * var) + r * r / var))
-    return c, cov, tau2, np.array([loglik])
+    return _weighted_regressions([(x, u, v)])[0]
 
 
 def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, *,
@@ -445,11 +481,13 @@ def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: 
             if with_d and m <= 5:
                 continue
             cols = [np.ones(m)] + ([times - t_ref] if with_d else []) + ([*a.T] if with_g else [])
-            x = np.column_stack(cols)
-            per_axis = [_weighted_regression(x, u[:, j], v[:, j]) for j in range(3)]
-            loglik = sum(float(f[3][0]) for f in per_axis)
-            n, p = 3 * m, 3 * x.shape[1] + 3
-            fits[with_g, with_d] = (-2 * loglik + p * np.log(n), x, per_axis)
+            fits[with_g, with_d] = np.column_stack(cols)
+    regressions = _weighted_regressions([(x, u[:, j], v[:, j]) for x in fits.values() for j in range(3)])
+    for i, (key, x) in enumerate(list(fits.items())):
+        per_axis = regressions[3 * i : 3 * i + 3]
+        loglik = sum(float(f[3][0]) for f in per_axis)
+        n, p = 3 * m, 3 * x.shape[1] + 3
+        fits[key] = (-2 * loglik + p * np.log(n), x, per_axis)
     if not fits:  # too few poses for what was asked: the plain mean
         x = np.ones((m, 1))
         fits[False, False] = (0.0, x, [_weighted_regression(x, u[:, j], v[:, j]) for j in range(3)])
