@@ -207,3 +207,22 @@ def test_a_gyroscope_on_too_few_rotations_is_rejected(capsys, tmp_path):
     out = capsys.readouterr()
     assert code == EXIT_REJECTED, out.err
     assert "the gyroscope rests on" in out.out
+
+
+def test_single_rotation_costs_match_rotation_matrices():
+    """The scale search's closed form (Rodrigues) against scipy's rotation matrices, term by term."""
+    from scipy.spatial.transform import Rotation
+
+    from imucalib.fit.gyroscope import _single_rotation_costs
+
+    rng = np.random.default_rng(7)
+    phi = rng.normal(size=(25, 3)) * 1.7
+    phi[3] = 0.0  # a motion that does not turn
+    dirs = rng.normal(size=(25, 2, 3))
+    dirs /= np.linalg.norm(dirs, axis=2, keepdims=True)
+    ks = np.geomspace(0.05, 5.0, 40)
+    expected = np.array([
+        sum(np.sum((d[1] - Rotation.from_rotvec(k * p).as_matrix().T @ d[0]) ** 2)
+            for p, d in zip(phi, dirs, strict=True))
+        for k in ks])
+    np.testing.assert_allclose(_single_rotation_costs(phi, dirs, ks), expected, rtol=1e-12)

@@ -11,6 +11,7 @@ evaluated only at accepted points.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -147,7 +148,7 @@ def levenberg_marquardt(
                 status, message = 3, "no further decrease is possible (damping saturated)"
                 break
     if j is None:  # the Jacobian at the last accepted point, formed only if read
-        j = (lambda at=x: jac(at))
+        j = functools.partial(jac, x)
         njev += 1
     return LMResult(x=x, cost=cost, fun=r, _jac=j, nfev=nfev, njev=njev, status=status,
                     message=message)

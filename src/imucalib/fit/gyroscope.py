@@ -76,10 +76,27 @@ def _gyro_scale_guess(
         raise ValueError("the gyroscope does not move between the static poses")
     k0 = float(np.median(theta[ok] / path[ok]))
     ks = k0 * np.geomspace(0.3, 30.0, 600)
-    rot = quat_to_matrix(quat_from_rotvec(ks[:, None, None] * phi_vec[None, :, :]))
-    pred = np.einsum("skji,kj->ski", rot, gravity_dirs[:, 0])
-    cost = np.sum((gravity_dirs[None, :, 1] - pred) ** 2, axis=(1, 2))
-    return float(ks[int(np.argmin(cost))])
+    return float(ks[int(np.argmin(_single_rotation_costs(phi_vec, gravity_dirs, ks)))])
+
+
+def _single_rotation_costs(phi: np.ndarray, gravity_dirs: np.ndarray, ks: np.ndarray) -> np.ndarray:
+    """``Σ_i ‖g_i′ − R(k Φ_i)ᵀ g_i‖²`` for each ``k`` of ``ks``: gravity carried by one rotation per motion.
+
+    By Rodrigues' formula, ``R(θn)ᵀ g = g cos θ − (n × g) sin θ + n (n·g)(1 − cos θ)``,
+    so with ``θ = k‖Φ_i‖`` each term is
+    ``‖g′‖² + ‖g‖² − 2 [(g′·g − c) cos θ − g′·(n × g) sin θ + c]``, ``c = (n·g′)(n·g)``:
+    a cosine and a sine per motion and ``k`` instead of a rotation matrix.
+    ``gravity_dirs`` (K, 2, 3): each motion's gravity before and after.
+    """
+    g0, g1 = gravity_dirs[:, 0], gravity_dirs[:, 1]
+    norm = np.linalg.norm(phi, axis=1)
+    n = phi / np.where(norm > 0, norm, 1.0)[:, None]
+    c = np.einsum("ij,ij->i", n, g1) * np.einsum("ij,ij->i", n, g0)
+    along = np.einsum("ij,ij->i", g1, g0) - c
+    across = np.einsum("ij,ij->i", g1, np.cross(n, g0))
+    angle = ks[:, None] * norm[None, :]
+    terms = np.einsum("ij,ij->i", g1, g1) + np.einsum("ij,ij->i", g0, g0) - 2 * c
+    return np.sum(terms[None, :] - 2 * (along * np.cos(angle) - across * np.sin(angle)), axis=1)
 
 
 #: every order and sign of three axes: (permutation, signs), the identity first
