@@ -196,6 +196,7 @@ def gravity_direction_residuals_jac(
     integrator: IntervalIntegrator,
     gravity_dirs: np.ndarray,
     steps: np.ndarray | None = None,
+    extra_jac=None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Residuals of :func:`gravity_direction_residuals` and their Jacobian.
 
@@ -216,6 +217,10 @@ def gravity_direction_residuals_jac(
     steps : ndarray, optional
         The RK4 factors of ``rates`` when already formed
         (:meth:`IntervalIntegrator.step_factors`).
+    extra_jac : (S, 3, Q) ndarray or callable, optional
+        ``∂ω_j/∂x`` of other inputs ``x`` of the rates, as ``rate_jac``: their
+        Q columns are appended, from the same integration (the first P
+        columns are those without them).
 
     Returns
     -------
@@ -226,8 +231,12 @@ def gravity_direction_residuals_jac(
     r = quat_to_matrix(q_end)
     predicted = np.einsum("kji,kj->ki", r, gravity_dirs[:-1])
     summed = integrator.weighted_sum(weights, rate_jac)  # Σ_j A_j ∂ω_j/∂θ
-    jac = -skew(predicted) @ np.swapaxes(r, 1, 2) @ summed
-    return (gravity_dirs[1:] - predicted).ravel(), jac.reshape(-1, summed.shape[-1])
+    turn = -skew(predicted) @ np.swapaxes(r, 1, 2)
+    jac = (turn @ summed).reshape(-1, summed.shape[-1])
+    if extra_jac is not None:
+        more = turn @ integrator.weighted_sum(weights, extra_jac)
+        jac = np.hstack([jac, more.reshape(len(more) * 3, -1)])
+    return (gravity_dirs[1:] - predicted).ravel(), jac
 
 
 def linear_rate_jacobian(m: np.ndarray, v: np.ndarray, *, bias: bool = True,

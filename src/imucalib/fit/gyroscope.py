@@ -178,31 +178,71 @@ def rough_scale(recording: Recording, intervals: list[Interval], accelerometer: 
     return _gyro_scale_guess(recording.gyro, bias, recording.t, *transition_bounds(intervals), dirs)
 
 
-class _Factors:
-    """The RK4 factors of the rates a cost last integrated, for the Jacobian (or the cost) at the same parameters.
+class _Transitions:
+    """The motions between consecutive poses as the gyroscope problems of one fit read them.
 
-    Levenberg–Marquardt evaluates the Jacobian where it last evaluated the
-    cost (the step it accepted): the rates there are the same numbers, so
-    their factors (:meth:`~imucalib.kinematics.IntervalIntegrator.step_factors`)
-    are formed once. Only the last point's are kept, and the Jacobian frees
-    them (``keep=False``): the next cost is at another point.
+    Their integrator (:class:`~imucalib.kinematics.IntervalIntegrator`), the
+    gyroscope's readings at their samples less ``G a`` (:func:`_readings`, one
+    array per accelerometer and ``G``), the calibrated specific force there, and
+    the RK4 factors (:meth:`~imucalib.kinematics.IntervalIntegrator.step_factors`)
+    and end attitudes of the rates last integrated, under a key that names the
+    problem and its parameters. Levenberg–Marquardt evaluates the Jacobian
+    where it last evaluated the cost, the second joint fit starts where the
+    first ended and the errors are formed at the solution: the same rates each
+    time, integrated once (the same numbers). One set of factors is kept at a
+    time, and the Jacobian frees them (``keep=False``); the end attitudes (one
+    quaternion per motion) stay with their key.
     """
 
-    def __init__(self, integrator: IntervalIntegrator) -> None:
-        self.integrator = integrator
-        self.key: bytes | None = None
-        self.steps: np.ndarray | None = None
+    def __init__(self, recording: Recording, intervals: list[Interval]) -> None:
+        self.recording = recording
+        self.starts, self.stops = transition_bounds(intervals)
+        self.integrator = IntervalIntegrator(recording.t, self.starts, self.stops)
+        self._readings: dict = {}
+        self._force: dict = {}
+        self._key: tuple | None = None
+        self._steps: np.ndarray | None = None
+        self._q: np.ndarray | None = None
 
-    def of(self, theta: np.ndarray, rates: np.ndarray, keep: bool = True) -> np.ndarray:
-        """The factors of ``rates``, the rates at the parameters ``theta``."""
-        key = np.asarray(theta, dtype=np.float64).tobytes()
-        steps = self.steps if key == self.key else None
-        self.key = self.steps = None  # the old ones freed before new ones are formed
+    def readings(self, accelerometer: TriadModel, g_sensitivity: np.ndarray | None) -> np.ndarray:
+        """:func:`_readings` at the motions' samples (formed once per accelerometer and ``G``; not to be changed)."""
+        if g_sensitivity is None or not np.any(g_sensitivity):
+            key = None
+        else:
+            key = (id(accelerometer), np.asarray(g_sensitivity, dtype=np.float64).tobytes())
+        if key not in self._readings:  # the accelerometer kept with them: its id stays its own
+            self._readings[key] = (accelerometer, _readings(self.recording, self.integrator.samples, accelerometer,
+                                                            None if key is None else g_sensitivity))
+        return self._readings[key][1]
+
+    def specific_force(self, accelerometer: TriadModel) -> np.ndarray:
+        """The calibrated specific force [m/s²] at the motions' samples."""
+        if id(accelerometer) not in self._force:
+            self._force[id(accelerometer)] = (accelerometer,
+                                              accelerometer.forward(self.recording.acc[self.integrator.samples]))
+        return self._force[id(accelerometer)][1]
+
+    def steps(self, key: tuple, rates: np.ndarray, keep: bool = True) -> np.ndarray:
+        """The RK4 factors of ``rates``, the rates of the problem and parameters ``key``."""
+        same = key == self._key
+        steps = self._steps if same else None
+        q = self._q if same else None
+        self._key = self._steps = self._q = None  # the old ones freed before new ones are formed
         if steps is None:
             steps = self.integrator.step_factors(rates)
+        self._key, self._q = key, q
         if keep:
-            self.key, self.steps = key, steps
+            self._steps = steps
         return steps
+
+    def attitudes(self, key: tuple, rates) -> np.ndarray:
+        """The end attitudes (M, 4) of the rates ``rates()`` of ``key`` (:meth:`IntervalIntegrator.from_samples`)."""
+        if key == self._key and self._q is not None:
+            return self._q
+        r = rates()
+        steps = self.steps(key, r)
+        self._q = self.integrator.from_samples(r, steps)
+        return self._q
 
 
 #: samples whose g-sensitivity term :func:`_readings` forms at once
@@ -226,33 +266,38 @@ def _readings(recording: Recording, samples: np.ndarray, accelerometer: TriadMod
 
 
 def gravity_direction_problem(recording, intervals, accelerometer, bias, estimate_bias, weights=None,
-                              g_sensitivity=None):
+                              g_sensitivity=None, transitions: _Transitions | None = None):
     """Residuals of Zhang 2021, eq. (14) in the :class:`GyroLayout` parameters, their Jacobian, the pose directions.
 
     ``weights`` (one per transition between consecutive poses) scale each
     transition's three residuals; 0 leaves a transition out. A known
     ``g_sensitivity`` ``G`` (raw per m/s²) is taken out of the readings first:
     ``u − G a`` with ``a`` the calibrated specific force (eq. 6).
+    ``transitions``: the fit's :class:`_Transitions` of these intervals, shared
+    with its other problems (a new one by default).
     """
     acc = accelerometer.forward(interval_means(recording.acc, intervals))
     dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
-    starts, stops = transition_bounds(intervals)
-    integrator = IntervalIntegrator(recording.t, starts, stops)
-    raw = _readings(recording, integrator.samples, accelerometer, g_sensitivity)  # only those the integration reads
+    tr = _Transitions(recording, intervals) if transitions is None else transitions
+    integrator = tr.integrator
+    raw = tr.readings(accelerometer, g_sensitivity)  # only those the integration reads
     layout = GyroLayout(estimate_bias)
     w = None if weights is None else np.repeat(np.asarray(weights, dtype=float), 3)
+    held = b"" if estimate_bias else np.asarray(bias, dtype=np.float64).tobytes()
 
     def split(th):
         return th[:9].reshape(3, 3), (th[9:12] if estimate_bias else bias)
 
-    factors = _Factors(integrator)
+    def key(th):
+        return ("direction", id(raw), held, np.asarray(th, dtype=np.float64).tobytes())
+
+    def rates_at(th):
+        m, b = split(th)
+        return (raw - b) @ m.T
 
     def fun(th, directions=None):
-        m, b = split(th)
-        rates = (raw - b) @ m.T
-        steps = factors.of(th, rates)
-        r = gravity_direction_residuals(rates, lambda x: integrator.from_samples(x, steps),
-                                        dirs if directions is None else directions)
+        q = tr.attitudes(key(th), lambda: rates_at(th))
+        r = gravity_direction_residuals(None, lambda _: q, dirs if directions is None else directions)
         return r if w is None else r * w
 
     def jac(th):
@@ -260,10 +305,10 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
         v = raw - b
         rates = v @ m.T
         j = gravity_direction_residuals_jac(rates, linear_rate_jacobian(m, v, bias=estimate_bias), integrator,
-                                            dirs, factors.of(th, rates, keep=False))[1]
+                                            dirs, tr.steps(key(th), rates, keep=False))[1]
         return j if w is None else j * w[:, None]
 
-    return fun, jac, layout, dirs, (starts, stops)
+    return fun, jac, layout, dirs, (tr.starts, tr.stops)
 
 
 def fit_gravity_direction(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, bias: np.ndarray,
@@ -286,12 +331,14 @@ def fit_gravity_direction(recording: Recording, intervals: list[Interval], accel
 
 
 def _solve_direction(recording, intervals, accelerometer, bias, estimate_bias, weights, g_sensitivity,
-                     start: TriadModel | None = None) -> tuple[TriadModel, np.ndarray]:
+                     start: TriadModel | None = None, transitions: _Transitions | None = None
+                     ) -> tuple[TriadModel, np.ndarray]:
     """The eq. (14) fit: the model and each transition's weighted error norm [rad] (``start``: no scale search)."""
     if len(intervals) < MIN_POSES:
         raise ValueError(f"gyroscope calibration needs at least {MIN_POSES} static poses; got {len(intervals)}")
     fun, jac, layout, dirs, (starts, stops) = gravity_direction_problem(recording, intervals, accelerometer, bias,
-                                                                        estimate_bias, weights, g_sensitivity)
+                                                                        estimate_bias, weights, g_sensitivity,
+                                                                        transitions)
     if start is None:
         keep = np.ones(len(starts), bool) if weights is None else np.asarray(weights) > 0
         k = _gyro_scale_guess(recording.gyro, bias, recording.t, starts[keep], stops[keep],
@@ -306,7 +353,7 @@ def _solve_direction(recording, intervals, accelerometer, bias, estimate_bias, w
 
 def errors_at(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, gyroscope: TriadModel,
               estimate_bias: bool, *, weights: np.ndarray | None = None, bias_cov: np.ndarray | None = None,
-              acc_cov: np.ndarray | None = None) -> dict[str, float]:
+              acc_cov: np.ndarray | None = None, transitions: _Transitions | None = None) -> dict[str, float]:
     """1σ errors of a gravity-direction gyroscope fit at its solution ``gyroscope``, by name.
 
     From the Jacobian and residuals of eq. (14) (:func:`~imucalib.solve.standard_errors`;
@@ -319,14 +366,14 @@ def errors_at(recording: Recording, intervals: list[Interval], accelerometer: Tr
     order; where the poses leave the accelerometer poorly determined, the
     gyroscope's errors say so instead of being falsely small). The bias's own
     error is ``bias_cov``'s (the static poses' regression, their scatter
-    included: :func:`static_gyro`).
+    included: :func:`static_gyro`). ``transitions``: as for :func:`gravity_direction_problem`.
     """
     fun, jac, layout, dirs, _ = gravity_direction_problem(recording, intervals, accelerometer, gyroscope.bias, True,
-                                                          weights, gyroscope.g_sensitivity)
+                                                          weights, gyroscope.g_sensitivity, transitions)
     theta = layout.pack(gyroscope)
+    res = fun(theta)
     j12 = jac(theta)
     n = len(intervals) - 1 if weights is None else int(np.count_nonzero(weights))
-    res = fun(theta)
     jg = j12 if estimate_bias else j12[:, :9]
     pinv = np.linalg.pinv(jg)
     extra = np.zeros((jg.shape[1], jg.shape[1]))
@@ -336,7 +383,8 @@ def errors_at(recording: Recording, intervals: list[Interval], accelerometer: Tr
     undetermined = acc_cov is not None and not np.all(np.isfinite(np.diag(acc_cov)))
     if acc_cov is not None and not undetermined:
         w_eff = np.ones(len(res) // 3) if weights is None else np.asarray(weights, dtype=float)
-        j_acc = _direction_acc_jacobian(recording, intervals, accelerometer, gyroscope) * np.repeat(w_eff, 3)[:, None]
+        j_acc = (_direction_acc_jacobian(recording, intervals, accelerometer, gyroscope, transitions)
+                 * np.repeat(w_eff, 3)[:, None])
         sens = -pinv @ j_acc
         extra += sens @ acc_cov @ sens.T
     use = layout if estimate_bias else GyroLayout(False)
@@ -534,7 +582,7 @@ def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: 
 
 
 def joint_problem(recording: Recording, intervals: list[Interval], accelerometer: TriadModel, static: StaticGyro,
-                  weights: np.ndarray, sigma_rot: float):
+                  weights: np.ndarray, sigma_rot: float, transitions: _Transitions | None = None):
     """Residuals and Jacobian of the joint gyroscope cost: the rotations and the static poses together.
 
     Parameters ``θ = [M (9), b (3), d (3, with a drift)]`` with ``M = T_g diag(k1)``;
@@ -546,14 +594,22 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     * each pose's mean reading against ``b + d (t_k − t_ref) + G a_k``
       (Zhang 2021, eq. 11) over its standard error ``√static.variances``.
 
+    ``jac(θ, with_g=True)`` appends the 9 columns of ``∂r/∂G`` (``G`` row-major,
+    held in the fit): ``G`` enters the poses' targets, ``(ū_k − G a_k − …)/se_k``,
+    so ``∂r_{k,i}/∂G_ij = −a_{k,j}/se_{k,i}``, and every rotation sample's rate
+    ``ω = M (u − b − d τ − G a)``, so ``∂ω/∂G_ij = −M e_i a_j`` with ``a`` the
+    sample's calibrated specific force, through the same gravity-direction
+    Jacobian as the other parameters (one integration for both).
+    ``transitions``: as for :func:`gravity_direction_problem`.
+
     Returns ``fun``, ``jac``, the pose directions and the number of parameters.
     """
     acc = static.accel if static.accel is not None else accelerometer.forward(interval_means(recording.acc, intervals))
     dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
-    starts, stops = transition_bounds(intervals)
-    integrator = IntervalIntegrator(recording.t, starts, stops)
+    tr = _Transitions(recording, intervals) if transitions is None else transitions
+    integrator = tr.integrator
     g_sens = static.g_sensitivity
-    raw = _readings(recording, integrator.samples, accelerometer, g_sens)
+    raw = tr.readings(accelerometer, g_sens)
     tau = recording.t[integrator.samples] - static.t_ref
     with_d = static.drift is not None
     size = 15 if with_d else 12
@@ -561,53 +617,80 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     target = static.means - (0.0 if g_sens is None else static.accel @ np.asarray(g_sens).T)
     se = np.sqrt(static.variances)
     dt_pose = static.times - static.t_ref
-    factors = _Factors(integrator)
 
     def split(th):
         return th[:9].reshape(3, 3), th[9:12], (th[12:15] if with_d else np.zeros(3))
 
-    def fun(th):
-        m, b, dr = split(th)
+    def key(th):
+        return ("joint", id(raw), static.t_ref, with_d, np.asarray(th, dtype=np.float64).tobytes())
+
+    def readings_at(th):  # u − G a − b − d τ
+        _, b, dr = split(th)
         v = raw - b
         v -= tau[:, None] * dr  # in place: one temporary of the samples' size fewer
-        rates = v @ m.T
-        del v
-        steps = factors.of(th, rates)
-        r_rot = gravity_direction_residuals(rates, lambda x: integrator.from_samples(x, steps), dirs) * w
+        return v
+
+    def fun(th):
+        m, b, dr = split(th)
+        q = tr.attitudes(key(th), lambda: readings_at(th) @ m.T)
+        r_rot = gravity_direction_residuals(None, lambda _: q, dirs) * w
         r_st = (target - b - dt_pose[:, None] * dr) / se
         return np.concatenate([r_rot, r_st.ravel()])
 
-    def jac(th):
+    def jac(th, with_g: bool = False):
         m, b, dr = split(th)
-        v = raw - b
-        v -= tau[:, None] * dr
+        v = readings_at(th)
         rate_jac = linear_rate_jacobian(m, v, drift_time=tau if with_d else None)
+        g_jac = _g_rate_jacobian(m, tr.specific_force(accelerometer)) if with_g else None
+        cols = size + 9 if with_g else size
         rates = v @ m.T
         j_rot = gravity_direction_residuals_jac(rates, rate_jac, integrator, dirs,
-                                                factors.of(th, rates, keep=False))[1] * w[:, None]
+                                                tr.steps(key(th), rates, keep=False), g_jac)[1] * w[:, None]
         mm = len(static.means)
-        j_st = np.zeros((mm, 3, size))
+        j_st = np.zeros((mm, 3, cols))
         for i in range(3):
             j_st[:, i, 9 + i] = -1.0 / se[:, i]
             if with_d:
                 j_st[:, i, 12 + i] = -dt_pose / se[:, i]
-        return np.vstack([j_rot, j_st.reshape(3 * mm, size)])
+            if with_g:
+                j_st[:, i, size + 3 * i:size + 3 * i + 3] = -static.accel / se[:, i:i + 1]
+        return np.vstack([j_rot, j_st.reshape(3 * mm, cols)])
 
     return fun, jac, dirs, size
 
 
-def _solve_joint(recording, intervals, accelerometer, static, weights, start: TriadModel):
+def _g_rate_jacobian(m: np.ndarray, force: np.ndarray):
+    """``∂ω/∂G_ij = −M e_i a_j`` (``G`` row-major) of the samples ``a … b − 1`` as a block function (as
+    :func:`~imucalib.residuals.linear_rate_jacobian`), ``a`` the calibrated specific force ``force`` (S, 3)."""
+    buf = np.zeros((0, 3, 9))
+
+    def block(a: int, b: int) -> np.ndarray:
+        nonlocal buf
+        if b - a > buf.shape[0]:
+            buf = np.empty((b - a, 3, 9))
+        out = buf[: b - a]
+        for i in range(3):
+            for j in range(3):
+                out[:, :, 3 * i + j] = -m[None, :, i] * force[a:b, j, None]
+        return out
+
+    return block
+
+
+def _solve_joint(recording, intervals, accelerometer, static, weights, start: TriadModel,
+                 transitions: _Transitions | None = None):
     """The joint fit (:func:`joint_problem`), twice: the rotations' noise re-estimated from the first.
 
     Returns the model, θ, each transition's error norm [rad], ``sigma_rot`` and the final problem.
     """
+    tr = _Transitions(recording, intervals) if transitions is None else transitions
     n_kept = int(np.count_nonzero(weights))
-    e0 = _transition_norms(recording, intervals, accelerometer, start, static, weights)[1]  # its problem freed
+    e0 = _transition_norms(recording, intervals, accelerometer, start, static, weights, tr)[1]  # its problem freed
     sigma = _rotation_sigma(e0, weights, 9)
     theta = np.concatenate([GyroLayout(False).pack(start), static.bias,
                             static.drift if static.drift is not None else np.zeros(0)])
     for _ in range(2):
-        fun, jac, dirs, size = joint_problem(recording, intervals, accelerometer, static, weights, sigma)
+        fun, jac, dirs, size = joint_problem(recording, intervals, accelerometer, static, weights, sigma, tr)
         sol = levenberg_marquardt(fun, jac, theta, xtol=1e-12, ftol=1e-12)
         del fun, jac  # with what they hold, before the next problem is formed
         theta = sol.x
@@ -617,7 +700,7 @@ def _solve_joint(recording, intervals, accelerometer, static, weights, start: Tr
     model = GyroLayout(True).unpack(theta[:12], theta[9:12])
     if static.g_sensitivity is not None:
         model = model.with_(g_sensitivity=static.g_sensitivity)
-    fun, jac, _, _ = joint_problem(recording, intervals, accelerometer, static, weights, sigma)
+    fun, jac, _, _ = joint_problem(recording, intervals, accelerometer, static, weights, sigma, tr)
     return model, theta, e, sigma, (fun, jac)
 
 
@@ -629,16 +712,16 @@ def _rotation_sigma(e: np.ndarray, weights: np.ndarray, p: int) -> float:
     return s if s > 0 else 1e-12
 
 
-def _transition_norms(recording, intervals, accelerometer, model, static, weights):
+def _transition_norms(recording, intervals, accelerometer, model, static, weights, transitions=None):
     """Each transition's direction error norm [rad] of ``model`` with the static bias (weights 0 → 0)."""
     fun, _, layout, _, _ = gravity_direction_problem(recording, intervals, accelerometer, model.bias, False,
-                                                     None, static.g_sensitivity)
+                                                     None, static.g_sensitivity, transitions)
     e = np.linalg.norm(fun(layout.pack(model)).reshape(-1, 3), axis=1)
     return fun, e * (np.asarray(weights) > 0)
 
 
 def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res, weights, sigma_rot, static, *,
-                 acc_cov=None, acc_joint=None) -> dict[str, float]:
+                 acc_cov=None, acc_joint=None, transitions: _Transitions | None = None) -> dict[str, float]:
     """1σ errors of the joint fit (:func:`joint_problem`) from its Jacobian, by name.
 
     ``C = s² (JᵀJ)⁻¹`` with ``s² = ‖r‖²/dof`` (:func:`~imucalib.solve.standard_errors`;
@@ -664,8 +747,14 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
     the Jacobian (``∂r/∂x`` of the rotations, one prior row ``x/σ_p`` each),
     so the gyroscope's errors are the marginals of the joint covariance, and
     their own 1σ is returned too; ``acc_cov`` then carries only the others.
+    ``jac_fun`` is the problem's Jacobian (``jac`` of :func:`joint_problem`,
+    which forms ``∂r/∂G`` in the same pass); ``transitions`` as for
+    :func:`gravity_direction_problem`.
     """
-    j = jac_fun(theta)
+    with_g = static.g_cov is not None and np.all(np.isfinite(static.g_cov))
+    j = jac_fun(theta, with_g=True) if with_g else jac_fun(theta)
+    if with_g:
+        j, j_g = j[:, :-9], j[:, -9:]
     size = j.shape[1]
     n_rot = 3 * (len(intervals) - 1)
     dof = 2 * int(np.count_nonzero(weights)) + 3 * len(static.means) - size
@@ -677,7 +766,7 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
     if which or (acc_cov is not None and not undetermined):
         j_acc = np.zeros((j.shape[0], lay.size))
         w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
-        j_acc[:n_rot] = _direction_acc_jacobian(recording, intervals, accelerometer, model) * w[:, None]
+        j_acc[:n_rot] = _direction_acc_jacobian(recording, intervals, accelerometer, model, transitions) * w[:, None]
     n_joint = len(which)
     if n_joint:
         prior_sd = np.sqrt(np.asarray(acc_joint[1], dtype=float))
@@ -690,8 +779,7 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
         pinv = np.linalg.pinv(j)
         sens = -pinv @ j_acc[:, fixed]
         extra = sens @ np.asarray(acc_cov)[np.ix_(fixed, fixed)] @ sens.T
-    if static.g_cov is not None and np.all(np.isfinite(static.g_cov)):
-        j_g = _g_sensitivity_jacobian(recording, intervals, accelerometer, static, weights, sigma_rot, theta[:size])
+    if with_g:
         sens = -(np.linalg.pinv(j) if pinv is None else pinv) @ np.vstack([j_g, np.zeros((n_joint, 9))])
         c_g = np.zeros((9, 9))
         for i in range(3):  # the rows of G come from independent regressions, one per gyroscope axis
@@ -728,40 +816,10 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
 
 def _g_sensitivity_jacobian(recording, intervals, accelerometer, static: StaticGyro, weights, sigma_rot,
                             theta) -> np.ndarray:
-    """∂r/∂G of the joint residuals (:func:`joint_problem`) at ``theta``, ``G`` row-major, analytic.
-
-    ``G`` enters the static poses' targets, ``(ū_k − G a_k − …)/se_k``, so
-    ``∂r_{k,i}/∂G_ij = −a_{k,j}/se_{k,i}``, and every rotation sample's rate
-    ``ω = M (u − b − d τ − G a)``, so ``∂ω/∂G_ij = −M e_i a_j`` with ``a`` the
-    sample's calibrated specific force, through the same gravity-direction
-    Jacobian as the other parameters (:func:`~imucalib.residuals.gravity_direction_residuals_jac`).
-    """
-    acc = static.accel if static.accel is not None else accelerometer.forward(interval_means(recording.acc, intervals))
-    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
-    starts, stops = transition_bounds(intervals)
-    integrator = IntervalIntegrator(recording.t, starts, stops)
-    a_s = accelerometer.forward(recording.acc[integrator.samples])
-    raw = recording.gyro[integrator.samples] - a_s @ np.asarray(static.g_sensitivity).T
-    tau = recording.t[integrator.samples] - static.t_ref
-    m, b = theta[:9].reshape(3, 3), theta[9:12]
-    dr = theta[12:15] if static.drift is not None else np.zeros(3)
-    v = raw - b - tau[:, None] * dr
-
-    def d(lo: int, hi: int) -> np.ndarray:  # ∂ω/∂G of samples lo … hi − 1: no (S, 3, 9) array of every sample
-        out = np.empty((hi - lo, 3, 9))
-        for i in range(3):
-            for j in range(3):
-                out[:, :, 3 * i + j] = -m[None, :, i] * a_s[lo:hi, j, None]
-        return out
-
-    w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
-    j_rot = gravity_direction_residuals_jac(v @ m.T, d, integrator, dirs)[1] * w[:, None]
-    mm = len(static.means)
-    se = np.sqrt(static.variances)
-    j_st = np.zeros((mm, 3, 9))
-    for i in range(3):
-        j_st[:, i, 3 * i:3 * i + 3] = -static.accel / se[:, i:i + 1]
-    return np.vstack([j_rot, j_st.reshape(3 * mm, 9)])
+    """∂r/∂G of the joint residuals (:func:`joint_problem`) at ``theta``, ``G`` row-major, analytic (the last
+    columns of its ``jac(θ, with_g=True)``)."""
+    _, jac, _, _ = joint_problem(recording, intervals, accelerometer, static, weights, sigma_rot)
+    return jac(theta, with_g=True)[:, -9:]
 
 
 def _inverse_sqrt(a: np.ndarray) -> np.ndarray:
@@ -920,10 +978,10 @@ def accelerometer_joint_step(recording: Recording, intervals: list[Interval], ac
     return step[j.shape[1]:]
 
 
-def _direction_acc_jacobian(recording, intervals, accelerometer, gyroscope) -> np.ndarray:
+def _direction_acc_jacobian(recording, intervals, accelerometer, gyroscope, transitions=None) -> np.ndarray:
     """∂r/∂(accelerometer parameters) of the eq. (14) residuals (``AccelLayout("upper", 1)`` order), unweighted."""
     fun, _, layout, dirs, _ = gravity_direction_problem(recording, intervals, accelerometer, gyroscope.bias, True,
-                                                        None, gyroscope.g_sensitivity)
+                                                        None, gyroscope.g_sensitivity, transitions)
     theta = layout.pack(gyroscope)
     n_tr = len(intervals) - 1
     lay = AccelLayout("upper", 1)
@@ -1009,6 +1067,7 @@ def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer
     joint = estimate_bias == "auto"
     static = static_gyro(recording, intervals, accelerometer, g_sensitivity=g_sensitivity,
                          drift="auto" if joint else False)
+    tr = _Transitions(recording, intervals)
     start = None
     sigma = None
     for _ in range(3):
@@ -1016,22 +1075,22 @@ def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer
         weights[list(left_out)] = 0.0
         est = bool(estimate_bias) and not joint
         model, e = _solve_direction(recording, intervals, accelerometer, static.bias, est, weights,
-                                    static.g_sensitivity, start)
+                                    static.g_sensitivity, start, tr)
         start = model
         if joint and np.any(weights > 0):
             model, theta, e, sigma, (fun, jac) = _solve_joint(recording, intervals, accelerometer, static, weights,
-                                                             model)
+                                                             model, tr)
             errors = joint_errors(recording, intervals, accelerometer, model, theta, jac, fun(theta), weights,
-                                  sigma, static, acc_cov=acc_cov)
+                                  sigma, static, acc_cov=acc_cov, transitions=tr)
         else:
             errors = errors_at(recording, intervals, accelerometer, model, est, weights=weights,
-                               bias_cov=None if est else static.bias_cov, acc_cov=acc_cov)
+                               bias_cov=None if est else static.bias_cov, acc_cov=acc_cov, transitions=tr)
             if est and not all(np.isfinite(errors.get(f"gyroscope.bias.{a}", np.nan)) for a in AXES):
                 est = False  # the bias is not observable from these rotations
                 model, e = _solve_direction(recording, intervals, accelerometer, static.bias, False, weights,
-                                            static.g_sensitivity, start)
+                                            static.g_sensitivity, start, tr)
                 errors = errors_at(recording, intervals, accelerometer, model, False, weights=weights,
-                                   bias_cov=static.bias_cov, acc_cov=acc_cov)
+                                   bias_cov=static.bias_cov, acc_cov=acc_cov, transitions=tr)
         if not robust:
             break
         kept = weights > 0
