@@ -218,7 +218,8 @@ def _qmul_soa(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """
     pw, px, py, pz = p
     qw, qx, qy, qz = q
-    out = np.empty((4, *np.broadcast_shapes(pw.shape, qw.shape)))
+    shape = pw.shape if pw.shape == qw.shape else np.broadcast_shapes(pw.shape, qw.shape)
+    out = np.empty((4, *shape))
     t = np.empty(out.shape[1:])
     w, x, y, z = out
     mul = np.multiply
@@ -255,15 +256,17 @@ def _weighted_rotations_soa(q: np.ndarray, weight: np.ndarray) -> np.ndarray:
     norm = np.sqrt(w * w + x * x + y * y + z * z)
     w, x, y, z = w / norm, x / norm, y / norm, z / norm
     r = np.empty(w.shape[:-1] + (3, w.shape[-1], 3))
-    r[..., 0, :, 0] = 1 - 2 * (y * y + z * z)
-    r[..., 0, :, 1] = 2 * (x * y - w * z)
-    r[..., 0, :, 2] = 2 * (x * z + w * y)
-    r[..., 1, :, 0] = 2 * (x * y + w * z)
-    r[..., 1, :, 1] = 1 - 2 * (x * x + z * z)
-    r[..., 1, :, 2] = 2 * (y * z - w * x)
-    r[..., 2, :, 0] = 2 * (x * z - w * y)
-    r[..., 2, :, 1] = 2 * (y * z + w * x)
-    r[..., 2, :, 2] = 1 - 2 * (x * x + y * y)
+    xx, yy, zz = x * x, y * y, z * z  # each product once (the same numbers as formed in place)
+    xy, wz, xz, wy, yz, wx = x * y, w * z, x * z, w * y, y * z, w * x
+    r[..., 0, :, 0] = 1 - 2 * (yy + zz)
+    r[..., 0, :, 1] = 2 * (xy - wz)
+    r[..., 0, :, 2] = 2 * (xz + wy)
+    r[..., 1, :, 0] = 2 * (xy + wz)
+    r[..., 1, :, 1] = 1 - 2 * (xx + zz)
+    r[..., 1, :, 2] = 2 * (yz - wx)
+    r[..., 2, :, 0] = 2 * (xz - wy)
+    r[..., 2, :, 1] = 2 * (yz + wx)
+    r[..., 2, :, 2] = 1 - 2 * (xx + yy)
     r *= weight[..., None, :, None]
     return np.swapaxes(r, -3, -2)
 
