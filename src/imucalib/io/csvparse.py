@@ -58,9 +58,6 @@ truncated or corrupt stream is a :class:`~.errors.ReaderError`.
 from __future__ import annotations
 
 import contextlib
-import csv
-import gzip
-import hashlib
 import io
 import re
 import warnings
@@ -68,10 +65,16 @@ import zlib
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import ReaderError
+
+if TYPE_CHECKING:
+    import hashlib
+
+# csv (quoted cells), gzip (compressed files) and hashlib (OpenSSL, loaded with it: 2 ms) are imported where used
 
 __all__ = ["CHUNK_BYTES", "ENGINE", "Chunk", "Head", "Layout", "PANDAS_MIN_BYTES", "Plan", "chunks", "column_kinds",
            "digest", "plan", "engine_for", "fingerprint", "is_gzip", "open_binary", "pandas_available", "parse",
@@ -121,6 +124,8 @@ def open_binary(path: Path) -> Iterator[io.BufferedIOBase]:
         with path.open("rb") as f:
             yield f
         return
+    import gzip
+
     try:
         with gzip.open(path, "rb") as f:
             yield f
@@ -278,6 +283,8 @@ class Layout:
 def split_cells(line: str, sep: str | None) -> list[str]:
     """The cells of one line, stripped of blanks and of the quotes around a quoted cell."""
     if '"' in line and sep is not None:
+        import csv
+
         cells = next(csv.reader([line], delimiter=sep, skipinitialspace=True), [])
         return [c.strip() for c in cells]
     return [c.strip().strip('"') for c in (line.split(sep) if sep else line.split())]
@@ -370,6 +377,8 @@ def digest() -> hashlib.blake2b:
     7, pandas' parser). A CRC (4× faster) would catch accidents as well but
     can be forged by whoever rewrites the file.
     """
+    import hashlib
+
     return hashlib.blake2b(digest_size=16)
 
 
