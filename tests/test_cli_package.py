@@ -105,3 +105,19 @@ def test_python_dash_m_runs_the_command():
     done = subprocess.run([sys.executable, "-m", "imucalib.cli", "--version"], capture_output=True, text=True,
                           check=False)
     assert done.returncode == 0 and done.stdout.startswith("imucalib ")
+
+
+def test_each_command_parses_alike_with_its_group_alone():
+    """A command's parser built with only its group is the one built with every group: same help, same choices."""
+    from imucalib.cli import GROUPS
+
+    def commands(parser) -> dict:
+        return next(a for a in parser._actions if a.dest == "command").choices
+
+    full = commands(build_parser())
+    assert list(full) == list(GROUPS)  # every command has its group, in the order of the help
+    for command, group in GROUPS.items():
+        alone = commands(build_parser(command))
+        assert set(alone) == {c for c, g in GROUPS.items() if g == group}, command
+        assert alone[command].format_help() == full[command].format_help(), command
+    assert commands(build_parser("")) == {}

@@ -47,6 +47,17 @@ def test_a_command_imports_only_what_it_runs(tmp_path):
     assert not {m for m in loaded if m.startswith(("imucalib.scenarios", "imucalib.fit", "imucalib.methods"))}
 
 
+@pytest.mark.parametrize("argv", [["calibrate", "--help"], ["--version"]])
+def test_a_command_imports_only_its_own_group(argv):
+    from imucalib.cli import GROUPS
+
+    loaded = _modules_after("from imucalib.cli import main\n"
+                            f"try:\n    main({argv!r})\nexcept SystemExit:\n    pass")
+    groups = {f"imucalib.cli.{g}" for g in GROUPS.values()}
+    own = {f"imucalib.cli.{GROUPS[argv[0]]}", "imucalib.cli.apply"} if argv[0] in GROUPS else set()
+    assert loaded & groups == own & groups
+
+
 def test_lazy_names_resolve():
     import imucalib
     import imucalib.io

@@ -8,6 +8,8 @@ One module per group of commands, each adding its own sub-parsers
 :mod:`.export` (export), :mod:`.validation` (validate), :mod:`.simulation` (simulate,
 montecarlo, demo), :mod:`.analysis` (noise, plan), :mod:`.thermal` (thermal), :mod:`.fleet`
 (batch, store) and :mod:`.record` (record); :mod:`._common` holds what they share.
+A command imports only its own group (:data:`GROUPS`); the help of ``imucalib`` itself,
+and a name that is no command, import them all.
 
 Exit codes: 0 success, 2 an error (:data:`EXIT_ERROR`), 3 a calibration that
 is rejected (:data:`EXIT_REJECTED`: calibrate made one, validate finds it no
@@ -17,29 +19,58 @@ longer holds; batch had rows that failed), 130 interrupted.
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 import warnings
 from collections.abc import Sequence
 
 from .. import __version__
-from . import analysis, calibration, export, fleet, record, simulation, thermal, validation
 from ._common import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_REJECTED, CliError, check_paths, normalise_argv, show_warning
 
-__all__ = ["EXIT_ERROR", "EXIT_REJECTED", "CliError", "build_parser", "main"]
+__all__ = ["EXIT_ERROR", "EXIT_REJECTED", "GROUPS", "CliError", "build_parser", "main"]
+
+#: each command's group: the module of this package whose ``register`` adds it (in the order of the help)
+GROUPS = {
+    "calibrate": "calibration", "apply": "calibration", "compare": "calibration", "detect-fall": "calibration",
+    "export": "export",
+    "validate": "validation",
+    "simulate": "simulation", "montecarlo": "simulation", "demo": "simulation",
+    "noise": "analysis", "plan": "analysis",
+    "thermal": "thermal",
+    "batch": "fleet", "store": "fleet",
+    "record": "record",
+}
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The ``imucalib`` argument parser with every command's sub-parser."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``imucalib`` argument parser with every command's sub-parser, or only ``command``'s group's.
+
+    Parameters
+    ----------
+    command : str, optional
+        A command of :data:`GROUPS`: only its group's module is imported and registered (a command's
+        parsing and its own help are the same as with every group). ``""``: no command at all (what
+        ``--version`` needs). Default: every group, as the help of ``imucalib`` lists them.
+    """
     parser = argparse.ArgumentParser(
         prog="imucalib",
         description="Calibrate the accelerometer and gyroscope of low-cost MEMS IMUs.",
     )
     parser.add_argument("--version", action="version", version=f"imucalib {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for group in (calibration, export, validation, simulation, analysis, thermal, fleet, record):
-        group.register(sub)
+    if command is None or command in GROUPS:
+        groups = dict.fromkeys(GROUPS.values()) if command is None else [GROUPS[command]]
+        for group in groups:
+            importlib.import_module(f".{group}", __name__).register(sub)
     return parser
+
+
+def _command_of(argv: Sequence[str]) -> str | None:
+    """What :func:`build_parser` needs for ``argv``: its command, ``""`` for ``--version`` alone, else None."""
+    if argv and argv[0] in GROUPS:
+        return argv[0]
+    return "" if list(argv[:1]) == ["--version"] else None
 
 
 #: the environment variables that set the number of threads of numpy's BLAS (OpenBLAS, MKL, OpenMP)
@@ -65,8 +96,8 @@ def one_blas_thread() -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``imucalib`` with ``argv`` (default: the process's arguments); the exit code."""
     one_blas_thread()
-    parser = build_parser()
-    args = parser.parse_args(normalise_argv(sys.argv[1:] if argv is None else argv))
+    argv = normalise_argv(sys.argv[1:] if argv is None else argv)
+    args = build_parser(_command_of(argv)).parse_args(argv)
     from ..recording import ImucalibWarning  # after parsing: --version and --help import no numpy
 
     try:

@@ -10,8 +10,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from .rosbag import is_rosbag
-
 __all__ = ["is_session_directory", "read_data"]
 
 
@@ -23,7 +21,11 @@ def is_session_directory(paths: Sequence[str | Path], reader: str | None = None)
     """
     if reader == "session":
         return True
-    return reader is None and len(paths) == 1 and Path(paths[0]).is_dir() and not is_rosbag(Path(paths[0]))
+    if reader is not None or len(paths) != 1 or not Path(paths[0]).is_dir():
+        return False
+    from .rosbag import is_rosbag  # a directory: perhaps a ROS 2 bag
+
+    return not is_rosbag(Path(paths[0]))
 
 
 def read_data(

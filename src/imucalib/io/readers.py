@@ -14,14 +14,18 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..recording import ACC_UNITS, GYRO_UNITS, ImucalibWarning, Recording
 from . import csvparse, inputs
 from .errors import ReaderError
-from .phone import PhoneFile, check_specific_force, identify, sensor_logger_header
-from .rosbag import is_rosbag, read_rosbag
+
+if TYPE_CHECKING:
+    from .phone import PhoneFile
+
+# ROS bags (.rosbag) and phone apps' files (.phone) are read by modules imported when such a file is met
 
 __all__ = ["READERS", "ReaderError", "guess_reader", "is_frame", "read"]
 
@@ -96,7 +100,7 @@ def read(
         raise ReaderError("no data file given")
     for p in paths:
         inputs.check_input_path(p)
-        if p.is_dir() and not is_rosbag(p):
+        if p.is_dir() and not _is_rosbag(p):
             raise ReaderError(f"{p}: is a directory, not a data file (a ROS 2 bag directory holds metadata.yaml)")
     if acc_unit is not None and acc_unit not in ACC_UNITS:
         raise ReaderError(f"unknown accelerometer unit {acc_unit!r}; use one of {', '.join(ACC_UNITS)}")
@@ -128,6 +132,8 @@ def read(
         if ignored:
             raise ReaderError(f"a ROS bag's sensor_msgs/Imu fixes the fields, units and time; "
                               f"{', '.join(ignored)} cannot be set")
+        from .rosbag import read_rosbag
+
         rec = read_rosbag(paths[0], topic=topic, progress=progress)
     elif topic is not None:
         raise ReaderError(f"topic applies to ROS bags; the {reader} reader has none")
@@ -205,6 +211,13 @@ def _flags_over_header(paths: Sequence[Path], reader: str, rec: Recording, acc_u
     return tuple(None if f in overridden else given[f][1] for f in ("ax", "gx", "t"))
 
 
+def _is_rosbag(path: Path) -> bool:
+    """:func:`.rosbag.is_rosbag`, its module imported on first use."""
+    from .rosbag import is_rosbag
+
+    return is_rosbag(path)
+
+
 def guess_reader(paths: Sequence[Path]) -> str:
     """The reader for ``paths``, from their content.
 
@@ -213,7 +226,7 @@ def guess_reader(paths: Sequence[Path]) -> str:
     :mod:`.phone`), ``"imutk"`` unless both have headers naming sensor
     columns; else ``"csv"`` (several files are then blocks of one recording).
     """
-    if is_rosbag(paths[0]):
+    if _is_rosbag(paths[0]):
         return "rosbag"
     with paths[0].open("rb") as f:
         head = f.read(128)
@@ -434,8 +447,8 @@ def _imutk_table(path: Path) -> tuple[np.ndarray, np.ndarray]:
             body = csvparse.plan(layout)
             if body.comments == 0:  # a '#' line is a bad line here, named by the whole-text reader
                 t, xyz = np.empty(body.rows), np.empty((body.rows, 3))
-                csvparse.parse(layout, ["float"] * 4, names, required=range(4),
-                               out={0: t, 1: xyz[:, 0], 2: xyz[:, 1], 3: xyz[:, 2]}, plan=body)
+                csvparse.parse(layout, ["float"] * 4, names, required=range(4),  # no text copy: no checksum
+                               out={0: t, 1: xyz[:, 0], 2: xyz[:, 1], 3: xyz[:, 2]}, plan=body, checksum=False)
                 _check_time(path, t, 1)
                 return t, xyz
         except ReaderError:
@@ -1055,6 +1068,8 @@ def _phone_specs(paths: Sequence[Path]) -> list[PhoneFile] | None:
     Sensor Logger's files share one header; when a file's name does not say which
     sensor it holds, the order decides (accelerometer first, as for imu_tk).
     """
+    from .phone import PhoneFile, identify, sensor_logger_header
+
     specs = []
     for i, path in enumerate(paths):
         names = _head_names(path)
@@ -1075,6 +1090,8 @@ def _phone_specs(paths: Sequence[Path]) -> list[PhoneFile] | None:
 
 def _read_phone(paths: Sequence[Path], acc_unit, gyro_unit, time_unit) -> Recording:
     """A phone app's accelerometer and gyroscope files, merged onto the accelerometer's time base."""
+    from .phone import check_specific_force
+
     specs = _phone_specs(paths)
     if specs is None:
         raise ReaderError(f"{paths[0]}, {paths[1]}: not a pair of phone-app files (phyphox's or Sensor "
