@@ -107,30 +107,45 @@ def _blocks(n: int, half: int):
 def _window_bounds(a: int, b: int, lo: int, half: int, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Window ``[lo_i, hi_i)`` of each sample ``i`` of ``[a, b)`` (truncated at the record's ends), from ``lo``."""
     idx = np.arange(a, b)
-    return np.clip(idx - half, 0, n) - lo, np.clip(idx + half + 1, 0, n) - lo
+    return np.maximum(idx - half, 0) - lo, np.minimum(idx + half + 1, n) - lo
 
 
-def _window_diff(c: np.ndarray, a: int, b: int, lo: int, half: int, n: int) -> np.ndarray:
+def _window_diff(c: np.ndarray, a: int, b: int, lo: int, half: int, n: int, out: np.ndarray | None = None,
+                 mean: bool = False) -> np.ndarray:
     """``c[whi] − c[wlo]`` for the windows of :func:`_window_bounds` (running sums ``c`` from sample ``lo``).
 
     The rows whose window is not truncated are one subtraction of two slices
     (no gathered copies of ``c``); the few at the record's ends are gathered.
+    With ``mean``, each row is divided by its window's length (``2·half + 1``
+    inside the record, as a scalar: the same quotient as from an array of
+    lengths). ``out`` (``b − a`` rows) receives the result when given.
     """
-    out = np.empty((b - a,) + c.shape[1:])
+    if out is None:
+        out = np.empty((b - a,) + c.shape[1:])
     m0, m1 = max(a, half), min(b, n - half)  # samples whose window lies inside the record
     if m1 <= m0:
         m0 = m1 = b
-    np.subtract(c[m0 + half + 1 - lo : m1 + half + 1 - lo], c[m0 - half - lo : m1 - half - lo],
-                out=out[m0 - a : m1 - a])
+    inner = out[m0 - a : m1 - a]
+    np.subtract(c[m0 + half + 1 - lo : m1 + half + 1 - lo], c[m0 - half - lo : m1 - half - lo], out=inner)
+    if mean:
+        inner /= float(2 * half + 1)
     for s, e in ((a, m0), (m1, b)):
         if e > s:
             wlo, whi = _window_bounds(s, e, lo, half, n)
-            out[s - a : e - a] = c[whi] - c[wlo]
+            edge = c[whi] - c[wlo]
+            if mean:
+                edge /= (whi - wlo).reshape((-1,) + (1,) * (c.ndim - 1))
+            out[s - a : e - a] = edge
     return out
 
 
 def _block_variance(x: np.ndarray, centre: np.ndarray, a: int, b: int, lo: int, hi: int, half: int) -> np.ndarray:
-    """Population variance over the centred window of each sample of ``[a, b)``, per column (running sums)."""
+    """Population variance over the centred window of each sample of ``[a, b)``, per column (running sums).
+
+    Three buffers of the block's size: the centred samples (then their
+    squares, then the window means), and the two running sums (the first
+    then holds the variance).
+    """
     seg = x[lo:hi] - centre  # centred for a numerically safe running sum of squares
     c1 = np.empty((seg.shape[0] + 1, seg.shape[1]))
     c2 = np.empty_like(c1)
@@ -138,14 +153,9 @@ def _block_variance(x: np.ndarray, centre: np.ndarray, a: int, b: int, lo: int, 
     np.cumsum(seg, axis=0, out=c1[1:])
     np.square(seg, out=seg)
     np.cumsum(seg, axis=0, out=c2[1:])
-    del seg
     n = x.shape[0]
-    wlo, whi = _window_bounds(a, b, lo, half, n)
-    cnt = (whi - wlo)[:, None].astype(np.float64)
-    mean = _window_diff(c1, a, b, lo, half, n)
-    mean /= cnt
-    var = _window_diff(c2, a, b, lo, half, n)
-    var /= cnt
+    mean = _window_diff(c1, a, b, lo, half, n, out=seg[: b - a], mean=True)  # E[x] (seg is done with)
+    var = _window_diff(c2, a, b, lo, half, n, out=c1[: b - a], mean=True)  # E[x²] (c1 is done with)
     var -= np.multiply(mean, mean, out=mean)
     return np.maximum(var, 0.0, out=var)
 
@@ -493,21 +503,32 @@ def moving_mean(x: np.ndarray, window: int) -> np.ndarray:
     return _moving_mean_rows(x, max(int(window) // 2, 0), 0, x.shape[0])
 
 
-def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int) -> np.ndarray:
-    """:func:`moving_mean` (window ``±half``) of rows ``[a, b)`` of ``x`` only, :data:`BLOCK` rows at a time."""
+def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray | None = None) -> np.ndarray:
+    """:func:`moving_mean` (window ``±half``) of rows ``[a, b)`` of ``x`` only, :data:`BLOCK` rows at a time.
+
+    With ``keep`` (a mask over ``[a, b)``), only the rows it selects, in order:
+    the same running sums (from the same first sample), so the same numbers.
+    """
     n = x.shape[0]
     ref = x[0]  # subtracted to keep the running sums accurate
-    out = np.empty((b - a, x.shape[1]))
+    out = np.empty((b - a if keep is None else int(np.count_nonzero(keep)), x.shape[1]))
+    done = 0
     for s in range(a, b, BLOCK):
         e = min(s + BLOCK, b)
         lo, hi = max(s - half, 0), min(e + half, n)
         c = np.empty((hi - lo + 1, x.shape[1]))
         c[0] = 0.0
         np.cumsum(x[lo:hi] - ref, axis=0, out=c[1:])
-        wlo, whi = _window_bounds(s, e, lo, half, n)
-        part = _window_diff(c, s, e, lo, half, n)
-        part /= (whi - wlo)[:, None]
-        out[s - a:e - a] = part + ref
+        if keep is None:
+            part = _window_diff(c, s, e, lo, half, n, out=out[s - a:e - a], mean=True)
+        else:
+            rows = np.nonzero(keep[s - a:e - a])[0] + s
+            wlo, whi = np.maximum(rows - half, 0) - lo, np.minimum(rows + half + 1, n) - lo
+            part = out[done:done + rows.size]
+            np.subtract(c[whi], c[wlo], out=part)
+            part /= (whi - wlo)[:, None]
+            done += rows.size
+        part += ref
     return out
 
 
@@ -536,9 +557,14 @@ def gyro_still(recording: Recording, rest: Interval, scale: float, intervals: li
     bias = raw.mean(axis=0)
     half = n // 2
     still = np.empty(gyro.shape[0], dtype=bool)
+    outside = np.ones(gyro.shape[0], dtype=bool)  # the samples no interval judges
+    for iv in intervals or []:
+        outside[iv.slice] = False
     for a in range(0, gyro.shape[0], BLOCK):  # block by block: no (N, 3) moving mean is kept
-        m = _moving_mean_rows(gyro, half, a, min(a + BLOCK, gyro.shape[0])) - bias
-        still[a:a + m.shape[0]] = np.sqrt(np.einsum("ij,ij->i", m, m)) < limit
+        b = min(a + BLOCK, gyro.shape[0])
+        m = _moving_mean_rows(gyro, half, a, b, keep=outside[a:b])
+        m -= bias
+        still[a:b][outside[a:b]] = np.sqrt(np.einsum("ij,ij->i", m, m)) < limit
     for iv in intervals or []:
         m = _moving_mean_rows(gyro, half, iv.start, iv.stop) - bias
         dev = np.sqrt(np.einsum("ij,ij->i", m, m))
