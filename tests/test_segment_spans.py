@@ -92,3 +92,27 @@ def test_gyro_still_outside_the_poses_is_the_plain_moving_mean_test() -> None:
     plain = np.linalg.norm(m, axis=1) < limit
     assert outside.sum() > 1000 and 0 < plain[outside].sum() < outside.sum()
     assert np.count_nonzero(still[outside] != plain[outside]) <= 2  # rounding at the limit only
+
+
+def test_spikes_are_the_definition_sample_by_sample() -> None:
+    """Each sample against the docstring's conditions, one at a time (the big jumps are looked at first)."""
+    rng = np.random.default_rng(3)
+    n = 3000
+    x = np.cumsum(rng.normal(size=(n, 3)), axis=0)
+    hits = rng.integers(2, n - 2, size=40)
+    x[hits, hits % 3] += rng.choice([-1, 1], size=40) * rng.uniform(5, 200, size=40)
+    x[1000:1003, 0] += 80  # a step held for three samples: no spike
+    factor, isolation = 20.0, 4.0
+    want = np.zeros(n, dtype=bool)
+    for j in range(3):
+        scale = np.median(np.abs(np.diff(x[:, j])))
+        for i in range(2, n - 2):
+            d0, d1, d2, d3 = (x[i - 1, j] - x[i - 2, j], x[i, j] - x[i - 1, j], x[i + 1, j] - x[i, j],
+                              x[i + 2, j] - x[i + 1, j])
+            jump = min(abs(d1), abs(d2))
+            if (jump > factor * scale and np.sign(d1) != np.sign(d2) and jump > isolation * max(abs(d0), abs(d3))
+                    and abs(x[i + 1, j] - x[i - 1, j]) < 0.25 * abs(d1)):
+                want[i] = True
+    got = segment.spikes(x, factor=factor, isolation=isolation)
+    assert 20 <= want.sum() <= 40 and not got[1000:1003].any()
+    assert np.array_equal(got, want)

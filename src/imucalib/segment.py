@@ -86,11 +86,12 @@ FACE_NAMES = ("+x", "+y", "+z", "-x", "-y", "-z")
 
 def runs(mask: np.ndarray, min_length: int = 1, kind: str = "static") -> list[Interval]:
     """Intervals ``[start, stop)`` of the True runs of a boolean mask at least ``min_length`` long."""
-    edges = np.diff(np.concatenate([[0], np.asarray(mask).astype(np.int8), [0]]))
-    starts = np.nonzero(edges == 1)[0]
-    stops = np.nonzero(edges == -1)[0]
-    return [Interval(int(a), int(b), kind) for a, b in zip(starts, stops, strict=True)
-            if b - a >= min_length]
+    padded = np.zeros(np.shape(mask)[0] + 2, dtype=bool)
+    padded[1:-1] = mask
+    change = np.flatnonzero(padded[1:] != padded[:-1])  # False → True, True → False, … in turn
+    starts, stops = change[0::2], change[1::2]
+    keep = stops - starts >= min_length
+    return [Interval(a, b, kind) for a, b in zip(starts[keep].tolist(), stops[keep].tolist(), strict=True)]
 
 
 #: samples per block of the windowed statistics: their temporaries stay a few MB, whatever the recording's length
@@ -746,6 +747,22 @@ class StillDetector:
         return new
 
 
+class _IntervalMeans:
+    """:func:`imucalib.metrics.interval_means` of ``x`` that forms each interval's mean once (the same numbers:
+    each interval's mean is its own sum), for the thresholds of a scan whose intervals mostly recur."""
+
+    def __init__(self, x: np.ndarray) -> None:
+        self.x = x
+        self.known: dict[tuple[int, int], np.ndarray] = {}
+
+    def __call__(self, intervals: list[Interval]) -> np.ndarray:
+        new = [iv for iv in intervals if (iv.start, iv.stop) not in self.known]
+        if new:
+            for iv, row in zip(new, interval_means(self.x, new), strict=True):
+                self.known[iv.start, iv.stop] = row
+        return np.array([self.known[iv.start, iv.stop] for iv in intervals])
+
+
 def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: Iterable[float], min_interval: float,
           still: np.ndarray | None, *, reduce: bool = True) -> tuple[list[Interval], float, TriadModel]:
     """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded);
@@ -756,17 +773,24 @@ def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: It
         stat = np.where(still, stat, np.inf)
     best = None
     tried = []
+    means = _IntervalMeans(recording.acc)
+    fits: dict[tuple, tuple | None] = {}  # thresholds that give the same intervals give the same fit
     for mult in multipliers:
         intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
         tried.append((mult, len(intervals)))
         if len(intervals) < MIN_INTERVALS:
             continue
-        means = interval_means(recording.acc, intervals)
-        try:
-            model, res = fit_gravity_norm(means, gravity)
-        except ValueError:
+        key = tuple((iv.start, iv.stop) for iv in intervals)
+        if key not in fits:
+            try:
+                model, res = fit_gravity_norm(means(intervals), gravity)
+            except ValueError:
+                fits[key] = None
+            else:
+                fits[key] = (float(res @ res) / len(res), model)  # the score: per residual
+        if fits[key] is None:
             continue
-        score = float(res @ res) / len(res)  # per residual
+        score, model = fits[key]
         if best is None or score < best[0]:
             best = (score, mult, intervals, model)
     if best is None:
@@ -774,7 +798,7 @@ def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: It
         for mult, _ in sorted(tried, key=lambda mc: -mc[1]) if reduce else []:
             intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
             try:
-                model = fit_determined(interval_means(recording.acc, intervals), gravity)[0]
+                model = fit_determined(means(intervals), gravity)[0]
             except ValueError:
                 continue
             return intervals, float(mult), model
@@ -936,16 +960,18 @@ def spikes(x: np.ndarray, *, factor: float = 20.0, isolation: float = 4.0) -> np
         return out
     scale = np.array([np.median(np.abs(np.diff(col))) for col in x.T])  # one channel at a time
     scale = np.where(scale > 0, scale, np.finfo(float).tiny)
+    limit = factor * scale
     for a in range(2, n - 2, BLOCK):  # samples a … b−1, each read with two neighbours either side
         b = min(a + BLOCK, n - 2)
         xb = x[a - 2:b + 2]
-        d = np.diff(xb, axis=0)
-        d0, d1, d2, d3 = d[:-3], d[1:-2], d[2:-1], d[3:]  # steps around sample i
-        jump = np.minimum(np.abs(d1), np.abs(d2))
-        big = (jump > factor * scale) & (np.sign(d1) != np.sign(d2))
-        alone = jump > isolation * np.maximum(np.abs(d0), np.abs(d3))
-        back = np.abs(xb[3:-1] - xb[1:-3]) < 0.25 * np.abs(d1)
-        out[a:b] = np.any(big & alone & back, axis=1)
+        d = np.diff(xb, axis=0)  # d[i + 1], d[i + 2]: the steps into and out of sample a + i
+        ad = np.abs(d)
+        jump = np.minimum(ad[1:-2], ad[2:-1])
+        i, j = np.nonzero(jump > limit)  # the big jumps (few): the other conditions only there
+        ok = ((np.sign(d[i + 1, j]) != np.sign(d[i + 2, j]))
+              & (jump[i, j] > isolation * np.maximum(ad[i, j], ad[i + 3, j]))
+              & (np.abs(xb[i + 3, j] - xb[i + 1, j]) < 0.25 * ad[i + 1, j]))
+        out[a + i[ok]] = True
     return out
 
 
@@ -995,15 +1021,17 @@ def unsteady_poses(recording: Recording, intervals: list[Interval], *, edge: flo
     except ValueError:
         return {}
     n_edge = max(int(round(edge * recording.rate)), 2)
+    tilt_floor = np.radians(EDGE_TILT_DEG)
     out = {}
     for k, iv in enumerate(intervals[1:], 1):
         if len(iv) < 3 * n_edge:
             continue
         a = model.forward(recording.acc[iv.slice])
         mean = a.mean(axis=0)
-        sigma = np.sqrt(np.sum(np.var(a, axis=0)) / n_edge) / np.linalg.norm(mean)  # [rad], the edge mean's scatter
-        limit = max(np.radians(EDGE_TILT_DEG), n_sigma * sigma)
-        tilts = [float(np.arccos(np.clip(e @ mean / (np.linalg.norm(e) * np.linalg.norm(mean)), -1, 1)))
+        size = np.linalg.norm(mean)
+        sigma = np.sqrt(np.sum(np.var(a, axis=0)) / n_edge) / size  # [rad], the edge mean's scatter
+        limit = max(tilt_floor, n_sigma * sigma)
+        tilts = [float(np.arccos(min(max(float(e @ mean / (np.linalg.norm(e) * size)), -1.0), 1.0)))
                  for e in (a[:n_edge].mean(axis=0), a[-n_edge:].mean(axis=0))]
         if max(tilts) > limit:
             where = "start" if tilts[0] > tilts[1] else "end"
