@@ -58,3 +58,61 @@ def test_first_motion_reads_the_statistic_only_as_far_as_it_needs(acc_moves, gyr
         assert segment._first_motion(rec, win, n_level, factor) == _first_motion_whole(rec, win, n_level, factor)
     alone = Recording(np.arange(n) * 1e-3, acc, None)
     assert segment._first_motion(alone, 101, 1000, 3.0) == _first_motion_whole(alone, 101, 1000, 3.0)
+
+
+@pytest.mark.parametrize("n, half", [(5, 2), (700, 12), (140_001, 12), (70_000, 1500)])
+def test_moving_mean_of_chosen_rows_is_the_whole_pass(n: int, half: int) -> None:
+    rng = np.random.default_rng(n + half)
+    x = rng.normal(size=(n, 3)) * 100 + 3e4
+    whole = segment._moving_mean_rows(x, half, 0, n)
+    keep = rng.random(n) < 0.3
+    keep[:3] = keep[-3:] = True  # windows truncated at both ends
+    assert np.array_equal(segment._moving_mean_rows(x, half, 0, n, keep=keep), whole[keep])
+    # the definition, inside the record and at its ends
+    for i in {0, 1, n // 2, n - 1}:
+        np.testing.assert_allclose(whole[i], x[max(i - half, 0): i + half + 1].mean(axis=0), rtol=1e-12)
+
+
+def test_gyro_still_outside_the_poses_is_the_plain_moving_mean_test() -> None:
+    """The samples between the poses are judged by ``‖mean − bias‖ < limit`` over the whole-record moving mean."""
+    from imucalib.scenarios import session
+
+    sim = session("handheld", rng=2)
+    rec = sim.recording
+    intervals, _, rest, _ = segment.detect_intervals(rec, sim.truth.gravity, gyro_gate=False)
+    scale = 1e-3
+    still = segment.gyro_still(rec, rest, scale, intervals)
+    n = max(int(round(segment.STILL_WINDOW * rec.rate)), 1)
+    raw = rec.gyro[rest.slice]
+    limit = max(segment.STILL_RATE / scale, segment.STILL_N_SIGMA * float(np.linalg.norm(raw.std(axis=0))) / np.sqrt(n))
+    m = segment.moving_mean(rec.gyro, n) - raw.mean(axis=0)
+    outside = np.ones(len(rec), dtype=bool)
+    for iv in intervals:
+        outside[iv.slice] = False
+    plain = np.linalg.norm(m, axis=1) < limit
+    assert outside.sum() > 1000 and 0 < plain[outside].sum() < outside.sum()
+    assert np.count_nonzero(still[outside] != plain[outside]) <= 2  # rounding at the limit only
+
+
+def test_spikes_are_the_definition_sample_by_sample() -> None:
+    """Each sample against the docstring's conditions, one at a time (the big jumps are looked at first)."""
+    rng = np.random.default_rng(3)
+    n = 3000
+    x = np.cumsum(rng.normal(size=(n, 3)), axis=0)
+    hits = rng.integers(2, n - 2, size=40)
+    x[hits, hits % 3] += rng.choice([-1, 1], size=40) * rng.uniform(5, 200, size=40)
+    x[1000:1003, 0] += 80  # a step held for three samples: no spike
+    factor, isolation = 20.0, 4.0
+    want = np.zeros(n, dtype=bool)
+    for j in range(3):
+        scale = np.median(np.abs(np.diff(x[:, j])))
+        for i in range(2, n - 2):
+            d0, d1, d2, d3 = (x[i - 1, j] - x[i - 2, j], x[i, j] - x[i - 1, j], x[i + 1, j] - x[i, j],
+                              x[i + 2, j] - x[i + 1, j])
+            jump = min(abs(d1), abs(d2))
+            if (jump > factor * scale and np.sign(d1) != np.sign(d2) and jump > isolation * max(abs(d0), abs(d3))
+                    and abs(x[i + 1, j] - x[i - 1, j]) < 0.25 * abs(d1)):
+                want[i] = True
+    got = segment.spikes(x, factor=factor, isolation=isolation)
+    assert 20 <= want.sum() <= 40 and not got[1000:1003].any()
+    assert np.array_equal(got, want)

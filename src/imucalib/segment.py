@@ -86,11 +86,12 @@ FACE_NAMES = ("+x", "+y", "+z", "-x", "-y", "-z")
 
 def runs(mask: np.ndarray, min_length: int = 1, kind: str = "static") -> list[Interval]:
     """Intervals ``[start, stop)`` of the True runs of a boolean mask at least ``min_length`` long."""
-    edges = np.diff(np.concatenate([[0], np.asarray(mask).astype(np.int8), [0]]))
-    starts = np.nonzero(edges == 1)[0]
-    stops = np.nonzero(edges == -1)[0]
-    return [Interval(int(a), int(b), kind) for a, b in zip(starts, stops, strict=True)
-            if b - a >= min_length]
+    padded = np.zeros(np.shape(mask)[0] + 2, dtype=bool)
+    padded[1:-1] = mask
+    change = np.flatnonzero(padded[1:] != padded[:-1])  # False → True, True → False, … in turn
+    starts, stops = change[0::2], change[1::2]
+    keep = stops - starts >= min_length
+    return [Interval(a, b, kind) for a, b in zip(starts[keep].tolist(), stops[keep].tolist(), strict=True)]
 
 
 #: samples per block of the windowed statistics: their temporaries stay a few MB, whatever the recording's length
@@ -107,30 +108,45 @@ def _blocks(n: int, half: int):
 def _window_bounds(a: int, b: int, lo: int, half: int, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Window ``[lo_i, hi_i)`` of each sample ``i`` of ``[a, b)`` (truncated at the record's ends), from ``lo``."""
     idx = np.arange(a, b)
-    return np.clip(idx - half, 0, n) - lo, np.clip(idx + half + 1, 0, n) - lo
+    return np.maximum(idx - half, 0) - lo, np.minimum(idx + half + 1, n) - lo
 
 
-def _window_diff(c: np.ndarray, a: int, b: int, lo: int, half: int, n: int) -> np.ndarray:
+def _window_diff(c: np.ndarray, a: int, b: int, lo: int, half: int, n: int, out: np.ndarray | None = None,
+                 mean: bool = False) -> np.ndarray:
     """``c[whi] − c[wlo]`` for the windows of :func:`_window_bounds` (running sums ``c`` from sample ``lo``).
 
     The rows whose window is not truncated are one subtraction of two slices
     (no gathered copies of ``c``); the few at the record's ends are gathered.
+    With ``mean``, each row is divided by its window's length (``2·half + 1``
+    inside the record, as a scalar: the same quotient as from an array of
+    lengths). ``out`` (``b − a`` rows) receives the result when given.
     """
-    out = np.empty((b - a,) + c.shape[1:])
+    if out is None:
+        out = np.empty((b - a,) + c.shape[1:])
     m0, m1 = max(a, half), min(b, n - half)  # samples whose window lies inside the record
     if m1 <= m0:
         m0 = m1 = b
-    np.subtract(c[m0 + half + 1 - lo : m1 + half + 1 - lo], c[m0 - half - lo : m1 - half - lo],
-                out=out[m0 - a : m1 - a])
+    inner = out[m0 - a : m1 - a]
+    np.subtract(c[m0 + half + 1 - lo : m1 + half + 1 - lo], c[m0 - half - lo : m1 - half - lo], out=inner)
+    if mean:
+        inner /= float(2 * half + 1)
     for s, e in ((a, m0), (m1, b)):
         if e > s:
             wlo, whi = _window_bounds(s, e, lo, half, n)
-            out[s - a : e - a] = c[whi] - c[wlo]
+            edge = c[whi] - c[wlo]
+            if mean:
+                edge /= (whi - wlo).reshape((-1,) + (1,) * (c.ndim - 1))
+            out[s - a : e - a] = edge
     return out
 
 
 def _block_variance(x: np.ndarray, centre: np.ndarray, a: int, b: int, lo: int, hi: int, half: int) -> np.ndarray:
-    """Population variance over the centred window of each sample of ``[a, b)``, per column (running sums)."""
+    """Population variance over the centred window of each sample of ``[a, b)``, per column (running sums).
+
+    Three buffers of the block's size: the centred samples (then their
+    squares, then the window means), and the two running sums (the first
+    then holds the variance).
+    """
     seg = x[lo:hi] - centre  # centred for a numerically safe running sum of squares
     c1 = np.empty((seg.shape[0] + 1, seg.shape[1]))
     c2 = np.empty_like(c1)
@@ -138,14 +154,9 @@ def _block_variance(x: np.ndarray, centre: np.ndarray, a: int, b: int, lo: int, 
     np.cumsum(seg, axis=0, out=c1[1:])
     np.square(seg, out=seg)
     np.cumsum(seg, axis=0, out=c2[1:])
-    del seg
     n = x.shape[0]
-    wlo, whi = _window_bounds(a, b, lo, half, n)
-    cnt = (whi - wlo)[:, None].astype(np.float64)
-    mean = _window_diff(c1, a, b, lo, half, n)
-    mean /= cnt
-    var = _window_diff(c2, a, b, lo, half, n)
-    var /= cnt
+    mean = _window_diff(c1, a, b, lo, half, n, out=seg[: b - a], mean=True)  # E[x] (seg is done with)
+    var = _window_diff(c2, a, b, lo, half, n, out=c1[: b - a], mean=True)  # E[x²] (c1 is done with)
     var -= np.multiply(mean, mean, out=mean)
     return np.maximum(var, 0.0, out=var)
 
@@ -493,21 +504,32 @@ def moving_mean(x: np.ndarray, window: int) -> np.ndarray:
     return _moving_mean_rows(x, max(int(window) // 2, 0), 0, x.shape[0])
 
 
-def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int) -> np.ndarray:
-    """:func:`moving_mean` (window ``±half``) of rows ``[a, b)`` of ``x`` only, :data:`BLOCK` rows at a time."""
+def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray | None = None) -> np.ndarray:
+    """:func:`moving_mean` (window ``±half``) of rows ``[a, b)`` of ``x`` only, :data:`BLOCK` rows at a time.
+
+    With ``keep`` (a mask over ``[a, b)``), only the rows it selects, in order:
+    the same running sums (from the same first sample), so the same numbers.
+    """
     n = x.shape[0]
     ref = x[0]  # subtracted to keep the running sums accurate
-    out = np.empty((b - a, x.shape[1]))
+    out = np.empty((b - a if keep is None else int(np.count_nonzero(keep)), x.shape[1]))
+    done = 0
     for s in range(a, b, BLOCK):
         e = min(s + BLOCK, b)
         lo, hi = max(s - half, 0), min(e + half, n)
         c = np.empty((hi - lo + 1, x.shape[1]))
         c[0] = 0.0
         np.cumsum(x[lo:hi] - ref, axis=0, out=c[1:])
-        wlo, whi = _window_bounds(s, e, lo, half, n)
-        part = _window_diff(c, s, e, lo, half, n)
-        part /= (whi - wlo)[:, None]
-        out[s - a:e - a] = part + ref
+        if keep is None:
+            part = _window_diff(c, s, e, lo, half, n, out=out[s - a:e - a], mean=True)
+        else:
+            rows = np.nonzero(keep[s - a:e - a])[0] + s
+            wlo, whi = np.maximum(rows - half, 0) - lo, np.minimum(rows + half + 1, n) - lo
+            part = out[done:done + rows.size]
+            np.subtract(c[whi], c[wlo], out=part)
+            part /= (whi - wlo)[:, None]
+            done += rows.size
+        part += ref
     return out
 
 
@@ -536,9 +558,14 @@ def gyro_still(recording: Recording, rest: Interval, scale: float, intervals: li
     bias = raw.mean(axis=0)
     half = n // 2
     still = np.empty(gyro.shape[0], dtype=bool)
+    outside = np.ones(gyro.shape[0], dtype=bool)  # the samples no interval judges
+    for iv in intervals or []:
+        outside[iv.slice] = False
     for a in range(0, gyro.shape[0], BLOCK):  # block by block: no (N, 3) moving mean is kept
-        m = _moving_mean_rows(gyro, half, a, min(a + BLOCK, gyro.shape[0])) - bias
-        still[a:a + m.shape[0]] = np.sqrt(np.einsum("ij,ij->i", m, m)) < limit
+        b = min(a + BLOCK, gyro.shape[0])
+        m = _moving_mean_rows(gyro, half, a, b, keep=outside[a:b])
+        m -= bias
+        still[a:b][outside[a:b]] = np.sqrt(np.einsum("ij,ij->i", m, m)) < limit
     for iv in intervals or []:
         m = _moving_mean_rows(gyro, half, iv.start, iv.stop) - bias
         dev = np.sqrt(np.einsum("ij,ij->i", m, m))
@@ -720,6 +747,22 @@ class StillDetector:
         return new
 
 
+class _IntervalMeans:
+    """:func:`imucalib.metrics.interval_means` of ``x`` that forms each interval's mean once (the same numbers:
+    each interval's mean is its own sum), for the thresholds of a scan whose intervals mostly recur."""
+
+    def __init__(self, x: np.ndarray) -> None:
+        self.x = x
+        self.known: dict[tuple[int, int], np.ndarray] = {}
+
+    def __call__(self, intervals: list[Interval]) -> np.ndarray:
+        new = [iv for iv in intervals if (iv.start, iv.stop) not in self.known]
+        if new:
+            for iv, row in zip(new, interval_means(self.x, new), strict=True):
+                self.known[iv.start, iv.stop] = row
+        return np.array([self.known[iv.start, iv.stop] for iv in intervals])
+
+
 def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: Iterable[float], min_interval: float,
           still: np.ndarray | None, *, reduce: bool = True) -> tuple[list[Interval], float, TriadModel]:
     """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded);
@@ -730,17 +773,24 @@ def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: It
         stat = np.where(still, stat, np.inf)
     best = None
     tried = []
+    means = _IntervalMeans(recording.acc)
+    fits: dict[tuple, tuple | None] = {}  # thresholds that give the same intervals give the same fit
     for mult in multipliers:
         intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
         tried.append((mult, len(intervals)))
         if len(intervals) < MIN_INTERVALS:
             continue
-        means = interval_means(recording.acc, intervals)
-        try:
-            model, res = fit_gravity_norm(means, gravity)
-        except ValueError:
+        key = tuple((iv.start, iv.stop) for iv in intervals)
+        if key not in fits:
+            try:
+                model, res = fit_gravity_norm(means(intervals), gravity)
+            except ValueError:
+                fits[key] = None
+            else:
+                fits[key] = (float(res @ res) / len(res), model)  # the score: per residual
+        if fits[key] is None:
             continue
-        score = float(res @ res) / len(res)  # per residual
+        score, model = fits[key]
         if best is None or score < best[0]:
             best = (score, mult, intervals, model)
     if best is None:
@@ -748,7 +798,7 @@ def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: It
         for mult, _ in sorted(tried, key=lambda mc: -mc[1]) if reduce else []:
             intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
             try:
-                model = fit_determined(interval_means(recording.acc, intervals), gravity)[0]
+                model = fit_determined(means(intervals), gravity)[0]
             except ValueError:
                 continue
             return intervals, float(mult), model
@@ -910,16 +960,18 @@ def spikes(x: np.ndarray, *, factor: float = 20.0, isolation: float = 4.0) -> np
         return out
     scale = np.array([np.median(np.abs(np.diff(col))) for col in x.T])  # one channel at a time
     scale = np.where(scale > 0, scale, np.finfo(float).tiny)
+    limit = factor * scale
     for a in range(2, n - 2, BLOCK):  # samples a … b−1, each read with two neighbours either side
         b = min(a + BLOCK, n - 2)
         xb = x[a - 2:b + 2]
-        d = np.diff(xb, axis=0)
-        d0, d1, d2, d3 = d[:-3], d[1:-2], d[2:-1], d[3:]  # steps around sample i
-        jump = np.minimum(np.abs(d1), np.abs(d2))
-        big = (jump > factor * scale) & (np.sign(d1) != np.sign(d2))
-        alone = jump > isolation * np.maximum(np.abs(d0), np.abs(d3))
-        back = np.abs(xb[3:-1] - xb[1:-3]) < 0.25 * np.abs(d1)
-        out[a:b] = np.any(big & alone & back, axis=1)
+        d = np.diff(xb, axis=0)  # d[i + 1], d[i + 2]: the steps into and out of sample a + i
+        ad = np.abs(d)
+        jump = np.minimum(ad[1:-2], ad[2:-1])
+        i, j = np.nonzero(jump > limit)  # the big jumps (few): the other conditions only there
+        ok = ((np.sign(d[i + 1, j]) != np.sign(d[i + 2, j]))
+              & (jump[i, j] > isolation * np.maximum(ad[i, j], ad[i + 3, j]))
+              & (np.abs(xb[i + 3, j] - xb[i + 1, j]) < 0.25 * ad[i + 1, j]))
+        out[a + i[ok]] = True
     return out
 
 
@@ -969,15 +1021,17 @@ def unsteady_poses(recording: Recording, intervals: list[Interval], *, edge: flo
     except ValueError:
         return {}
     n_edge = max(int(round(edge * recording.rate)), 2)
+    tilt_floor = np.radians(EDGE_TILT_DEG)
     out = {}
     for k, iv in enumerate(intervals[1:], 1):
         if len(iv) < 3 * n_edge:
             continue
         a = model.forward(recording.acc[iv.slice])
         mean = a.mean(axis=0)
-        sigma = np.sqrt(np.sum(np.var(a, axis=0)) / n_edge) / np.linalg.norm(mean)  # [rad], the edge mean's scatter
-        limit = max(np.radians(EDGE_TILT_DEG), n_sigma * sigma)
-        tilts = [float(np.arccos(np.clip(e @ mean / (np.linalg.norm(e) * np.linalg.norm(mean)), -1, 1)))
+        size = np.linalg.norm(mean)
+        sigma = np.sqrt(np.sum(np.var(a, axis=0)) / n_edge) / size  # [rad], the edge mean's scatter
+        limit = max(tilt_floor, n_sigma * sigma)
+        tilts = [float(np.arccos(min(max(float(e @ mean / (np.linalg.norm(e) * size)), -1.0), 1.0)))
                  for e in (a[:n_edge].mean(axis=0), a[-n_edge:].mean(axis=0))]
         if max(tilts) > limit:
             where = "start" if tilts[0] > tilts[1] else "end"
