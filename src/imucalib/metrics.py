@@ -24,6 +24,7 @@ from .recording import Interval, Recording
 
 __all__ = [
     "interval_means",
+    "pose_specific_force",
     "transition_bounds",
     "gravity_residuals",
     "predicted_gravity",
@@ -73,19 +74,38 @@ def transition_bounds(intervals: Sequence[Interval]) -> tuple[np.ndarray, np.nda
     return starts, stops
 
 
+def pose_specific_force(calibration, recording: Recording, intervals: Sequence[Interval]) -> np.ndarray:
+    """The calibrated specific force [m/s²] of each static interval (M, 3): the model of its raw mean.
+
+    The raw readings are averaged first (:func:`interval_means`), then
+    calibrated, as Zhang 2021 eq. (10) averages ``a^s``. The array is
+    read-only, so the figures that share it cannot change it for each other.
+    """
+    up = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    up.flags.writeable = False
+    return up
+
+
 def gravity_residuals(calibration, recording: Recording, intervals: Sequence[Interval],
-                      gravity: float | None = None) -> np.ndarray:
-    """``‖a_k‖ − g`` [m/s²] for each static interval ``k`` (interval means)."""
+                      gravity: float | None = None, *, up: np.ndarray | None = None) -> np.ndarray:
+    """``‖a_k‖ − g`` [m/s²] for each static interval ``k`` (interval means).
+
+    ``up`` is :func:`pose_specific_force` of the same intervals, when the
+    caller has it already.
+    """
     g = calibration.gravity if gravity is None else gravity
-    a = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    a = pose_specific_force(calibration, recording, intervals) if up is None else up
     return np.linalg.norm(a, axis=1) - g
 
 
 def predicted_gravity(
     calibration, recording: Recording, intervals: Sequence[Interval],
-    integrator: IntervalIntegrator | None = None,
+    integrator: IntervalIntegrator | None = None, *, up: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Measured and gyro-predicted gravity directions at poses 1…M−1.
+
+    ``up`` is :func:`pose_specific_force` of the same intervals, when the
+    caller has it already.
 
     Returns
     -------
@@ -93,7 +113,7 @@ def predicted_gravity(
         Unit vectors: the calibrated accelerometer direction at pose ``k`` and
         ``R_{k-1,k}ᵀ`` times the direction at pose ``k−1``.
     """
-    acc_means = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    acc_means = pose_specific_force(calibration, recording, intervals) if up is None else up
     u = acc_means / np.linalg.norm(acc_means, axis=1, keepdims=True)
     if integrator is None:
         integrator = IntervalIntegrator(recording.t, *transition_bounds(intervals))
@@ -108,26 +128,34 @@ def predicted_gravity(
 
 
 def gravity_direction_errors(calibration, recording: Recording,
-                             intervals: Sequence[Interval]) -> np.ndarray:
-    """Angle [rad] between measured and gyro-predicted gravity at each new pose."""
-    measured, predicted = predicted_gravity(calibration, recording, intervals)
+                             intervals: Sequence[Interval], *, up: np.ndarray | None = None) -> np.ndarray:
+    """Angle [rad] between measured and gyro-predicted gravity at each new pose.
+
+    ``up`` is :func:`pose_specific_force` of the same intervals, when the
+    caller has it already.
+    """
+    measured, predicted = predicted_gravity(calibration, recording, intervals, up=up)
     return angle_between(measured, predicted)
 
 
 def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval],
                 gravity: float | None = None) -> dict:
-    """The ``fit`` entries of the calibration file (``docs/architecture.rst``)."""
-    res = gravity_residuals(calibration, recording, intervals, gravity)
+    """The ``fit`` entries of the calibration file (``docs/architecture.rst``).
+
+    The poses' calibrated means (:func:`pose_specific_force`) are computed
+    once and serve every figure that reads them.
+    """
+    up = pose_specific_force(calibration, recording, intervals)
+    res = gravity_residuals(calibration, recording, intervals, gravity, up=up)
     out = {
         "static_intervals": len(intervals),
         "accelerometer_residual_rms": float(np.sqrt(np.mean(res**2))),
         "intervals": [[int(iv.start), int(iv.stop)] for iv in intervals],  # sample indices [start, stop)
     }
     if len(intervals) >= 2 and recording.gyro is not None and calibration.gyroscope is not None:
-        ang = np.degrees(gravity_direction_errors(calibration, recording, intervals))
+        ang = np.degrees(gravity_direction_errors(calibration, recording, intervals, up=up))
         out["gyroscope_angle_error_mean_deg"] = float(np.mean(ang))
         out["gyroscope_angle_error_max_deg"] = float(np.max(ang))
-    up = calibration.accelerometer_si(interval_means(recording.acc, intervals))
     coverage, flags = pose_coverage(up)
     flags += gap_flags(recording, intervals)
     floor = gravity_noise_floor(calibration, recording, intervals)
@@ -162,21 +190,31 @@ def gravity_noise_floor(calibration, recording: Recording, intervals: Sequence[I
     var = []
     model = calibration.accelerometer
     linear = model.is_linear and not np.any(model.g_sensitivity)
+    add = np.add.reduce  # the sums ndarray.mean, np.var and np.linalg.norm take, without their per-call overhead
     for iv in intervals:
         raw = recording.acc[iv.slice]
-        if raw.shape[0] < 2:
+        n = raw.shape[0]
+        if n < 2:
             continue
         if linear:
             # a = T diag(k1) (u − b) + T d is affine in u: its mean is the model of the mean, and its
             # component along û is u · (diag(k1) Tᵀ û) plus a constant, so no calibrated copy is needed
-            u = model.forward(raw.mean(axis=0)[None, :])[0]
-            along = raw @ (model.scale * (model.misalignment.T @ (u / np.linalg.norm(u))))
+            u = model.forward((add(raw, axis=0) / n)[None, :])[0]  # raw.mean(axis=0)
+            along = raw @ (model.scale * (model.misalignment.T @ (u / np.sqrt(u.dot(u)))))
         else:
             a = calibration.accelerometer_si(raw)
-            u = a.mean(axis=0)
-            along = a @ (u / np.linalg.norm(u))
-        var.append(np.var(along, ddof=1) / raw.shape[0])
+            u = add(a, axis=0) / n
+            along = a @ (u / np.sqrt(u.dot(u)))
+        var.append(_sample_variance(along) / n)
     return float(np.sqrt(np.mean(var))) if var else 0.0
+
+
+def _sample_variance(x: np.ndarray) -> float:
+    """``np.var(x, ddof=1)`` of a 1-D float64 array ``x`` by the same operations, without the per-call overhead."""
+    n = x.shape[0]
+    d = x - np.add.reduce(x, axis=None, keepdims=True) / n
+    np.square(d, out=d)
+    return np.add.reduce(d) / (n - 1)
 
 
 def gap_flags(recording: Recording, intervals: Sequence[Interval], *, factor: float = 2.5) -> list[str]:
