@@ -121,7 +121,8 @@ def predicted_gravity(
     rates = np.empty((used.size, 3))
     for a in range(0, used.size, RATE_CHUNK):  # the calibration's temporaries a chunk at a time
         part = used[a : a + RATE_CHUNK]
-        rates[a : a + part.size] = calibration.gyroscope_si(recording.gyro[part], recording.acc[part])
+        rates[a : a + part.size] = calibration.gyroscope_si(recording.gyro.take(part, axis=0),
+                                                            recording.acc.take(part, axis=0))
     r = quat_to_matrix(integrator.from_samples(rates))
     predicted = np.einsum("kji,kj->ki", r, u[:-1])  # Rᵀ · g_{k-1}
     return u[1:], predicted
@@ -231,6 +232,8 @@ def gap_flags(recording: Recording, intervals: Sequence[Interval], *, factor: fl
     if len(recording) < 3 or len(intervals) < 2 or recording.gyro is None:
         return []
     dt = np.diff(recording.t)
+    if dt.max() <= factor * dt.min():  # no step exceeds factor × the median (≥ the smallest): skip the median
+        return []
     joins = [int(stop) - 1 for _, stop in (recording.metadata.get("blocks") or [])[:-1]]
     big = np.setdiff1d(np.nonzero(dt > factor * np.median(dt))[0], joins)
     if big.size == 0:
