@@ -297,8 +297,9 @@ class _Poses:
                 gyro = cal.gyroscope.forward(self.recording.gyro[iv.slice], acc)  # gyroscope_si(gyro, raw_acc)
             else:
                 gyro = cal.gyroscope_si(self.recording.gyro[iv.slice])
-            if noise:
-                v_a, v_g = white_noise_variance(acc), white_noise_variance(gyro)
+            if noise:  # both sensors side by side: each column's differences and sums are as on its own
+                v = white_noise_variance(np.hstack([acc, gyro]))
+                v_a, v_g = v[: acc.shape[1]], v[acc.shape[1] :]
                 s_a2, s_g2 = float(add(v_a) / v_a.size), float(add(v_g) / v_g.size)
             self._pose[key] = (s_a2, s_g2, add(gyro, axis=0) / gyro.shape[0])
         return self._pose[key]
