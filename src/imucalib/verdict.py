@@ -298,7 +298,7 @@ class _Poses:
             else:
                 gyro = cal.gyroscope_si(self.recording.gyro[iv.slice])
             if noise:  # both sensors side by side: each column's differences and sums are as on its own
-                v = white_noise_variance(np.hstack([acc, gyro]))
+                v = white_noise_variance(np.concatenate((acc, gyro), axis=1))
                 v_a, v_g = v[: acc.shape[1]], v[acc.shape[1] :]
                 s_a2, s_g2 = float(add(v_a) / v_a.size), float(add(v_g) / v_g.size)
             self._pose[key] = (s_a2, s_g2, add(gyro, axis=0) / gyro.shape[0])
