@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from imucalib import verdict
 from imucalib.io import read
 from imucalib.methods import calibrate
 from imucalib.metrics import column_sums, fit_summary, gravity_noise_floor, gravity_residuals, interval_means
@@ -72,8 +73,11 @@ def _sessions():
         yield "xsens", read([DATA / "xsens_acc.mat", DATA / "xsens_gyro.mat"], reader="imutk"), {"gravity": 9.81744}
 
 
+@pytest.mark.parametrize("pose_bytes", [None, 1 << 16])  # the poses in one group; in groups of ~900 samples
 @pytest.mark.parametrize("name", ["handheld2", "xsens"])
-def test_shared_pose_figures_are_the_figures_alone(name):
+def test_shared_pose_figures_are_the_figures_alone(name, pose_bytes, monkeypatch):
+    if pose_bytes:
+        monkeypatch.setattr(verdict, "POSE_BYTES", pose_bytes)
     found = {n: (rec, kw) for n, rec, kw in _sessions()}
     if name not in found:
         pytest.skip(f"real data not present: {DATA} (needs ../shared/data)")

@@ -71,7 +71,14 @@ from .constants import GRAVITY_RANGE
 from .fit.accelerometer import REDUCED_MODELS, accelerometer_covariance, fit_sphere, pose_covariance
 from .fit.magnetometer import WEAK_DIP_DEG
 from .methodinfo import needing
-from .metrics import COVERAGE_CONE_DEG, gravity_direction_errors, gravity_noise_floor, interval_means, transition_bounds
+from .metrics import (
+    COVERAGE_CONE_DEG,
+    column_sums,
+    gravity_direction_errors,
+    gravity_noise_floor,
+    interval_means,
+    transition_bounds,
+)
 from .recording import Interval, Recording
 from .residuals import AccelLayout, gravity_norm_residuals
 from .solve import covariance
@@ -146,6 +153,9 @@ THRESHOLDS = {
 #: the gyroscope parameters the rotations between poses determine: three scales, six misalignment terms
 GYRO_ROTATION_PARAMETERS = 9
 
+#: bytes of calibrated pose samples an assessment holds at once (its poses are calibrated a group at a time)
+POSE_BYTES = 1 << 23
+
 #: raw-unit factors to SI of the physical units (``"g"`` uses the calibration's gravity)
 _NOMINAL = {"m/s^2": 1.0, "rad/s": 1.0, "deg/s": np.pi / 180}
 
@@ -170,10 +180,21 @@ def white_noise_variance(x: np.ndarray, order: int = 4) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     if x.shape[0] <= order + 1:
         return np.var(x, axis=0)
+    return _from_squares(np.add.reduce(_squared_differences(x, order), axis=0), x.shape[0], order)
+
+
+def _squared_differences(x: np.ndarray, order: int) -> np.ndarray:
+    """The squared ``order``-th differences of ``x`` (N, K) over its rows, as ``np.diff(x, n=order, axis=0)**2``."""
     d = x
-    for _ in range(order):  # np.diff(x, n=order, axis=0) and np.mean(·, axis=0): the same operations
+    for _ in range(order):
         d = d[1:] - d[:-1]
-    return np.add.reduce(d * d, axis=0) / d.shape[0] / math.comb(2 * order, order)
+    return d * d
+
+
+def _from_squares(total: np.ndarray, n: int, order: int) -> np.ndarray:
+    """:func:`white_noise_variance` from the column sums of :func:`_squared_differences` of ``n`` rows (``np.mean``'s
+    division, then the binomial factor)."""
+    return total / (n - order) / math.comb(2 * order, order)
 
 
 def rest_noise(calibration, recording: Recording, intervals: list[Interval],
@@ -192,8 +213,7 @@ def rest_noise(calibration, recording: Recording, intervals: list[Interval],
 def _rest_noise(found: _Poses, rest: Interval | None) -> tuple[float, float]:
     """:func:`rest_noise` from the poses' figures of one assessment."""
     rest = rest or found.intervals[0]
-    s_a2, s_g2 = found.pose(rest)[:2]
-    poses = [found.pose(iv)[:2] for iv in found.intervals if iv is not rest and len(iv) > 20]
+    (s_a2, s_g2, _), *poses = found.poses([rest] + [iv for iv in found.intervals if iv is not rest and len(iv) > 20])
     if poses:
         s_a2 = min(s_a2, float(np.median([p[0] for p in poses])))
         s_g2 = min(s_g2, float(np.median([p[1] for p in poses])))
@@ -244,7 +264,7 @@ def rest_rates(calibration, recording: Recording, intervals: list[Interval]) -> 
 
 def _rest_rates(found: _Poses) -> np.ndarray:
     """:func:`rest_rates` from the poses' figures of one assessment."""
-    return np.array([found.pose(iv, noise=False)[2] for iv in found.intervals])
+    return np.array([rate for _, _, rate in found.poses(found.intervals, noise=False)])
 
 
 class _Poses:
@@ -252,8 +272,9 @@ class _Poses:
 
     Each figure is computed when first asked for, by the same operations in the same order as the check
     that reads it would compute it alone, so every figure is the same to the last bit. Per pose only its
-    figures are kept, never its calibrated samples: memory follows the longest pose, not the recording.
-    Shared arrays are read-only, so no check can change them for another.
+    figures are kept; its calibrated samples only while its group is summed (:meth:`poses`), so memory
+    follows :data:`POSE_BYTES` or the longest pose, not the recording. Shared arrays are read-only, so no
+    check can change them for another.
     """
 
     def __init__(self, calibration, recording: Recording, intervals: list[Interval]) -> None:
@@ -278,31 +299,62 @@ class _Poses:
             self._up.flags.writeable = False
         return self._up
 
-    def pose(self, iv: Interval, noise: bool = True) -> tuple[float | None, float | None, np.ndarray]:
-        """The calibrated accelerometer's and gyroscope's white-noise variances at ``iv`` (the means over the
-        axes of :func:`white_noise_variance`; None unless ``noise``) and the gyroscope's mean rate there
-        (3,) [rad/s].
+    def poses(self, intervals: list[Interval], noise: bool = True) -> list[tuple[float | None, float | None,
+                                                                                np.ndarray]]:
+        """Per interval: the calibrated accelerometer's and gyroscope's white-noise variances (the means over
+        the axes of :func:`white_noise_variance`; None unless ``noise``) and the gyroscope's mean rate (3,)
+        [rad/s].
 
         The calibrated readings are those of ``Calibration.accelerometer_si`` and ``gyroscope_si``; the
-        g-sensitivity term reads the calibrated accelerometer already computed for the variance.
+        g-sensitivity term reads the calibrated accelerometer already computed for the variance. The poses are
+        calibrated a group at a time (about :data:`POSE_BYTES` of samples), and each group's sums over the rows
+        taken in one pass (:func:`imucalib.metrics.column_sums`: the same additions as pose by pose).
         """
-        key = (iv.start, iv.stop)
-        if key not in self._pose or (noise and self._pose[key][0] is None):
-            cal, raw_acc = self.calibration, self.recording.acc[iv.slice]
-            add = np.add.reduce  # np.mean's sums, without its per-call overhead
-            acc = s_a2 = s_g2 = None
-            if noise or (cal.gyroscope is not None and np.any(cal.gyroscope.g_sensitivity)):
-                acc = cal.accelerometer_si(raw_acc)
-            if cal.gyroscope is not None and np.any(cal.gyroscope.g_sensitivity):
+        todo, group, size = {}, [], 0
+        for iv in intervals:
+            key = (iv.start, iv.stop)
+            if key not in todo and (key not in self._pose or (noise and self._pose[key][0] is None)):
+                todo[key] = iv
+        for iv in todo.values():
+            if group and size + len(iv) > POSE_BYTES // 72:  # held a sample: the rates, six squared differences
+                self._calibrate(group, noise)
+                group, size = [], 0
+            group.append(iv)
+            size += len(iv)
+        if group:
+            self._calibrate(group, noise)
+        return [self._pose[(iv.start, iv.stop)] for iv in intervals]
+
+    def _calibrate(self, group: list[Interval], noise: bool) -> None:
+        """Calibrate the poses ``group`` and keep their figures (:meth:`poses`)."""
+        cal, order = self.calibration, 4
+        g_sensitive = cal.gyroscope is not None and np.any(cal.gyroscope.g_sensitivity)
+        gyros, squares, short = [], [], {}
+        for iv in group:
+            acc = None
+            if noise or g_sensitive:
+                acc = cal.accelerometer_si(self.recording.acc[iv.slice])
+            if g_sensitive:
                 gyro = cal.gyroscope.forward(self.recording.gyro[iv.slice], acc)  # gyroscope_si(gyro, raw_acc)
             else:
                 gyro = cal.gyroscope_si(self.recording.gyro[iv.slice])
+            gyros.append(gyro)
             if noise:  # both sensors side by side: each column's differences and sums are as on its own
-                v = white_noise_variance(np.concatenate((acc, gyro), axis=1))
-                v_a, v_g = v[: acc.shape[1]], v[acc.shape[1] :]
+                both = np.concatenate((acc, gyro), axis=1)
+                if both.shape[0] <= order + 1:
+                    short[len(gyros) - 1] = white_noise_variance(both, order)
+                else:
+                    squares.append(_squared_differences(both, order))
+        rates = column_sums(gyros)
+        square_sums = iter(column_sums(squares)) if squares else iter(())
+        add = np.add.reduce  # np.mean's sum, without its per-call overhead
+        for k, (iv, gyro) in enumerate(zip(group, gyros, strict=True)):
+            s_a2 = s_g2 = None
+            if noise:
+                v = short[k] if k in short else _from_squares(next(square_sums), len(iv), order)
+                v_a, v_g = v[:3], v[3:]
                 s_a2, s_g2 = float(add(v_a) / v_a.size), float(add(v_g) / v_g.size)
-            self._pose[key] = (s_a2, s_g2, add(gyro, axis=0) / gyro.shape[0])
-        return self._pose[key]
+            self._pose[(iv.start, iv.stop)] = (s_a2, s_g2, rates[k] / gyro.shape[0])
 
 
 def _level(value: float, limits: tuple[float, float]) -> int:
