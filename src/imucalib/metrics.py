@@ -24,6 +24,8 @@ from .recording import Interval, Recording
 
 __all__ = [
     "interval_means",
+    "column_sums",
+    "pose_specific_force",
     "transition_bounds",
     "gravity_residuals",
     "predicted_gravity",
@@ -41,6 +43,9 @@ COVERAGE_CONE_DEG = 60.0
 
 #: samples whose rates :func:`predicted_gravity` calibrates at once (the calibration's temporaries, not the motion's)
 RATE_CHUNK = 1 << 16
+
+#: bytes of the padded blocks :func:`column_sums` sums at once
+SUM_BYTES = 1 << 23
 
 
 def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
@@ -62,6 +67,48 @@ def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
     return out
 
 
+def column_sums(blocks: Sequence[np.ndarray], *, max_bytes: int = SUM_BYTES) -> np.ndarray:
+    """``np.add.reduce(b, axis=0)`` of each 2-D block ``b`` (n_k, C) → (K, C): the same numbers, bit for bit.
+
+    A reduction over the first axis of a C-ordered float64 array with two or
+    more columns adds its rows one after the other; blocks of such arrays laid
+    side by side, each padded below with −0.0 (``x + (−0.0) = x`` for every
+    ``x``), are summed by one such reduction with the same additions in the
+    same order, without a pass of three-wide row additions per block. Blocks
+    of similar length (within 2×: the padding at most doubles them) are padded
+    together, at most ``max_bytes`` at a time. Any other block (one column,
+    another layout or type) is reduced on its own.
+    """
+    if not blocks:
+        return np.empty((0, 0))
+    width = blocks[0].shape[1]
+    out = np.empty((len(blocks), width))
+    batched = []
+    for k, b in enumerate(blocks):
+        if b.ndim == 2 and b.shape[1] == width >= 2 and b.dtype == np.float64 and b.flags.c_contiguous:
+            batched.append(k)
+        else:
+            out[k] = np.add.reduce(b, axis=0)
+    batched.sort(key=lambda k: blocks[k].shape[0])
+    i = 0
+    while i < len(batched):
+        j = i + 1  # the group batched[i:j]: its longest block (the last) times its count within max_bytes
+        shortest = blocks[batched[i]].shape[0]
+        while j < len(batched) and (n := blocks[batched[j]].shape[0]) <= 2 * shortest and \
+                (j + 1 - i) * n * width * 8 <= max_bytes:
+            j += 1
+        group = batched[i:j]
+        if len(group) == 1:
+            out[group[0]] = np.add.reduce(blocks[group[0]], axis=0)
+        else:
+            pad = np.full((blocks[group[-1]].shape[0], len(group), width), -0.0)
+            for g, k in enumerate(group):
+                pad[: blocks[k].shape[0], g] = blocks[k]
+            out[group] = np.add.reduce(pad, axis=0)
+        i = j
+    return out
+
+
 def transition_bounds(intervals: Sequence[Interval]) -> tuple[np.ndarray, np.ndarray]:
     """First and last sample of each integration between consecutive static poses.
 
@@ -73,19 +120,38 @@ def transition_bounds(intervals: Sequence[Interval]) -> tuple[np.ndarray, np.nda
     return starts, stops
 
 
+def pose_specific_force(calibration, recording: Recording, intervals: Sequence[Interval]) -> np.ndarray:
+    """The calibrated specific force [m/s²] of each static interval (M, 3): the model of its raw mean.
+
+    The raw readings are averaged first (:func:`interval_means`), then
+    calibrated, as Zhang 2021 eq. (10) averages ``a^s``. The array is
+    read-only, so the figures that share it cannot change it for each other.
+    """
+    up = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    up.flags.writeable = False
+    return up
+
+
 def gravity_residuals(calibration, recording: Recording, intervals: Sequence[Interval],
-                      gravity: float | None = None) -> np.ndarray:
-    """``‖a_k‖ − g`` [m/s²] for each static interval ``k`` (interval means)."""
+                      gravity: float | None = None, *, up: np.ndarray | None = None) -> np.ndarray:
+    """``‖a_k‖ − g`` [m/s²] for each static interval ``k`` (interval means).
+
+    ``up`` is :func:`pose_specific_force` of the same intervals, when the
+    caller has it already.
+    """
     g = calibration.gravity if gravity is None else gravity
-    a = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    a = pose_specific_force(calibration, recording, intervals) if up is None else up
     return np.linalg.norm(a, axis=1) - g
 
 
 def predicted_gravity(
     calibration, recording: Recording, intervals: Sequence[Interval],
-    integrator: IntervalIntegrator | None = None,
+    integrator: IntervalIntegrator | None = None, *, up: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Measured and gyro-predicted gravity directions at poses 1…M−1.
+
+    ``up`` is :func:`pose_specific_force` of the same intervals, when the
+    caller has it already.
 
     Returns
     -------
@@ -93,7 +159,7 @@ def predicted_gravity(
         Unit vectors: the calibrated accelerometer direction at pose ``k`` and
         ``R_{k-1,k}ᵀ`` times the direction at pose ``k−1``.
     """
-    acc_means = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    acc_means = pose_specific_force(calibration, recording, intervals) if up is None else up
     u = acc_means / np.linalg.norm(acc_means, axis=1, keepdims=True)
     if integrator is None:
         integrator = IntervalIntegrator(recording.t, *transition_bounds(intervals))
@@ -101,33 +167,42 @@ def predicted_gravity(
     rates = np.empty((used.size, 3))
     for a in range(0, used.size, RATE_CHUNK):  # the calibration's temporaries a chunk at a time
         part = used[a : a + RATE_CHUNK]
-        rates[a : a + part.size] = calibration.gyroscope_si(recording.gyro[part], recording.acc[part])
+        rates[a : a + part.size] = calibration.gyroscope_si(recording.gyro.take(part, axis=0),
+                                                            recording.acc.take(part, axis=0))
     r = quat_to_matrix(integrator.from_samples(rates))
     predicted = np.einsum("kji,kj->ki", r, u[:-1])  # Rᵀ · g_{k-1}
     return u[1:], predicted
 
 
 def gravity_direction_errors(calibration, recording: Recording,
-                             intervals: Sequence[Interval]) -> np.ndarray:
-    """Angle [rad] between measured and gyro-predicted gravity at each new pose."""
-    measured, predicted = predicted_gravity(calibration, recording, intervals)
+                             intervals: Sequence[Interval], *, up: np.ndarray | None = None) -> np.ndarray:
+    """Angle [rad] between measured and gyro-predicted gravity at each new pose.
+
+    ``up`` is :func:`pose_specific_force` of the same intervals, when the
+    caller has it already.
+    """
+    measured, predicted = predicted_gravity(calibration, recording, intervals, up=up)
     return angle_between(measured, predicted)
 
 
 def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval],
                 gravity: float | None = None) -> dict:
-    """The ``fit`` entries of the calibration file (``docs/architecture.rst``)."""
-    res = gravity_residuals(calibration, recording, intervals, gravity)
+    """The ``fit`` entries of the calibration file (``docs/architecture.rst``).
+
+    The poses' calibrated means (:func:`pose_specific_force`) are computed
+    once and serve every figure that reads them.
+    """
+    up = pose_specific_force(calibration, recording, intervals)
+    res = gravity_residuals(calibration, recording, intervals, gravity, up=up)
     out = {
         "static_intervals": len(intervals),
         "accelerometer_residual_rms": float(np.sqrt(np.mean(res**2))),
         "intervals": [[int(iv.start), int(iv.stop)] for iv in intervals],  # sample indices [start, stop)
     }
     if len(intervals) >= 2 and recording.gyro is not None and calibration.gyroscope is not None:
-        ang = np.degrees(gravity_direction_errors(calibration, recording, intervals))
+        ang = np.degrees(gravity_direction_errors(calibration, recording, intervals, up=up))
         out["gyroscope_angle_error_mean_deg"] = float(np.mean(ang))
         out["gyroscope_angle_error_max_deg"] = float(np.max(ang))
-    up = calibration.accelerometer_si(interval_means(recording.acc, intervals))
     coverage, flags = pose_coverage(up)
     flags += gap_flags(recording, intervals)
     floor = gravity_noise_floor(calibration, recording, intervals)
@@ -162,21 +237,30 @@ def gravity_noise_floor(calibration, recording: Recording, intervals: Sequence[I
     var = []
     model = calibration.accelerometer
     linear = model.is_linear and not np.any(model.g_sensitivity)
-    for iv in intervals:
-        raw = recording.acc[iv.slice]
-        if raw.shape[0] < 2:
-            continue
+    add = np.add.reduce  # the sums ndarray.mean, np.var and np.linalg.norm take, without their per-call overhead
+    poses = [recording.acc[iv.slice] for iv in intervals if len(iv) >= 2]
+    sums = column_sums(poses) if linear else None  # each pose's raw.sum(axis=0), all in one pass
+    for k, raw in enumerate(poses):
+        n = raw.shape[0]
         if linear:
             # a = T diag(k1) (u − b) + T d is affine in u: its mean is the model of the mean, and its
             # component along û is u · (diag(k1) Tᵀ û) plus a constant, so no calibrated copy is needed
-            u = model.forward(raw.mean(axis=0)[None, :])[0]
-            along = raw @ (model.scale * (model.misalignment.T @ (u / np.linalg.norm(u))))
+            u = model.forward((sums[k] / n)[None, :])[0]  # raw.mean(axis=0)
+            along = raw @ (model.scale * (model.misalignment.T @ (u / np.sqrt(u.dot(u)))))
         else:
             a = calibration.accelerometer_si(raw)
-            u = a.mean(axis=0)
-            along = a @ (u / np.linalg.norm(u))
-        var.append(np.var(along, ddof=1) / raw.shape[0])
+            u = add(a, axis=0) / n
+            along = a @ (u / np.sqrt(u.dot(u)))
+        var.append(_sample_variance(along) / n)
     return float(np.sqrt(np.mean(var))) if var else 0.0
+
+
+def _sample_variance(x: np.ndarray) -> float:
+    """``np.var(x, ddof=1)`` of a 1-D float64 array ``x`` by the same operations, without the per-call overhead."""
+    n = x.shape[0]
+    d = x - np.add.reduce(x, axis=None, keepdims=True) / n
+    np.square(d, out=d)
+    return np.add.reduce(d) / (n - 1)
 
 
 def gap_flags(recording: Recording, intervals: Sequence[Interval], *, factor: float = 2.5) -> list[str]:
@@ -193,6 +277,8 @@ def gap_flags(recording: Recording, intervals: Sequence[Interval], *, factor: fl
     if len(recording) < 3 or len(intervals) < 2 or recording.gyro is None:
         return []
     dt = np.diff(recording.t)
+    if dt.max() <= factor * dt.min():  # no step exceeds factor × the median (≥ the smallest): skip the median
+        return []
     joins = [int(stop) - 1 for _, stop in (recording.metadata.get("blocks") or [])[:-1]]
     big = np.setdiff1d(np.nonzero(dt > factor * np.median(dt))[0], joins)
     if big.size == 0:

@@ -27,6 +27,8 @@ words ("z up", "z up tilted 45° about x towards y up").
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .constants import STANDARD_GRAVITY
@@ -110,6 +112,16 @@ def candidate_directions(grid: int = 200) -> np.ndarray:
     return np.vstack([cube, plan_directions(grid)])
 
 
+@functools.cache
+def _default_candidates() -> tuple[np.ndarray, np.ndarray]:
+    """:func:`candidate_directions` as unit vectors and their rows of :func:`_unit_jacobian`, made once (read-only)."""
+    cand = candidate_directions()
+    cand = cand / np.linalg.norm(cand, axis=1, keepdims=True)
+    jc = _unit_jacobian(cand)
+    cand.flags.writeable = jc.flags.writeable = False
+    return cand, jc
+
+
 def next_poses(directions: np.ndarray, *, count: int = 3, candidates: np.ndarray | None = None,
                prior: float = 1e-9, min_separation_deg: float = 10.0, simple: float = 0.05) -> np.ndarray:
     """Up-directions to record next: those that most shrink the worst 1σ of the linear accelerometer model.
@@ -153,14 +165,14 @@ def next_poses(directions: np.ndarray, *, count: int = 3, candidates: np.ndarray
     norms = np.linalg.norm(d, axis=1)
     d = d[np.isfinite(norms) & (norms > 0)]
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
-    if candidates is None:
-        cand, n_cube = candidate_directions(), 26
-    else:
-        cand, n_cube = np.asarray(candidates, dtype=float).reshape(-1, 3), 0
-    cand = cand / np.linalg.norm(cand, axis=1, keepdims=True)
     if count < 0:
         raise ValueError(f"count must be zero or more; got {count}")
-    jc = _unit_jacobian(cand)
+    if candidates is None:
+        (cand, jc), n_cube = _default_candidates(), 26
+    else:
+        cand, n_cube = np.asarray(candidates, dtype=float).reshape(-1, 3), 0
+        cand = cand / np.linalg.norm(cand, axis=1, keepdims=True)
+        jc = _unit_jacobian(cand)
     info = prior * np.eye(jc.shape[1])
     if d.shape[0]:
         jr = _unit_jacobian(d)

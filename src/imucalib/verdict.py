@@ -71,7 +71,14 @@ from .constants import GRAVITY_RANGE
 from .fit.accelerometer import REDUCED_MODELS, accelerometer_covariance, fit_sphere, pose_covariance
 from .fit.magnetometer import WEAK_DIP_DEG
 from .methodinfo import needing
-from .metrics import COVERAGE_CONE_DEG, gravity_direction_errors, gravity_noise_floor, interval_means, transition_bounds
+from .metrics import (
+    COVERAGE_CONE_DEG,
+    column_sums,
+    gravity_direction_errors,
+    gravity_noise_floor,
+    interval_means,
+    transition_bounds,
+)
 from .recording import Interval, Recording
 from .residuals import AccelLayout, gravity_norm_residuals
 from .solve import covariance
@@ -146,6 +153,9 @@ THRESHOLDS = {
 #: the gyroscope parameters the rotations between poses determine: three scales, six misalignment terms
 GYRO_ROTATION_PARAMETERS = 9
 
+#: bytes of calibrated pose samples an assessment holds at once (its poses are calibrated a group at a time)
+POSE_BYTES = 1 << 23
+
 #: raw-unit factors to SI of the physical units (``"g"`` uses the calibration's gravity)
 _NOMINAL = {"m/s^2": 1.0, "rad/s": 1.0, "deg/s": np.pi / 180}
 
@@ -170,8 +180,21 @@ def white_noise_variance(x: np.ndarray, order: int = 4) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     if x.shape[0] <= order + 1:
         return np.var(x, axis=0)
-    d = np.diff(x, n=order, axis=0)
-    return np.mean(d * d, axis=0) / math.comb(2 * order, order)
+    return _from_squares(np.add.reduce(_squared_differences(x, order), axis=0), x.shape[0], order)
+
+
+def _squared_differences(x: np.ndarray, order: int) -> np.ndarray:
+    """The squared ``order``-th differences of ``x`` (N, K) over its rows, as ``np.diff(x, n=order, axis=0)**2``."""
+    d = x
+    for _ in range(order):
+        d = d[1:] - d[:-1]
+    return d * d
+
+
+def _from_squares(total: np.ndarray, n: int, order: int) -> np.ndarray:
+    """:func:`white_noise_variance` from the column sums of :func:`_squared_differences` of ``n`` rows (``np.mean``'s
+    division, then the binomial factor)."""
+    return total / (n - order) / math.comb(2 * order, order)
 
 
 def rest_noise(calibration, recording: Recording, intervals: list[Interval],
@@ -184,15 +207,13 @@ def rest_noise(calibration, recording: Recording, intervals: list[Interval],
     the three axes: what the sensor's own noise is, not what a vibration or
     a hand added to the poses.
     """
-    rest = rest or intervals[0]
+    return _rest_noise(_Poses(calibration, recording, intervals), rest)
 
-    def variances(iv):
-        acc = calibration.accelerometer_si(recording.acc[iv.slice])
-        gyro = calibration.gyroscope_si(recording.gyro[iv.slice], recording.acc[iv.slice])
-        return float(np.mean(white_noise_variance(acc))), float(np.mean(white_noise_variance(gyro)))
 
-    s_a2, s_g2 = variances(rest)
-    poses = [variances(iv) for iv in intervals if iv is not rest and len(iv) > 20]
+def _rest_noise(found: _Poses, rest: Interval | None) -> tuple[float, float]:
+    """:func:`rest_noise` from the poses' figures of one assessment."""
+    rest = rest or found.intervals[0]
+    (s_a2, s_g2, _), *poses = found.poses([rest] + [iv for iv in found.intervals if iv is not rest and len(iv) > 20])
     if poses:
         s_a2 = min(s_a2, float(np.median([p[0] for p in poses])))
         s_g2 = min(s_g2, float(np.median([p[1] for p in poses])))
@@ -217,8 +238,14 @@ def predicted_direction_error(calibration, recording: Recording, intervals: list
     of the rest's mean; a 2-D Gaussian error of that variance has the mean
     norm ``√(π v / 2)``.
     """
+    return _predicted_direction_error(_Poses(calibration, recording, intervals), rest)
+
+
+def _predicted_direction_error(found: _Poses, rest: Interval | None) -> np.ndarray:
+    """:func:`predicted_direction_error` from the poses' figures of one assessment."""
+    calibration, recording, intervals = found.calibration, found.recording, found.intervals
     rest = rest or intervals[0]
-    s_a2, s_g2 = rest_noise(calibration, recording, intervals, rest)
+    s_a2, s_g2 = _rest_noise(found, rest)
     s_b2 = s_g2 / max(len(rest), 1)  # the rest's mean: noise only, whatever the fit made of the bias
     starts, stops = transition_bounds(intervals)
     t = recording.t
@@ -232,8 +259,102 @@ def predicted_direction_error(calibration, recording: Recording, intervals: list
 
 def rest_rates(calibration, recording: Recording, intervals: list[Interval]) -> np.ndarray:
     """The calibrated gyroscope's mean rate [rad/s] over each static pose (M, 3)."""
-    return np.array([calibration.gyroscope_si(recording.gyro[iv.slice], recording.acc[iv.slice]).mean(axis=0)
-                     for iv in intervals])
+    return _rest_rates(_Poses(calibration, recording, intervals))
+
+
+def _rest_rates(found: _Poses) -> np.ndarray:
+    """:func:`rest_rates` from the poses' figures of one assessment."""
+    return np.array([rate for _, _, rate in found.poses(found.intervals, noise=False)])
+
+
+class _Poses:
+    """Figures of the static poses that several checks read, each computed once per assessment.
+
+    Each figure is computed when first asked for, by the same operations in the same order as the check
+    that reads it would compute it alone, so every figure is the same to the last bit. Per pose only its
+    figures are kept; its calibrated samples only while its group is summed (:meth:`poses`), so memory
+    follows :data:`POSE_BYTES` or the longest pose, not the recording. Shared arrays are read-only, so no
+    check can change them for another.
+    """
+
+    def __init__(self, calibration, recording: Recording, intervals: list[Interval]) -> None:
+        self.calibration, self.recording, self.intervals = calibration, recording, intervals
+        self._means: np.ndarray | None = None
+        self._up: np.ndarray | None = None
+        self._pose: dict[tuple[int, int], tuple[float, float, np.ndarray]] = {}
+
+    @property
+    def means(self) -> np.ndarray:
+        """The raw accelerometer's mean over each pose (M, 3) (:func:`imucalib.metrics.interval_means`)."""
+        if self._means is None:
+            self._means = interval_means(self.recording.acc, self.intervals)
+            self._means.flags.writeable = False
+        return self._means
+
+    @property
+    def up(self) -> np.ndarray:
+        """The calibrated specific force of each pose (M, 3) [m/s²] (:func:`imucalib.metrics.pose_specific_force`)."""
+        if self._up is None:
+            self._up = self.calibration.accelerometer_si(self.means)
+            self._up.flags.writeable = False
+        return self._up
+
+    def poses(self, intervals: list[Interval], noise: bool = True) -> list[tuple[float | None, float | None,
+                                                                                np.ndarray]]:
+        """Per interval: the calibrated accelerometer's and gyroscope's white-noise variances (the means over
+        the axes of :func:`white_noise_variance`; None unless ``noise``) and the gyroscope's mean rate (3,)
+        [rad/s].
+
+        The calibrated readings are those of ``Calibration.accelerometer_si`` and ``gyroscope_si``; the
+        g-sensitivity term reads the calibrated accelerometer already computed for the variance. The poses are
+        calibrated a group at a time (about :data:`POSE_BYTES` of samples), and each group's sums over the rows
+        taken in one pass (:func:`imucalib.metrics.column_sums`: the same additions as pose by pose).
+        """
+        todo, group, size = {}, [], 0
+        for iv in intervals:
+            key = (iv.start, iv.stop)
+            if key not in todo and (key not in self._pose or (noise and self._pose[key][0] is None)):
+                todo[key] = iv
+        for iv in todo.values():
+            if group and size + len(iv) > POSE_BYTES // 72:  # held a sample: the rates, six squared differences
+                self._calibrate(group, noise)
+                group, size = [], 0
+            group.append(iv)
+            size += len(iv)
+        if group:
+            self._calibrate(group, noise)
+        return [self._pose[(iv.start, iv.stop)] for iv in intervals]
+
+    def _calibrate(self, group: list[Interval], noise: bool) -> None:
+        """Calibrate the poses ``group`` and keep their figures (:meth:`poses`)."""
+        cal, order = self.calibration, 4
+        g_sensitive = cal.gyroscope is not None and np.any(cal.gyroscope.g_sensitivity)
+        gyros, squares, short = [], [], {}
+        for iv in group:
+            acc = None
+            if noise or g_sensitive:
+                acc = cal.accelerometer_si(self.recording.acc[iv.slice])
+            if g_sensitive:
+                gyro = cal.gyroscope.forward(self.recording.gyro[iv.slice], acc)  # gyroscope_si(gyro, raw_acc)
+            else:
+                gyro = cal.gyroscope_si(self.recording.gyro[iv.slice])
+            gyros.append(gyro)
+            if noise:  # both sensors side by side: each column's differences and sums are as on its own
+                both = np.concatenate((acc, gyro), axis=1)
+                if both.shape[0] <= order + 1:
+                    short[len(gyros) - 1] = white_noise_variance(both, order)
+                else:
+                    squares.append(_squared_differences(both, order))
+        rates = column_sums(gyros)
+        square_sums = iter(column_sums(squares)) if squares else iter(())
+        add = np.add.reduce  # np.mean's sum, without its per-call overhead
+        for k, (iv, gyro) in enumerate(zip(group, gyros, strict=True)):
+            s_a2 = s_g2 = None
+            if noise:
+                v = short[k] if k in short else _from_squares(next(square_sums), len(iv), order)
+                v_a, v_g = v[:3], v[3:]
+                s_a2, s_g2 = float(add(v_a) / v_a.size), float(add(v_g) / v_g.size)
+            self._pose[(iv.start, iv.stop)] = (s_a2, s_g2, rates[k] / gyro.shape[0])
 
 
 def _level(value: float, limits: tuple[float, float]) -> int:
@@ -278,9 +399,15 @@ def turn_speed(calibration, recording: Recording, intervals: list[Interval]) -> 
     The angle between the calibrated gravity directions of consecutive poses
     over the time between them: independent of the gyroscope and its unit.
     """
+    return _turn_speed(_Poses(calibration, recording, intervals))
+
+
+def _turn_speed(found: _Poses) -> float:
+    """:func:`turn_speed` from the poses' figures of one assessment."""
+    recording, intervals = found.recording, found.intervals
     if len(intervals) < 2:
         return float("nan")
-    acc = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    acc = found.up
     u = acc / np.linalg.norm(acc, axis=1, keepdims=True)
     ang = np.degrees(np.arccos(np.clip(np.sum(u[:-1] * u[1:], axis=1), -1, 1)))
     starts, stops = transition_bounds(intervals)
@@ -289,8 +416,8 @@ def turn_speed(calibration, recording: Recording, intervals: list[Interval]) -> 
     return float(np.median(ang[ok] / dur[ok])) if np.any(ok) else float("nan")
 
 
-def _time_base(calibration, recording: Recording, intervals: list[Interval]) -> list[Check]:
-    speed = turn_speed(calibration, recording, intervals)
+def _time_base(found: _Poses) -> list[Check]:
+    speed = _turn_speed(found)
     lo, hi = THRESHOLDS["turn_speed_deg_s"]
     if not np.isfinite(speed) or lo <= speed <= hi:
         return []
@@ -302,7 +429,8 @@ def _time_base(calibration, recording: Recording, intervals: list[Interval]) -> 
                      f"outside the {lo:g}-{hi:g} deg/s of a hand: check the time base")]
 
 
-def _gravity(calibration, recording: Recording | None, intervals: list[Interval]) -> list[Check]:
+def _gravity(calibration, found: _Poses | None) -> list[Check]:
+    recording, intervals = (None, []) if found is None else (found.recording, found.intervals)
     g = calibration.gravity
     out = []
     lo, hi = GRAVITY_RANGE  # the command line warns outside the same range
@@ -314,7 +442,7 @@ def _gravity(calibration, recording: Recording | None, intervals: list[Interval]
     if recording is not None and len(intervals) >= 4 and unit in ("g", "m/s^2"):
         factor = g if unit == "g" else 1.0
         # the radius of the sphere through the static means: |a| at rest with the biases taken out
-        means = interval_means(recording.acc, intervals)
+        means = found.means
         try:
             radius = g / float(fit_sphere(means, g).scale[0])
         except ValueError:
@@ -428,18 +556,20 @@ def _redundancy(calibration, fitted: bool = True) -> list[Check]:
     return out
 
 
-def _gyroscope(calibration, recording: Recording, intervals: list[Interval]) -> tuple[list[Check], dict]:
+def _gyroscope(calibration, found: _Poses) -> tuple[list[Check], dict]:
+    recording, intervals = found.recording, found.intervals
     fit = calibration.fit or {}
     mean_deg = fit.get("gyroscope_angle_error_mean_deg")
     if mean_deg is None or len(intervals) < 2:
         return [], {}
-    pred = predicted_direction_error(calibration, recording, intervals)
+    pred = _predicted_direction_error(found, None)
     left = {int(k) for k in fit.get("rotations_left_out", {})}
     keep = np.array([k not in left for k in range(len(pred))])
     figures: dict = {}
     out = []
     if left:  # judged on the rotations the fit kept: the ones left out are known to be unreliable
-        mean_deg = float(np.degrees(np.mean(gravity_direction_errors(calibration, recording, intervals)[keep])))
+        errors = gravity_direction_errors(calibration, recording, intervals, up=found.up)
+        mean_deg = float(np.degrees(np.mean(errors[keep])))
         figures["gyroscope_angle_error_kept_mean_deg"] = mean_deg
         if len(left) > len(pred) / 3:
             out.append(Check(1, f"{len(left)} of the {len(pred)} rotations between poses were left out of the "
@@ -460,7 +590,7 @@ def _gyroscope(calibration, recording: Recording, intervals: list[Interval]) -> 
     return out, figures
 
 
-def _rest_rate(calibration, recording: Recording, intervals: list[Interval]) -> tuple[list[Check], dict]:
+def _rest_rate(found: _Poses) -> tuple[list[Check], dict]:
     """The calibrated gyroscope at rest against what the poses' scatter allows.
 
     Per axis, the mean calibrated rate over the static poses ``r̄`` (each pose
@@ -470,9 +600,9 @@ def _rest_rate(calibration, recording: Recording, intervals: list[Interval]) -> 
     rotations alone, or from a rest that was not still, reads tens of times
     that. Below ``rest_rate_floor_deg_s`` the figure is not a reason.
     """
-    if len(intervals) < 4:
+    if len(found.intervals) < 4:
         return [], {}
-    w = np.degrees(rest_rates(calibration, recording, intervals))
+    w = np.degrees(_rest_rates(found))
     m = w.shape[0]
     mean = w.mean(axis=0)
     se = w.std(axis=0, ddof=1) / np.sqrt(m)
@@ -700,10 +830,16 @@ def unvisited_sigma(calibration, recording: Recording, intervals: list[Interval]
         unvisited; ``ratio`` 0 when every direction is visited. None with fewer than four poses, without a
         noise floor, or for a polynomial model that does not invert over gravity's range.
     """
+    return _unvisited_sigma(_Poses(calibration, recording, intervals))
+
+
+def _unvisited_sigma(found: _Poses) -> dict | None:
+    """:func:`unvisited_sigma` from the poses' figures of one assessment."""
+    calibration, recording, intervals = found.calibration, found.recording, found.intervals
     if len(intervals) < 4:
         return None
-    means = interval_means(recording.acc, intervals)
-    up = calibration.accelerometer_si(means)
+    means = found.means
+    up = found.up
     up = up / np.linalg.norm(up, axis=1, keepdims=True)
     lim = np.cos(np.radians(THRESHOLDS["coverage_cone_deg"]))
     # the axis sides no pose points within the cone of (metrics.pose_coverage), and in their cones the
@@ -738,7 +874,7 @@ def unvisited_sigma(calibration, recording: Recording, intervals: list[Interval]
             "direction": u[k].tolist(), "unvisited": float(np.mean(far))}
 
 
-def _unvisited(calibration, recording: Recording, intervals: list[Interval]) -> tuple[list[Check], dict]:
+def _unvisited(calibration, poses: _Poses) -> tuple[list[Check], dict]:
     """Rejected when, in a direction no pose visited, the fit's own 1σ of ``|a|`` is what ``validate`` rejects.
 
     The limits are ``validate``'s (:data:`THRESHOLDS` ``["residual_to_noise_high"]``): a calibration whose
@@ -751,7 +887,7 @@ def _unvisited(calibration, recording: Recording, intervals: list[Interval]) -> 
     """
     if calibration.accelerometer is None:
         return [], {}
-    found = unvisited_sigma(calibration, recording, intervals)
+    found = _unvisited_sigma(poses)
     if found is None:
         return [], {}
     # a JSON number, or None where a parameter the poses do not determine moves |a| there (an infinite 1σ)
@@ -762,7 +898,7 @@ def _unvisited(calibration, recording: Recording, intervals: list[Interval]) -> 
         return [], figures
     u = np.asarray(found["direction"])
     i = int(np.argmax(np.abs(u)))
-    up = calibration.accelerometer_si(interval_means(recording.acc, intervals))
+    up = poses.up
     c = up[:, i] / np.linalg.norm(up, axis=1)
     cone = THRESHOLDS["coverage_cone_deg"]
     lim = np.cos(np.radians(cone))
@@ -865,15 +1001,17 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     intervals = intervals or []
     checks: list[Check] = []
     figures: dict = {}
-    if recording is not None:  # the inputs first: a wrong time base or unit explains everything after it
-        checks += _time_base(calibration, recording, intervals)
-    checks += _gravity(calibration, recording, intervals)
+    # the poses' figures several checks read (their means, noise, rates at rest), each computed once
+    found = None if recording is None else _Poses(calibration, recording, intervals)
+    if found is not None:  # the inputs first: a wrong time base or unit explains everything after it
+        checks += _time_base(found)
+    checks += _gravity(calibration, found)
     checks += plausibility(calibration)
     checks += _redundancy(calibration, fitted)
     if fitted:
         checks += _usefulness(calibration)
         if recording is not None:
-            unvisited_checks, unvisited_figures = _unvisited(calibration, recording, intervals)
+            unvisited_checks, unvisited_figures = _unvisited(calibration, found)
             checks += unvisited_checks
             figures |= unvisited_figures
         if calibration.gyroscope is not None:
@@ -885,11 +1023,11 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
         why = fit.get("gyroscope_not_calibrated") or "no gyroscope (an accelerometer-only recording)"
         checks.append(Check(0, f"{why}; the calibration has no gyroscope, and the gyroscope checks are skipped"))
     elif recording is not None:
-        gyro_checks, gyro_figures = _gyroscope(calibration, recording, intervals)
+        gyro_checks, gyro_figures = _gyroscope(calibration, found)
         checks += gyro_checks
         figures |= gyro_figures
         if fitted:
-            rest_checks, rest_figures = _rest_rate(calibration, recording, intervals)
+            rest_checks, rest_figures = _rest_rate(found)
             checks += rest_checks
             figures |= rest_figures
         checks += _known_turns(calibration, recording)
