@@ -108,11 +108,9 @@ def _direction_errors(phi: np.ndarray, gravity_dirs: np.ndarray, ks: np.ndarray)
     """Per transition, the angle [rad] between the next pose's gravity direction and the previous one carried
     by the rotation ``exp(k Φ_i)`` (the single-rotation approximation of :func:`_gyro_scale_guess`), at the
     ``k`` of ``ks`` that fits them best."""
-    rot = quat_to_matrix(quat_from_rotvec(ks[:, None, None] * phi[None, :, :]))
-    pred = np.einsum("skji,kj->ski", rot, gravity_dirs[:, 0])
-    cost = np.sum((gravity_dirs[None, :, 1] - pred) ** 2, axis=(1, 2))
-    best = int(np.argmin(cost))
-    return angle_between(pred[best], gravity_dirs[:, 1])
+    best = ks[int(np.argmin(_single_rotation_costs(phi, gravity_dirs, ks)))]
+    pred = np.einsum("kji,kj->ki", quat_to_matrix(quat_from_rotvec(best * phi)), gravity_dirs[:, 0])
+    return angle_between(pred, gravity_dirs[:, 1])
 
 
 def axes_disagreement(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
