@@ -39,3 +39,24 @@ def test_weighted_rotations_are_the_matrices_times_the_weights() -> None:
     assert got.shape == ref.shape == (3, 9, 3, 3)
     assert np.array_equal(got, ref)
     np.testing.assert_allclose(got[0, 0] @ got[0, 0].T, w[0, 0] ** 2 * np.eye(3), atol=1e-12)
+
+
+def test_bit_reversed_products_are_the_interleaved_ones() -> None:
+    """The tree and prefix products on bit-reversed storage (contiguous halves) form the very products of the
+    interleaved recursions, for groups of several widths reduced together; and they are the ordered products."""
+    rng = np.random.default_rng(13)
+    widths, rows = [16, 16, 4, 1], [3, 2, 5, 2]
+    natural = [rng.normal(size=(4, m, w)) for m, w in zip(rows, widths, strict=True)]
+    stored = [np.ascontiguousarray(f[:, :, kin._bit_reversal(w)].transpose(0, 2, 1))
+              for f, w in zip(natural, widths, strict=True)]
+    trees = kin._tree_products_halves(stored)
+    assert np.array_equal(trees, np.concatenate([kin._tree_product_soa(f) for f in natural], axis=1))
+    prefixes = kin._prefix_products_halves(stored)
+    for f, w, got in zip(natural, widths, prefixes, strict=True):
+        back = got[:, kin._bit_reversal(w)].transpose(0, 2, 1)  # the involution undoes the storage order
+        assert np.array_equal(back, kin._prefix_product_soa(f))
+        sequential = f[:, :, 0]
+        for i in range(1, w):  # left to right, one factor at a time: equal to rounding
+            sequential = kin._qmul_soa(sequential, f[:, :, i])
+            np.testing.assert_allclose(back[:, :, i], sequential, rtol=1e-12, atol=1e-12)
+    assert list(kin._bit_reversal(8)) == [0, 4, 2, 6, 1, 5, 3, 7]

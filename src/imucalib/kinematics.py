@@ -342,24 +342,39 @@ def _tree_product_soa(f: np.ndarray) -> np.ndarray:
     return f[..., 0]
 
 
-def _tree_products_by_width(f: np.ndarray, gathers: list[np.ndarray]) -> np.ndarray:
-    """:func:`_tree_product_soa` of ``f[:, g]`` for each column layout ``g`` (widths powers of two, widest first),
-    (4, rows of all of them) in that order.
+def _bit_reversal(width: int) -> np.ndarray:
+    """The order ``p → bitrev(p)`` of ``log2(width)`` bits: storing a sequence so, the pairs ``(2i, 2i + 1)`` of
+    every level of its tree product lie in the two halves, ``i`` at the same place in each."""
+    bits = width.bit_length() - 1
+    if width != 1 << bits:
+        raise ValueError("the bit-reversed order needs a power-of-two length")
+    order = np.zeros(width, dtype=np.intp)
+    for b in range(bits):
+        order |= ((np.arange(width) >> b) & 1) << (bits - 1 - b)
+    return order
 
-    The widest are paired level by level until they are as narrow as the next
-    ones, then both go on together: every row is paired exactly as on its own
-    (the same numbers), with one set of products per level instead of one per
-    width.
+
+def _tree_products_halves(fs: list[np.ndarray]) -> np.ndarray:
+    """:func:`_tree_product_soa` of each (4, W_i, m_i) stored in :func:`_bit_reversal` order along axis 1
+    (widths powers of two, widest first), (4, rows of all of them) in that order.
+
+    Each level multiplies the first half by the second, contiguous blocks, the
+    same pairs in the same order as the interleaved reduction (the same
+    numbers); the widest are reduced alone until they are as narrow as the
+    next ones, then both go on together.
     """
     out = None
-    for gather in gathers:
-        part = f[:, gather]
+    for part in fs:
         if out is not None:
-            while out.shape[-1] > part.shape[-1]:
-                out = _qmul_soa(out[..., 0::2], out[..., 1::2])
-            part = np.concatenate([out, part], axis=1)
+            while out.shape[1] > part.shape[1]:
+                half = out.shape[1] // 2
+                out = _qmul_soa(out[:, :half], out[:, half:])
+            part = np.concatenate([out, part], axis=2)
         out = part
-    return _tree_product_soa(out)
+    while out.shape[1] > 1:
+        half = out.shape[1] // 2
+        out = _qmul_soa(out[:, :half], out[:, half:])
+    return out[:, 0]
 
 
 def _prefix_product_soa(f: np.ndarray, carry: np.ndarray | None = None) -> np.ndarray:
@@ -385,34 +400,47 @@ def _prefix_product_soa(f: np.ndarray, carry: np.ndarray | None = None) -> np.nd
     return out
 
 
-def _prefix_products_by_width(fs: list[np.ndarray]) -> list[np.ndarray]:
-    """:func:`_prefix_product_soa` of each (4, m_i, W_i) of ``fs`` (widths powers of two, widest first).
+def _prefix_products_halves(fs: list[np.ndarray]) -> list[np.ndarray]:
+    """:func:`_prefix_product_soa` of each (4, W_i, m_i) stored in :func:`_bit_reversal` order along axis 1
+    (widths powers of two, widest first), returned in the same order.
 
-    The recursion pairs the widest alone until they are as narrow as the next
-    ones, then goes on with both together: every row's products are those it
-    has on its own (the same numbers), with one set of products per level
-    instead of one per width.
+    The work-efficient recursion on bit-reversed storage: the even positions
+    are the first half and the odd ones the second, so the pairwise products
+    are one product of contiguous halves (as :func:`_tree_products_halves`);
+    the prefix of the pairs gives every odd position as it is, and each even
+    position ``i ≥ 2`` is the pair prefix ``i/2 − 1`` times its own factor,
+    the pair prefixes moved to those places by one gather. The widest are
+    paired alone until they are as narrow as the next ones, then both go on
+    together: every product is the one the interleaved recursion forms (the
+    same numbers), on contiguous blocks.
     """
-    width = fs[0].shape[-1]
+    width = fs[0].shape[1]
     k = 1
-    while k < len(fs) and fs[k].shape[-1] == width:
+    while k < len(fs) and fs[k].shape[1] == width:
         k += 1
-    f = fs[0] if k == 1 else np.concatenate(fs[:k], axis=1)
+    f = fs[0] if k == 1 else np.concatenate(fs[:k], axis=2)
     rest = fs[k:]
     if width == 1:
         out, inner = f.copy(), []
     else:
-        if width % 2:
-            raise ValueError("the prefix product needs a power-of-two length")
-        pairs, *inner = _prefix_products_by_width([_qmul_soa(f[..., 0::2], f[..., 1::2]), *rest])
+        half = width // 2
+        even, odd = f[:, :half], f[:, half:]
+        pairs, *inner = _prefix_products_halves([_qmul_soa(even, odd), *rest])
         out = np.empty_like(f)
-        out[..., 1::2] = pairs
-        out[..., 0] = f[..., 0]
-        out[..., 2::2] = _qmul_soa(pairs[..., :-1], f[..., 2::2])
+        out[:, half:] = pairs
+        out[:, :half] = _qmul_soa(pairs.take(_previous_pair(half), axis=1), even)
+        out[:, 0] = even[:, 0]
     if k == 1:
         return [out, *inner]
-    rows = np.cumsum([g.shape[1] for g in fs[:k]])[:-1]
-    return [*np.split(out, rows, axis=1), *inner]
+    rows = np.cumsum([g.shape[2] for g in fs[:k]])[:-1]
+    return [*np.split(out, rows, axis=2), *inner]
+
+
+def _previous_pair(half: int) -> np.ndarray:
+    """For bit-reversed storage of ``half`` pair prefixes: at the place of pair ``j`` that of pair ``j − 1``
+    (of pair 0 for ``j = 0``, a place :func:`_prefix_products_halves` overwrites)."""
+    order = _bit_reversal(half)
+    return order[np.maximum(order - 1, 0)]
 
 
 def _tree_product(f: np.ndarray) -> np.ndarray:
@@ -570,11 +598,28 @@ class IntervalIntegrator:
         # intervals grouped by their length rounded up to a power of two: each group is padded to its own
         # length (with identity steps), not to the longest interval's, so memory follows the samples integrated
         widths = 1 << np.ceil(np.log2(np.maximum(nsteps, 1))).astype(int)
+        # each group's steps are gathered step-major (W, members) in bit-reversed order (_tree_products_halves)
         self._groups = []
-        for width in np.unique(widths[widths <= BLOCK]):
+        #: the attitudes of the short intervals' samples, one after the other (interval k's from _att_first[k]):
+        #: their columns among the groups' prefix products (then the identity column), and trapezoid weights
+        att_index, att_trapezoid = [], []
+        self._att_first = np.full(len(starts), -1)
+        column = place = 0
+        for width in np.unique(widths[widths <= BLOCK])[::-1]:  # widest first
             members = np.nonzero(widths == width)[0]
             gather, trapezoid = self._layout(self._step0[members], nsteps[members], int(width))
-            self._groups.append((members, gather, trapezoid))
+            order = _bit_reversal(int(width))
+            self._groups.append((members, np.ascontiguousarray(gather[:, order].T)))
+            for j, k in enumerate(members):  # the attitude after step i is at place order[i] of row j
+                n = int(nsteps[k])
+                self._att_first[k] = place
+                place += n + 1
+                att_index.append(np.concatenate([[-1], column + order[:n] * len(members) + j]))
+                att_trapezoid.append(trapezoid[j, : n + 1])
+            column += int(width) * len(members)
+        self._att_index = np.concatenate(att_index) if att_index else np.zeros(0, np.intp)
+        self._att_index[self._att_index < 0] = column  # the start of each interval: the identity
+        self._att_trapezoid = np.concatenate(att_trapezoid) if att_trapezoid else np.zeros(0)
         # longer intervals: blocks of BLOCK steps, then per interval the product of its blocks (their number
         # rounded up to a power of two, grouped by it)
         self._long = np.nonzero(widths > BLOCK)[0]
@@ -649,7 +694,7 @@ class IntervalIntegrator:
         padded = np.concatenate([products, _IDENTITY[:, None]], axis=1)
         out: list[np.ndarray] = [np.empty(0)] * self._long.size
         for which, gather in self._long_groups:
-            pre = _prefix_product_soa(padded[:, gather])
+            pre = _prefix_product_soa(padded.take(gather, axis=1))
             for i, k in enumerate(which):
                 out[k] = pre[:, i]
         return out
@@ -662,15 +707,15 @@ class IntervalIntegrator:
         s = self.step_factors(rates) if steps is None else steps
         q = np.empty((len(self.starts), 4))
         if self._groups:
-            order = np.concatenate([members for members, _, _ in reversed(self._groups)])
-            q[order] = _tree_products_by_width(s, [gather for _, gather, _ in reversed(self._groups)]).T
+            order = np.concatenate([members for members, _ in self._groups])
+            q[order] = _tree_products_halves([s.take(tree, axis=1) for _, tree in self._groups]).T
         if self._long.size:
             products = np.empty((4, self._block_step0.size))
             for a, b, gather in self._block_chunks():
-                products[:, a:b] = _tree_product_soa(s[:, gather])
+                products[:, a:b] = _tree_product_soa(s.take(gather, axis=1))
             products = np.concatenate([products, _IDENTITY[:, None]], axis=1)
             for which, gather in self._long_groups:
-                q[self._long[which]] = _tree_product_soa(products[:, gather]).T
+                q[self._long[which]] = _tree_product_soa(products.take(gather, axis=1)).T
         return quat_normalize(q)
 
     def sensitivity(self, rates: np.ndarray, steps: np.ndarray | None = None
@@ -703,21 +748,19 @@ class IntervalIntegrator:
         s = self.step_factors(rates) if steps is None else steps
         q_end = np.empty((len(self.starts), 4))
         weights = _SensitivityWeights(self)
-        groups = self._groups[::-1]  # widest first
-        prefixes = _prefix_products_by_width([s[:, gather] for _, gather, _ in groups]) if groups else []
-        for (members, _, trapezoid), pre in zip(groups, prefixes, strict=True):  # pre: the attitude after each step
-            m, width = pre.shape[1], pre.shape[2]
-            att = np.empty((4, m, width + 1))
-            att[:, :, 0] = _IDENTITY[:, None]
-            att[:, :, 1:] = pre
-            rot = _weighted_rotations_soa(att, trapezoid)
-            q_end[members] = pre[:, :, -1].T
-            for i, k in enumerate(members):
-                weights.items[k] = rot[i, : self._nsteps[k] + 1]
+        if self._groups:  # pre: the attitude after each step, bit-reversed (W, members) per group
+            prefixes = _prefix_products_halves([s.take(tree, axis=1) for _, tree in self._groups])
+            for (members, _), pre in zip(self._groups, prefixes, strict=True):
+                q_end[members] = pre[:, -1].T  # the last place holds the last step in bit-reversed order too
+            att = np.concatenate([pre.reshape(4, -1) for pre in prefixes] + [_IDENTITY[:, None]], axis=1)
+            rot = _weighted_rotations_soa(att.take(self._att_index, axis=1), self._att_trapezoid)
+            for members, _ in self._groups:
+                for k in members:
+                    weights.items[k] = rot[self._att_first[k] : self._att_first[k] + self._nsteps[k] + 1]
         if self._long.size:
             products = np.empty((4, self._block_step0.size))
             for a, b, gather in self._block_chunks():
-                products[:, a:b] = _tree_product_soa(s[:, gather])
+                products[:, a:b] = _tree_product_soa(s.take(gather, axis=1))
             prefix = self._block_prefix(products)
             # a long interval's attitudes are formed again when asked for: from the factors when the caller keeps
             # them anyway, else from the rates
@@ -818,7 +861,7 @@ class _SensitivityWeights:
         carry = np.empty((4, c1 - c0))
         for c in range(c0, c1):
             carry[:, c - c0] = _IDENTITY if c == 0 else prefix[:, c - 1]
-        factors = integ._steps_at(self.rates, gather) if self.steps is None else self.steps[:, gather]
+        factors = integ._steps_at(self.rates, gather) if self.steps is None else self.steps.take(gather, axis=1)
         local = _prefix_product_soa(factors, carry)
         local[:, :, -1] = prefix[:, c0:c1]  # the last of a block continues the blocks' own prefix
         out = np.empty((4, stop - start))
