@@ -250,31 +250,41 @@ def _weighted_rotations_soa(q: np.ndarray, weight: np.ndarray) -> np.ndarray:
     are contiguous rows (:meth:`IntervalIntegrator.weighted_sum`). The numbers
     are those of ``quat_to_matrix(np.moveaxis(q, 0, -1)) * weight[..., None, None]``
     (the same normalisation and terms, Zhang 2021, eq. 13), formed from
-    contiguous components instead of strided ones.
+    contiguous components instead of strided ones, :data:`ROTATION_CHUNK`
+    quaternions at a time (the temporaries stay small whatever L).
     """
-    w, x, y, z = q
-    norm = np.sqrt(w * w + x * x + y * y + z * z)
-    w, x, y, z = w / norm, x / norm, y / norm, z / norm
-    r = np.empty(w.shape[:-1] + (3, w.shape[-1], 3))
-    xx, yy, zz = x * x, y * y, z * z  # each product once (the same numbers as formed in place)
-    xy, wz, xz, wy, yz, wx = x * y, w * z, x * z, w * y, y * z, w * x
-    r[..., 0, :, 0] = 1 - 2 * (yy + zz)
-    r[..., 0, :, 1] = 2 * (xy - wz)
-    r[..., 0, :, 2] = 2 * (xz + wy)
-    r[..., 1, :, 0] = 2 * (xy + wz)
-    r[..., 1, :, 1] = 1 - 2 * (xx + zz)
-    r[..., 1, :, 2] = 2 * (yz - wx)
-    r[..., 2, :, 0] = 2 * (xz - wy)
-    r[..., 2, :, 1] = 2 * (yz + wx)
-    r[..., 2, :, 2] = 1 - 2 * (xx + yy)
-    r *= weight[..., None, :, None]
+    r = np.empty(q.shape[1:-1] + (3, q.shape[-1], 3))
+    for a in range(0, q.shape[-1], ROTATION_CHUNK):
+        b = min(q.shape[-1], a + ROTATION_CHUNK)
+        w, x, y, z = q[..., a:b]
+        norm = np.sqrt(w * w + x * x + y * y + z * z)
+        w, x, y, z = w / norm, x / norm, y / norm, z / norm
+        xx, yy, zz = x * x, y * y, z * z  # each product once (the same numbers as formed in place)
+        xy, wz, xz, wy, yz, wx = x * y, w * z, x * z, w * y, y * z, w * x
+        part = r[..., a:b, :]
+        part[..., 0, :, 0] = 1 - 2 * (yy + zz)
+        part[..., 0, :, 1] = 2 * (xy - wz)
+        part[..., 0, :, 2] = 2 * (xz + wy)
+        part[..., 1, :, 0] = 2 * (xy + wz)
+        part[..., 1, :, 1] = 1 - 2 * (xx + zz)
+        part[..., 1, :, 2] = 2 * (yz - wx)
+        part[..., 2, :, 0] = 2 * (xz - wy)
+        part[..., 2, :, 1] = 2 * (yz + wx)
+        part[..., 2, :, 2] = 1 - 2 * (xx + yy)
+        part *= weight[..., None, a:b, None]
     return np.swapaxes(r, -3, -2)
 
 
-def _cross_soa(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    return np.stack(
-        [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
-    )
+def _cross_into(u: np.ndarray, v: np.ndarray, out: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``u × v`` of component-first (3, n) vectors into ``out`` (not ``u`` or ``v``), ``t`` a (n,) scratch."""
+    mul = np.multiply
+    mul(u[1], v[2], out=out[0])
+    out[0] -= mul(u[2], v[1], out=t)
+    mul(u[2], v[0], out=out[1])
+    out[1] -= mul(u[0], v[2], out=t)
+    mul(u[0], v[1], out=out[2])
+    out[2] -= mul(u[1], v[0], out=t)
+    return out
 
 
 def _rk4_soa(w0: np.ndarray, w1: np.ndarray, h: np.ndarray | float) -> np.ndarray:
@@ -288,24 +298,54 @@ def _rk4_soa(w0: np.ndarray, w1: np.ndarray, h: np.ndarray | float) -> np.ndarra
         K2 = (−h/2 A·B, B + h/2 A×B)
         K3 = (−h/2 B·B, (1 − h²/4 A·B) B + h²/4 (A×B)×B)
         K4 = (−V·C, s C + V×C),  s = 1 − h²/2 B·B,  V = h · vec(K3)
+
+    Each term is formed as written, left to right (``−h/2 A·B`` is ``(−0.5 h)(A·B)``,
+    the sums ``(K1 + 2K2) + 2K3 + K4``), in a few reused buffers: the
+    integrators call this on every cost evaluation, where fresh temporaries cost
+    as much as the arithmetic.
     """
+    shape = np.shape(w0)[1:]
+    mul = np.multiply
     a = 0.5 * w0
-    b = 0.25 * (w0 + w1)
+    b = np.add(w0, w1)
+    b *= 0.25
     c = 0.5 * w1
     ab = np.einsum("i...,i...->...", a, b)
     bb = np.einsum("i...,i...->...", b, b)
-    axb = _cross_soa(a, b)
-    hh = h * h
-    k2s = -0.5 * h * ab
-    k2v = b + 0.5 * h * axb
-    k3s = -0.5 * h * bb
-    k3v = (1.0 - 0.25 * hh * ab) * b + 0.25 * hh * _cross_soa(axb, b)
-    v = h * k3v
-    k4s = -np.einsum("i...,i...->...", v, c)
-    k4v = (1.0 - 0.5 * hh * bb) * c + _cross_soa(v, c)
-    out = np.empty((4,) + np.shape(k2s))
-    out[0] = 1.0 + (h / 6.0) * (2.0 * k2s + 2.0 * k3s + k4s)
-    out[1:] = (h / 6.0) * (a + 2.0 * k2v + 2.0 * k3v + k4v)
+    t = np.empty(shape)
+    axb = _cross_into(a, b, np.empty((3, *shape)), t)
+    hh = mul(h, h)
+    k2s = mul(-0.5, h)
+    k3s = k2s * bb  # −h/2 B·B
+    k2s *= ab  # −h/2 A·B
+    k2v = mul(0.5, h) * axb
+    k2v += b
+    quarter = 0.25 * hh
+    k3v = mul(quarter, ab)
+    np.subtract(1.0, k3v, out=k3v)
+    k3v = k3v * b
+    cross = _cross_into(axb, b, np.empty((3, *shape)), t)
+    cross *= quarter
+    k3v += cross
+    v = mul(h, k3v)
+    k4s = np.einsum("i...,i...->...", v, c)
+    np.negative(k4s, out=k4s)
+    k4v = 0.5 * hh
+    k4v = k4v * bb
+    np.subtract(1.0, k4v, out=k4v)
+    k4v = k4v * c
+    k4v += _cross_into(v, c, cross, t)
+    sixth = np.divide(h, 6.0)
+    out = np.empty((4, *shape))
+    k2s *= 2.0
+    k2s += mul(2.0, k3s, out=k3s)
+    k2s += k4s
+    k2s *= sixth
+    np.add(1.0, k2s, out=out[0])
+    a += mul(2.0, k2v, out=k2v)
+    a += mul(2.0, k3v, out=k3v)
+    a += k4v
+    mul(sixth, a, out=out[1:])
     return out
 
 
@@ -530,6 +570,9 @@ CHUNK = 1 << 18
 #: steps whose RK4 stages are formed at once: their temporaries stay in the processor's cache (2.4 times as fast
 #: as 2^18 at a time)
 RK4_CHUNK = 1 << 13
+
+#: quaternions turned into weighted rotation matrices at a time (:func:`_weighted_rotations_soa`)
+ROTATION_CHUNK = 1 << 12
 #: samples of an interval whose weighted sum (:meth:`IntervalIntegrator.weighted_sum`) is one product; a longer
 #: interval's is summed block by block
 SUM_BLOCK = 1 << 17
@@ -663,8 +706,10 @@ class IntervalIntegrator:
         for a in range(0, n, RK4_CHUNK):  # the stages' temporaries RK4_CHUNK steps at a time
             b = min(n, a + RK4_CHUNK)
             i0 = self._i0[a:b]  # the rates component-first, a chunk at a time (no transposed copy of them all)
-            s[:, a:b] = _rk4_soa(rates.take(i0, axis=0).T.copy(), rates.take(i0 + 1, axis=0).T.copy(),
-                                 self._dt[a:b])
+            first = int(i0[0])
+            chunk = rates[first : int(i0[-1]) + 2].T.copy()
+            i0 = i0 - first
+            s[:, a:b] = _rk4_soa(chunk.take(i0, axis=1), chunk.take(i0 + 1, axis=1), self._dt[a:b])
         s[:, n] = _IDENTITY
         return s
 

@@ -255,19 +255,20 @@ def linear_rate_jacobian(m: np.ndarray, v: np.ndarray, *, bias: bool = True,
     """
     size = 9 + (3 if bias else 0) + (3 if drift_time is not None else 0)
     buf = np.zeros((0, 3, size))
+    minus_m = -m
 
     def block(a: int, b: int) -> np.ndarray:
         nonlocal buf
         n = b - a
         if n > buf.shape[0]:
             buf = np.zeros((n, 3, size))  # the entries never written stay 0
+            if bias:
+                buf[:, :, 9:12] = minus_m  # the same for every sample: written once
         d = buf[:n]
         for i in range(3):
             d[:, i, 3 * i : 3 * i + 3] = v[a:b]  # ∂(M v)_i / ∂M_ik = v_k
-        if bias:
-            d[:, :, 9:12] = -m
-        if drift_time is not None:
-            d[:, :, 12:15] = -m[None] * drift_time[a:b, None, None]
+        if drift_time is not None:  # formed contiguous, then placed (the same products: τ_j (−M))
+            d[:, :, 12:15] = np.multiply(drift_time[a:b, None, None], minus_m[None])
         return d
 
     return block
