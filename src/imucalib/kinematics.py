@@ -304,7 +304,9 @@ def _rk4_soa(w0: np.ndarray, w1: np.ndarray, h: np.ndarray | float) -> np.ndarra
     integrators call this on every cost evaluation, where fresh temporaries cost
     as much as the arithmetic.
     """
-    shape = np.shape(w0)[1:]
+    if np.ndim(w0) == 1:  # one step: as a sequence of one (the buffers need arrays)
+        return _rk4_soa(np.reshape(w0, (3, 1)), np.reshape(w1, (3, 1)), np.reshape(h, (-1,)))[:, 0]
+    shape = np.broadcast_shapes(np.shape(w0)[1:], np.shape(w1)[1:])
     mul = np.multiply
     a = 0.5 * w0
     b = np.add(w0, w1)
