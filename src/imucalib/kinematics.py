@@ -33,6 +33,7 @@ integration over time steps and over many intervals together.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
 import numpy as np
@@ -384,6 +385,7 @@ def _tree_product_soa(f: np.ndarray) -> np.ndarray:
     return f[..., 0]
 
 
+@functools.lru_cache(maxsize=64)
 def _bit_reversal(width: int) -> np.ndarray:
     """The order ``p → bitrev(p)`` of ``log2(width)`` bits: storing a sequence so, the pairs ``(2i, 2i + 1)`` of
     every level of its tree product lie in the two halves, ``i`` at the same place in each."""
@@ -393,6 +395,7 @@ def _bit_reversal(width: int) -> np.ndarray:
     order = np.zeros(width, dtype=np.intp)
     for b in range(bits):
         order |= ((np.arange(width) >> b) & 1) << (bits - 1 - b)
+    order.flags.writeable = False  # shared by every caller
     return order
 
 
@@ -478,11 +481,14 @@ def _prefix_products_halves(fs: list[np.ndarray]) -> list[np.ndarray]:
     return [*np.split(out, rows, axis=2), *inner]
 
 
+@functools.lru_cache(maxsize=64)
 def _previous_pair(half: int) -> np.ndarray:
     """For bit-reversed storage of ``half`` pair prefixes: at the place of pair ``j`` that of pair ``j − 1``
     (of pair 0 for ``j = 0``, a place :func:`_prefix_products_halves` overwrites)."""
     order = _bit_reversal(half)
-    return order[np.maximum(order - 1, 0)]
+    out = order[np.maximum(order - 1, 0)]
+    out.flags.writeable = False  # shared by every caller
+    return out
 
 
 def _tree_product(f: np.ndarray) -> np.ndarray:
