@@ -210,17 +210,19 @@ def from_scipy(rotation) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- RK4
-def _qmul_soa(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+def _qmul_soa(p: np.ndarray, q: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """Hamilton product of quaternions stored component-first, shape (4, ...).
 
-    Written into one output with one reused temporary (the terms in the order
-    of :func:`quat_multiply`, so the same numbers): the integrators call it on
-    many small arrays, where allocations cost as much as the arithmetic.
+    Written into one output (``out`` when given: not ``p`` or ``q``) with one
+    reused temporary (the terms in the order of :func:`quat_multiply`, so the
+    same numbers): the integrators call it on many small arrays, where
+    allocations cost as much as the arithmetic.
     """
     pw, px, py, pz = p
     qw, qx, qy, qz = q
     shape = pw.shape if pw.shape == qw.shape else np.broadcast_shapes(pw.shape, qw.shape)
-    out = np.empty((4, *shape))
+    if out is None:
+        out = np.empty((4, *shape))
     t = np.empty(out.shape[1:])
     w, x, y, z = out
     mul = np.multiply
@@ -255,24 +257,30 @@ def _weighted_rotations_soa(q: np.ndarray, weight: np.ndarray) -> np.ndarray:
     quaternions at a time (the temporaries stay small whatever L).
     """
     r = np.empty(q.shape[1:-1] + (3, q.shape[-1], 3))
+    add, sub, mul = np.add, np.subtract, np.multiply
+    # the entries (i, j) of R: 1 − 2(u + v) on the diagonal, 2(u ∓ v) off it, from the products u, v named
+    entries = [(0, 0, "yy", add, "zz"), (0, 1, "xy", sub, "wz"), (0, 2, "xz", add, "wy"),
+               (1, 0, "xy", add, "wz"), (1, 1, "xx", add, "zz"), (1, 2, "yz", sub, "wx"),
+               (2, 0, "xz", sub, "wy"), (2, 1, "yz", add, "wx"), (2, 2, "xx", add, "yy")]
     for a in range(0, q.shape[-1], ROTATION_CHUNK):
         b = min(q.shape[-1], a + ROTATION_CHUNK)
         w, x, y, z = q[..., a:b]
-        norm = np.sqrt(w * w + x * x + y * y + z * z)
+        t = w * w
+        t += x * x
+        t += y * y
+        t += z * z
+        norm = np.sqrt(t, out=t)
         w, x, y, z = w / norm, x / norm, y / norm, z / norm
-        xx, yy, zz = x * x, y * y, z * z  # each product once (the same numbers as formed in place)
-        xy, wz, xz, wy, yz, wx = x * y, w * z, x * z, w * y, y * z, w * x
-        part = r[..., a:b, :]
-        part[..., 0, :, 0] = 1 - 2 * (yy + zz)
-        part[..., 0, :, 1] = 2 * (xy - wz)
-        part[..., 0, :, 2] = 2 * (xz + wy)
-        part[..., 1, :, 0] = 2 * (xy + wz)
-        part[..., 1, :, 1] = 1 - 2 * (xx + zz)
-        part[..., 1, :, 2] = 2 * (yz - wx)
-        part[..., 2, :, 0] = 2 * (xz - wy)
-        part[..., 2, :, 1] = 2 * (yz + wx)
-        part[..., 2, :, 2] = 1 - 2 * (xx + yy)
-        part *= weight[..., None, a:b, None]
+        # each product once (the same numbers as formed in place)
+        p = {"xx": x * x, "yy": y * y, "zz": z * z, "xy": x * y, "wz": w * z, "xz": x * z, "wy": w * y,
+             "yz": y * z, "wx": w * x}
+        weight_ab = weight[..., a:b]
+        for i, j, u, op, v in entries:  # each entry times its weight, written once into its place
+            op(p[u], p[v], out=t)
+            mul(t, 2, out=t)
+            if i == j:
+                sub(1, t, out=t)
+            mul(t, weight_ab, out=r[..., i, a:b, j])
     return np.swapaxes(r, -3, -2)
 
 
@@ -473,7 +481,7 @@ def _prefix_products_halves(fs: list[np.ndarray]) -> list[np.ndarray]:
         pairs, *inner = _prefix_products_halves([_qmul_soa(even, odd), *rest])
         out = np.empty_like(f)
         out[:, half:] = pairs
-        out[:, :half] = _qmul_soa(pairs.take(_previous_pair(half), axis=1), even)
+        _qmul_soa(pairs.take(_previous_pair(half), axis=1), even, out=out[:, :half])
         out[:, 0] = even[:, 0]
     if k == 1:
         return [out, *inner]
