@@ -661,15 +661,15 @@ def _g_rate_jacobian(m: np.ndarray, force: np.ndarray):
     """``∂ω/∂G_ij = −M e_i a_j`` (``G`` row-major) of the samples ``a … b − 1`` as a block function (as
     :func:`~imucalib.residuals.linear_rate_jacobian`), ``a`` the calibrated specific force ``force`` (S, 3)."""
     buf = np.zeros((0, 3, 9))
+    minus_m = -m[None, :, :, None]  # (1, r, i, 1)
 
     def block(a: int, b: int) -> np.ndarray:
         nonlocal buf
         if b - a > buf.shape[0]:
             buf = np.empty((b - a, 3, 9))
         out = buf[: b - a]
-        for i in range(3):
-            for j in range(3):
-                out[:, :, 3 * i + j] = -m[None, :, i] * force[a:b, j, None]
+        # entry (k, r, 3i + j) = −M_ri a_kj: every entry written, in one pass over the block
+        np.multiply(minus_m, force[a:b, None, None, :], out=out.reshape(b - a, 3, 3, 3))
         return out
 
     return block
