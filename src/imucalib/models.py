@@ -86,7 +86,7 @@ def _vec(x, name: str) -> np.ndarray:
     a = np.array(x, dtype=np.float64).reshape(-1)
     if a.shape != (3,):
         raise ValueError(f"{name} must have 3 entries; got shape {np.shape(x)}")
-    if not np.all(np.isfinite(a)):
+    if not np.isfinite(a).all():
         raise ValueError(f"{name} must be finite; got {a}")
     return a
 
@@ -95,9 +95,24 @@ def _mat(x, name: str) -> np.ndarray:
     a = np.array(x, dtype=np.float64)
     if a.shape != (3, 3):
         raise ValueError(f"{name} must be a 3x3 matrix; got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
+    if not np.isfinite(a).all():
         raise ValueError(f"{name} must be finite; got {a}")
     return a
+
+
+def _fixed_entries(shape: str) -> np.ndarray:
+    """(3, 3) mask of the off-diagonal entries a misalignment of ``shape`` holds at zero."""
+    mask = ~np.eye(3, dtype=bool)
+    for i, j in MISALIGNMENT_SHAPES[shape]:
+        mask[i, j] = False
+    return mask
+
+
+#: per misalignment shape, the off-diagonal entries it holds at zero
+_FIXED = {shape: _fixed_entries(shape) for shape in MISALIGNMENT_SHAPES}
+
+#: the vector fields of a :class:`TriadModel`, in the order its checks read them
+_VECTORS = ("scale", "scale_quadratic", "scale_cubic", "bias", "output_bias")
 
 
 @dataclass(frozen=True)
@@ -133,16 +148,36 @@ class TriadModel:
     output_bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
+        # every array converted, then every condition checked at once; on any fault the checks one by one
+        # (_validate) raise the error that names it
+        as_float = np.array
+        t = as_float(self.misalignment, dtype=np.float64)
+        vecs = [as_float(getattr(self, name), dtype=np.float64).reshape(-1) for name in _VECTORS[:4]]
+        g = as_float(self.g_sensitivity, dtype=np.float64)
+        d = as_float(self.output_bias, dtype=np.float64).reshape(-1)
+        fixed = _FIXED.get(self.shape)
+        if (fixed is not None and t.shape == g.shape == (3, 3) and d.shape == (3,)
+                and all(v.shape == (3,) for v in vecs)
+                and np.isfinite(np.concatenate((t.reshape(-1), g.reshape(-1), d, *vecs))).all()
+                and (np.abs(t.diagonal() - 1.0) <= 1e-12).all()  # finite t: np.allclose(·, 1, rtol=0, atol=1e-12)
+                and not t[fixed].any() and vecs[0].all()):
+            set_ = object.__setattr__
+            set_(self, "misalignment", t)
+            for name, v in zip(_VECTORS[:4], vecs, strict=True):
+                set_(self, name, v)
+            set_(self, "g_sensitivity", g)
+            set_(self, "output_bias", d)
+            return
+        self._validate()
+
+    def _validate(self) -> None:
+        """The checks of a new model one by one: raise the first fault's ValueError (else set the arrays)."""
         set_ = object.__setattr__
         t = _mat(self.misalignment, "misalignment")
         free = misalignment_entries(self.shape)
-        if not np.allclose(np.diag(t), 1.0, rtol=0, atol=1e-12):
+        if not (np.abs(t.diagonal() - 1.0) <= 1e-12).all():  # t is finite: np.allclose(·, 1, rtol=0, atol=1e-12)
             raise ValueError(f"misalignment must have a unit diagonal; got {np.diag(t)}")
-        mask = np.ones((3, 3), dtype=bool)
-        mask[np.diag_indices(3)] = False
-        for i, j in free:
-            mask[i, j] = False
-        if np.any(t[mask] != 0):
+        if t[_FIXED[self.shape]].any():
             raise ValueError(
                 f"misalignment of shape {self.shape!r} may only have entries "
                 f"{', '.join(AXES[i] + AXES[j] for i, j in free)} off the diagonal"
@@ -150,7 +185,7 @@ class TriadModel:
         set_(self, "misalignment", t)
         for name in ("scale", "scale_quadratic", "scale_cubic", "bias"):
             set_(self, name, _vec(getattr(self, name), name))
-        if np.any(self.scale == 0):
+        if not self.scale.all():
             raise ValueError(f"scale (k1) must be non-zero on every axis; got {self.scale}")
         set_(self, "g_sensitivity", _mat(self.g_sensitivity, "g_sensitivity"))
         set_(self, "output_bias", _vec(self.output_bias, "output_bias"))
