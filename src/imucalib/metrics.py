@@ -60,15 +60,17 @@ def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
     """
     x = np.asarray(x, dtype=np.float64)
     width = x.shape[1]
-    out = np.empty((len(intervals), width))
+    sums = np.empty((len(intervals), width))
+    counts = np.empty((len(intervals), 1), dtype=np.intp)
+    starts = np.empty(len(intervals), dtype=np.intp)
     add = np.add.reduce  # ndarray.mean's own sum (pairwise), without its per-call overhead: the same numbers
     for k, iv in enumerate(intervals):
         seg = x[iv.start:iv.stop]
-        ref = seg[0]
         d = np.empty((width, seg.shape[0]))  # C-ordered: each column's differences contiguous, as a 1-D sum reads them
-        np.subtract(seg.T, ref[:, None], out=d)
-        out[k] = add(d, axis=1) / seg.shape[0] + ref
-    return out
+        np.subtract(seg.T, seg[0][:, None], out=d)
+        add(d, axis=1, out=sums[k])
+        counts[k], starts[k] = seg.shape[0], iv.start
+    return sums / counts + x[starts]  # each mean's division and addition, all at once
 
 
 def column_sums(blocks: Sequence[np.ndarray], *, max_bytes: int = SUM_BYTES) -> np.ndarray:

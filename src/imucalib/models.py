@@ -65,7 +65,7 @@ MISALIGNMENT_SHAPES: dict[str, tuple[tuple[int, int], ...]] = {
 
 
 #: rows from which :meth:`TriadModel.forward` lays an array out an axis to a row (below, the layout's copies cost more)
-_AXIS_ROWS = 64
+_AXIS_ROWS = 256
 
 
 class NotInvertibleError(ValueError):
