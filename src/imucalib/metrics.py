@@ -59,18 +59,19 @@ def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
     additions as a reduction of that column alone.
     """
     x = np.asarray(x, dtype=np.float64)
-    width = x.shape[1]
-    sums = np.empty((len(intervals), width))
-    counts = np.empty((len(intervals), 1), dtype=np.intp)
-    starts = np.empty(len(intervals), dtype=np.intp)
-    add = np.add.reduce  # ndarray.mean's own sum (pairwise), without its per-call overhead: the same numbers
-    for k, iv in enumerate(intervals):
+    width, m = x.shape[1], len(intervals)
+    sums = np.empty((m, width))
+    counts = np.empty((m, 1), dtype=np.intp)
+    starts = [iv.start for iv in intervals]
+    refs = x[starts]  # each interval's first sample
+    add, sub, empty = np.add.reduce, np.subtract, np.empty  # ndarray.mean's own sum (pairwise), without its overhead
+    for k, (iv, ref) in enumerate(zip(intervals, refs[:, :, None], strict=True)):
         seg = x[iv.start:iv.stop]
-        d = np.empty((width, seg.shape[0]))  # C-ordered: each column's differences contiguous, as a 1-D sum reads them
-        np.subtract(seg.T, seg[0][:, None], out=d)
+        d = empty((width, seg.shape[0]))  # C-ordered: each column's differences contiguous, as a 1-D sum reads them
+        sub(seg.T, ref, out=d)
         add(d, axis=1, out=sums[k])
-        counts[k], starts[k] = seg.shape[0], iv.start
-    return sums / counts + x[starts]  # each mean's division and addition, all at once
+        counts[k] = seg.shape[0]
+    return sums / counts + refs  # each mean's division and addition, all at once
 
 
 def column_sums(blocks: Sequence[np.ndarray], *, max_bytes: int = SUM_BYTES) -> np.ndarray:
