@@ -37,6 +37,21 @@ def test_forward_inverse_identity_over_full_range(shape, order, with_g):
     np.testing.assert_allclose(back, si, rtol=1e-12, atol=1e-12 * 16 * G)
 
 
+@pytest.mark.parametrize("rows", [1, 255, 256, 5000])  # both sides of the axis-to-a-row layout
+@pytest.mark.parametrize("order", [1, 3])
+@pytest.mark.parametrize("with_g", [False, True])
+def test_forward_is_the_formula_bit_for_bit(rows, order, with_g):
+    rng = np.random.default_rng(rows * 10 + order + 2 * with_g)
+    m = _model("full", order, with_g, rng).with_(output_bias=rng.uniform(-0.1, 0.1, 3) if order == 3 else np.zeros(3))
+    raw = np.round(rng.normal(0, 3000, size=(rows, 3)))  # counts: some readings equal, spanning every sign
+    force = rng.uniform(-16 * G, 16 * G, size=(rows, 3))
+    x = raw - m.bias - (force @ m.g_sensitivity.T if with_g else 0.0)
+    want = (x * (m.scale + x * (m.scale_quadratic + x * m.scale_cubic)) + m.output_bias) @ m.misalignment.T
+    got = m.forward(np.asfortranarray(raw), force)  # readings in another layout as well
+    assert np.array_equal(got.view(np.int64), want.view(np.int64))  # every bit, the zeros' signs too
+    assert got.flags.c_contiguous and got.shape == (rows, 3)
+
+
 def test_not_invertible_is_a_documented_error():
     m = TriadModel(scale=[1.0, 1.0, 1.0], scale_quadratic=[0.5, 0, 0], shape="upper")
     # f(x) = x + 0.5x² is monotonic only for x > −1, where f > −0.5

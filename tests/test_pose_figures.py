@@ -43,6 +43,23 @@ def test_column_sums_are_each_blocks_own_sum(columns, max_bytes):
         assert not np.array_equal(want, [np.add.reduce(np.ascontiguousarray(b.T), axis=1) for b in blocks])
 
 
+@pytest.mark.parametrize("columns", [1, 3, 6])
+def test_interval_means_are_each_columns_own_pairwise_mean(columns):
+    rng = np.random.default_rng(10 + columns)
+    x = np.concatenate(_blocks(rng, 6, columns, longest=20000))  # lengths past numpy's 8192-element buffer
+    ends = np.sort(rng.integers(0, len(x), 60))
+    intervals = [Interval(int(a), int(max(b, a + 1))) for a, b in zip(ends[:-1], ends[1:], strict=True)]
+    intervals += [Interval(0, len(x)), Interval(5, 6)]
+    got = interval_means(x, intervals)
+    # each column alone: a contiguous 1-D copy of its differences from the interval's first sample, ndarray.mean
+    want = np.array([[(x[i.slice, j] - x[i.start, j]).mean() + x[i.start, j] for j in range(columns)]
+                     for i in intervals])
+    assert np.array_equal(got, want)  # bit for bit
+    # a sequential sum over the rows gives other numbers on these data: the check can fail
+    seq = np.array([np.add.reduce(x[i.slice] - x[i.start], axis=0) / len(i) + x[i.start] for i in intervals])
+    assert columns == 1 or not np.array_equal(got, seq)
+
+
 def _rest_noise_alone(cal, rec, intervals):
     """rest_noise as the plain formulas give it, each pose calibrated and differenced on its own."""
     def variances(iv):

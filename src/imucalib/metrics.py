@@ -51,20 +51,27 @@ SUM_BYTES = 1 << 23
 def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
     """Mean of ``x`` (N, K) over each interval → (M, K), in float64.
 
-    Interval by interval and column by column, over each interval's own
-    samples less its first one (pairwise sums of small numbers keep the mean
-    accurate; a constant interval's mean is exact): no temporary the size of
-    the recording.
+    Interval by interval, each column over the interval's own samples less
+    its first one (pairwise sums of small numbers keep the mean accurate; a
+    constant interval's mean is exact): no temporary the size of the
+    recording. An interval's differences are laid out a column to a row, so
+    one reduction along the rows sums every column by the same pairwise
+    additions as a reduction of that column alone.
     """
     x = np.asarray(x, dtype=np.float64)
-    out = np.empty((len(intervals), x.shape[1]))
-    add = np.add.reduce  # ndarray.mean's own sum (pairwise), without its per-call overhead: the same numbers
-    for k, iv in enumerate(intervals):
+    width, m = x.shape[1], len(intervals)
+    sums = np.empty((m, width))
+    counts = np.empty((m, 1), dtype=np.intp)
+    starts = [iv.start for iv in intervals]
+    refs = x[starts]  # each interval's first sample
+    add, sub, empty = np.add.reduce, np.subtract, np.empty  # ndarray.mean's own sum (pairwise), without its overhead
+    for k, (iv, ref) in enumerate(zip(intervals, refs[:, :, None], strict=True)):
         seg = x[iv.start:iv.stop]
-        ref = seg[0]
-        for j in range(x.shape[1]):
-            out[k, j] = add(seg[:, j] - ref[j]) / seg.shape[0] + ref[j]
-    return out
+        d = empty((width, seg.shape[0]))  # C-ordered: each column's differences contiguous, as a 1-D sum reads them
+        sub(seg.T, ref, out=d)
+        add(d, axis=1, out=sums[k])
+        counts[k] = seg.shape[0]
+    return sums / counts + refs  # each mean's division and addition, all at once
 
 
 def column_sums(blocks: Sequence[np.ndarray], *, max_bytes: int = SUM_BYTES) -> np.ndarray:

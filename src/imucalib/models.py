@@ -64,6 +64,10 @@ MISALIGNMENT_SHAPES: dict[str, tuple[tuple[int, int], ...]] = {
 }
 
 
+#: rows from which :meth:`TriadModel.forward` lays an array out an axis to a row (below, the layout's copies cost more)
+_AXIS_ROWS = 256
+
+
 class NotInvertibleError(ValueError):
     """A scale-factor polynomial is not monotonic over the range asked of it."""
 
@@ -82,7 +86,7 @@ def _vec(x, name: str) -> np.ndarray:
     a = np.array(x, dtype=np.float64).reshape(-1)
     if a.shape != (3,):
         raise ValueError(f"{name} must have 3 entries; got shape {np.shape(x)}")
-    if not np.all(np.isfinite(a)):
+    if not np.isfinite(a).all():
         raise ValueError(f"{name} must be finite; got {a}")
     return a
 
@@ -91,9 +95,24 @@ def _mat(x, name: str) -> np.ndarray:
     a = np.array(x, dtype=np.float64)
     if a.shape != (3, 3):
         raise ValueError(f"{name} must be a 3x3 matrix; got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
+    if not np.isfinite(a).all():
         raise ValueError(f"{name} must be finite; got {a}")
     return a
+
+
+def _fixed_entries(shape: str) -> np.ndarray:
+    """(3, 3) mask of the off-diagonal entries a misalignment of ``shape`` holds at zero."""
+    mask = ~np.eye(3, dtype=bool)
+    for i, j in MISALIGNMENT_SHAPES[shape]:
+        mask[i, j] = False
+    return mask
+
+
+#: per misalignment shape, the off-diagonal entries it holds at zero
+_FIXED = {shape: _fixed_entries(shape) for shape in MISALIGNMENT_SHAPES}
+
+#: the vector fields of a :class:`TriadModel`, in the order its checks read them
+_VECTORS = ("scale", "scale_quadratic", "scale_cubic", "bias", "output_bias")
 
 
 @dataclass(frozen=True)
@@ -129,16 +148,36 @@ class TriadModel:
     output_bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
+        # every array converted, then every condition checked at once; on any fault the checks one by one
+        # (_validate) raise the error that names it
+        as_float = np.array
+        t = as_float(self.misalignment, dtype=np.float64)
+        vecs = [as_float(getattr(self, name), dtype=np.float64).reshape(-1) for name in _VECTORS[:4]]
+        g = as_float(self.g_sensitivity, dtype=np.float64)
+        d = as_float(self.output_bias, dtype=np.float64).reshape(-1)
+        fixed = _FIXED.get(self.shape)
+        if (fixed is not None and t.shape == g.shape == (3, 3) and d.shape == (3,)
+                and all(v.shape == (3,) for v in vecs)
+                and np.isfinite(np.concatenate((t.reshape(-1), g.reshape(-1), d, *vecs))).all()
+                and (np.abs(t.diagonal() - 1.0) <= 1e-12).all()  # finite t: np.allclose(·, 1, rtol=0, atol=1e-12)
+                and not t[fixed].any() and vecs[0].all()):
+            set_ = object.__setattr__
+            set_(self, "misalignment", t)
+            for name, v in zip(_VECTORS[:4], vecs, strict=True):
+                set_(self, name, v)
+            set_(self, "g_sensitivity", g)
+            set_(self, "output_bias", d)
+            return
+        self._validate()
+
+    def _validate(self) -> None:
+        """The checks of a new model one by one: raise the first fault's ValueError (else set the arrays)."""
         set_ = object.__setattr__
         t = _mat(self.misalignment, "misalignment")
         free = misalignment_entries(self.shape)
-        if not np.allclose(np.diag(t), 1.0, rtol=0, atol=1e-12):
+        if not (np.abs(t.diagonal() - 1.0) <= 1e-12).all():  # t is finite: np.allclose(·, 1, rtol=0, atol=1e-12)
             raise ValueError(f"misalignment must have a unit diagonal; got {np.diag(t)}")
-        mask = np.ones((3, 3), dtype=bool)
-        mask[np.diag_indices(3)] = False
-        for i, j in free:
-            mask[i, j] = False
-        if np.any(t[mask] != 0):
+        if t[_FIXED[self.shape]].any():
             raise ValueError(
                 f"misalignment of shape {self.shape!r} may only have entries "
                 f"{', '.join(AXES[i] + AXES[j] for i, j in free)} off the diagonal"
@@ -146,7 +185,7 @@ class TriadModel:
         set_(self, "misalignment", t)
         for name in ("scale", "scale_quadratic", "scale_cubic", "bias"):
             set_(self, name, _vec(getattr(self, name), name))
-        if np.any(self.scale == 0):
+        if not self.scale.all():
             raise ValueError(f"scale (k1) must be non-zero on every axis; got {self.scale}")
         set_(self, "g_sensitivity", _mat(self.g_sensitivity, "g_sensitivity"))
         set_(self, "output_bias", _vec(self.output_bias, "output_bias"))
@@ -175,12 +214,33 @@ class TriadModel:
         ``specific_force`` is the calibrated accelerometer (N, 3) [m/s²] that
         the g-sensitivity multiplies; it is needed only when ``G`` is non-zero.
         """
-        x = np.asarray(raw, dtype=np.float64) - self.bias
-        if np.any(self.g_sensitivity):
+        raw = np.asarray(raw, dtype=np.float64)
+        g_sensitive = self.g_sensitivity.any()
+        if g_sensitive:
             if specific_force is None:
                 raise ValueError("this model has a g-sensitivity: pass specific_force [m/s²]")
-            x = x - np.asarray(specific_force, dtype=np.float64) @ self.g_sensitivity.T
-        return (self.polynomial(x) + self.output_bias) @ self.misalignment.T
+            specific_force = np.asarray(specific_force, dtype=np.float64)
+        if raw.ndim != 2 or raw.shape[0] < _AXIS_ROWS or raw.shape[1] != 3 or \
+                (g_sensitive and specific_force.shape != raw.shape):
+            x = raw - self.bias
+            if g_sensitive:
+                x = x - specific_force @ self.g_sensitivity.T
+            return (self.polynomial(x) + self.output_bias) @ self.misalignment.T
+        # the same operations on the same numbers, an axis to a row: each ufunc runs over one axis's contiguous
+        # numbers instead of three at a time; the product with T is taken on the (N, 3) layout as above
+        x = np.empty((3, raw.shape[0]))
+        np.subtract(raw.T, self.bias[:, None], out=x)
+        if g_sensitive:
+            np.subtract(x, (specific_force @ self.g_sensitivity.T).T, out=x)
+        f = x * self.scale_cubic[:, None]  # polynomial(x): x (k1 + x (k2 + x k3))
+        f += self.scale_quadratic[:, None]
+        f *= x
+        f += self.scale[:, None]
+        f *= x
+        f += self.output_bias[:, None]
+        y = x.reshape(-1).reshape(raw.shape)  # x's memory, no longer read, holds f in the (N, 3) layout
+        np.copyto(y, f.T)
+        return y @ self.misalignment.T
 
     # --------------------------------------------------------------- inverse
     def inverse(self, si: np.ndarray, specific_force: np.ndarray | None = None) -> np.ndarray:

@@ -430,13 +430,30 @@ class StaticGyro:
 
 def _regression_solve(x: np.ndarray, u: np.ndarray, v: np.ndarray, tau2: float):
     """One axis's weighted least squares of ``u ≈ x c`` with weights ``1/(v + τ²)``: ``c``, its covariance, χ², the
-    residuals."""
+    residuals.
+
+    The covariance is the pseudo-inverse of ``xᵀ W x`` (``np.linalg.pinv``'s operations, relative cut-off
+    1e-15, without its per-call overhead: the same numbers).
+    """
     w = 1.0 / (v + tau2)
     xw = x * w[:, None]
-    cov = np.linalg.pinv(x.T @ xw)
+    cov = _pinv(x.T @ xw)
     c = cov @ (xw.T @ u)
     r = u - x @ c
-    return c, cov, float(np.sum(w * r * r)), r
+    return c, cov, float(np.add.reduce(w * r * r)), r
+
+
+def _pinv(a: np.ndarray) -> np.ndarray:
+    """``np.linalg.pinv(a)`` of a real (…, p, p) array by its own operations: the same numbers, bit for bit.
+
+    From the thin SVD ``a = U S Vᵀ``, ``a⁺ = V S⁺ Uᵀ`` with ``1/s`` for the singular values above 1e-15 times
+    the largest, 0 for the others.
+    """
+    u, s, vt = np.linalg.svd(a, full_matrices=False)
+    large = s > 1e-15 * s.max(axis=-1, keepdims=True)
+    s = np.divide(1, s, where=large, out=s)
+    s[~large] = 0
+    return np.matmul(np.swapaxes(vt, -1, -2), np.multiply(s[..., None], np.swapaxes(u, -1, -2)))
 
 
 def _weighted_regressions(problems: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> list[tuple]:
@@ -467,13 +484,14 @@ def _weighted_regressions(problems: list[tuple[np.ndarray, np.ndarray, np.ndarra
         lo = np.zeros(len(todo))
         hi = np.array([float(np.max(first[k][3] * first[k][3])) * 10 + 1e-300 for k in todo])
         active = np.ones(len(todo), bool)
+        xt, uc = np.swapaxes(x, 1, 2), u[:, :, None]
         for _ in range(100):
             mid = 0.5 * (lo + hi)
             w = 1.0 / (v + mid[:, None])
             xw = x * w[:, :, None]
-            c = np.linalg.pinv(np.swapaxes(x, 1, 2) @ xw) @ (np.swapaxes(xw, 1, 2) @ u[:, :, None])
+            c = _pinv(xt @ xw) @ (np.swapaxes(xw, 1, 2) @ uc)
             r = u - (x @ c)[:, :, 0]
-            above = np.sum(w * r * r, axis=1) > dof
+            above = np.add.reduce(w * r * r, axis=1) > dof
             lo = np.where(active & above, mid, lo)
             hi = np.where(active & ~above, mid, hi)
             active &= ~(hi - lo <= 1e-10 * hi)
@@ -530,9 +548,15 @@ def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: 
     u = interval_means(recording.gyro, intervals)
     a = accelerometer.forward(interval_means(recording.acc, intervals))
     m = len(u)
-    times = np.array([float(np.mean(recording.t[iv.slice])) for iv in intervals])
+    add = np.add.reduce  # the sums of np.mean and np.var, without their per-call overhead: the same numbers
+    times = np.array([float(add(recording.t[iv.slice]) / len(iv)) for iv in intervals])
     t_ref = float(np.mean(times))
-    v = np.array([np.var(recording.gyro[iv.slice], axis=0) / max(len(iv) - 1, 1) for iv in intervals])
+    v = np.empty((m, 3))
+    for k, iv in enumerate(intervals):  # np.var(gyro, axis=0) of each pose, over its samples' count less one
+        seg = recording.gyro[iv.slice]
+        d = seg - add(seg, axis=0, keepdims=True) / len(iv)
+        np.multiply(d, d, out=d)
+        v[k] = add(d, axis=0) / len(iv) / max(len(iv) - 1, 1)
     v = np.maximum(v, 1e-300)  # a quantised constant reading: no noise at all
     opts_g = [False, True] if g_sensitivity == "auto" else [bool(g_sensitivity)]
     opts_d = [False, True] if drift == "auto" else [bool(drift)]
