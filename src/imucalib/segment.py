@@ -301,6 +301,7 @@ def find_initial_rest(
     factor: float = REST_FACTOR,
     min_seconds: float = PREFERRED_REST,
     shortest: float = SHORTEST_REST,
+    statistic: np.ndarray | None = None,
 ) -> Interval:
     """Locate the initial rest period that starts a calibration recording.
 
@@ -321,13 +322,28 @@ def find_initial_rest(
     is an error. The short look also gives the rest where the first look
     leaves less than ``min_seconds`` after its margin of a full window.
 
+    Parameters
+    ----------
+    recording : Recording
+    window_seconds, factor, min_seconds, shortest : float
+        As above.
+    statistic : (N,) ndarray, optional
+        The accelerometer's statistic over the whole recording with the window
+        of ``window_seconds`` (``variance_norm(recording.acc, win)``), when the
+        caller has formed it: read rather than formed again (the same numbers).
+
+    Returns
+    -------
+    Interval
+        The initial rest, from sample 0.
+
     Raises
     ------
     ValueError
         If the recording does not start with at least ``shortest`` seconds of rest.
     """
     rate = recording.rate
-    win = max(int(round(window_seconds * rate)) | 1, 3)
+    win = _window(window_seconds, rate)
     n0 = int(round(min_seconds * rate))
     if n0 >= len(recording):
         raise ValueError(
@@ -347,7 +363,7 @@ def find_initial_rest(
                       f"{short_end / rate:.2g} s (record a longer rest at the start, or give its length with "
                       "--init-static SECONDS)", ImucalibWarning, stacklevel=2)
         return Interval(0, short_end, "static")
-    first_motion = _first_motion(recording, win, max(n0, win), factor)
+    first_motion = _first_motion(recording, win, max(n0, win), factor, acc_statistic=statistic)
     end = max(first_motion - win // 2, 0) if first_motion < len(recording) else len(recording)
     if end >= n0:
         return Interval(0, end, "static")
@@ -356,11 +372,21 @@ def find_initial_rest(
     raise ValueError(_no_rest(end / rate, min_seconds))
 
 
-def _first_motion(recording: Recording, win: int, n_level: int, factor: float) -> int:
-    """The first sample whose statistic (window ``win``) exceeds ``factor`` × its median over ``n_level`` samples."""
+def _first_motion(recording: Recording, win: int, n_level: int, factor: float,
+                  acc_statistic: np.ndarray | None = None) -> int:
+    """The first sample whose statistic (window ``win``) exceeds ``factor`` × its median over ``n_level`` samples.
+
+    ``acc_statistic``: the accelerometer's statistic over the whole recording
+    (:func:`variance_norm` with ``win``), read instead of formed when given.
+    """
     first = len(recording)
     for signal in (recording.acc, recording.gyro):
         if signal is None:
+            continue
+        if signal is recording.acc and acc_statistic is not None:
+            threshold = factor * max(float(np.median(acc_statistic[:n_level])), np.finfo(float).tiny)
+            moving = acc_statistic > threshold
+            first = int(np.argmax(moving)) if moving.any() else first
             continue
         # the statistic of :func:`variance_norm`, formed span by span (the same numbers) only as far as the
         # search reads it: the level's samples, then spans of doubling length up to the first movement
@@ -621,9 +647,14 @@ def detect_intervals(
     blocks = pose_blocks(recording) if init_static is None else None
     if blocks:
         return blocks, float("nan"), blocks[0], fit_determined(interval_means(recording.acc, blocks), gravity)[0]
-    rest = initial_rest(recording, init_static)
+    win = _window(window, recording.rate)
+    stat = variance_norm(recording.acc, win)  # formed once: the initial rest's search reads it too
+    if init_static is None and win == _window(REST_WINDOW, recording.rate):
+        rest = find_initial_rest(recording, statistic=stat)
+    else:
+        rest = initial_rest(recording, init_static)
     multipliers = list(multipliers)
-    detector = _detector(recording, rest, window, min_interval)
+    detector = _detector(recording, rest, window, min_interval, statistic=stat)
     intervals, mult, model = _scan(detector, gravity, recording, multipliers, min_interval, None)
     if gyro_gate and recording.gyro is not None:  # an accelerometer-only recording has no gate
         from .fit.gyroscope import axes_disagreement, rough_scale
@@ -669,9 +700,16 @@ def static_at(recording: Recording, rest: Interval, multiplier: float, *, window
     return detect_static(None, multiplier * base, window=win, min_length=min_len, statistic=stat)
 
 
-def _detector(recording: Recording, rest: Interval, window: float, min_interval: float):
+def _detector(recording: Recording, rest: Interval, window: float, min_interval: float,
+              statistic: np.ndarray | None = None):
+    """The detector's settings (:func:`_detector_settings`) and its statistic (``statistic`` when formed already)."""
     base, win, min_len = _detector_settings(recording.acc[rest.slice], recording.rate, window, min_interval)
-    return base, win, min_len, variance_norm(recording.acc, win)
+    return base, win, min_len, variance_norm(recording.acc, win) if statistic is None else statistic
+
+
+def _window(seconds: float, rate: float) -> int:
+    """The odd window length [samples] of the variance detectors, at least 3."""
+    return max(int(round(seconds * rate)) | 1, 3)
 
 
 def _detector_settings(rest_acc: np.ndarray, rate: float, window: float, min_interval: float):
@@ -682,7 +720,7 @@ def _detector_settings(rest_acc: np.ndarray, rate: float, window: float, min_int
             "the initial rest has zero accelerometer variance (quantised or synthetic "
             "noise-free data?): the detector threshold cannot be set from it"
         )
-    win = max(int(round(window * rate)) | 1, 3)
+    win = _window(window, rate)
     min_len = max(int(round(min_interval * rate)), 2)
     return base, win, min_len
 
@@ -747,6 +785,28 @@ class StillDetector:
         return new
 
 
+def _interval_means(x: np.ndarray, intervals: list[Interval]) -> np.ndarray:
+    """:func:`imucalib.metrics.interval_means` bit for bit, with two array operations per interval, not six.
+
+    Each interval's samples less its first one are laid out one column per
+    row, ``(K, n)``, and summed along the rows: a reduction along the last
+    axis of a C-ordered array sums each row as the one-column reduction does
+    (pairwise, in the same blocks), so each sum is the same number; the
+    division by ``n`` and the first sample added back are the same operations
+    on all the intervals at once.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    sums = np.empty((len(intervals), x.shape[1]))
+    counts = np.empty(len(intervals))
+    for k, iv in enumerate(intervals):
+        seg = x[iv.start:iv.stop]
+        rows = np.subtract(seg.T, seg[0][:, None], out=np.empty((x.shape[1], seg.shape[0])))
+        np.add.reduce(rows, axis=1, out=sums[k])
+        counts[k] = seg.shape[0]
+    ref = x[[iv.start for iv in intervals]] if intervals else np.empty((0, x.shape[1]))
+    return sums / counts[:, None] + ref
+
+
 class _IntervalMeans:
     """:func:`imucalib.metrics.interval_means` of ``x`` that forms each interval's mean once (the same numbers:
     each interval's mean is its own sum), for the thresholds of a scan whose intervals mostly recur."""
@@ -758,7 +818,7 @@ class _IntervalMeans:
     def __call__(self, intervals: list[Interval]) -> np.ndarray:
         new = [iv for iv in intervals if (iv.start, iv.stop) not in self.known]
         if new:
-            for iv, row in zip(new, interval_means(self.x, new), strict=True):
+            for iv, row in zip(new, _interval_means(self.x, new), strict=True):
                 self.known[iv.start, iv.stop] = row
         return np.array([self.known[iv.start, iv.stop] for iv in intervals])
 
@@ -1013,31 +1073,86 @@ def unsteady_poses(recording: Recording, intervals: list[Interval], *, edge: flo
     scatter (the pose's samples, tremor included, over √n). Its mean is
     still good for the accelerometer. Empty without a gyroscope or with fewer
     than 4 poses.
+
+    The poses are screened together (:func:`_tilt_screen`): the model applied
+    to many poses' samples at once, their sums in one pass. Only a pose whose
+    screened tilt comes within :data:`SCREEN_MARGIN` of its limit is judged by
+    the per-pose computation above, so the poses found and their reasons are
+    those of that computation, number for number.
     """
     if recording.gyro is None or len(intervals) < 4:
         return {}
     try:
-        model = fit_determined(interval_means(recording.acc, intervals), STANDARD_GRAVITY)[0]
+        model = fit_determined(_interval_means(recording.acc, intervals), STANDARD_GRAVITY)[0]
     except ValueError:
         return {}
     n_edge = max(int(round(edge * recording.rate)), 2)
     tilt_floor = np.radians(EDGE_TILT_DEG)
+    poses = [(k, iv) for k, iv in enumerate(intervals[1:], 1) if len(iv) >= 3 * n_edge]
+    near = _tilt_screen(model, recording.acc, [iv for _, iv in poses], n_edge, tilt_floor, n_sigma)
     out = {}
-    for k, iv in enumerate(intervals[1:], 1):
-        if len(iv) < 3 * n_edge:
+    for (k, iv), check in zip(poses, near, strict=True):
+        if not check:
             continue
-        a = model.forward(recording.acc[iv.slice])
-        mean = a.mean(axis=0)
-        size = np.linalg.norm(mean)
-        sigma = np.sqrt(np.sum(np.var(a, axis=0)) / n_edge) / size  # [rad], the edge mean's scatter
-        limit = max(tilt_floor, n_sigma * sigma)
-        tilts = [float(np.arccos(min(max(float(e @ mean / (np.linalg.norm(e) * size)), -1.0), 1.0)))
-                 for e in (a[:n_edge].mean(axis=0), a[-n_edge:].mean(axis=0))]
+        tilts, limit = _edge_tilts(model.forward(recording.acc[iv.slice]), n_edge, tilt_floor, n_sigma)
         if max(tilts) > limit:
             where = "start" if tilts[0] > tilts[1] else "end"
             out[k] = (f"pose {k + 1} tilts {np.degrees(max(tilts)):.2g}° at its {where} from its mean (limit "
                       f"{np.degrees(limit):.2g}°: the hand moved while holding it)")
     return out
+
+
+#: a pose whose screened edge tilt (:func:`_tilt_screen`) is below ``(1 − SCREEN_MARGIN) ×`` its screened limit is
+#: steady: the screen's sums differ from the per-pose ones by rounding (1e-12 relative at most), far inside it
+SCREEN_MARGIN = 1e-6
+
+
+def _edge_tilts(a: np.ndarray, n_edge: int, tilt_floor: float, n_sigma: float) -> tuple[list[float], float]:
+    """The tilts [rad] of a pose's first and last ``n_edge`` calibrated samples ``a`` from its mean, and the limit."""
+    mean = a.mean(axis=0)
+    size = np.linalg.norm(mean)
+    sigma = np.sqrt(np.sum(np.var(a, axis=0)) / n_edge) / size  # [rad], the edge mean's scatter
+    limit = max(tilt_floor, n_sigma * sigma)
+    tilts = [float(np.arccos(min(max(float(e @ mean / (np.linalg.norm(e) * size)), -1.0), 1.0)))
+             for e in (a[:n_edge].mean(axis=0), a[-n_edge:].mean(axis=0))]
+    return tilts, limit
+
+
+def _tilt_screen(model: TriadModel, acc: np.ndarray, poses: list[Interval], n_edge: int, tilt_floor: float,
+                 n_sigma: float) -> np.ndarray:
+    """Which ``poses`` may tilt at an edge (:func:`_edge_tilts`), screened many poses at a time: a mask (M,).
+
+    The poses' samples are calibrated together, at most about :data:`BLOCK`
+    at a time; each pose's first ``n_edge``, middle and last ``n_edge``
+    samples are summed in one ``reduceat`` and its squared deviations from
+    its mean in another. A pose is kept for the exact judgement unless its
+    larger edge tilt is below ``(1 − SCREEN_MARGIN)`` × its limit.
+    """
+    near = np.ones(len(poses), dtype=bool)
+    k = 0
+    while k < len(poses):
+        j, rows = k + 1, len(poses[k])
+        while j < len(poses) and rows + len(poses[j]) <= BLOCK:
+            rows += len(poses[j])
+            j += 1
+        group = poses[k:j]
+        n = np.array([len(iv) for iv in group])
+        first = np.concatenate([[0], np.cumsum(n)[:-1]])
+        a = model.forward(np.concatenate([acc[iv.slice] for iv in group]))
+        parts = np.add.reduceat(a, np.stack([first, first + n_edge, first + n - n_edge], axis=1).ravel(), axis=0)
+        head, middle, tail = parts[0::3], parts[1::3], parts[2::3]
+        mean = (head + middle + tail) / n[:, None]
+        dev = a - np.repeat(mean, n, axis=0)
+        var = np.add.reduceat(dev * dev, first, axis=0) / n[:, None]
+        size = np.linalg.norm(mean, axis=1)
+        limit = np.maximum(tilt_floor, n_sigma * np.sqrt(var.sum(axis=1) / n_edge) / size)
+        tilt = np.zeros(len(group))
+        for e in (head / n_edge, tail / n_edge):
+            cos = np.einsum("ij,ij->i", e, mean) / (np.linalg.norm(e, axis=1) * size)
+            tilt = np.maximum(tilt, np.arccos(np.clip(cos, -1.0, 1.0)))
+        near[k:j] = ~(tilt < (1.0 - SCREEN_MARGIN) * limit)  # NaN: judged exactly
+        k = j
+    return near
 
 
 def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
