@@ -419,7 +419,8 @@ def _first_motion(recording: Recording, win: int, n_level: int, factor: float,
             first = int(np.argmax(moving)) if moving.any() else first
             continue
         # the statistic of :func:`variance_norm`, formed span by span (the same numbers) only as far as the
-        # search reads it: the level's samples, then spans of doubling length up to the first movement
+        # search reads it: the level's samples, then spans of doubling length up to the first movement (the
+        # other sensor's, when that is near: nothing after it can change the answer)
         x = np.asarray(signal, dtype=np.float64)
         x = x[:, None] if x.ndim == 1 else x
         half, centre = max(int(win) // 2, 1), _column_means(x)
@@ -434,7 +435,8 @@ def _first_motion(recording: Recording, win: int, n_level: int, factor: float,
                 break
             if b >= min(x.shape[0], first):  # the end, or past the first movement the other sensor showed
                 break
-            a, b = b, min(x.shape[0], b + max(b, 4096))
+            step = max(b, 4096)  # each span costs its whole prefix within its block: reach a known end at once
+            a, b = b, min(x.shape[0], first if first - b <= 2 * step else b + step)
             _variance_norm_rows(x, centre, half, a, b, stat[a:b])
     return first
 
@@ -1165,13 +1167,18 @@ def unsteady_poses(recording: Recording, intervals: list[Interval], *, edge: flo
     """
     if recording.gyro is None or len(intervals) < 4:
         return {}
+    means = _interval_means(recording.acc, intervals)
     try:
-        model = fit_determined(_interval_means(recording.acc, intervals), STANDARD_GRAVITY)[0]
+        model = fit_determined(means, STANDARD_GRAVITY)[0]
     except ValueError:
         return {}
     n_edge = max(int(round(edge * recording.rate)), 2)
     tilt_floor = np.radians(EDGE_TILT_DEG)
     poses = [(k, iv) for k, iv in enumerate(intervals[1:], 1) if len(iv) >= 3 * n_edge]
+    if model.is_linear and not np.any(model.g_sensitivity):  # the poses well inside the floor need no more
+        near = _floor_screen(model, recording.acc, means[[k for k, _ in poses]], [iv for _, iv in poses], n_edge,
+                             tilt_floor)
+        poses = [p for p, check in zip(poses, near, strict=True) if check]
     near = _tilt_screen(model, recording.acc, [iv for _, iv in poses], n_edge, tilt_floor, n_sigma)
     out = {}
     for (k, iv), check in zip(poses, near, strict=True):
@@ -1199,6 +1206,28 @@ def _edge_tilts(a: np.ndarray, n_edge: int, tilt_floor: float, n_sigma: float) -
     tilts = [float(np.arccos(min(max(float(e @ mean / (np.linalg.norm(e) * size)), -1.0), 1.0)))
              for e in (a[:n_edge].mean(axis=0), a[-n_edge:].mean(axis=0))]
     return tilts, limit
+
+
+def _floor_screen(model: TriadModel, acc: np.ndarray, means: np.ndarray, poses: list[Interval], n_edge: int,
+                  tilt_floor: float) -> np.ndarray:
+    """Which ``poses`` may tilt at an edge beyond the floor of their limit, from their raw means: a mask (M,).
+
+    A linear model without g-sensitivity is affine, so the calibrated mean of
+    a pose or of its edge is the model applied to its raw mean (to rounding):
+    the pose is steady when the larger angle between the calibrated edge means
+    and pose mean is below ``(1 − SCREEN_MARGIN) × tilt_floor``, which no
+    limit of :func:`_edge_tilts` is below. ``means``: the poses' raw means.
+    """
+    if not poses:
+        return np.zeros(0, dtype=bool)
+    ramp = np.arange(n_edge)
+    rows = np.stack([[iv.start for iv in poses], [iv.stop - n_edge for iv in poses]], axis=1)[:, :, None] + ramp
+    edges = model.forward(acc[rows.ravel()].reshape(-1, n_edge, acc.shape[1]).mean(axis=1)).reshape(len(poses), 2, -1)
+    centre = model.forward(means)
+    cos = np.einsum("ijk,ik->ij", edges, centre) / (np.linalg.norm(edges, axis=2)
+                                                      * np.linalg.norm(centre, axis=1)[:, None])
+    tilt = np.arccos(np.clip(cos, -1.0, 1.0)).max(axis=1)
+    return ~(tilt < (1.0 - SCREEN_MARGIN) * tilt_floor)  # NaN: screened further
 
 
 def _tilt_screen(model: TriadModel, acc: np.ndarray, poses: list[Interval], n_edge: int, tilt_floor: float,
