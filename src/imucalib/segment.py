@@ -135,6 +135,24 @@ def _column_means(x: np.ndarray) -> np.ndarray:
     return out / n
 
 
+def _medians(rows: np.ndarray) -> np.ndarray:
+    """``np.median(rows, axis=1)`` of a (K, n) array of finite numbers, bit for bit, partitioning ``rows`` in place.
+
+    The median is the middle order statistic, or the mean of the two middle
+    ones (their sum halved, as ``np.median``'s mean forms it); a partition at
+    those ranks finds the same numbers as ``np.median``'s, without the extra
+    rank it partitions at to look for NaN. Only a zero median may differ, in
+    its sign, where −0 and +0 tie (the callers square it or take magnitudes).
+    """
+    n = rows.shape[1]
+    h = n // 2
+    if n % 2:
+        rows.partition(h, axis=1)
+        return rows[:, h].copy()
+    rows.partition([h - 1, h], axis=1)
+    return (rows[:, h - 1] + rows[:, h]) / 2.0
+
+
 def _window_bounds(a: int, b: int, lo: int, half: int, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Window ``[lo_i, hi_i)`` of each sample ``i`` of ``[a, b)`` (truncated at the record's ends), from ``lo``."""
     idx = np.arange(a, b)
@@ -667,15 +685,26 @@ def _still_inside(gyro: np.ndarray, settings: tuple, intervals: list[Interval], 
     lengths = np.array([len(iv) for iv in intervals])
     first = np.concatenate([[0], np.cumsum(lengths)[:-1]])
     m = np.empty((int(lengths.sum()), gyro.shape[1]))
+    n, ref, width = gyro.shape[0], gyro[0], 2 * half + 1
     for iv, o in zip(intervals, first.tolist(), strict=True):
-        _moving_mean_rows(gyro, half, iv.start, iv.stop, out=m[o:o + len(iv)])
+        s, e = iv.start, iv.stop
+        if s < half or e + half > n or e - s > BLOCK:  # a window truncated at an end, or more than one block
+            _moving_mean_rows(gyro, half, s, e, out=m[o:o + e - s])
+            continue
+        # _moving_mean_rows of one block whose windows all lie inside the record, its operations inline
+        c = np.empty((e - s + width, gyro.shape[1]))
+        c[0] = 0.0
+        np.cumsum(gyro[s - half:e + half] - ref, axis=0, out=c[1:])
+        part = np.subtract(c[width:], c[: e - s], out=m[o:o + e - s])
+        part /= float(width)
+        part += ref
     m -= bias
     ok = np.sqrt(np.einsum("ij,ij->i", m, m)) < offset_factor * limit
     box = np.maximum.reduceat(m, first, axis=0) - np.minimum.reduceat(m, first, axis=0)
     inside = np.sqrt(np.einsum("ij,ij->i", box, box)) < (1.0 - SCREEN_MARGIN) * limit
     for k in np.flatnonzero(~inside).tolist():
         mk = m[first[k]:first[k] + lengths[k]]
-        ok[first[k]:first[k] + lengths[k]] &= np.linalg.norm(mk - np.median(mk, axis=0), axis=1) < limit
+        ok[first[k]:first[k] + lengths[k]] &= np.linalg.norm(mk - _medians(mk.T.copy()), axis=1) < limit
     for iv, o in zip(intervals, first.tolist(), strict=True):
         still[iv.slice] = ok[o:o + len(iv)]
     return bool(ok.all())
@@ -870,26 +899,36 @@ class StillDetector:
         return new
 
 
-def _interval_means(x: np.ndarray, intervals: list[Interval]) -> np.ndarray:
+def _interval_means(x: np.ndarray, intervals: list[Interval], columns: np.ndarray | None = None) -> np.ndarray:
     """:func:`imucalib.metrics.interval_means` bit for bit, with two array operations per interval, not six.
 
     Each interval's samples less its first one are laid out one column per
     row, ``(K, n)``, and summed along the rows: a reduction along the last
-    axis of a C-ordered array sums each row as the one-column reduction does
-    (pairwise, in the same blocks), so each sum is the same number; the
-    division by ``n`` and the first sample added back are the same operations
-    on all the intervals at once.
+    axis sums each row as the one-column reduction does (pairwise, in the
+    same blocks), so each sum is the same number; the division by ``n`` and
+    the first sample added back are the same operations on all the intervals
+    at once. ``columns``: ``x`` transposed into C order, (K, N), when the
+    caller has it (the rows are then sliced from it, not transposed one by one).
     """
     x = np.asarray(x, dtype=np.float64)
     sums = np.empty((len(intervals), x.shape[1]))
     counts = np.empty(len(intervals))
+    add = np.add.reduce
     for k, iv in enumerate(intervals):
-        seg = x[iv.start:iv.stop]
-        rows = np.subtract(seg.T, seg[0][:, None], out=np.empty((x.shape[1], seg.shape[0])))
-        np.add.reduce(rows, axis=1, out=sums[k])
-        counts[k] = seg.shape[0]
+        if columns is not None:
+            seg = columns[:, iv.start:iv.stop]
+            rows = seg - seg[:, :1]
+        else:
+            seg = x[iv.start:iv.stop]
+            rows = np.subtract(seg.T, seg[0][:, None], out=np.empty((x.shape[1], seg.shape[0])))
+        add(rows, axis=1, out=sums[k])
+        counts[k] = iv.stop - iv.start
     ref = x[[iv.start for iv in intervals]] if intervals else np.empty((0, x.shape[1]))
     return sums / counts[:, None] + ref
+
+
+#: the largest recording [bytes] whose accelerometer a scan transposes once for its interval means
+TRANSPOSE_BYTES = 1 << 23
 
 
 class _IntervalMeans:
@@ -897,13 +936,14 @@ class _IntervalMeans:
     each interval's mean is its own sum), for the thresholds of a scan whose intervals mostly recur."""
 
     def __init__(self, x: np.ndarray) -> None:
-        self.x = x
+        self.x = np.asarray(x, dtype=np.float64)
+        self.columns = np.ascontiguousarray(self.x.T) if self.x.nbytes <= TRANSPOSE_BYTES else None
         self.known: dict[tuple[int, int], np.ndarray] = {}
 
     def __call__(self, intervals: list[Interval]) -> np.ndarray:
         new = [iv for iv in intervals if (iv.start, iv.stop) not in self.known]
         if new:
-            for iv, row in zip(new, _interval_means(self.x, new), strict=True):
+            for iv, row in zip(new, _interval_means(self.x, new, self.columns), strict=True):
                 self.known[iv.start, iv.stop] = row
         return np.array([self.known[iv.start, iv.stop] for iv in intervals])
 
@@ -1103,7 +1143,8 @@ def spikes(x: np.ndarray, *, factor: float = 20.0, isolation: float = 4.0) -> np
     out = np.zeros(n, dtype=bool)
     if n < 5:
         return out
-    scale = np.array([np.median(np.abs(np.diff(col))) for col in x.T])  # one channel at a time
+    steps = np.diff(x.T, axis=1)  # one channel a row
+    scale = _medians(np.abs(steps, out=steps))  # the median absolute step of each channel
     scale = np.where(scale > 0, scale, np.finfo(float).tiny)
     limit = factor * scale
     for a in range(2, n - 2, BLOCK):  # samples a … b−1, each read with two neighbours either side
@@ -1286,7 +1327,7 @@ def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
     sat = np.nonzero(saturated(recording.gyro))[0]
     spk = np.nonzero(spikes(recording.gyro))[0]
     dt = np.diff(recording.t)
-    gaps = np.nonzero(dt > gap_factor * np.median(dt))[0] if dt.size else np.zeros(0, int)
+    gaps = np.nonzero(dt > gap_factor * _medians(dt[None, :].copy())[0])[0] if dt.size else np.zeros(0, int)
     # per rotation [a, b]: the saturated samples and spikes in a … b, the gaps that start in a … b − 1 (sorted indices)
     n_sat = np.maximum(np.searchsorted(sat, stops, "right") - np.searchsorted(sat, starts, "left"), 0)
     n_spk = np.maximum(np.searchsorted(spk, stops, "right") - np.searchsorted(spk, starts, "left"), 0)
