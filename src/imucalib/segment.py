@@ -467,6 +467,8 @@ def _first_motion(recording: Recording, win: int, n_level: int, factor: float,
         half, centre = max(int(win) // 2, 1), _column_means(x)
         stat = np.empty(x.shape[0])
         a, b = 0, min(max(n_level, 1), x.shape[0])
+        if min(x.shape[0], first) - b <= 2 * max(b, 4096):  # the end, or the other sensor's movement, is near
+            b = max(b, min(x.shape[0], first))
         _variance_norm_rows(x, centre, half, a, b, stat[a:b])
         threshold = factor * max(float(np.median(stat[:n_level])), np.finfo(float).tiny)
         while True:
@@ -980,6 +982,31 @@ class _IntervalMeans:
         return np.array([self.known[iv.start, iv.stop] for iv in intervals])
 
 
+def _static_runs(stat: np.ndarray, thresholds: list[float], min_length: int) -> list[list[Interval]]:
+    """``detect_static(None, t, …, min_length=min_length, statistic=stat)`` for each threshold ``t``, in one pass.
+
+    Each sample's level is how many of the (sorted, distinct) thresholds are
+    at or below its statistic: it is static at the ``i``-th threshold exactly
+    when its level is at most ``i`` (``stat < t_i``). The runs of every
+    threshold start and stop where the level, padded with a level no
+    threshold reaches, crosses ``i``: among the few places where it changes.
+    """
+    levels_at = np.array(sorted(set(thresholds)))
+    padded = np.full(stat.shape[0] + 2, levels_at.size + 1, dtype=np.intp)
+    padded[1:-1] = np.searchsorted(levels_at, stat, side="right")
+    change = np.flatnonzero(padded[1:] != padded[:-1])
+    before, after = padded[change], padded[change + 1]
+    out = []
+    for t in thresholds:
+        i = int(np.searchsorted(levels_at, t))
+        edges = change[(before <= i) != (after <= i)]  # False → True, True → False, … in turn
+        starts, stops = edges[0::2], edges[1::2]
+        keep = stops - starts >= min_length
+        out.append([Interval(a, b, "static") for a, b in zip(starts[keep].tolist(), stops[keep].tolist(),
+                                                             strict=True)])
+    return out
+
+
 def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: Iterable[float], min_interval: float,
           still: np.ndarray | None, *, reduce: bool = True) -> tuple[list[Interval], float, TriadModel]:
     """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded);
@@ -992,8 +1019,9 @@ def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: It
     tried = []
     means = _IntervalMeans(recording.acc)
     fits: dict[tuple, tuple | None] = {}  # thresholds that give the same intervals give the same fit
-    for mult in multipliers:
-        intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
+    multipliers = list(multipliers)
+    found = _static_runs(stat, [mult * base for mult in multipliers], min_len)
+    for mult, intervals in zip(multipliers, found, strict=True):
         tried.append((mult, len(intervals)))
         if len(intervals) < MIN_INTERVALS:
             continue
