@@ -720,6 +720,8 @@ def _still_inside(gyro: np.ndarray, settings: tuple, intervals: list[Interval], 
     first = np.concatenate([[0], np.cumsum(lengths)[:-1]])
     m = np.empty((int(lengths.sum()), gyro.shape[1]))
     n, ref, width = gyro.shape[0], gyro[0], 2 * half + 1
+    # the samples less the first one, as every running sum reads them (once, where that copy is small)
+    shifted = _rowwise(np.subtract, gyro, ref) if gyro.nbytes <= TRANSPOSE_BYTES else None
     for iv, o in zip(intervals, first.tolist(), strict=True):
         s, e = iv.start, iv.stop
         if s < half or e + half > n or e - s > BLOCK:  # a window truncated at an end, or more than one block
@@ -728,7 +730,8 @@ def _still_inside(gyro: np.ndarray, settings: tuple, intervals: list[Interval], 
         # _moving_mean_rows of one block whose windows all lie inside the record, its operations inline
         c = np.empty((e - s + width, gyro.shape[1]))
         c[0] = 0.0
-        np.cumsum(_rowwise(np.subtract, gyro[s - half:e + half], ref), axis=0, out=c[1:])
+        seg = shifted[s - half:e + half] if shifted is not None else _rowwise(np.subtract, gyro[s - half:e + half], ref)
+        np.cumsum(seg, axis=0, out=c[1:])
         part = np.subtract(c[width:], c[: e - s], out=m[o:o + e - s])
         part /= float(width)
     _rowwise(np.add, m, ref, out=m)  # the first sample back, as _moving_mean_rows adds it, then the bias off
@@ -961,7 +964,8 @@ def _interval_means(x: np.ndarray, intervals: list[Interval], columns: np.ndarra
     return sums / counts[:, None] + ref
 
 
-#: the largest recording [bytes] whose accelerometer a scan transposes once for its interval means
+#: the largest recording [bytes] whose accelerometer a scan transposes once for its interval means (and whose
+#: gyroscope the gate shifts once for its moving means)
 TRANSPOSE_BYTES = 1 << 23
 
 
