@@ -989,15 +989,20 @@ class _IntervalMeans:
 def _static_runs(stat: np.ndarray, thresholds: list[float], min_length: int) -> list[list[Interval]]:
     """``detect_static(None, t, …, min_length=min_length, statistic=stat)`` for each threshold ``t``, in one pass.
 
-    Each sample's level is how many of the (sorted, distinct) thresholds are
-    at or below its statistic: it is static at the ``i``-th threshold exactly
-    when its level is at most ``i`` (``stat < t_i``). The runs of every
-    threshold start and stop where the level, padded with a level no
-    threshold reaches, crosses ``i``: among the few places where it changes.
+    Each sample's level is how many of the (sorted, distinct) ``L``
+    thresholds its statistic is not below, ``L`` less the count of those it
+    is below: it is static at the ``i``-th threshold exactly when its level
+    is at most ``i`` (``stat < t_i``). The runs of every threshold start and
+    stop where the level, padded with a level no threshold reaches, crosses
+    ``i``: among the few places where it changes.
     """
     levels_at = np.array(sorted(set(thresholds)))
-    padded = np.full(stat.shape[0] + 2, levels_at.size + 1, dtype=np.intp)
-    padded[1:-1] = np.searchsorted(levels_at, stat, side="right")
+    kind = np.int16 if levels_at.size < 1 << 14 else np.intp
+    below = np.zeros(stat.shape[0], dtype=kind)
+    for t in levels_at:
+        below += stat < t
+    padded = np.full(stat.shape[0] + 2, levels_at.size + 1, dtype=kind)
+    np.subtract(levels_at.size, below, out=padded[1:-1])
     change = np.flatnonzero(padded[1:] != padded[:-1])
     before, after = padded[change], padded[change + 1]
     out = []
