@@ -72,7 +72,10 @@ def _still_inside_definition(gyro, half, bias, limit, intervals, offset_factor):
     return out
 
 
-def test_the_gates_poses_are_judged_as_one_by_one() -> None:
+@pytest.mark.parametrize("group_rows", [None, 3000])
+def test_the_gates_poses_are_judged_as_one_by_one(group_rows, monkeypatch) -> None:
+    if group_rows is not None:  # the poses' moving means held a few at a time
+        monkeypatch.setattr(segment, "STILL_ROWS", group_rows)
     rng = np.random.default_rng(7)
     mixed = 0
     for trial in range(40):

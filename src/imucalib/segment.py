@@ -704,24 +704,41 @@ def _still_inside(gyro: np.ndarray, settings: tuple, intervals: list[Interval], 
     """:func:`gyro_still` on the samples of each of ``intervals`` (its local and overall tests), into ``still``.
 
     Returns whether every sample of every interval is still. The moving means
-    of all the intervals are formed into one array (each from its own running
-    sums: the same numbers) and their overall test made in one pass. The
-    local test needs an interval's median only when the box its moving means
-    span is not inside the limit: every mean lies within the box's diagonal
-    of the median (which lies in the box, axis by axis), so a diagonal below
-    ``(1 − SCREEN_MARGIN) × limit`` passes every sample, as the computed
-    distances (a few roundings from the exact ones) do too.
+    of many intervals (about :data:`STILL_ROWS` samples at a time) are formed
+    into one array (each from its own running sums: the same numbers) and
+    their overall test made in one pass. The local test needs an interval's
+    median only when the box its moving means span is not inside the limit:
+    every mean lies within the box's diagonal of the median (which lies in
+    the box, axis by axis), so a diagonal below ``(1 − SCREEN_MARGIN) ×
+    limit`` passes every sample, as the computed distances (a few roundings
+    from the exact ones) do too.
     """
-    half, bias, limit = settings
     intervals = [iv for iv in intervals if len(iv)]
-    if not intervals:
-        return True
+    # the samples less the first one, as every running sum reads them (once, where that copy is small)
+    shifted = _rowwise(np.subtract, gyro, gyro[0]) if intervals and gyro.nbytes <= TRANSPOSE_BYTES else None
+    every, k = True, 0
+    while k < len(intervals):
+        j, rows = k + 1, len(intervals[k])
+        while j < len(intervals) and rows + len(intervals[j]) <= STILL_ROWS:
+            rows += len(intervals[j])
+            j += 1
+        every &= _still_group(gyro, shifted, settings, intervals[k:j], still, offset_factor)
+        k = j
+    return every
+
+
+#: samples whose moving means :func:`_still_inside` holds at once
+STILL_ROWS = 4 * BLOCK
+
+
+def _still_group(gyro: np.ndarray, shifted: np.ndarray | None, settings: tuple, intervals: list[Interval],
+                 still: np.ndarray, offset_factor: float) -> bool:
+    """:func:`_still_inside` on a group of non-empty ``intervals``; ``shifted``: ``gyro − gyro[0]`` or None."""
+    half, bias, limit = settings
     lengths = np.array([len(iv) for iv in intervals])
     first = np.concatenate([[0], np.cumsum(lengths)[:-1]])
     m = np.empty((int(lengths.sum()), gyro.shape[1]))
     n, ref, width = gyro.shape[0], gyro[0], 2 * half + 1
-    # the samples less the first one, as every running sum reads them (once, where that copy is small)
-    shifted = _rowwise(np.subtract, gyro, ref) if gyro.nbytes <= TRANSPOSE_BYTES else None
     for iv, o in zip(intervals, first.tolist(), strict=True):
         s, e = iv.start, iv.stop
         if s < half or e + half > n or e - s > BLOCK:  # a window truncated at an end, or more than one block
