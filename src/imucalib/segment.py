@@ -105,6 +105,77 @@ def _blocks(n: int, half: int):
         yield a, b, max(a - half, 0), min(b + half, n)
 
 
+def _column_means(x: np.ndarray) -> np.ndarray:
+    """``x.mean(axis=0)`` of an (N, K) array, bit for bit, in about two thirds of its time.
+
+    A reduction over the first axis of a C-ordered float64 array with two or
+    more columns adds its rows one after the other (one short inner loop per
+    row); a running sum down each column does the same additions in the same
+    order with long inner loops, :data:`BLOCK` samples at a time (each block's
+    running sum starts from the previous block's total). Any other array is
+    reduced by ``mean`` itself.
+    """
+    n = x.shape[0]
+    if x.ndim != 2 or x.shape[1] < 2 or n < 2 or x.dtype != np.float64 or not x.flags.c_contiguous:
+        return x.mean(axis=0)
+    out = np.empty(x.shape[1])
+    buf = np.empty(min(n, BLOCK) + 1)
+    for j in range(x.shape[1]):
+        total = None
+        for a in range(0, n, BLOCK):
+            col = x[a:a + BLOCK, j]
+            if total is None:
+                run = np.add.accumulate(col, out=buf[: col.shape[0]])
+            else:
+                buf[0] = total
+                buf[1:col.shape[0] + 1] = col
+                run = np.add.accumulate(buf[: col.shape[0] + 1], out=buf[: col.shape[0] + 1])
+            total = run[-1]
+        out[j] = total
+    return out / n
+
+
+#: rows a row-wise operation (:func:`_rowwise`) lays side by side: one inner loop of ``WIDE × K`` numbers, not ``K``
+WIDE = 64
+
+
+def _rowwise(op: np.ufunc, x: np.ndarray, row: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """``op(x, row)`` for an (N, K) array ``x`` and a (K,) ``row``: the same numbers, in a third of the time.
+
+    Broadcasting a row runs one inner loop of ``K`` numbers per row of ``x``;
+    with :data:`WIDE` rows viewed as one (C order) against the row repeated
+    :data:`WIDE` times, each number meets the same operand in one long loop.
+    ``out`` (it may be ``x``) receives the result when given.
+    """
+    n, k = x.shape
+    if out is None:
+        out = np.empty((n, k))
+    m = n - n % WIDE if n >= 4 * WIDE and x.flags.c_contiguous and out.flags.c_contiguous else 0
+    if m:
+        op(x[:m].reshape(-1, WIDE * k), np.tile(row, WIDE), out=out[:m].reshape(-1, WIDE * k))
+    if m < n:
+        op(x[m:], row, out=out[m:])
+    return out
+
+
+def _medians(rows: np.ndarray) -> np.ndarray:
+    """``np.median(rows, axis=1)`` of a (K, n) array of finite numbers, bit for bit, partitioning ``rows`` in place.
+
+    The median is the middle order statistic, or the mean of the two middle
+    ones (their sum halved, as ``np.median``'s mean forms it); a partition at
+    those ranks finds the same numbers as ``np.median``'s, without the extra
+    rank it partitions at to look for NaN. Only a zero median may differ, in
+    its sign, where −0 and +0 tie (the callers square it or take magnitudes).
+    """
+    n = rows.shape[1]
+    h = n // 2
+    if n % 2:
+        rows.partition(h, axis=1)
+        return rows[:, h].copy()
+    rows.partition([h - 1, h], axis=1)
+    return (rows[:, h - 1] + rows[:, h]) / 2.0
+
+
 def _window_bounds(a: int, b: int, lo: int, half: int, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Window ``[lo_i, hi_i)`` of each sample ``i`` of ``[a, b)`` (truncated at the record's ends), from ``lo``."""
     idx = np.arange(a, b)
@@ -147,7 +218,7 @@ def _block_variance(x: np.ndarray, centre: np.ndarray, a: int, b: int, lo: int, 
     squares, then the window means), and the two running sums (the first
     then holds the variance).
     """
-    seg = x[lo:hi] - centre  # centred for a numerically safe running sum of squares
+    seg = _rowwise(np.subtract, x[lo:hi], centre)  # centred for a numerically safe running sum of squares
     c1 = np.empty((seg.shape[0] + 1, seg.shape[1]))
     c2 = np.empty_like(c1)
     c1[0] = c2[0] = 0.0
@@ -183,7 +254,7 @@ def moving_variance(x: np.ndarray, window: int) -> np.ndarray:
         x = x[:, None]
     n = x.shape[0]
     half = max(int(window) // 2, 1)
-    centre = x.mean(axis=0)
+    centre = _column_means(x)
     out = np.empty(x.shape)
     for a, b, lo, hi in _blocks(n, half):
         out[a:b] = _block_variance(x, centre, a, b, lo, hi, half)
@@ -201,7 +272,7 @@ def variance_norm(acc: np.ndarray, window: int) -> np.ndarray:
         x = x[:, None]
     half = max(int(window) // 2, 1)
     out = np.empty(x.shape[0])
-    _variance_norm_rows(x, x.mean(axis=0), half, 0, x.shape[0], out)
+    _variance_norm_rows(x, _column_means(x), half, 0, x.shape[0], out)
     return out
 
 
@@ -301,6 +372,7 @@ def find_initial_rest(
     factor: float = REST_FACTOR,
     min_seconds: float = PREFERRED_REST,
     shortest: float = SHORTEST_REST,
+    statistic: np.ndarray | None = None,
 ) -> Interval:
     """Locate the initial rest period that starts a calibration recording.
 
@@ -321,13 +393,28 @@ def find_initial_rest(
     is an error. The short look also gives the rest where the first look
     leaves less than ``min_seconds`` after its margin of a full window.
 
+    Parameters
+    ----------
+    recording : Recording
+    window_seconds, factor, min_seconds, shortest : float
+        As above.
+    statistic : (N,) ndarray, optional
+        The accelerometer's statistic over the whole recording with the window
+        of ``window_seconds`` (``variance_norm(recording.acc, win)``), when the
+        caller has formed it: read rather than formed again (the same numbers).
+
+    Returns
+    -------
+    Interval
+        The initial rest, from sample 0.
+
     Raises
     ------
     ValueError
         If the recording does not start with at least ``shortest`` seconds of rest.
     """
     rate = recording.rate
-    win = max(int(round(window_seconds * rate)) | 1, 3)
+    win = _window(window_seconds, rate)
     n0 = int(round(min_seconds * rate))
     if n0 >= len(recording):
         raise ValueError(
@@ -347,7 +434,7 @@ def find_initial_rest(
                       f"{short_end / rate:.2g} s (record a longer rest at the start, or give its length with "
                       "--init-static SECONDS)", ImucalibWarning, stacklevel=2)
         return Interval(0, short_end, "static")
-    first_motion = _first_motion(recording, win, max(n0, win), factor)
+    first_motion = _first_motion(recording, win, max(n0, win), factor, acc_statistic=statistic)
     end = max(first_motion - win // 2, 0) if first_motion < len(recording) else len(recording)
     if end >= n0:
         return Interval(0, end, "static")
@@ -356,19 +443,32 @@ def find_initial_rest(
     raise ValueError(_no_rest(end / rate, min_seconds))
 
 
-def _first_motion(recording: Recording, win: int, n_level: int, factor: float) -> int:
-    """The first sample whose statistic (window ``win``) exceeds ``factor`` × its median over ``n_level`` samples."""
+def _first_motion(recording: Recording, win: int, n_level: int, factor: float,
+                  acc_statistic: np.ndarray | None = None) -> int:
+    """The first sample whose statistic (window ``win``) exceeds ``factor`` × its median over ``n_level`` samples.
+
+    ``acc_statistic``: the accelerometer's statistic over the whole recording
+    (:func:`variance_norm` with ``win``), read instead of formed when given.
+    """
     first = len(recording)
     for signal in (recording.acc, recording.gyro):
         if signal is None:
             continue
+        if signal is recording.acc and acc_statistic is not None:
+            threshold = factor * max(float(np.median(acc_statistic[:n_level])), np.finfo(float).tiny)
+            moving = acc_statistic > threshold
+            first = int(np.argmax(moving)) if moving.any() else first
+            continue
         # the statistic of :func:`variance_norm`, formed span by span (the same numbers) only as far as the
-        # search reads it: the level's samples, then spans of doubling length up to the first movement
+        # search reads it: the level's samples, then spans of doubling length up to the first movement (the
+        # other sensor's, when that is near: nothing after it can change the answer)
         x = np.asarray(signal, dtype=np.float64)
         x = x[:, None] if x.ndim == 1 else x
-        half, centre = max(int(win) // 2, 1), x.mean(axis=0)
+        half, centre = max(int(win) // 2, 1), _column_means(x)
         stat = np.empty(x.shape[0])
         a, b = 0, min(max(n_level, 1), x.shape[0])
+        if min(x.shape[0], first) - b <= 2 * max(b, 4096):  # the end, or the other sensor's movement, is near
+            b = max(b, min(x.shape[0], first))
         _variance_norm_rows(x, centre, half, a, b, stat[a:b])
         threshold = factor * max(float(np.median(stat[:n_level])), np.finfo(float).tiny)
         while True:
@@ -378,7 +478,8 @@ def _first_motion(recording: Recording, win: int, n_level: int, factor: float) -
                 break
             if b >= min(x.shape[0], first):  # the end, or past the first movement the other sensor showed
                 break
-            a, b = b, min(x.shape[0], b + max(b, 4096))
+            step = max(b, 4096)  # each span costs its whole prefix within its block: reach a known end at once
+            a, b = b, min(x.shape[0], first if first - b <= 2 * step else b + step)
             _variance_norm_rows(x, centre, half, a, b, stat[a:b])
     return first
 
@@ -504,22 +605,26 @@ def moving_mean(x: np.ndarray, window: int) -> np.ndarray:
     return _moving_mean_rows(x, max(int(window) // 2, 0), 0, x.shape[0])
 
 
-def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray | None = None) -> np.ndarray:
+def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray | None = None,
+                      out: np.ndarray | None = None, shifted: bool = False) -> np.ndarray:
     """:func:`moving_mean` (window ``±half``) of rows ``[a, b)`` of ``x`` only, :data:`BLOCK` rows at a time.
 
     With ``keep`` (a mask over ``[a, b)``), only the rows it selects, in order:
     the same running sums (from the same first sample), so the same numbers.
+    ``out`` receives the result when given; with ``shifted``, the means less
+    ``x[0]`` (which the running sums subtract), before it is added back.
     """
     n = x.shape[0]
     ref = x[0]  # subtracted to keep the running sums accurate
-    out = np.empty((b - a if keep is None else int(np.count_nonzero(keep)), x.shape[1]))
+    if out is None:
+        out = np.empty((b - a if keep is None else int(np.count_nonzero(keep)), x.shape[1]))
     done = 0
     for s in range(a, b, BLOCK):
         e = min(s + BLOCK, b)
         lo, hi = max(s - half, 0), min(e + half, n)
         c = np.empty((hi - lo + 1, x.shape[1]))
         c[0] = 0.0
-        np.cumsum(x[lo:hi] - ref, axis=0, out=c[1:])
+        np.cumsum(_rowwise(np.subtract, x[lo:hi], ref), axis=0, out=c[1:])
         if keep is None:
             part = _window_diff(c, s, e, lo, half, n, out=out[s - a:e - a], mean=True)
         else:
@@ -529,13 +634,18 @@ def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray
             np.subtract(c[whi], c[wlo], out=part)
             part /= (whi - wlo)[:, None]
             done += rows.size
-        part += ref
+        if not shifted:
+            _rowwise(np.add, part, ref, out=part)
     return out
+
+
+#: a pose's moving mean rate may stay this many times :func:`gyro_still`'s limit from zero (bias drift, g-sensitivity)
+STILL_OFFSET = 4.0
 
 
 def gyro_still(recording: Recording, rest: Interval, scale: float, intervals: list[Interval] | None = None, *,
                rate_limit: float = STILL_RATE, window: float = STILL_WINDOW, n_sigma: float = STILL_N_SIGMA,
-               offset_factor: float = 4.0) -> np.ndarray:
+               offset_factor: float = STILL_OFFSET) -> np.ndarray:
     """Samples where the gyroscope says the sensor is still: a mask (N,).
 
     The accelerometer alone cannot tell a still pose from a turn about the
@@ -548,30 +658,110 @@ def gyro_still(recording: Recording, rest: Interval, scale: float, intervals: li
     elsewhere when ``|m| < limit``. ``limit = max(rate_limit, n_sigma × the
     noise of m)``; ``scale`` [rad/s per raw unit] is a rough gyroscope scale
     (:func:`imucalib.fit.gyroscope.rough_scale`) that puts ``rate_limit`` in
-    raw units, the noise is the rest's.
+    raw units, the noise is the rest's. The samples outside ``intervals``
+    and those inside are judged apart (:func:`_still_outside`,
+    :func:`_still_inside`), with the same numbers.
+    """
+    gyro = np.asarray(recording.gyro, dtype=np.float64)
+    settings = _still_settings(recording, rest, scale, rate_limit, window, n_sigma)
+    still = np.empty(gyro.shape[0], dtype=bool)
+    _still_outside(gyro, settings, intervals or [], still)
+    _still_inside(gyro, settings, intervals or [], still, offset_factor)
+    return still
+
+
+def _still_settings(recording: Recording, rest: Interval, scale: float, rate_limit: float, window: float,
+                    n_sigma: float) -> tuple[int, np.ndarray, float]:
+    """:func:`gyro_still`'s half window [samples], bias (the rest's mean) and ``limit`` [raw units].
+
+    The rest's mean and standard deviation are ``mean(axis=0)`` and
+    ``std(axis=0)`` formed as numpy forms them (:func:`_column_means` of the
+    samples, then of their squared deviations from it): the same numbers.
     """
     n = max(int(round(window * recording.rate)), 1)
-    raw = recording.gyro[rest.slice]
-    noise = float(np.linalg.norm(raw.std(axis=0))) / np.sqrt(n)
-    limit = max(rate_limit / abs(scale), n_sigma * noise)
-    gyro = np.asarray(recording.gyro, dtype=np.float64)
-    bias = raw.mean(axis=0)
-    half = n // 2
-    still = np.empty(gyro.shape[0], dtype=bool)
+    raw = np.asarray(recording.gyro[rest.slice], dtype=np.float64)
+    bias = _column_means(raw)
+    dev = _rowwise(np.subtract, raw, bias)
+    std = np.sqrt(_column_means(np.multiply(dev, dev, out=dev)))
+    noise = float(np.linalg.norm(std)) / np.sqrt(n)
+    return n // 2, bias, max(rate_limit / abs(scale), n_sigma * noise)
+
+
+def _still_outside(gyro: np.ndarray, settings: tuple, intervals: list[Interval], still: np.ndarray) -> None:
+    """:func:`gyro_still` on the samples outside ``intervals`` (``|m| < limit``), into ``still``."""
+    half, bias, limit = settings
     outside = np.ones(gyro.shape[0], dtype=bool)  # the samples no interval judges
-    for iv in intervals or []:
+    for iv in intervals:
         outside[iv.slice] = False
     for a in range(0, gyro.shape[0], BLOCK):  # block by block: no (N, 3) moving mean is kept
         b = min(a + BLOCK, gyro.shape[0])
-        m = _moving_mean_rows(gyro, half, a, b, keep=outside[a:b])
-        m -= bias
+        m = _rowwise(np.subtract, _moving_mean_rows(gyro, half, a, b, keep=outside[a:b]), bias)
         still[a:b][outside[a:b]] = np.sqrt(np.einsum("ij,ij->i", m, m)) < limit
-    for iv in intervals or []:
-        m = _moving_mean_rows(gyro, half, iv.start, iv.stop) - bias
-        dev = np.sqrt(np.einsum("ij,ij->i", m, m))
-        local = np.linalg.norm(m - np.median(m, axis=0), axis=1)
-        still[iv.slice] = (local < limit) & (dev < offset_factor * limit)
-    return still
+
+
+def _still_inside(gyro: np.ndarray, settings: tuple, intervals: list[Interval], still: np.ndarray,
+                  offset_factor: float) -> bool:
+    """:func:`gyro_still` on the samples of each of ``intervals`` (its local and overall tests), into ``still``.
+
+    Returns whether every sample of every interval is still. The moving means
+    of many intervals (about :data:`STILL_ROWS` samples at a time) are formed
+    into one array (each from its own running sums: the same numbers) and
+    their overall test made in one pass. The local test needs an interval's
+    median only when the box its moving means span is not inside the limit:
+    every mean lies within the box's diagonal of the median (which lies in
+    the box, axis by axis), so a diagonal below ``(1 − SCREEN_MARGIN) ×
+    limit`` passes every sample, as the computed distances (a few roundings
+    from the exact ones) do too.
+    """
+    intervals = [iv for iv in intervals if len(iv)]
+    # the samples less the first one, as every running sum reads them (once, where that copy is small)
+    shifted = _rowwise(np.subtract, gyro, gyro[0]) if intervals and gyro.nbytes <= TRANSPOSE_BYTES else None
+    every, k = True, 0
+    while k < len(intervals):
+        j, rows = k + 1, len(intervals[k])
+        while j < len(intervals) and rows + len(intervals[j]) <= STILL_ROWS:
+            rows += len(intervals[j])
+            j += 1
+        every &= _still_group(gyro, shifted, settings, intervals[k:j], still, offset_factor)
+        k = j
+    return every
+
+
+#: samples whose moving means :func:`_still_inside` holds at once
+STILL_ROWS = 4 * BLOCK
+
+
+def _still_group(gyro: np.ndarray, shifted: np.ndarray | None, settings: tuple, intervals: list[Interval],
+                 still: np.ndarray, offset_factor: float) -> bool:
+    """:func:`_still_inside` on a group of non-empty ``intervals``; ``shifted``: ``gyro − gyro[0]`` or None."""
+    half, bias, limit = settings
+    lengths = np.array([len(iv) for iv in intervals])
+    first = np.concatenate([[0], np.cumsum(lengths)[:-1]])
+    m = np.empty((int(lengths.sum()), gyro.shape[1]))
+    n, ref, width = gyro.shape[0], gyro[0], 2 * half + 1
+    for iv, o in zip(intervals, first.tolist(), strict=True):
+        s, e = iv.start, iv.stop
+        if s < half or e + half > n or e - s > BLOCK:  # a window truncated at an end, or more than one block
+            _moving_mean_rows(gyro, half, s, e, out=m[o:o + e - s], shifted=True)
+            continue
+        # _moving_mean_rows of one block whose windows all lie inside the record, its operations inline
+        c = np.empty((e - s + width, gyro.shape[1]))
+        c[0] = 0.0
+        seg = shifted[s - half:e + half] if shifted is not None else _rowwise(np.subtract, gyro[s - half:e + half], ref)
+        np.cumsum(seg, axis=0, out=c[1:])
+        part = np.subtract(c[width:], c[: e - s], out=m[o:o + e - s])
+        part /= float(width)
+    _rowwise(np.add, m, ref, out=m)  # the first sample back, as _moving_mean_rows adds it, then the bias off
+    _rowwise(np.subtract, m, bias, out=m)
+    ok = np.sqrt(np.einsum("ij,ij->i", m, m)) < offset_factor * limit
+    box = np.maximum.reduceat(m, first, axis=0) - np.minimum.reduceat(m, first, axis=0)
+    inside = np.sqrt(np.einsum("ij,ij->i", box, box)) < (1.0 - SCREEN_MARGIN) * limit
+    for k in np.flatnonzero(~inside).tolist():
+        mk = m[first[k]:first[k] + lengths[k]]
+        ok[first[k]:first[k] + lengths[k]] &= np.linalg.norm(mk - _medians(mk.T.copy()), axis=1) < limit
+    for iv, o in zip(intervals, first.tolist(), strict=True):
+        still[iv.slice] = ok[o:o + len(iv)]
+    return bool(ok.all())
 
 
 def still_intervals(intervals: list[Interval], still: np.ndarray, min_length: int) -> list[Interval]:
@@ -621,14 +811,19 @@ def detect_intervals(
     blocks = pose_blocks(recording) if init_static is None else None
     if blocks:
         return blocks, float("nan"), blocks[0], fit_determined(interval_means(recording.acc, blocks), gravity)[0]
-    rest = initial_rest(recording, init_static)
+    win = _window(window, recording.rate)
+    stat = variance_norm(recording.acc, win)  # formed once: the initial rest's search reads it too
+    if init_static is None and win == _window(REST_WINDOW, recording.rate):
+        rest = find_initial_rest(recording, statistic=stat)
+    else:
+        rest = initial_rest(recording, init_static)
     multipliers = list(multipliers)
-    detector = _detector(recording, rest, window, min_interval)
+    detector = _detector(recording, rest, window, min_interval, statistic=stat)
     intervals, mult, model = _scan(detector, gravity, recording, multipliers, min_interval, None)
     if gyro_gate and recording.gyro is not None:  # an accelerometer-only recording has no gate
         from .fit.gyroscope import axes_disagreement, rough_scale
 
-        bias = recording.gyro[rest.slice].mean(axis=0)
+        bias = _column_means(recording.gyro[rest.slice])  # recording.gyro[rest.slice].mean(axis=0), bit for bit
         try:
             scale = rough_scale(recording, intervals, model, bias)
         except ValueError:
@@ -640,8 +835,12 @@ def detect_intervals(
             raise
         base, win, min_len, stat = detector
         widest = detect_static(None, max(multipliers) * base, window=win, min_length=min_len, statistic=stat)
-        still = gyro_still(recording, rest, scale, widest)
-        if not all(np.all(still[iv.slice]) for iv in widest):  # else the scan would find the same again
+        # gyro_still(recording, rest, scale, widest), its samples outside the intervals judged only when needed
+        gyro = np.asarray(recording.gyro, dtype=np.float64)
+        settings = _still_settings(recording, rest, scale, STILL_RATE, STILL_WINDOW, STILL_N_SIGMA)
+        still = np.empty(gyro.shape[0], dtype=bool)
+        if not _still_inside(gyro, settings, widest, still, STILL_OFFSET):  # else the scan would find the same again
+            _still_outside(gyro, settings, widest, still)
             try:
                 gated = _scan(detector, gravity, recording, multipliers, min_interval, still, reduce=False)
             except ValueError:
@@ -669,9 +868,16 @@ def static_at(recording: Recording, rest: Interval, multiplier: float, *, window
     return detect_static(None, multiplier * base, window=win, min_length=min_len, statistic=stat)
 
 
-def _detector(recording: Recording, rest: Interval, window: float, min_interval: float):
+def _detector(recording: Recording, rest: Interval, window: float, min_interval: float,
+              statistic: np.ndarray | None = None):
+    """The detector's settings (:func:`_detector_settings`) and its statistic (``statistic`` when formed already)."""
     base, win, min_len = _detector_settings(recording.acc[rest.slice], recording.rate, window, min_interval)
-    return base, win, min_len, variance_norm(recording.acc, win)
+    return base, win, min_len, variance_norm(recording.acc, win) if statistic is None else statistic
+
+
+def _window(seconds: float, rate: float) -> int:
+    """The odd window length [samples] of the variance detectors, at least 3."""
+    return max(int(round(seconds * rate)) | 1, 3)
 
 
 def _detector_settings(rest_acc: np.ndarray, rate: float, window: float, min_interval: float):
@@ -682,7 +888,7 @@ def _detector_settings(rest_acc: np.ndarray, rate: float, window: float, min_int
             "the initial rest has zero accelerometer variance (quantised or synthetic "
             "noise-free data?): the detector threshold cannot be set from it"
         )
-    win = max(int(round(window * rate)) | 1, 3)
+    win = _window(window, rate)
     min_len = max(int(round(min_interval * rate)), 2)
     return base, win, min_len
 
@@ -747,20 +953,84 @@ class StillDetector:
         return new
 
 
+def _interval_means(x: np.ndarray, intervals: list[Interval], columns: np.ndarray | None = None) -> np.ndarray:
+    """:func:`imucalib.metrics.interval_means` bit for bit, with two array operations per interval, not six.
+
+    Each interval's samples less its first one are laid out one column per
+    row, ``(K, n)``, and summed along the rows: a reduction along the last
+    axis sums each row as the one-column reduction does (pairwise, in the
+    same blocks), so each sum is the same number; the division by ``n`` and
+    the first sample added back are the same operations on all the intervals
+    at once. ``columns``: ``x`` transposed into C order, (K, N), when the
+    caller has it (the rows are then sliced from it, not transposed one by one).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    sums = np.empty((len(intervals), x.shape[1]))
+    counts = np.empty(len(intervals))
+    add = np.add.reduce
+    for k, iv in enumerate(intervals):
+        if columns is not None:
+            seg = columns[:, iv.start:iv.stop]
+            rows = seg - seg[:, :1]
+        else:
+            seg = x[iv.start:iv.stop]
+            rows = np.subtract(seg.T, seg[0][:, None], out=np.empty((x.shape[1], seg.shape[0])))
+        add(rows, axis=1, out=sums[k])
+        counts[k] = iv.stop - iv.start
+    ref = x[[iv.start for iv in intervals]] if intervals else np.empty((0, x.shape[1]))
+    return sums / counts[:, None] + ref
+
+
+#: the largest recording [bytes] whose accelerometer a scan transposes once for its interval means (and whose
+#: gyroscope the gate shifts once for its moving means)
+TRANSPOSE_BYTES = 1 << 23
+
+
 class _IntervalMeans:
     """:func:`imucalib.metrics.interval_means` of ``x`` that forms each interval's mean once (the same numbers:
     each interval's mean is its own sum), for the thresholds of a scan whose intervals mostly recur."""
 
     def __init__(self, x: np.ndarray) -> None:
-        self.x = x
+        self.x = np.asarray(x, dtype=np.float64)
+        self.columns = np.ascontiguousarray(self.x.T) if self.x.nbytes <= TRANSPOSE_BYTES else None
         self.known: dict[tuple[int, int], np.ndarray] = {}
 
     def __call__(self, intervals: list[Interval]) -> np.ndarray:
         new = [iv for iv in intervals if (iv.start, iv.stop) not in self.known]
         if new:
-            for iv, row in zip(new, interval_means(self.x, new), strict=True):
+            for iv, row in zip(new, _interval_means(self.x, new, self.columns), strict=True):
                 self.known[iv.start, iv.stop] = row
         return np.array([self.known[iv.start, iv.stop] for iv in intervals])
+
+
+def _static_runs(stat: np.ndarray, thresholds: list[float], min_length: int) -> list[list[Interval]]:
+    """``detect_static(None, t, …, min_length=min_length, statistic=stat)`` for each threshold ``t``, in one pass.
+
+    Each sample's level is how many of the (sorted, distinct) ``L``
+    thresholds its statistic is not below, ``L`` less the count of those it
+    is below: it is static at the ``i``-th threshold exactly when its level
+    is at most ``i`` (``stat < t_i``). The runs of every threshold start and
+    stop where the level, padded with a level no threshold reaches, crosses
+    ``i``: among the few places where it changes.
+    """
+    levels_at = np.array(sorted(set(thresholds)))
+    kind = np.int16 if levels_at.size < 1 << 14 else np.intp
+    below = np.zeros(stat.shape[0], dtype=kind)
+    for t in levels_at:
+        below += stat < t
+    padded = np.full(stat.shape[0] + 2, levels_at.size + 1, dtype=kind)
+    np.subtract(levels_at.size, below, out=padded[1:-1])
+    change = np.flatnonzero(padded[1:] != padded[:-1])
+    before, after = padded[change], padded[change + 1]
+    out = []
+    for t in thresholds:
+        i = int(np.searchsorted(levels_at, t))
+        edges = change[(before <= i) != (after <= i)]  # False → True, True → False, … in turn
+        starts, stops = edges[0::2], edges[1::2]
+        keep = stops - starts >= min_length
+        out.append([Interval(a, b, "static") for a, b in zip(starts[keep].tolist(), stops[keep].tolist(),
+                                                             strict=True)])
+    return out
 
 
 def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: Iterable[float], min_interval: float,
@@ -775,8 +1045,9 @@ def _scan(detector: tuple, gravity: float, recording: Recording, multipliers: It
     tried = []
     means = _IntervalMeans(recording.acc)
     fits: dict[tuple, tuple | None] = {}  # thresholds that give the same intervals give the same fit
-    for mult in multipliers:
-        intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
+    multipliers = list(multipliers)
+    found = _static_runs(stat, [mult * base for mult in multipliers], min_len)
+    for mult, intervals in zip(multipliers, found, strict=True):
         tried.append((mult, len(intervals)))
         if len(intervals) < MIN_INTERVALS:
             continue
@@ -958,7 +1229,8 @@ def spikes(x: np.ndarray, *, factor: float = 20.0, isolation: float = 4.0) -> np
     out = np.zeros(n, dtype=bool)
     if n < 5:
         return out
-    scale = np.array([np.median(np.abs(np.diff(col))) for col in x.T])  # one channel at a time
+    steps = np.diff(x.T, axis=1)  # one channel a row
+    scale = _medians(np.abs(steps, out=steps))  # the median absolute step of each channel
     scale = np.where(scale > 0, scale, np.finfo(float).tiny)
     limit = factor * scale
     for a in range(2, n - 2, BLOCK):  # samples a … b−1, each read with two neighbours either side
@@ -1013,31 +1285,113 @@ def unsteady_poses(recording: Recording, intervals: list[Interval], *, edge: flo
     scatter (the pose's samples, tremor included, over √n). Its mean is
     still good for the accelerometer. Empty without a gyroscope or with fewer
     than 4 poses.
+
+    The poses are screened together (:func:`_tilt_screen`): the model applied
+    to many poses' samples at once, their sums in one pass. Only a pose whose
+    screened tilt comes within :data:`SCREEN_MARGIN` of its limit is judged by
+    the per-pose computation above, so the poses found and their reasons are
+    those of that computation, number for number.
     """
     if recording.gyro is None or len(intervals) < 4:
         return {}
+    means = _interval_means(recording.acc, intervals)
     try:
-        model = fit_determined(interval_means(recording.acc, intervals), STANDARD_GRAVITY)[0]
+        model = fit_determined(means, STANDARD_GRAVITY)[0]
     except ValueError:
         return {}
     n_edge = max(int(round(edge * recording.rate)), 2)
     tilt_floor = np.radians(EDGE_TILT_DEG)
+    poses = [(k, iv) for k, iv in enumerate(intervals[1:], 1) if len(iv) >= 3 * n_edge]
+    if model.is_linear and not np.any(model.g_sensitivity):  # the poses well inside the floor need no more
+        near = _floor_screen(model, recording.acc, means[[k for k, _ in poses]], [iv for _, iv in poses], n_edge,
+                             tilt_floor)
+        poses = [p for p, check in zip(poses, near, strict=True) if check]
+    near = _tilt_screen(model, recording.acc, [iv for _, iv in poses], n_edge, tilt_floor, n_sigma)
     out = {}
-    for k, iv in enumerate(intervals[1:], 1):
-        if len(iv) < 3 * n_edge:
+    for (k, iv), check in zip(poses, near, strict=True):
+        if not check:
             continue
-        a = model.forward(recording.acc[iv.slice])
-        mean = a.mean(axis=0)
-        size = np.linalg.norm(mean)
-        sigma = np.sqrt(np.sum(np.var(a, axis=0)) / n_edge) / size  # [rad], the edge mean's scatter
-        limit = max(tilt_floor, n_sigma * sigma)
-        tilts = [float(np.arccos(min(max(float(e @ mean / (np.linalg.norm(e) * size)), -1.0), 1.0)))
-                 for e in (a[:n_edge].mean(axis=0), a[-n_edge:].mean(axis=0))]
+        tilts, limit = _edge_tilts(model.forward(recording.acc[iv.slice]), n_edge, tilt_floor, n_sigma)
         if max(tilts) > limit:
             where = "start" if tilts[0] > tilts[1] else "end"
             out[k] = (f"pose {k + 1} tilts {np.degrees(max(tilts)):.2g}° at its {where} from its mean (limit "
                       f"{np.degrees(limit):.2g}°: the hand moved while holding it)")
     return out
+
+
+#: a pose whose screened edge tilt (:func:`_tilt_screen`) is below ``(1 − SCREEN_MARGIN) ×`` its screened limit is
+#: steady: the screen's sums differ from the per-pose ones by rounding (1e-12 relative at most), far inside it
+SCREEN_MARGIN = 1e-6
+
+
+def _edge_tilts(a: np.ndarray, n_edge: int, tilt_floor: float, n_sigma: float) -> tuple[list[float], float]:
+    """The tilts [rad] of a pose's first and last ``n_edge`` calibrated samples ``a`` from its mean, and the limit."""
+    mean = a.mean(axis=0)
+    size = np.linalg.norm(mean)
+    sigma = np.sqrt(np.sum(np.var(a, axis=0)) / n_edge) / size  # [rad], the edge mean's scatter
+    limit = max(tilt_floor, n_sigma * sigma)
+    tilts = [float(np.arccos(min(max(float(e @ mean / (np.linalg.norm(e) * size)), -1.0), 1.0)))
+             for e in (a[:n_edge].mean(axis=0), a[-n_edge:].mean(axis=0))]
+    return tilts, limit
+
+
+def _floor_screen(model: TriadModel, acc: np.ndarray, means: np.ndarray, poses: list[Interval], n_edge: int,
+                  tilt_floor: float) -> np.ndarray:
+    """Which ``poses`` may tilt at an edge beyond the floor of their limit, from their raw means: a mask (M,).
+
+    A linear model without g-sensitivity is affine, so the calibrated mean of
+    a pose or of its edge is the model applied to its raw mean (to rounding):
+    the pose is steady when the larger angle between the calibrated edge means
+    and pose mean is below ``(1 − SCREEN_MARGIN) × tilt_floor``, which no
+    limit of :func:`_edge_tilts` is below. ``means``: the poses' raw means.
+    """
+    if not poses:
+        return np.zeros(0, dtype=bool)
+    ramp = np.arange(n_edge)
+    rows = np.stack([[iv.start for iv in poses], [iv.stop - n_edge for iv in poses]], axis=1)[:, :, None] + ramp
+    edges = model.forward(acc[rows.ravel()].reshape(-1, n_edge, acc.shape[1]).mean(axis=1)).reshape(len(poses), 2, -1)
+    centre = model.forward(means)
+    cos = np.einsum("ijk,ik->ij", edges, centre) / (np.linalg.norm(edges, axis=2)
+                                                      * np.linalg.norm(centre, axis=1)[:, None])
+    tilt = np.arccos(np.clip(cos, -1.0, 1.0)).max(axis=1)
+    return ~(tilt < (1.0 - SCREEN_MARGIN) * tilt_floor)  # NaN: screened further
+
+
+def _tilt_screen(model: TriadModel, acc: np.ndarray, poses: list[Interval], n_edge: int, tilt_floor: float,
+                 n_sigma: float) -> np.ndarray:
+    """Which ``poses`` may tilt at an edge (:func:`_edge_tilts`), screened many poses at a time: a mask (M,).
+
+    The poses' samples are calibrated together, at most about :data:`BLOCK`
+    at a time; each pose's first ``n_edge``, middle and last ``n_edge``
+    samples are summed in one ``reduceat`` and its squared deviations from
+    its mean in another. A pose is kept for the exact judgement unless its
+    larger edge tilt is below ``(1 − SCREEN_MARGIN)`` × its limit.
+    """
+    near = np.ones(len(poses), dtype=bool)
+    k = 0
+    while k < len(poses):
+        j, rows = k + 1, len(poses[k])
+        while j < len(poses) and rows + len(poses[j]) <= BLOCK:
+            rows += len(poses[j])
+            j += 1
+        group = poses[k:j]
+        n = np.array([len(iv) for iv in group])
+        first = np.concatenate([[0], np.cumsum(n)[:-1]])
+        a = model.forward(np.concatenate([acc[iv.slice] for iv in group]))
+        parts = np.add.reduceat(a, np.stack([first, first + n_edge, first + n - n_edge], axis=1).ravel(), axis=0)
+        head, middle, tail = parts[0::3], parts[1::3], parts[2::3]
+        mean = (head + middle + tail) / n[:, None]
+        dev = a - np.repeat(mean, n, axis=0)
+        var = np.add.reduceat(dev * dev, first, axis=0) / n[:, None]
+        size = np.linalg.norm(mean, axis=1)
+        limit = np.maximum(tilt_floor, n_sigma * np.sqrt(var.sum(axis=1) / n_edge) / size)
+        tilt = np.zeros(len(group))
+        for e in (head / n_edge, tail / n_edge):
+            cos = np.einsum("ij,ij->i", e, mean) / (np.linalg.norm(e, axis=1) * size)
+            tilt = np.maximum(tilt, np.arccos(np.clip(cos, -1.0, 1.0)))
+        near[k:j] = ~(tilt < (1.0 - SCREEN_MARGIN) * limit)  # NaN: judged exactly
+        k = j
+    return near
 
 
 def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
@@ -1059,21 +1413,22 @@ def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
     sat = np.nonzero(saturated(recording.gyro))[0]
     spk = np.nonzero(spikes(recording.gyro))[0]
     dt = np.diff(recording.t)
-    gaps = np.nonzero(dt > gap_factor * np.median(dt))[0] if dt.size else np.zeros(0, int)
+    gaps = np.nonzero(dt > gap_factor * _medians(dt[None, :].copy())[0])[0] if dt.size else np.zeros(0, int)
+    # per rotation [a, b]: the saturated samples and spikes in a … b, the gaps that start in a … b − 1 (sorted indices)
+    n_sat = np.maximum(np.searchsorted(sat, stops, "right") - np.searchsorted(sat, starts, "left"), 0)
+    n_spk = np.maximum(np.searchsorted(spk, stops, "right") - np.searchsorted(spk, starts, "left"), 0)
+    first_gap, end_gap = np.searchsorted(gaps, starts, "left"), np.searchsorted(gaps, stops, "left")
     out = {}
-    for k, (a, b) in enumerate(zip(starts, stops, strict=True)):
+    for k in np.flatnonzero(n_sat | n_spk | (end_gap > first_gap)).tolist():
         why = []
-        n_sat = int(np.count_nonzero((sat >= a) & (sat <= b)))
-        if n_sat:
-            why.append(f"{n_sat} saturated gyroscope sample(s)")
-        n_spk = int(np.count_nonzero((spk >= a) & (spk <= b)))
-        if n_spk:
-            why.append(f"{n_spk} spike(s) in the gyroscope")
-        inside = gaps[(gaps >= a) & (gaps < b)]
+        if n_sat[k]:
+            why.append(f"{n_sat[k]} saturated gyroscope sample(s)")
+        if n_spk[k]:
+            why.append(f"{n_spk[k]} spike(s) in the gyroscope")
+        inside = gaps[first_gap[k]:end_gap[k]]
         if inside.size:
             why.append(f"{inside.size} sampling gap(s), the longest {dt[inside].max():.3g} s")
-        if why:
-            out[k] = " and ".join(why)
+        out[k] = " and ".join(why)
     for k, why in unsteady_poses(recording, intervals).items():  # rotation k−1 ends at pose k, rotation k leaves it
         for j in (k - 1, k):
             if 0 <= j < len(starts):
