@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from imucalib import segment
+from imucalib import metrics, segment
 from imucalib.metrics import interval_means
 from imucalib.recording import Interval
 from imucalib.scenarios import session
@@ -22,9 +22,9 @@ def test_column_means_and_row_operations_are_numpys_bit_for_bit(n: int, k: int) 
         assert segment._column_means(a).tobytes() == a.mean(axis=0).tobytes()
         row = rng.normal(size=k) * 1e3
         for op in (np.subtract, np.add, np.multiply):
-            assert segment._rowwise(op, a, row).tobytes() == op(a, row).tobytes()
+            assert metrics.rowwise(op, a, row).tobytes() == op(a, row).tobytes()
             inplace = np.array(a)
-            segment._rowwise(op, inplace, row, out=inplace)
+            metrics.rowwise(op, inplace, row, out=inplace)
             assert inplace.tobytes() == op(a, row).tobytes()
 
 

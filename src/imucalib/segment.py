@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .fit.accelerometer import fit_determined, fit_gravity_norm, fit_sphere
-from .metrics import interval_means, transition_bounds
+from .metrics import interval_means, rowwise, transition_bounds
 from .models import TriadModel
 from .presets import (
     GYRO_MULTIPLIER,
@@ -135,29 +135,6 @@ def _column_means(x: np.ndarray) -> np.ndarray:
     return out / n
 
 
-#: rows a row-wise operation (:func:`_rowwise`) lays side by side: one inner loop of ``WIDE × K`` numbers, not ``K``
-WIDE = 64
-
-
-def _rowwise(op: np.ufunc, x: np.ndarray, row: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """``op(x, row)`` for an (N, K) array ``x`` and a (K,) ``row``: the same numbers, in a third of the time.
-
-    Broadcasting a row runs one inner loop of ``K`` numbers per row of ``x``;
-    with :data:`WIDE` rows viewed as one (C order) against the row repeated
-    :data:`WIDE` times, each number meets the same operand in one long loop.
-    ``out`` (it may be ``x``) receives the result when given.
-    """
-    n, k = x.shape
-    if out is None:
-        out = np.empty((n, k))
-    m = n - n % WIDE if n >= 4 * WIDE and x.flags.c_contiguous and out.flags.c_contiguous else 0
-    if m:
-        op(x[:m].reshape(-1, WIDE * k), np.tile(row, WIDE), out=out[:m].reshape(-1, WIDE * k))
-    if m < n:
-        op(x[m:], row, out=out[m:])
-    return out
-
-
 def _medians(rows: np.ndarray) -> np.ndarray:
     """``np.median(rows, axis=1)`` of a (K, n) array of finite numbers, bit for bit, partitioning ``rows`` in place.
 
@@ -218,7 +195,7 @@ def _block_variance(x: np.ndarray, centre: np.ndarray, a: int, b: int, lo: int, 
     squares, then the window means), and the two running sums (the first
     then holds the variance).
     """
-    seg = _rowwise(np.subtract, x[lo:hi], centre)  # centred for a numerically safe running sum of squares
+    seg = rowwise(np.subtract, x[lo:hi], centre)  # centred for a numerically safe running sum of squares
     c1 = np.empty((seg.shape[0] + 1, seg.shape[1]))
     c2 = np.empty_like(c1)
     c1[0] = c2[0] = 0.0
@@ -624,7 +601,7 @@ def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray
         lo, hi = max(s - half, 0), min(e + half, n)
         c = np.empty((hi - lo + 1, x.shape[1]))
         c[0] = 0.0
-        np.cumsum(_rowwise(np.subtract, x[lo:hi], ref), axis=0, out=c[1:])
+        np.cumsum(rowwise(np.subtract, x[lo:hi], ref), axis=0, out=c[1:])
         if keep is None:
             part = _window_diff(c, s, e, lo, half, n, out=out[s - a:e - a], mean=True)
         else:
@@ -635,7 +612,7 @@ def _moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray
             part /= (whi - wlo)[:, None]
             done += rows.size
         if not shifted:
-            _rowwise(np.add, part, ref, out=part)
+            rowwise(np.add, part, ref, out=part)
     return out
 
 
@@ -681,7 +658,7 @@ def _still_settings(recording: Recording, rest: Interval, scale: float, rate_lim
     n = max(int(round(window * recording.rate)), 1)
     raw = np.asarray(recording.gyro[rest.slice], dtype=np.float64)
     bias = _column_means(raw)
-    dev = _rowwise(np.subtract, raw, bias)
+    dev = rowwise(np.subtract, raw, bias)
     std = np.sqrt(_column_means(np.multiply(dev, dev, out=dev)))
     noise = float(np.linalg.norm(std)) / np.sqrt(n)
     return n // 2, bias, max(rate_limit / abs(scale), n_sigma * noise)
@@ -695,7 +672,7 @@ def _still_outside(gyro: np.ndarray, settings: tuple, intervals: list[Interval],
         outside[iv.slice] = False
     for a in range(0, gyro.shape[0], BLOCK):  # block by block: no (N, 3) moving mean is kept
         b = min(a + BLOCK, gyro.shape[0])
-        m = _rowwise(np.subtract, _moving_mean_rows(gyro, half, a, b, keep=outside[a:b]), bias)
+        m = rowwise(np.subtract, _moving_mean_rows(gyro, half, a, b, keep=outside[a:b]), bias)
         still[a:b][outside[a:b]] = np.sqrt(np.einsum("ij,ij->i", m, m)) < limit
 
 
@@ -715,7 +692,7 @@ def _still_inside(gyro: np.ndarray, settings: tuple, intervals: list[Interval], 
     """
     intervals = [iv for iv in intervals if len(iv)]
     # the samples less the first one, as every running sum reads them (once, where that copy is small)
-    shifted = _rowwise(np.subtract, gyro, gyro[0]) if intervals and gyro.nbytes <= TRANSPOSE_BYTES else None
+    shifted = rowwise(np.subtract, gyro, gyro[0]) if intervals and gyro.nbytes <= TRANSPOSE_BYTES else None
     every, k = True, 0
     while k < len(intervals):
         j, rows = k + 1, len(intervals[k])
@@ -747,12 +724,12 @@ def _still_group(gyro: np.ndarray, shifted: np.ndarray | None, settings: tuple, 
         # _moving_mean_rows of one block whose windows all lie inside the record, its operations inline
         c = np.empty((e - s + width, gyro.shape[1]))
         c[0] = 0.0
-        seg = shifted[s - half:e + half] if shifted is not None else _rowwise(np.subtract, gyro[s - half:e + half], ref)
+        seg = shifted[s - half:e + half] if shifted is not None else rowwise(np.subtract, gyro[s - half:e + half], ref)
         np.cumsum(seg, axis=0, out=c[1:])
         part = np.subtract(c[width:], c[: e - s], out=m[o:o + e - s])
         part /= float(width)
-    _rowwise(np.add, m, ref, out=m)  # the first sample back, as _moving_mean_rows adds it, then the bias off
-    _rowwise(np.subtract, m, bias, out=m)
+    rowwise(np.add, m, ref, out=m)  # the first sample back, as _moving_mean_rows adds it, then the bias off
+    rowwise(np.subtract, m, bias, out=m)
     ok = np.sqrt(np.einsum("ij,ij->i", m, m)) < offset_factor * limit
     box = np.maximum.reduceat(m, first, axis=0) - np.minimum.reduceat(m, first, axis=0)
     inside = np.sqrt(np.einsum("ij,ij->i", box, box)) < (1.0 - SCREEN_MARGIN) * limit

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..kinematics import IntervalIntegrator, angle_between, quat_from_rotvec, quat_to_matrix
-from ..metrics import interval_means, transition_bounds
+from ..metrics import interval_means, rowwise, transition_bounds
 from ..models import AXES, TriadModel
 from ..recording import Interval, Recording
 from ..residuals import (
@@ -291,7 +291,7 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
 
     def rates_at(th):
         m, b = split(th)
-        return (raw - b) @ m.T
+        return rowwise(np.subtract, raw, b) @ m.T
 
     def fun(th, directions=None):
         q = tr.attitudes(key(th), lambda: rates_at(th))
@@ -300,7 +300,7 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
 
     def jac(th):
         m, b = split(th)
-        v = raw - b
+        v = rowwise(np.subtract, raw, b)
         rates = v @ m.T
         j = gravity_direction_residuals_jac(rates, linear_rate_jacobian(m, v, bias=estimate_bias), integrator,
                                             dirs, tr.steps(key(th), rates, keep=False))[1]
@@ -633,6 +633,7 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     g_sens = static.g_sensitivity
     raw = tr.readings(accelerometer, g_sens)
     tau = recording.t[integrator.samples] - static.t_ref
+    tau3 = np.repeat(tau, 3).reshape(-1, 3)  # each sample's τ for each axis: τ d by long row-wise loops
     with_d = static.drift is not None
     size = 15 if with_d else 12
     w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
@@ -648,8 +649,8 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
 
     def readings_at(th):  # u − G a − b − d τ
         _, b, dr = split(th)
-        v = raw - b
-        v -= tau[:, None] * dr  # in place: one temporary of the samples' size fewer
+        v = rowwise(np.subtract, raw, b)
+        v -= rowwise(np.multiply, tau3, dr)  # in place: one temporary of the samples' size fewer
         return v
 
     def fun(th):
