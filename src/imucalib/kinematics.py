@@ -669,12 +669,17 @@ class IntervalIntegrator:
             gather, trapezoid = self._layout(self._step0[members], nsteps[members], int(width))
             order = _bit_reversal(int(width))
             self._groups.append((members, np.ascontiguousarray(gather[:, order].T)))
-            for j, k in enumerate(members):  # the attitude after step i is at place order[i] of row j
-                n = int(nsteps[k])
-                self._att_first[k] = place
-                place += n + 1
-                att_index.append(np.concatenate([[-1], column + order[:n] * len(members) + j]))
-                att_trapezoid.append(trapezoid[j, : n + 1])
+            # row j's samples: the start (the identity, marked −1), then the attitude after step i at place
+            # order[i] of row j; each row as long as its interval's samples
+            m, n = len(members), nsteps[members]
+            index = np.empty((m, int(width) + 1), dtype=np.intp)
+            index[:, 0] = -1
+            index[:, 1:] = column + order[None, :] * m + np.arange(m)[:, None]
+            real = np.arange(int(width) + 1)[None, :] <= n[:, None]
+            att_index.append(index[real])
+            att_trapezoid.append(trapezoid[real])
+            self._att_first[members] = place + np.concatenate([[0], np.cumsum(n + 1)[:-1]])
+            place += int(np.sum(n + 1))
             column += int(width) * len(members)
         self._att_index = np.concatenate(att_index) if att_index else np.zeros(0, np.intp)
         self._att_index[self._att_index < 0] = column  # the start of each interval: the identity
