@@ -60,3 +60,27 @@ def test_bit_reversed_products_are_the_interleaved_ones() -> None:
             sequential = kin._qmul_soa(sequential, f[:, :, i])
             np.testing.assert_allclose(back[:, :, i], sequential, rtol=1e-12, atol=1e-12)
     assert list(kin._bit_reversal(8)) == [0, 4, 2, 6, 1, 5, 3, 7]
+
+
+def test_sensitivity_after_the_cost_of_the_same_factors_is_the_same() -> None:
+    """The tree levels :meth:`from_samples` keeps for the same factors give :meth:`sensitivity` the very numbers
+    it forms alone; other factors (or none kept) are integrated afresh."""
+    rng = np.random.default_rng(14)
+    n = 6000
+    t = np.cumsum(rng.uniform(0.004, 0.006, size=n))
+    starts = np.array([10, 400, 1500, 2200, 5000])
+    stops = np.array([300, 1450, 1600, 4900, 5990])  # widths 512, 1024, 128, 4096 (a long one), 1024
+    together = kin.IntervalIntegrator(t, starts, stops)
+    rates = rng.normal(size=(together.samples.size, 3))
+    other = rates + 0.1
+    steps, other_steps = together.step_factors(rates), together.step_factors(other)
+    alone_q, alone_w = kin.IntervalIntegrator(t, starts, stops).sensitivity(rates, steps)
+    together.from_samples(rates, steps)
+    assert together._tree_levels is not None  # kept: the path under test is the one taken
+    q, w = together.sensitivity(rates, steps)
+    assert np.array_equal(q, alone_q)
+    assert all(np.array_equal(a, b) for a, b in zip(w, alone_w, strict=True))
+    together.from_samples(other, other_steps)  # the levels kept are now another rate's: not used for these
+    q2, w2 = together.sensitivity(rates, steps)
+    assert np.array_equal(q2, alone_q)
+    assert all(np.array_equal(a, b) for a, b in zip(w2, alone_w, strict=True))

@@ -34,7 +34,8 @@ integration over time steps and over many intervals together.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
+import weakref
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
@@ -407,27 +408,36 @@ def _bit_reversal(width: int) -> np.ndarray:
     return order
 
 
-def _tree_products_halves(fs: list[np.ndarray]) -> np.ndarray:
+def _tree_products_halves(fs: list[np.ndarray], levels: list[np.ndarray] | None = None) -> np.ndarray:
     """:func:`_tree_product_soa` of each (4, W_i, m_i) stored in :func:`_bit_reversal` order along axis 1
     (widths powers of two, widest first), (4, rows of all of them) in that order.
 
     Each level multiplies the first half by the second, contiguous blocks, the
     same pairs in the same order as the interleaved reduction (the same
     numbers); the widest are reduced alone until they are as narrow as the
-    next ones, then both go on together.
+    next ones, then both go on together. ``levels``, when given, receives each
+    level's products, widest first: the pairs :func:`_prefix_products_halves`
+    forms on its way down.
     """
     out = None
     for part in fs:
         if out is not None:
             while out.shape[1] > part.shape[1]:
-                half = out.shape[1] // 2
-                out = _qmul_soa(out[:, :half], out[:, half:])
+                out = _halve(out, levels)
             part = np.concatenate([out, part], axis=2)
         out = part
     while out.shape[1] > 1:
-        half = out.shape[1] // 2
-        out = _qmul_soa(out[:, :half], out[:, half:])
+        out = _halve(out, levels)
     return out[:, 0]
+
+
+def _halve(f: np.ndarray, levels: list[np.ndarray] | None) -> np.ndarray:
+    """The products of the two halves of ``f`` along axis 1, kept in ``levels`` when given."""
+    half = f.shape[1] // 2
+    out = _qmul_soa(f[:, :half], f[:, half:])
+    if levels is not None:
+        levels.append(out)
+    return out
 
 
 def _prefix_product_soa(f: np.ndarray, carry: np.ndarray | None = None) -> np.ndarray:
@@ -453,7 +463,7 @@ def _prefix_product_soa(f: np.ndarray, carry: np.ndarray | None = None) -> np.nd
     return out
 
 
-def _prefix_products_halves(fs: list[np.ndarray]) -> list[np.ndarray]:
+def _prefix_products_halves(fs: list[np.ndarray], levels: Iterator[np.ndarray] | None = None) -> list[np.ndarray]:
     """:func:`_prefix_product_soa` of each (4, W_i, m_i) stored in :func:`_bit_reversal` order along axis 1
     (widths powers of two, widest first), returned in the same order.
 
@@ -465,7 +475,9 @@ def _prefix_products_halves(fs: list[np.ndarray]) -> list[np.ndarray]:
     the pair prefixes moved to those places by one gather. The widest are
     paired alone until they are as narrow as the next ones, then both go on
     together: every product is the one the interleaved recursion forms (the
-    same numbers), on contiguous blocks.
+    same numbers), on contiguous blocks. ``levels``: the pairs of every level,
+    widest first, when :func:`_tree_products_halves` has formed them from the
+    same factors (they are not formed again).
     """
     width = fs[0].shape[1]
     k = 1
@@ -478,7 +490,8 @@ def _prefix_products_halves(fs: list[np.ndarray]) -> list[np.ndarray]:
     else:
         half = width // 2
         even, odd = f[:, :half], f[:, half:]
-        pairs, *inner = _prefix_products_halves([_qmul_soa(even, odd), *rest])
+        pairs, *inner = _prefix_products_halves([_qmul_soa(even, odd) if levels is None else next(levels), *rest],
+                                                levels)
         out = np.empty_like(f)
         out[:, half:] = pairs
         _qmul_soa(pairs.take(_previous_pair(half), axis=1), even, out=out[:, :half])
@@ -587,6 +600,10 @@ CHUNK = 1 << 18
 #: as 2^18 at a time)
 RK4_CHUNK = 1 << 13
 
+#: the most bytes of gathered RK4 factors whose tree levels :meth:`IntervalIntegrator.from_samples` keeps for
+#: :meth:`IntervalIntegrator.sensitivity` (twice this held between them)
+LEVEL_BYTES = 1 << 25
+
 #: quaternions turned into weighted rotation matrices at a time (:func:`_weighted_rotations_soa`)
 ROTATION_CHUNK = 1 << 12
 #: samples of an interval whose weighted sum (:meth:`IntervalIntegrator.weighted_sum`) is one product; a longer
@@ -681,6 +698,10 @@ class IntervalIntegrator:
             self._att_first[members] = place + np.concatenate([[0], np.cumsum(n + 1)[:-1]])
             place += int(np.sum(n + 1))
             column += int(width) * len(members)
+        #: bytes of the groups' gathered factors (and again of their tree levels)
+        self._group_bytes = 32 * column
+        #: (the factors, weakly; their gathered columns; their tree levels) of the last from_samples()
+        self._tree_levels: tuple | None = None
         self._att_index = np.concatenate(att_index) if att_index else np.zeros(0, np.intp)
         self._att_index[self._att_index < 0] = column  # the start of each interval: the identity
         self._att_trapezoid = np.concatenate(att_trapezoid) if att_trapezoid else np.zeros(0)
@@ -772,9 +793,16 @@ class IntervalIntegrator:
         """
         s = self.step_factors(rates) if steps is None else steps
         q = np.empty((len(self.starts), 4))
+        self._tree_levels = None
         if self._groups:
             order = np.concatenate([members for members, _ in self._groups])
-            q[order] = _tree_products_halves([s.take(tree, axis=1) for _, tree in self._groups]).T
+            fs = [s.take(tree, axis=1) for _, tree in self._groups]
+            # the caller keeps these factors: their gathered columns and tree levels kept for sensitivity()'s
+            # prefix products of the same factors, when small
+            levels = [] if steps is not None and self._group_bytes <= LEVEL_BYTES else None
+            q[order] = _tree_products_halves(fs, levels).T
+            if levels is not None:
+                self._tree_levels = (weakref.ref(steps), fs, levels)
         if self._long.size:
             products = np.empty((4, self._block_step0.size))
             for a, b, gather in self._block_chunks():
@@ -815,7 +843,11 @@ class IntervalIntegrator:
         q_end = np.empty((len(self.starts), 4))
         weights = _SensitivityWeights(self)
         if self._groups:  # pre: the attitude after each step, bit-reversed (W, members) per group
-            prefixes = _prefix_products_halves([s.take(tree, axis=1) for _, tree in self._groups])
+            kept = self._tree_levels
+            if steps is not None and kept is not None and kept[0]() is steps:  # from_samples() of these factors
+                prefixes = _prefix_products_halves(kept[1], iter(kept[2]))
+            else:
+                prefixes = _prefix_products_halves([s.take(tree, axis=1) for _, tree in self._groups])
             for (members, _), pre in zip(self._groups, prefixes, strict=True):
                 q_end[members] = pre[:, -1].T  # the last place holds the last step in bit-reversed order too
             att = np.concatenate([pre.reshape(4, -1) for pre in prefixes] + [_IDENTITY[:, None]], axis=1)
