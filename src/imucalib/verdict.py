@@ -330,14 +330,18 @@ class _Poses:
         cal, order = self.calibration, 4
         g_sensitive = cal.gyroscope is not None and np.any(cal.gyroscope.g_sensitivity)
         gyros, squares, short = [], [], {}
-        for iv in group:
-            acc = None
-            if noise or g_sensitive:
-                acc = cal.accelerometer_si(self.recording.acc[iv.slice])
-            if g_sensitive:
-                gyro = cal.gyroscope.forward(self.recording.gyro[iv.slice], acc)  # gyroscope_si(gyro, raw_acc)
-            else:
-                gyro = cal.gyroscope_si(self.recording.gyro[iv.slice])
+        # the group's samples calibrated at once (each row on its own: the numbers of pose by pose)
+        rows = np.cumsum([len(iv) for iv in group])[:-1]
+        acc_all = None
+        if noise or g_sensitive:
+            acc_all = cal.accelerometer_si(np.concatenate([self.recording.acc[iv.slice] for iv in group]))
+        raw_gyro = np.concatenate([self.recording.gyro[iv.slice] for iv in group])
+        if g_sensitive:
+            gyro_all = cal.gyroscope.forward(raw_gyro, acc_all)  # gyroscope_si(gyro, raw_acc)
+        else:
+            gyro_all = cal.gyroscope_si(raw_gyro)
+        accs = np.split(acc_all, rows) if acc_all is not None else [None] * len(group)
+        for acc, gyro in zip(accs, np.split(gyro_all, rows), strict=True):
             gyros.append(gyro)
             if noise:  # both sensors side by side: each column's differences and sums are as on its own
                 both = np.concatenate((acc, gyro), axis=1)
