@@ -670,7 +670,12 @@ class IntervalIntegrator:
         self._first = np.searchsorted(self.samples, starts)
         #: position in ``steps`` of each interval's first step (its steps follow it there)
         self._step0 = np.searchsorted(steps, starts)
-        self._nstep_all = steps.size
+        #: the RK4 factors are formed for every pair of consecutive samples of ``samples`` (contiguous rates, no
+        #: gather; a pair that is no step, from one interval's end to the next one's start, is never read):
+        #: their step lengths (0 for those), and the place of each step among them
+        self._npairs = self.samples.size - 1
+        self._pair_dt = np.zeros(self._npairs)
+        self._pair_dt[self._i0] = self._dt
         # intervals grouped by their length rounded up to a power of two: each group is padded to its own
         # length (with identity steps), not to the longest interval's, so memory follows the samples integrated
         widths = 1 << np.ceil(np.log2(np.maximum(nsteps, 1))).astype(int)
@@ -728,9 +733,10 @@ class IntervalIntegrator:
         trapezoid weights of its samples (positions 0..width), for intervals starting at ``step0`` in ``steps``."""
         pos = np.arange(width)[None, :]
         valid = pos < nsteps[:, None]
-        gather = np.where(valid, step0[:, None] + pos, self._nstep_all)
+        step = np.where(valid, step0[:, None] + pos, 0)
+        gather = np.where(valid, self._i0[step], self._npairs)
         dtp = np.zeros((len(step0), width + 2))
-        dtp[:, 1:-1] = np.where(valid, self._dt[np.where(valid, gather, 0)], 0.0)
+        dtp[:, 1:-1] = np.where(valid, self._dt[step], 0.0)
         return gather, 0.5 * (dtp[:, :-1] + dtp[:, 1:])
 
     def __call__(self, rates: np.ndarray) -> np.ndarray:
@@ -738,34 +744,32 @@ class IntervalIntegrator:
         return self.from_samples(np.asarray(rates, dtype=np.float64)[self.samples])
 
     def step_factors(self, rates: np.ndarray) -> np.ndarray:
-        """RK4 factors (4, steps + 1) of every step, then an identity column for the padding.
+        """RK4 factors (4, len(samples)) of every pair of consecutive :attr:`samples` (the steps among them), then
+        an identity column for the padding.
 
         For :meth:`from_samples` and :meth:`sensitivity` (``steps``) when both integrate the same rates.
         """
         rates = np.asarray(rates, dtype=np.float64)
-        n = self._dt.size
+        n = self._npairs
         s = np.empty((4, n + 1))
         for a in range(0, n, RK4_CHUNK):  # the stages' temporaries RK4_CHUNK steps at a time
             b = min(n, a + RK4_CHUNK)
-            i0 = self._i0[a:b]  # the rates component-first, a chunk at a time (no transposed copy of them all)
-            first = int(i0[0])
-            chunk = rates[first : int(i0[-1]) + 2].T.copy()
-            i0 = i0 - first
-            s[:, a:b] = _rk4_soa(chunk.take(i0, axis=1), chunk.take(i0 + 1, axis=1), self._dt[a:b])
+            chunk = rates[a : b + 1].T.copy()  # the rates component-first, a chunk at a time
+            s[:, a:b] = _rk4_soa(chunk[:, :-1], chunk[:, 1:], self._pair_dt[a:b])
         s[:, n] = _IDENTITY
         return s
 
     def _steps_at(self, rates: np.ndarray, gather: np.ndarray) -> np.ndarray:
-        """RK4 factors (4, *gather.shape) of the steps ``gather`` (identity past the last), as :meth:`step_factors`."""
+        """RK4 factors (4, *gather.shape) of the columns ``gather`` of :meth:`step_factors` (identity past the
+        last), as it forms them."""
         flat = gather.ravel()
-        real = flat < self._dt.size
+        real = flat < self._npairs
         out = np.empty((4, flat.size))
         out[:, ~real] = _IDENTITY[:, None]
         idx = flat[real]
-        i0 = self._i0[idx]
         rates = np.asarray(rates, dtype=np.float64)
-        w0, w1 = rates.take(i0, axis=0).T.copy(), rates.take(i0 + 1, axis=0).T.copy()
-        out[:, real] = _rk4_soa(w0, w1, self._dt[idx])
+        w0, w1 = rates.take(idx, axis=0).T.copy(), rates.take(idx + 1, axis=0).T.copy()
+        out[:, real] = _rk4_soa(w0, w1, self._pair_dt[idx])
         return out.reshape((4, *gather.shape))
 
     def _block_chunks(self):
