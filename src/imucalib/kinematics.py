@@ -604,6 +604,10 @@ RK4_CHUNK = 1 << 13
 #: :meth:`IntervalIntegrator.sensitivity` (twice this held between them)
 LEVEL_BYTES = 1 << 25
 
+#: samples whose per-sample Jacobians :meth:`IntervalIntegrator.weighted_sum` asks for at once (several short
+#: intervals' together)
+SPAN = 1 << 12
+
 #: quaternions turned into weighted rotation matrices at a time (:func:`_weighted_rotations_soa`)
 ROTATION_CHUNK = 1 << 12
 #: samples of an interval whose weighted sum (:meth:`IntervalIntegrator.weighted_sum`) is one product; a longer
@@ -882,6 +886,20 @@ class IntervalIntegrator:
         """(M,) position in :attr:`samples` of each interval's first sample; its others follow it there."""
         return self._first
 
+    def _span_end(self, m: int) -> int:
+        """The end of the samples of interval ``m`` and the short intervals after it, up to :data:`SPAN` samples
+        from its first (one call of :meth:`weighted_sum`'s ``values``)."""
+        p0 = int(self._first[m])
+        end = p0 + int(self._nsteps[m]) + 1
+        k = m + 1
+        while k < len(self._first) and self._first[k] >= p0:
+            stop = int(self._first[k] + self._nsteps[k]) + 1
+            if self._nsteps[k] + 1 > SUM_BLOCK or stop - p0 > SPAN:
+                break
+            end = max(end, stop)
+            k += 1
+        return end
+
     def weighted_sum(self, weights: _SensitivityWeights,
                      values: np.ndarray | Callable[[int, int], np.ndarray]) -> np.ndarray:
         """``Σ_j A_j v_j`` over each interval's samples: (M, 3, P) from the weights of :meth:`sensitivity`.
@@ -900,14 +918,19 @@ class IntervalIntegrator:
         """
         get = values if callable(values) else (lambda a, b: values[a:b])
         out = None
+        span = (0, 0, None)  # samples [a, b) of the values last asked for, and those values
         for m, (p0, n) in enumerate(zip(self._first, self._nsteps + 1, strict=True)):
             if n <= SUM_BLOCK:
                 a = weights[m][:n].transpose(1, 0, 2).reshape(3, 3 * n)  # [A_0 A_1 …]
-                v = get(p0, p0 + n)
+                if not (span[0] <= p0 and p0 + n <= span[1]):  # the values of this and the next short intervals
+                    span = (p0, self._span_end(m), None)
+                    span = (*span[:2], get(*span[:2]))
+                v = span[2][p0 - span[0] : p0 - span[0] + n]
                 if out is None:
                     out = np.empty((len(self.starts), 3, v.shape[2]))
                 out[m] = a @ v.reshape(3 * n, -1)
                 continue
+            span = (0, 0, None)  # the values are asked for again: the buffer they lie in is reused
             for j in range(0, n, SUM_BLOCK):
                 k = min(n, j + SUM_BLOCK)
                 a = weights.block(m, j, k).transpose(1, 0, 2).reshape(3, 3 * (k - j))
