@@ -297,7 +297,14 @@ def _cross_into(u: np.ndarray, v: np.ndarray, out: np.ndarray, t: np.ndarray) ->
     return out
 
 
-def _rk4_soa(w0: np.ndarray, w1: np.ndarray, h: np.ndarray | float) -> np.ndarray:
+def _rk4_constants(h: np.ndarray | float) -> tuple:
+    """The factors of :func:`_rk4_soa` that depend on the step lengths only: ``−h/2``, ``h/2``, ``h²/4``,
+    ``h²/2``, ``h/6`` (formed as it forms them; an integrator keeps them for its steps)."""
+    hh = np.multiply(h, h)
+    return np.multiply(-0.5, h), np.multiply(0.5, h), 0.25 * hh, 0.5 * hh, np.divide(h, 6.0)
+
+
+def _rk4_soa(w0: np.ndarray, w1: np.ndarray, h: np.ndarray | float, constants: tuple | None = None) -> np.ndarray:
     """RK4 step factors for rates stored component-first (3, n) → (4, n).
 
     The stages of the module docstring expanded with the pure-quaternion product
@@ -312,7 +319,8 @@ def _rk4_soa(w0: np.ndarray, w1: np.ndarray, h: np.ndarray | float) -> np.ndarra
     Each term is formed as written, left to right (``−h/2 A·B`` is ``(−0.5 h)(A·B)``,
     the sums ``(K1 + 2K2) + 2K3 + K4``), in a few reused buffers: the
     integrators call this on every cost evaluation, where fresh temporaries cost
-    as much as the arithmetic.
+    as much as the arithmetic. ``constants``: :func:`_rk4_constants` of ``h``
+    when formed already.
     """
     if np.ndim(w0) == 1:  # one step: as a sequence of one (the buffers need arrays)
         return _rk4_soa(np.reshape(w0, (3, 1)), np.reshape(w1, (3, 1)), np.reshape(h, (-1,)))[:, 0]
@@ -326,13 +334,11 @@ def _rk4_soa(w0: np.ndarray, w1: np.ndarray, h: np.ndarray | float) -> np.ndarra
     bb = np.einsum("i...,i...->...", b, b)
     t = np.empty(shape)
     axb = _cross_into(a, b, np.empty((3, *shape)), t)
-    hh = mul(h, h)
-    k2s = mul(-0.5, h)
-    k3s = k2s * bb  # −h/2 B·B
-    k2s *= ab  # −h/2 A·B
-    k2v = mul(0.5, h) * axb
+    minus_half, half, quarter, half_hh, sixth = _rk4_constants(h) if constants is None else constants
+    k3s = mul(minus_half, bb)  # −h/2 B·B
+    k2s = mul(minus_half, ab)  # −h/2 A·B
+    k2v = mul(half, axb)
     k2v += b
-    quarter = 0.25 * hh
     k3v = mul(quarter, ab)
     np.subtract(1.0, k3v, out=k3v)
     k3v = k3v * b
@@ -342,12 +348,10 @@ def _rk4_soa(w0: np.ndarray, w1: np.ndarray, h: np.ndarray | float) -> np.ndarra
     v = mul(h, k3v)
     k4s = np.einsum("i...,i...->...", v, c)
     np.negative(k4s, out=k4s)
-    k4v = 0.5 * hh
-    k4v = k4v * bb
+    k4v = mul(half_hh, bb)
     np.subtract(1.0, k4v, out=k4v)
     k4v = k4v * c
     k4v += _cross_into(v, c, cross, t)
-    sixth = np.divide(h, 6.0)
     out = np.empty((4, *shape))
     k2s *= 2.0
     k2s += mul(2.0, k3s, out=k3s)
@@ -608,6 +612,9 @@ LEVEL_BYTES = 1 << 25
 #: intervals' together)
 SPAN = 1 << 12
 
+#: the most steps whose RK4 step-length factors an integrator keeps (five numbers a step)
+RK4_CONSTANT_STEPS = 1 << 20
+
 #: quaternions turned into weighted rotation matrices at a time (:func:`_weighted_rotations_soa`)
 ROTATION_CHUNK = 1 << 12
 #: samples of an interval whose weighted sum (:meth:`IntervalIntegrator.weighted_sum`) is one product; a longer
@@ -680,6 +687,8 @@ class IntervalIntegrator:
         self._npairs = self.samples.size - 1
         self._pair_dt = np.zeros(self._npairs)
         self._pair_dt[self._i0] = self._dt
+        #: the RK4 factors of the step lengths (:func:`_rk4_constants`), formed once when they are few
+        self._rk4_constants = _rk4_constants(self._pair_dt) if self._npairs <= RK4_CONSTANT_STEPS else None
         # intervals grouped by their length rounded up to a power of two: each group is padded to its own
         # length (with identity steps), not to the longest interval's, so memory follows the samples integrated
         widths = 1 << np.ceil(np.log2(np.maximum(nsteps, 1))).astype(int)
@@ -759,7 +768,8 @@ class IntervalIntegrator:
         for a in range(0, n, RK4_CHUNK):  # the stages' temporaries RK4_CHUNK steps at a time
             b = min(n, a + RK4_CHUNK)
             chunk = rates[a : b + 1].T.copy()  # the rates component-first, a chunk at a time
-            s[:, a:b] = _rk4_soa(chunk[:, :-1], chunk[:, 1:], self._pair_dt[a:b])
+            constants = None if self._rk4_constants is None else [c[a:b] for c in self._rk4_constants]
+            s[:, a:b] = _rk4_soa(chunk[:, :-1], chunk[:, 1:], self._pair_dt[a:b], constants)
         s[:, n] = _IDENTITY
         return s
 
