@@ -202,16 +202,21 @@ class Recording:
 
     @property
     def rate(self) -> float:
-        """Median sampling rate [Hz] (computed once per time array: the median of a long recording's steps
+        """Median sampling rate [Hz], ``1 /`` :attr:`step`."""
+        return float(1.0 / self.step)
+
+    @property
+    def step(self) -> float:
+        """Median sampling interval [s] (computed once per time array: the median of a long recording's steps
         costs two copies of it)."""
         if len(self) < 2:
             raise ValueError("the sampling rate needs at least two samples")
-        cached = self.__dict__.get("_rate")
+        cached = self.__dict__.get("_step")
         if cached is not None and cached[0] is self.t:
             return cached[1]
-        rate = float(1.0 / np.median(np.diff(self.t)))
-        self.__dict__["_rate"] = (self.t, rate)
-        return rate
+        step = float(np.median(np.diff(self.t)))
+        self.__dict__["_step"] = (self.t, step)
+        return step
 
     def __getitem__(self, index: slice | Interval) -> Recording:
         """Samples ``index`` (a slice or an :class:`Interval`) as a new Recording."""

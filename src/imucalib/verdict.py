@@ -250,7 +250,7 @@ def _predicted_direction_error(found: _Poses, rest: Interval | None) -> np.ndarr
     starts, stops = transition_bounds(intervals)
     t = recording.t
     dur = t[stops] - t[starts]
-    dt = float(np.median(np.diff(t)))
+    dt = recording.step
     n = np.array([len(iv) for iv in intervals], dtype=float)
     g = calibration.gravity
     v = s_g2 * dur * dt + s_b2 * dur**2 + s_a2 / g**2 * (1 / n[:-1] + 1 / n[1:])
