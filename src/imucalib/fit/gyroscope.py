@@ -64,7 +64,7 @@ def _gyro_scale_guess(
     phi_vec = np.zeros((len(starts), 3))
     path = np.zeros(len(starts))
     for i, (a, b) in enumerate(zip(starts, stops, strict=True)):
-        v = gyro[a:b] - bias
+        v = rowwise(np.subtract, gyro[a:b], bias)
         dt = t[a + 1:b + 1] - t[a:b]
         phi_vec[i] = dt @ v
         path[i] = dt @ np.sqrt(np.einsum("ij,ij->i", v, v))
@@ -686,15 +686,15 @@ def _g_rate_jacobian(m: np.ndarray, force: np.ndarray):
     """``∂ω/∂G_ij = −M e_i a_j`` (``G`` row-major) of the samples ``a … b − 1`` as a block function (as
     :func:`~imucalib.residuals.linear_rate_jacobian`), ``a`` the calibrated specific force ``force`` (S, 3)."""
     buf = np.zeros((0, 3, 9))
-    minus_m = -m[None, :, :, None]  # (1, r, i, 1)
+    minus_m = np.repeat(-m.ravel(), 3)  # at 9r + 3i + j: −M_ri
 
     def block(a: int, b: int) -> np.ndarray:
         nonlocal buf
         if b - a > buf.shape[0]:
             buf = np.empty((b - a, 3, 9))
         out = buf[: b - a]
-        # entry (k, r, 3i + j) = −M_ri a_kj: every entry written, in one pass over the block
-        np.multiply(minus_m, force[a:b, None, None, :], out=out.reshape(b - a, 3, 3, 3))
+        # entry (k, r, 3i + j) = a_kj (−M_ri): every entry written, a sample's 27 in one row-wise pass
+        rowwise(np.multiply, np.tile(force[a:b], (1, 9)), minus_m, out=out.reshape(b - a, 27))
         return out
 
     return block
