@@ -612,8 +612,9 @@ LEVEL_BYTES = 1 << 25
 #: intervals' together)
 SPAN = 1 << 12
 
-#: the most steps whose RK4 step-length factors an integrator keeps (five numbers a step)
-RK4_CONSTANT_STEPS = 1 << 20
+#: the most steps whose RK4 step-length factors an integrator keeps (five numbers a step: memory that would
+#: otherwise follow the length of the recording)
+RK4_CONSTANT_STEPS = 1 << 16
 
 #: quaternions turned into weighted rotation matrices at a time (:func:`_weighted_rotations_soa`)
 ROTATION_CHUNK = 1 << 12

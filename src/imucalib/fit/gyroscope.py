@@ -682,6 +682,10 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     return fun, jac, dirs, size
 
 
+#: samples whose specific force :func:`_g_rate_jacobian` tiles at once
+TILE_ROWS = 1 << 12
+
+
 def _g_rate_jacobian(m: np.ndarray, force: np.ndarray):
     """``∂ω/∂G_ij = −M e_i a_j`` (``G`` row-major) of the samples ``a … b − 1`` as a block function (as
     :func:`~imucalib.residuals.linear_rate_jacobian`), ``a`` the calibrated specific force ``force`` (S, 3)."""
@@ -693,8 +697,12 @@ def _g_rate_jacobian(m: np.ndarray, force: np.ndarray):
         if b - a > buf.shape[0]:
             buf = np.empty((b - a, 3, 9))
         out = buf[: b - a]
-        # entry (k, r, 3i + j) = a_kj (−M_ri): every entry written, a sample's 27 in one row-wise pass
-        rowwise(np.multiply, np.tile(force[a:b], (1, 9)), minus_m, out=out.reshape(b - a, 27))
+        # entry (k, r, 3i + j) = a_kj (−M_ri): every entry written, a sample's 27 in one row-wise pass over the
+        # force tiled nine times (TILE_ROWS samples at a time: the tiled copy stays small)
+        flat = out.reshape(b - a, 27)
+        for c in range(a, b, TILE_ROWS):
+            d = min(b, c + TILE_ROWS)
+            rowwise(np.multiply, np.tile(force[c:d], (1, 9)), minus_m, out=flat[c - a : d - a])
         return out
 
     return block
