@@ -606,7 +606,7 @@ RK4_CHUNK = 1 << 13
 
 #: the most bytes of gathered RK4 factors whose tree levels :meth:`IntervalIntegrator.from_samples` keeps for
 #: :meth:`IntervalIntegrator.sensitivity` (twice this held between them)
-LEVEL_BYTES = 1 << 25
+LEVEL_BYTES = 1 << 22
 
 #: samples whose per-sample Jacobians :meth:`IntervalIntegrator.weighted_sum` asks for at once (several short
 #: intervals' together)
@@ -675,7 +675,7 @@ class IntervalIntegrator:
         self._i0 = np.cumsum(used, dtype=np.int32 if used.size < 2**31 else np.intp)[steps]
         self._i0 -= 1
         del used
-        self._dt = t[steps + 1] - t[steps]
+        dt = t[steps + 1] - t[steps]  # each step's length
         self.starts, self.stops = starts, stops
         self._nsteps = nsteps
         #: position in ``samples`` of each interval's first sample (its samples follow it there)
@@ -687,7 +687,8 @@ class IntervalIntegrator:
         #: their step lengths (0 for those), and the place of each step among them
         self._npairs = self.samples.size - 1
         self._pair_dt = np.zeros(self._npairs)
-        self._pair_dt[self._i0] = self._dt
+        self._pair_dt[self._i0] = dt
+        del dt
         #: the RK4 factors of the step lengths (:func:`_rk4_constants`), formed once when they are few
         self._rk4_constants = _rk4_constants(self._pair_dt) if self._npairs <= RK4_CONSTANT_STEPS else None
         # intervals grouped by their length rounded up to a power of two: each group is padded to its own
@@ -750,7 +751,7 @@ class IntervalIntegrator:
         step = np.where(valid, step0[:, None] + pos, 0)
         gather = np.where(valid, self._i0[step], self._npairs)
         dtp = np.zeros((len(step0), width + 2))
-        dtp[:, 1:-1] = np.where(valid, self._dt[step], 0.0)
+        dtp[:, 1:-1] = np.where(valid, self._pair_dt[self._i0[step]], 0.0)
         return gather, 0.5 * (dtp[:, :-1] + dtp[:, 1:])
 
     def __call__(self, rates: np.ndarray) -> np.ndarray:
@@ -889,7 +890,7 @@ class IntervalIntegrator:
 
     def _trapezoid(self, k: int) -> np.ndarray:
         """Trapezoid weights (n + 1,) of the samples of interval ``k``."""
-        dt = self._dt[self._step0[k] : self._step0[k] + self._nsteps[k]]
+        dt = self._pair_dt[self._first[k] : self._first[k] + self._nsteps[k]]  # its steps: consecutive pairs
         return 0.5 * (np.concatenate([[0.0], dt]) + np.concatenate([dt, [0.0]]))
 
     @property

@@ -633,7 +633,6 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     g_sens = static.g_sensitivity
     raw = tr.readings(accelerometer, g_sens)
     tau = recording.t[integrator.samples] - static.t_ref
-    tau3 = np.repeat(tau, 3).reshape(-1, 3)  # each sample's τ for each axis: τ d by long row-wise loops
     with_d = static.drift is not None
     size = 15 if with_d else 12
     w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
@@ -650,7 +649,9 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     def readings_at(th):  # u − G a − b − d τ
         _, b, dr = split(th)
         v = rowwise(np.subtract, raw, b)
-        v -= rowwise(np.multiply, tau3, dr)  # in place: one temporary of the samples' size fewer
+        for a in range(0, len(v), READ_CHUNK):  # τ d: each sample's τ repeated for the three axes, a chunk at a time
+            part = v[a : a + READ_CHUNK]
+            part -= rowwise(np.multiply, np.repeat(tau[a : a + READ_CHUNK], 3).reshape(-1, 3), dr)
         return v
 
     def fun(th):
