@@ -92,7 +92,7 @@ def levenberg_marquardt(
     """
     x = np.array(x0, dtype=np.float64)
     r = np.asarray(fun(x), dtype=np.float64)
-    if not np.all(np.isfinite(r)):
+    if not np.isfinite(r).all():
         raise ValueError("Residuals are not finite in the initial point.")
     cost = 0.5 * float(r @ r)
     nfev, njev = 1, 0
@@ -106,23 +106,23 @@ def levenberg_marquardt(
             njev += 1
             a = j.T @ j
             g = j.T @ r
-            d2 = np.maximum(np.diag(a).copy(), np.finfo(float).tiny)
+            d2 = np.maximum(a.diagonal().copy(), _TINY)
             dinv = 1.0 / np.sqrt(d2)
-            if np.max(np.abs(g) * dinv) <= gtol * max(np.sqrt(2 * cost), np.finfo(float).tiny):
+            if (np.abs(g) * dinv).max() <= gtol * max(np.sqrt(2 * cost), _TINY):
                 # |Jᵢᵀr| / (‖Jᵢ‖‖r‖): the residual is orthogonal to the Jacobian
                 status, message = 1, "the gradient is zero to tolerance"
                 break
             if lam is None:
                 lam = lambda0
-        # scaled system: (Â + λ I) δ̂ = −ĝ with Â = D⁻¹ A D⁻¹
-        a_s = a * dinv[:, None] * dinv[None, :]
-        g_s = g * dinv
+            # scaled system: (Â + λ I) δ̂ = −ĝ with Â = D⁻¹ A D⁻¹ (the same until the next Jacobian)
+            a_s = a * dinv[:, None] * dinv[None, :]
+            g_s = g * dinv
         step_s = _solve_damped(a_s, g_s, lam)
         step = step_s * dinv
         x_new = x + step
         r_new = np.asarray(fun(x_new), dtype=np.float64)
         nfev += 1
-        cost_new = 0.5 * float(r_new @ r_new) if np.all(np.isfinite(r_new)) else np.inf
+        cost_new = 0.5 * float(r_new @ r_new) if np.isfinite(r_new).all() else np.inf
         predicted = -(g_s @ step_s) - 0.5 * step_s @ (a_s @ step_s)
         rho = (cost - cost_new) / predicted if predicted > 0 else -1.0
         if rho > 0:
@@ -135,10 +135,10 @@ def levenberg_marquardt(
             j = None
             lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
             nu = 2.0
-            if reduction <= ftol * max(cost + reduction, np.finfo(float).tiny):
+            if reduction <= ftol * max(cost + reduction, _TINY):
                 status, message = 2, "the relative cost reduction is below ftol"
                 break
-            if np.linalg.norm(step_s) <= xtol * (np.linalg.norm(x / dinv) + xtol):
+            if _norm(step_s) <= xtol * (_norm(x / dinv) + xtol):
                 status, message = 3, "the relative step is below xtol"
                 break
         else:
@@ -154,12 +154,48 @@ def levenberg_marquardt(
                     message=message)
 
 
+#: the smallest positive normal double (``np.finfo(float).tiny``)
+_TINY = np.finfo(float).tiny
+
+try:  # the gufuncs behind np.linalg.cholesky and np.linalg.solve, called without their wrappers
+    from numpy.linalg import _umath_linalg
+    _CHOLESKY, _SOLVE = _umath_linalg.cholesky_lo, _umath_linalg.solve1
+except (ImportError, AttributeError):  # pragma: no cover - a numpy without them: the public functions
+    _CHOLESKY = _SOLVE = None
+
+
+def _norm(v: np.ndarray) -> float:
+    """``np.linalg.norm`` of a 1-D float64 array: the same ``sqrt(v·v)`` numpy forms for it."""
+    return np.sqrt(v.dot(v))
+
+
+@functools.lru_cache(maxsize=16)
+def _eye(n: int) -> np.ndarray:
+    eye = np.eye(n)
+    eye.flags.writeable = False
+    return eye
+
+
+def _linalg_error(kind: str, flag: int) -> None:
+    raise np.linalg.LinAlgError("the damped normal matrix is not positive definite, or singular")
+
+
 def _solve_damped(a: np.ndarray, g: np.ndarray, lam: float) -> np.ndarray:
-    m = a + lam * np.eye(a.shape[0])
+    """``(A + λI) δ = −g`` by Cholesky, ``A + λI = C Cᵀ``: ``δ = C⁻ᵀ (C⁻¹ (−g))``; least squares where it fails.
+
+    The triangular systems are solved by LAPACK's general solver, as ``np.linalg.solve`` does; the gufuncs
+    behind ``np.linalg.cholesky`` and ``np.linalg.solve`` are called directly (the same routines on the same
+    arrays, under the error state those functions set), which saves their wrappers' overhead.
+    """
+    m = a + lam * _eye(a.shape[0])
     try:
-        c = np.linalg.cholesky(m)
-        y = np.linalg.solve(c, -g)
-        return np.linalg.solve(c.T, y)
+        if _CHOLESKY is None:  # pragma: no cover
+            c = np.linalg.cholesky(m)
+            return np.linalg.solve(c.T, np.linalg.solve(c, -g))
+        with np.errstate(call=_linalg_error, invalid="call", over="ignore", divide="ignore", under="ignore"):
+            c = _CHOLESKY(m, signature="d->d")
+            y = _SOLVE(c, -g, signature="dd->d")
+            return _SOLVE(c.T, y, signature="dd->d")
     except np.linalg.LinAlgError:
         return np.linalg.lstsq(m, -g, rcond=None)[0]
 
