@@ -161,7 +161,7 @@ def _gravity_norm_jacobian(terms: tuple, layout: AccelLayout, squared: bool) -> 
     n_t = rows.size
     # d r / d a: 2a (squared) or a/‖a‖
     da = 2.0 * a if squared else a / norm[:, None]
-    jac = np.empty((a.shape[0], layout.size))
+    jac = np.empty((a.shape[0], n_t + 3 * len(powers) + 3))  # (M, layout.size)
     np.multiply(da[:, rows], f[:, cols], out=jac[:, :n_t])  # ∂a/∂T_ij = e_i f_j
     nt = da @ t  # (M, 3): (dr/da)·T[:, j] for each column j
     col = n_t
@@ -201,10 +201,10 @@ class GravityNorm:
         self._terms: tuple = ()
 
     def _evaluate(self, theta: np.ndarray) -> tuple:
-        theta = np.array(theta, dtype=np.float64)  # a copy: the terms hold views of it
+        theta = np.asarray(theta, dtype=np.float64)
         key = theta.tobytes()
-        if key != self._key:
-            self._terms = _gravity_norm_terms(theta, self.layout, self.raw_means, self.gravity, self.squared)
+        if key != self._key:  # on a copy: the terms hold views of it
+            self._terms = _gravity_norm_terms(theta.copy(), self.layout, self.raw_means, self.gravity, self.squared)
             self._key = key
         return self._terms
 

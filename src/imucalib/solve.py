@@ -12,14 +12,15 @@ evaluated only at accepted points.
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["LMResult", "ScaledInverse", "errors_from_covariance", "levenberg_marquardt", "scaled_inverse",
-           "standard_errors"]
+__all__ = ["LMResult", "ScaledInverse", "cholesky", "errors_from_covariance", "levenberg_marquardt", "lstsq",
+           "scaled_inverse", "solve", "standard_errors"]
 
 
 @dataclass
@@ -92,9 +93,11 @@ def levenberg_marquardt(
     """
     x = np.array(x0, dtype=np.float64)
     r = np.asarray(fun(x), dtype=np.float64)
-    if not np.isfinite(r).all():
-        raise ValueError("Residuals are not finite in the initial point.")
-    cost = 0.5 * float(r @ r)
+    rr = float(r @ r)  # not finite where any residual is not
+    if not rr < math.inf:
+        if not np.isfinite(r).all():
+            raise ValueError("Residuals are not finite in the initial point.")
+    cost = 0.5 * rr
     nfev, njev = 1, 0
     lam = None
     nu = 2.0
@@ -106,9 +109,9 @@ def levenberg_marquardt(
             njev += 1
             a = j.T @ j
             g = j.T @ r
-            d2 = np.maximum(a.diagonal().copy(), _TINY)
+            d2 = np.maximum(a.diagonal(), _TINY)
             dinv = 1.0 / np.sqrt(d2)
-            if (np.abs(g) * dinv).max() <= gtol * max(np.sqrt(2 * cost), _TINY):
+            if _MAX(np.abs(g) * dinv, axis=None) <= gtol * max(math.sqrt(2 * cost), _TINY):
                 # |Jᵢᵀr| / (‖Jᵢ‖‖r‖): the residual is orthogonal to the Jacobian
                 status, message = 1, "the gradient is zero to tolerance"
                 break
@@ -122,7 +125,8 @@ def levenberg_marquardt(
         x_new = x + step
         r_new = np.asarray(fun(x_new), dtype=np.float64)
         nfev += 1
-        cost_new = 0.5 * float(r_new @ r_new) if np.isfinite(r_new).all() else np.inf
+        rr = float(r_new @ r_new)  # not finite where any residual is not
+        cost_new = 0.5 * rr if rr < math.inf else math.inf
         predicted = -(g_s @ step_s) - 0.5 * step_s @ (a_s @ step_s)
         rho = (cost - cost_new) / predicted if predicted > 0 else -1.0
         if rho > 0:
@@ -162,6 +166,31 @@ try:  # the gufuncs behind np.linalg.cholesky and np.linalg.solve, called withou
     _CHOLESKY, _SOLVE = _umath_linalg.cholesky_lo, _umath_linalg.solve1
 except (ImportError, AttributeError):  # pragma: no cover - a numpy without them: the public functions
     _CHOLESKY = _SOLVE = None
+try:
+    _LSTSQ = _umath_linalg.lstsq
+except (NameError, AttributeError):  # pragma: no cover - numpy < 2 names it otherwise
+    _LSTSQ = None
+_EPS = np.finfo(float).eps
+_MAX = np.maximum.reduce
+
+
+def _lstsq_error(kind: str, flag: int) -> None:
+    raise np.linalg.LinAlgError("SVD did not converge in Linear Least Squares")
+
+
+def lstsq(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.linalg.lstsq(a, b, rcond=None)[0]`` for a float64 ``a`` (M, N), M ≥ 1, and ``b`` (M,).
+
+    The same LAPACK driver (``gelsd``) on the same arrays with the same
+    ``rcond`` (``eps · max(M, N)``), called through numpy's gufunc without the
+    wrapper's overhead; ``LinAlgError`` where the SVD does not converge.
+    """
+    m, n = a.shape
+    if _LSTSQ is None or m == 0:  # pragma: no cover
+        return np.linalg.lstsq(a, b, rcond=None)[0]
+    with np.errstate(call=_lstsq_error, invalid="call", over="ignore", divide="ignore", under="ignore"):
+        x = _LSTSQ(a, b[:, None], _EPS * max(n, m), signature="ddd->ddid")[0]
+    return x[:, 0].copy()
 
 
 def _norm(v: np.ndarray) -> float:
@@ -177,7 +206,25 @@ def _eye(n: int) -> np.ndarray:
 
 
 def _linalg_error(kind: str, flag: int) -> None:
-    raise np.linalg.LinAlgError("the damped normal matrix is not positive definite, or singular")
+    raise np.linalg.LinAlgError("the matrix is not positive definite, or singular")
+
+
+def cholesky(m: np.ndarray) -> np.ndarray:
+    """``np.linalg.cholesky(m)`` of a float64 (P, P) ``m``: its gufunc called directly, ``LinAlgError`` where
+    ``m`` is not positive definite."""
+    if _CHOLESKY is None:  # pragma: no cover
+        return np.linalg.cholesky(m)
+    with np.errstate(call=_linalg_error, invalid="call", over="ignore", divide="ignore", under="ignore"):
+        return _CHOLESKY(m, signature="d->d")
+
+
+def solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.linalg.solve(a, b)`` of a float64 (P, P) ``a`` and a (P,) ``b`` (LAPACK ``gesv``): its gufunc called
+    directly, ``LinAlgError`` where ``a`` is singular."""
+    if _SOLVE is None:  # pragma: no cover
+        return np.linalg.solve(a, b)
+    with np.errstate(call=_linalg_error, invalid="call", over="ignore", divide="ignore", under="ignore"):
+        return _SOLVE(a, b, signature="dd->d")
 
 
 def _solve_damped(a: np.ndarray, g: np.ndarray, lam: float) -> np.ndarray:

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..models import TriadModel
 from ..residuals import AccelLayout, GravityNorm, gravity_norm_residuals
-from ..solve import errors_from_covariance, levenberg_marquardt, scaled_inverse
+from ..solve import cholesky, errors_from_covariance, levenberg_marquardt, lstsq, scaled_inverse, solve
 
 __all__ = ["REDUCED_MODELS", "GravityNormFit", "accelerometer_covariance", "accelerometer_errors",
            "accelerometer_figures", "determined_figures", "faces_full", "fit_determined", "fit_ellipsoid",
@@ -42,7 +42,7 @@ def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:
     s = np.abs(raw - mu).max() or 1.0
     z = (raw - mu) / s
     design = np.column_stack([2 * z, np.ones(len(z))])
-    sol, *_ = np.linalg.lstsq(design, np.sum(z * z, axis=1), rcond=None)
+    sol = lstsq(design, np.sum(z * z, axis=1))
     c = sol[:3]
     rho2 = sol[3] + c @ c
     if not rho2 > 0:
@@ -86,9 +86,9 @@ def _ellipsoid(raw: np.ndarray, gravity: float) -> tuple[np.ndarray, np.ndarray,
             f"an ellipsoid fit needs at least 9 static poses in different directions; "
             f"got {raw.shape[0]}"
         )
-    mu = raw.mean(axis=0)
+    mu = np.add.reduce(raw, axis=0) / raw.shape[0]  # raw.mean(axis=0), as numpy forms it
     d = raw - mu
-    s = np.abs(d).max() or 1.0
+    s = np.maximum.reduce(np.abs(d), axis=None) or 1.0  # np.abs(d).max()
     z = d / s  # conditioning: centred, unit range
     x, y, w = z[:, 0], z[:, 1], z[:, 2]
     # the design (x², y², w², 2xy, 2xw, 2yw, 2x, 2y, 2w), a column to a row
@@ -101,17 +101,17 @@ def _ellipsoid(raw: np.ndarray, gravity: float) -> tuple[np.ndarray, np.ndarray,
     np.multiply(x2, y, out=design[3])
     np.multiply(x2, w, out=design[4])
     np.multiply(y2, w, out=design[5])
-    p, *_ = np.linalg.lstsq(design.T, np.ones(len(z)), rcond=None)
+    p = lstsq(design.T, np.ones(len(z)))
     a = np.array([[p[0], p[3], p[4]], [p[3], p[1], p[5]], [p[4], p[5], p[2]]])
     v = p[6:9]
     try:
-        c = -np.linalg.solve(a, v)
+        c = -solve(a, v)
     except np.linalg.LinAlgError:
         raise ValueError("the static poses do not determine an ellipsoid (singular quadric)") from None
     kappa = 1.0 + c @ a @ c
     q = a * (gravity**2 / kappa) / s**2  # (u − b)ᵀ Q (u − b) = g² in raw units
     try:
-        lower = np.linalg.cholesky(q)
+        lower = cholesky(q)
     except np.linalg.LinAlgError:
         raise ValueError(
             "the static poses do not determine an ellipsoid (the fitted quadric is not "
@@ -119,16 +119,19 @@ def _ellipsoid(raw: np.ndarray, gravity: float) -> tuple[np.ndarray, np.ndarray,
         ) from None
     tk = lower.T  # upper triangular, (T K)ᵀ (T K) = Q
     k = tk.diagonal().copy()
-    t = np.eye(3)  # the strict upper triangle of T K / k (each + 0.0, as np.triu(·, 1) + I forms it), unit diagonal
+    t = _EYE3.copy()  # the strict upper triangle of T K / k (each + 0.0, as np.triu(·, 1) + I forms it), unit diagonal
     t[_UPPER] += (tk / k[None, :])[_UPPER]
     bias = mu + s * c
-    if not (np.isfinite(t).all() and np.isfinite(k).all() and np.isfinite(bias).all()):
+    if not (_ALL(np.isfinite(t), axis=None) and _ALL(np.isfinite(k)) and _ALL(np.isfinite(bias))):
         raise ValueError("the static poses do not determine an ellipsoid (not finite)")
     return t, k, bias
 
 
 #: the strict upper triangle of a 3 × 3 matrix
 _UPPER = (np.array([0, 0, 1]), np.array([1, 2, 2]))
+_EYE3 = np.eye(3)
+_EYE3.flags.writeable = False
+_ALL = np.logical_and.reduce
 
 
 @dataclass(frozen=True)
@@ -255,9 +258,9 @@ def fit_determined(raw_means: np.ndarray, gravity: float, *, weights: np.ndarray
         def jac(phi, expand=expand):
             return w[:, None] * problem.jacobian(expand @ phi) @ expand
 
-        phi0 = np.linalg.lstsq(expand, layout.pack(start), rcond=None)[0]  # the sphere's: T = I, one scale
+        phi0 = lstsq(expand, layout.pack(start))  # the sphere's: T = I, one scale
         sol = levenberg_marquardt(fun, jac, phi0, xtol=1e-14, ftol=1e-14)
-        j = jac(sol.x)
+        j = sol.jac  # jac(sol.x), formed in the iterations or now
         norms = np.linalg.norm(j, axis=0)
         if np.any(norms == 0) or not np.all(np.isfinite(j)):
             continue
