@@ -8,6 +8,7 @@ its Jacobian. Names of the parameters are those of the calibration file
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,12 +18,27 @@ from .models import AXES, TriadModel, misalignment_entries
 
 __all__ = [
     "AccelLayout",
+    "GravityNorm",
     "gravity_norm_residuals",
     "GyroLayout",
     "gravity_direction_residuals",
     "gravity_direction_residuals_jac",
     "linear_rate_jacobian",
 ]
+
+
+@functools.cache
+def _entry_index(shape: str) -> tuple[np.ndarray, np.ndarray]:
+    entries = misalignment_entries(shape)
+    rows = np.array([i for i, _ in entries], dtype=np.intp)
+    cols = np.array([j for _, j in entries], dtype=np.intp)
+    rows.flags.writeable = cols.flags.writeable = False
+    return rows, cols
+
+
+#: the 3 × 3 identity, copied where a misalignment is formed
+_EYE3 = np.eye(3)
+_EYE3.flags.writeable = False
 
 
 @dataclass(frozen=True)
@@ -47,6 +63,11 @@ class AccelLayout:
     def size(self) -> int:
         return len(self.entries) + 3 * self.order + 3
 
+    @property
+    def index(self) -> tuple[np.ndarray, np.ndarray]:
+        """The rows and columns of :attr:`entries`, as index arrays."""
+        return _entry_index(self.shape)
+
     def names(self, prefix: str = "accelerometer") -> list[str]:
         out = [f"{prefix}.misalignment.{AXES[i]}{AXES[j]}" for i, j in self.entries]
         for key in ("scale", "scale_quadratic", "scale_cubic")[: self.order]:
@@ -61,13 +82,11 @@ class AccelLayout:
 
     def unpack(self, theta: np.ndarray, base: TriadModel | None = None) -> TriadModel:
         n_t = len(self.entries)
-        t = np.eye(3)
-        for (i, j), v in zip(self.entries, theta[:n_t], strict=True):
-            t[i, j] = v
+        t = _EYE3.copy()
+        t[self.index] = theta[:n_t]
         k = theta[n_t : n_t + 3 * self.order].reshape(self.order, 3)
         zeros = np.zeros(3)
-        base = base or TriadModel(shape=self.shape)
-        return base.with_(
+        fields = dict(
             misalignment=t,
             shape=self.shape,
             scale=k[0],
@@ -75,6 +94,7 @@ class AccelLayout:
             scale_cubic=k[2] if self.order >= 3 else zeros,
             bias=theta[-3:],
         )
+        return TriadModel(**fields) if base is None else base.with_(**fields)
 
 
 def gravity_norm_residuals(
@@ -102,36 +122,99 @@ def gravity_norm_residuals(
         ``g`` [m/s²].
     jacobian : bool
         Also return the (M, P) Jacobian.
+
+    See Also
+    --------
+    GravityNorm : the same residuals and Jacobian of fixed poses, for a solver.
     """
-    n_t = len(layout.entries)
-    t = np.eye(3)
-    for (i, j), v in zip(layout.entries, theta[:n_t], strict=True):
-        t[i, j] = v
+    terms = _gravity_norm_terms(theta, layout, raw_means, gravity, squared)
+    if not jacobian:
+        return terms[0]
+    return terms[0], _gravity_norm_jacobian(terms, layout, squared)
+
+
+def _gravity_norm_terms(theta, layout: AccelLayout, raw_means, gravity: float, squared: bool) -> tuple:
+    """``r`` of :func:`gravity_norm_residuals` and the terms of its Jacobian: ``(r, a, f, T, k, powers, ‖a‖)``."""
+    rows, cols = layout.index
+    n_t = rows.size
+    t = _EYE3.copy()
+    t[rows, cols] = theta[:n_t]
     k = theta[n_t : n_t + 3 * layout.order].reshape(layout.order, 3)
     b = theta[-3:]
     x = raw_means - b
     powers = [x]
     for _ in range(1, layout.order):
         powers.append(powers[-1] * x)
-    f = sum(kk * p for kk, p in zip(k, powers, strict=True))
+    f = 0 + k[0] * x  # f = Σₙ kₙ xⁿ summed from 0 (which turns a −0.0 into +0.0)
+    for kk, p in zip(k[1:], powers[1:], strict=True):
+        f = f + kk * p
     a = f @ t.T
-    norm = np.linalg.norm(a, axis=1)
+    norm = np.sqrt(np.add.reduce(a * a, axis=1))  # np.linalg.norm(a, axis=1), as numpy forms it
     r = norm**2 - gravity**2 if squared else norm - gravity
-    if not jacobian:
-        return r
+    return r, a, f, t, k, powers, norm
+
+
+def _gravity_norm_jacobian(terms: tuple, layout: AccelLayout, squared: bool) -> np.ndarray:
+    """The (M, P) Jacobian of :func:`gravity_norm_residuals` from :func:`_gravity_norm_terms`."""
+    _, a, f, t, k, powers, norm = terms
+    rows, cols = layout.index
+    n_t = rows.size
     # d r / d a: 2a (squared) or a/‖a‖
     da = 2.0 * a if squared else a / norm[:, None]
-    jac = np.empty((raw_means.shape[0], layout.size))
-    for c, (i, j) in enumerate(layout.entries):
-        jac[:, c] = da[:, i] * f[:, j]  # ∂a/∂T_ij = e_i f_j
+    jac = np.empty((a.shape[0], n_t + 3 * len(powers) + 3))  # (M, layout.size)
+    np.multiply(da[:, rows], f[:, cols], out=jac[:, :n_t])  # ∂a/∂T_ij = e_i f_j
     nt = da @ t  # (M, 3): (dr/da)·T[:, j] for each column j
     col = n_t
     for p in powers:
-        jac[:, col : col + 3] = nt * p  # ∂a/∂k_{n,j} = T[:, j] x_j^n
+        np.multiply(nt, p, out=jac[:, col : col + 3])  # ∂a/∂k_{n,j} = T[:, j] x_j^n
         col += 3
-    dfdx = k[0] + sum((n + 1) * k[n] * powers[n - 1] for n in range(1, layout.order))
-    jac[:, col : col + 3] = -nt * dfdx  # ∂a/∂b_j = −T[:, j] f'_j(x_j)
-    return r, jac
+    higher = 0  # Σ_{n≥2} n kₙ xⁿ⁻¹, summed from 0 as the builtin sum does
+    for n in range(1, layout.order):
+        higher = higher + (n + 1) * k[n] * powers[n - 1]
+    dfdx = k[0] + higher
+    np.multiply(-nt, dfdx, out=jac[:, col : col + 3])  # ∂a/∂b_j = −T[:, j] f'_j(x_j)
+    return jac
+
+
+class GravityNorm:
+    """The residuals and Jacobian of :func:`gravity_norm_residuals` on fixed poses, as functions of ``θ`` alone.
+
+    For a solver that asks for the Jacobian where it last evaluated the
+    residuals (Levenberg–Marquardt at an accepted step): that Jacobian is
+    formed from the terms of that evaluation, which are the numbers a fresh
+    evaluation would compute again.
+
+    Parameters
+    ----------
+    layout : AccelLayout
+    raw_means : (M, 3) ndarray
+        Raw accelerometer means of the static poses.
+    gravity : float
+        ``g`` [m/s²].
+    squared : bool
+        ``‖h‖² − g²`` (Zhang 2021, eq. 10) instead of ``‖h‖ − g``.
+    """
+
+    def __init__(self, layout: AccelLayout, raw_means: np.ndarray, gravity: float, *, squared: bool = False):
+        self.layout, self.raw_means, self.gravity, self.squared = layout, raw_means, gravity, squared
+        self._key: bytes | None = None
+        self._terms: tuple = ()
+
+    def _evaluate(self, theta: np.ndarray) -> tuple:
+        theta = np.asarray(theta, dtype=np.float64)
+        key = theta.tobytes()
+        if key != self._key:  # on a copy: the terms hold views of it
+            self._terms = _gravity_norm_terms(theta.copy(), self.layout, self.raw_means, self.gravity, self.squared)
+            self._key = key
+        return self._terms
+
+    def residuals(self, theta: np.ndarray) -> np.ndarray:
+        """``r(θ)`` (M,)."""
+        return self._evaluate(theta)[0]
+
+    def jacobian(self, theta: np.ndarray) -> np.ndarray:
+        """``∂r/∂θ`` (M, P) at ``θ``."""
+        return _gravity_norm_jacobian(self._evaluate(theta), self.layout, self.squared)
 
 
 @dataclass(frozen=True)

@@ -12,14 +12,15 @@ evaluated only at accepted points.
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["LMResult", "ScaledInverse", "errors_from_covariance", "levenberg_marquardt", "scaled_inverse",
-           "standard_errors"]
+__all__ = ["LMResult", "ScaledInverse", "cholesky", "errors_from_covariance", "levenberg_marquardt", "lstsq",
+           "scaled_inverse", "solve", "standard_errors"]
 
 
 @dataclass
@@ -92,9 +93,11 @@ def levenberg_marquardt(
     """
     x = np.array(x0, dtype=np.float64)
     r = np.asarray(fun(x), dtype=np.float64)
-    if not np.all(np.isfinite(r)):
-        raise ValueError("Residuals are not finite in the initial point.")
-    cost = 0.5 * float(r @ r)
+    rr = float(r @ r)  # not finite where any residual is not
+    if not rr < math.inf:
+        if not np.isfinite(r).all():
+            raise ValueError("Residuals are not finite in the initial point.")
+    cost = 0.5 * rr
     nfev, njev = 1, 0
     lam = None
     nu = 2.0
@@ -106,23 +109,24 @@ def levenberg_marquardt(
             njev += 1
             a = j.T @ j
             g = j.T @ r
-            d2 = np.maximum(np.diag(a).copy(), np.finfo(float).tiny)
+            d2 = np.maximum(a.diagonal(), _TINY)
             dinv = 1.0 / np.sqrt(d2)
-            if np.max(np.abs(g) * dinv) <= gtol * max(np.sqrt(2 * cost), np.finfo(float).tiny):
+            if _MAX(np.abs(g) * dinv, axis=None) <= gtol * max(math.sqrt(2 * cost), _TINY):
                 # |Jᵢᵀr| / (‖Jᵢ‖‖r‖): the residual is orthogonal to the Jacobian
                 status, message = 1, "the gradient is zero to tolerance"
                 break
             if lam is None:
                 lam = lambda0
-        # scaled system: (Â + λ I) δ̂ = −ĝ with Â = D⁻¹ A D⁻¹
-        a_s = a * dinv[:, None] * dinv[None, :]
-        g_s = g * dinv
+            # scaled system: (Â + λ I) δ̂ = −ĝ with Â = D⁻¹ A D⁻¹ (the same until the next Jacobian)
+            a_s = a * dinv[:, None] * dinv[None, :]
+            g_s = g * dinv
         step_s = _solve_damped(a_s, g_s, lam)
         step = step_s * dinv
         x_new = x + step
         r_new = np.asarray(fun(x_new), dtype=np.float64)
         nfev += 1
-        cost_new = 0.5 * float(r_new @ r_new) if np.all(np.isfinite(r_new)) else np.inf
+        rr = float(r_new @ r_new)  # not finite where any residual is not
+        cost_new = 0.5 * rr if rr < math.inf else math.inf
         predicted = -(g_s @ step_s) - 0.5 * step_s @ (a_s @ step_s)
         rho = (cost - cost_new) / predicted if predicted > 0 else -1.0
         if rho > 0:
@@ -135,10 +139,10 @@ def levenberg_marquardt(
             j = None
             lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
             nu = 2.0
-            if reduction <= ftol * max(cost + reduction, np.finfo(float).tiny):
+            if reduction <= ftol * max(cost + reduction, _TINY):
                 status, message = 2, "the relative cost reduction is below ftol"
                 break
-            if np.linalg.norm(step_s) <= xtol * (np.linalg.norm(x / dinv) + xtol):
+            if _norm(step_s) <= xtol * (_norm(x / dinv) + xtol):
                 status, message = 3, "the relative step is below xtol"
                 break
         else:
@@ -154,12 +158,91 @@ def levenberg_marquardt(
                     message=message)
 
 
+#: the smallest positive normal double (``np.finfo(float).tiny``)
+_TINY = np.finfo(float).tiny
+
+try:  # the gufuncs behind np.linalg.cholesky and np.linalg.solve, called without their wrappers
+    from numpy.linalg import _umath_linalg
+    _CHOLESKY, _SOLVE = _umath_linalg.cholesky_lo, _umath_linalg.solve1
+except (ImportError, AttributeError):  # pragma: no cover - a numpy without them: the public functions
+    _CHOLESKY = _SOLVE = None
+try:
+    _LSTSQ = _umath_linalg.lstsq
+except (NameError, AttributeError):  # pragma: no cover - numpy < 2 names it otherwise
+    _LSTSQ = None
+_EPS = np.finfo(float).eps
+_MAX = np.maximum.reduce
+
+
+def _lstsq_error(kind: str, flag: int) -> None:
+    raise np.linalg.LinAlgError("SVD did not converge in Linear Least Squares")
+
+
+def lstsq(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.linalg.lstsq(a, b, rcond=None)[0]`` for a float64 ``a`` (M, N), M ≥ 1, and ``b`` (M,).
+
+    The same LAPACK driver (``gelsd``) on the same arrays with the same
+    ``rcond`` (``eps · max(M, N)``), called through numpy's gufunc without the
+    wrapper's overhead; ``LinAlgError`` where the SVD does not converge.
+    """
+    m, n = a.shape
+    if _LSTSQ is None or m == 0:  # pragma: no cover
+        return np.linalg.lstsq(a, b, rcond=None)[0]
+    with np.errstate(call=_lstsq_error, invalid="call", over="ignore", divide="ignore", under="ignore"):
+        x = _LSTSQ(a, b[:, None], _EPS * max(n, m), signature="ddd->ddid")[0]
+    return x[:, 0].copy()
+
+
+def _norm(v: np.ndarray) -> float:
+    """``np.linalg.norm`` of a 1-D float64 array: the same ``sqrt(v·v)`` numpy forms for it."""
+    return np.sqrt(v.dot(v))
+
+
+@functools.lru_cache(maxsize=16)
+def _eye(n: int) -> np.ndarray:
+    eye = np.eye(n)
+    eye.flags.writeable = False
+    return eye
+
+
+def _linalg_error(kind: str, flag: int) -> None:
+    raise np.linalg.LinAlgError("the matrix is not positive definite, or singular")
+
+
+def cholesky(m: np.ndarray) -> np.ndarray:
+    """``np.linalg.cholesky(m)`` of a float64 (P, P) ``m``: its gufunc called directly, ``LinAlgError`` where
+    ``m`` is not positive definite."""
+    if _CHOLESKY is None:  # pragma: no cover
+        return np.linalg.cholesky(m)
+    with np.errstate(call=_linalg_error, invalid="call", over="ignore", divide="ignore", under="ignore"):
+        return _CHOLESKY(m, signature="d->d")
+
+
+def solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.linalg.solve(a, b)`` of a float64 (P, P) ``a`` and a (P,) ``b`` (LAPACK ``gesv``): its gufunc called
+    directly, ``LinAlgError`` where ``a`` is singular."""
+    if _SOLVE is None:  # pragma: no cover
+        return np.linalg.solve(a, b)
+    with np.errstate(call=_linalg_error, invalid="call", over="ignore", divide="ignore", under="ignore"):
+        return _SOLVE(a, b, signature="dd->d")
+
+
 def _solve_damped(a: np.ndarray, g: np.ndarray, lam: float) -> np.ndarray:
-    m = a + lam * np.eye(a.shape[0])
+    """``(A + λI) δ = −g`` by Cholesky, ``A + λI = C Cᵀ``: ``δ = C⁻ᵀ (C⁻¹ (−g))``; least squares where it fails.
+
+    The triangular systems are solved by LAPACK's general solver, as ``np.linalg.solve`` does; the gufuncs
+    behind ``np.linalg.cholesky`` and ``np.linalg.solve`` are called directly (the same routines on the same
+    arrays, under the error state those functions set), which saves their wrappers' overhead.
+    """
+    m = a + lam * _eye(a.shape[0])
     try:
-        c = np.linalg.cholesky(m)
-        y = np.linalg.solve(c, -g)
-        return np.linalg.solve(c.T, y)
+        if _CHOLESKY is None:  # pragma: no cover
+            c = np.linalg.cholesky(m)
+            return np.linalg.solve(c.T, np.linalg.solve(c, -g))
+        with np.errstate(call=_linalg_error, invalid="call", over="ignore", divide="ignore", under="ignore"):
+            c = _CHOLESKY(m, signature="d->d")
+            y = _SOLVE(c, -g, signature="dd->d")
+            return _SOLVE(c.T, y, signature="dd->d")
     except np.linalg.LinAlgError:
         return np.linalg.lstsq(m, -g, rcond=None)[0]
 

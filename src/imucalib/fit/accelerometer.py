@@ -21,8 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..models import TriadModel
-from ..residuals import AccelLayout, gravity_norm_residuals
-from ..solve import errors_from_covariance, levenberg_marquardt, scaled_inverse
+from ..residuals import AccelLayout, GravityNorm, gravity_norm_residuals
+from ..solve import cholesky, errors_from_covariance, levenberg_marquardt, lstsq, scaled_inverse, solve
 
 __all__ = ["REDUCED_MODELS", "GravityNormFit", "accelerometer_covariance", "accelerometer_errors",
            "accelerometer_figures", "determined_figures", "faces_full", "fit_determined", "fit_ellipsoid",
@@ -42,7 +42,7 @@ def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:
     s = np.abs(raw - mu).max() or 1.0
     z = (raw - mu) / s
     design = np.column_stack([2 * z, np.ones(len(z))])
-    sol, *_ = np.linalg.lstsq(design, np.sum(z * z, axis=1), rcond=None)
+    sol = lstsq(design, np.sum(z * z, axis=1))
     c = sol[:3]
     rho2 = sol[3] + c @ c
     if not rho2 > 0:
@@ -72,6 +72,12 @@ def fit_ellipsoid(raw: np.ndarray, gravity: float) -> TriadModel:
         Too few poses, or poses that do not determine an ellipsoid (e.g. all
         about one axis): the quadric is then not positive definite.
     """
+    t, k, bias = _ellipsoid(raw, gravity)
+    return TriadModel(misalignment=t, scale=k, bias=bias, shape="upper")
+
+
+def _ellipsoid(raw: np.ndarray, gravity: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``T`` (3, 3), ``k1`` and ``b`` of :func:`fit_ellipsoid` (which see), not yet checked as a model."""
     raw = np.asarray(raw, dtype=np.float64)
     if raw.ndim != 2 or raw.shape[1] != 3:
         raise ValueError(f"raw must have shape (M, 3); got {raw.shape}")
@@ -80,31 +86,52 @@ def fit_ellipsoid(raw: np.ndarray, gravity: float) -> TriadModel:
             f"an ellipsoid fit needs at least 9 static poses in different directions; "
             f"got {raw.shape[0]}"
         )
-    mu = raw.mean(axis=0)
-    s = np.abs(raw - mu).max() or 1.0
-    z = (raw - mu) / s  # conditioning: centred, unit range
+    mu = np.add.reduce(raw, axis=0) / raw.shape[0]  # raw.mean(axis=0), as numpy forms it
+    d = raw - mu
+    s = np.maximum.reduce(np.abs(d), axis=None) or 1.0  # np.abs(d).max()
+    z = d / s  # conditioning: centred, unit range
     x, y, w = z[:, 0], z[:, 1], z[:, 2]
-    design = np.column_stack([x * x, y * y, w * w, 2 * x * y, 2 * x * w, 2 * y * w, 2 * x, 2 * y, 2 * w])
-    p, *_ = np.linalg.lstsq(design, np.ones(len(z)), rcond=None)
+    # the design (x², y², w², 2xy, 2xw, 2yw, 2x, 2y, 2w), a column to a row
+    design = np.empty((9, len(z)))
+    x2, y2 = np.multiply(2, x, out=design[6]), np.multiply(2, y, out=design[7])
+    np.multiply(2, w, out=design[8])
+    np.multiply(x, x, out=design[0])
+    np.multiply(y, y, out=design[1])
+    np.multiply(w, w, out=design[2])
+    np.multiply(x2, y, out=design[3])
+    np.multiply(x2, w, out=design[4])
+    np.multiply(y2, w, out=design[5])
+    p = lstsq(design.T, np.ones(len(z)))
     a = np.array([[p[0], p[3], p[4]], [p[3], p[1], p[5]], [p[4], p[5], p[2]]])
     v = p[6:9]
     try:
-        c = -np.linalg.solve(a, v)
+        c = -solve(a, v)
     except np.linalg.LinAlgError:
         raise ValueError("the static poses do not determine an ellipsoid (singular quadric)") from None
     kappa = 1.0 + c @ a @ c
     q = a * (gravity**2 / kappa) / s**2  # (u − b)ᵀ Q (u − b) = g² in raw units
     try:
-        lower = np.linalg.cholesky(q)
+        lower = cholesky(q)
     except np.linalg.LinAlgError:
         raise ValueError(
             "the static poses do not determine an ellipsoid (the fitted quadric is not "
             "positive definite): record poses spread over all directions"
         ) from None
     tk = lower.T  # upper triangular, (T K)ᵀ (T K) = Q
-    k = np.diag(tk).copy()
-    t = np.triu(tk / k[None, :], 1) + np.eye(3)
-    return TriadModel(misalignment=t, scale=k, bias=mu + s * c, shape="upper")
+    k = tk.diagonal().copy()
+    t = _EYE3.copy()  # the strict upper triangle of T K / k (each + 0.0, as np.triu(·, 1) + I forms it), unit diagonal
+    t[_UPPER] += (tk / k[None, :])[_UPPER]
+    bias = mu + s * c
+    if not (_ALL(np.isfinite(t), axis=None) and _ALL(np.isfinite(k)) and _ALL(np.isfinite(bias))):
+        raise ValueError("the static poses do not determine an ellipsoid (not finite)")
+    return t, k, bias
+
+
+#: the strict upper triangle of a 3 × 3 matrix
+_UPPER = (np.array([0, 0, 1]), np.array([1, 2, 2]))
+_EYE3 = np.eye(3)
+_EYE3.flags.writeable = False
+_ALL = np.logical_and.reduce
 
 
 @dataclass(frozen=True)
@@ -133,27 +160,31 @@ def gravity_norm_fit(raw_means: np.ndarray, gravity: float, *, order: int = 1, i
     determine an ellipsoid); ``order`` 2 or 3 adds the polynomial scale
     factors of Zhang 2021, eq. (2), started at zero.
     """
+    model, sol = _gravity_norm_solve(raw_means, gravity, order, initial, max_iter)
+    return GravityNormFit(model, sol.fun, sol.jac, sol.success, sol.njev)
+
+
+def _gravity_norm_solve(raw_means: np.ndarray, gravity: float, order: int, initial: TriadModel | None,
+                        max_iter: int = 200):
+    """The model of :func:`gravity_norm_fit` and the solver's result (its Jacobian formed only when read)."""
+    layout = AccelLayout("upper", order)
     if initial is None:
-        try:
-            initial = fit_ellipsoid(raw_means, gravity)
+        try:  # the ellipsoid's parameters, packed as ``layout.pack(fit_ellipsoid(...))`` would
+            t, k, bias = _ellipsoid(raw_means, gravity)
+            theta0 = np.concatenate([t[layout.index], k, *([np.zeros(3)] * (order - 1)), bias])
         except ValueError:
             initial = fit_sphere(raw_means, gravity)
-    layout = AccelLayout("upper", order)
-    theta0 = layout.pack(initial)
+    if initial is not None:
+        theta0 = layout.pack(initial)
     if raw_means.shape[0] < layout.size:
         raise ValueError(
             f"the accelerometer model has {layout.size} parameters but only "
             f"{raw_means.shape[0]} static poses were found: record more poses"
         )
-
-    def fun(th):
-        return gravity_norm_residuals(th, layout, raw_means, gravity)
-
-    def jac(th):
-        return gravity_norm_residuals(th, layout, raw_means, gravity, jacobian=True)[1]
-
-    sol = levenberg_marquardt(fun, jac, theta0, xtol=1e-14, ftol=1e-14, max_iter=max_iter)
-    return GravityNormFit(layout.unpack(sol.x, initial), sol.fun, sol.jac, sol.success, sol.njev)
+    problem = GravityNorm(layout, raw_means, gravity)
+    sol = levenberg_marquardt(problem.residuals, problem.jacobian, theta0, xtol=1e-14, ftol=1e-14,
+                              max_iter=max_iter)
+    return layout.unpack(sol.x, initial), sol
 
 
 def fit_gravity_norm(
@@ -163,8 +194,8 @@ def fit_gravity_norm(
 
     Returns the model and the final residuals ``‖a_k‖ − g`` [m/s²] (:func:`gravity_norm_fit`).
     """
-    fit = gravity_norm_fit(raw_means, gravity, order=order, initial=initial)
-    return fit.model, fit.residuals
+    model, sol = _gravity_norm_solve(raw_means, gravity, order, initial)
+    return model, sol.fun
 
 
 #: the linear accelerometer models from the richest down: (name, misalignment shape or None for one common scale,
@@ -214,6 +245,7 @@ def fit_determined(raw_means: np.ndarray, gravity: float, *, weights: np.ndarray
     except ValueError:
         start = None
     layout = AccelLayout("upper", 1)  # θ = (T_xy, T_xz, T_yz, k, b); a reduced model is θ = E·φ
+    problem = GravityNorm(layout, raw_means, gravity)
     for row in REDUCED_MODELS:
         name, shape, p, _ = row
         if m < p or start is None:
@@ -221,15 +253,14 @@ def fit_determined(raw_means: np.ndarray, gravity: float, *, weights: np.ndarray
         expand = _expand(shape)
 
         def fun(phi, expand=expand):
-            return w * gravity_norm_residuals(expand @ phi, layout, raw_means, gravity)
+            return w * problem.residuals(expand @ phi)
 
         def jac(phi, expand=expand):
-            return w[:, None] * gravity_norm_residuals(expand @ phi, layout, raw_means, gravity,
-                                                       jacobian=True)[1] @ expand
+            return w[:, None] * problem.jacobian(expand @ phi) @ expand
 
-        phi0 = np.linalg.lstsq(expand, layout.pack(start), rcond=None)[0]  # the sphere's: T = I, one scale
+        phi0 = lstsq(expand, layout.pack(start))  # the sphere's: T = I, one scale
         sol = levenberg_marquardt(fun, jac, phi0, xtol=1e-14, ftol=1e-14)
-        j = jac(sol.x)
+        j = sol.jac  # jac(sol.x), formed in the iterations or now
         norms = np.linalg.norm(j, axis=0)
         if np.any(norms == 0) or not np.all(np.isfinite(j)):
             continue
