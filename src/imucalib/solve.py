@@ -174,6 +174,28 @@ _EPS = np.finfo(float).eps
 _MAX = np.maximum.reduce
 
 
+def _private_routines_agree() -> bool:
+    """Whether the gufuncs called directly give the public functions' numbers on a small problem (a numpy whose
+    private routines changed falls back to the public functions rather than to other numbers)."""
+    a = np.array([[4.0, 1.0, 0.5], [1.0, 3.0, 0.25], [0.5, 0.25, 2.0]])
+    b = np.array([1.0, -2.0, 0.5])
+    tall = np.vstack([a, [0.1, 0.2, 0.3]])
+    try:
+        with np.errstate(call=lambda *_: None, invalid="call", over="ignore", divide="ignore", under="ignore"):
+            same = (_CHOLESKY is None or (np.array_equal(_CHOLESKY(a, signature="d->d"), np.linalg.cholesky(a))
+                                          and np.array_equal(_SOLVE(a, b, signature="dd->d"), np.linalg.solve(a, b))))
+            if _LSTSQ is not None:
+                got = _LSTSQ(tall, np.append(b, 1.0)[:, None], _EPS * 4, signature="ddd->ddid")[0][:, 0]
+                same = same and np.array_equal(got, np.linalg.lstsq(tall, np.append(b, 1.0), rcond=None)[0])
+    except Exception:  # noqa: BLE001 - any failure of a private routine means: use the public ones
+        return False
+    return bool(same)
+
+
+if not _private_routines_agree():  # pragma: no cover - a numpy whose private routines differ
+    _CHOLESKY = _SOLVE = _LSTSQ = None
+
+
 def _lstsq_error(kind: str, flag: int) -> None:
     raise np.linalg.LinAlgError("SVD did not converge in Linear Least Squares")
 
