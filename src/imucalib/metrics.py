@@ -206,22 +206,26 @@ def predicted_gravity(
 
 
 def gravity_direction_errors(calibration, recording: Recording,
-                             intervals: Sequence[Interval], *, up: np.ndarray | None = None) -> np.ndarray:
+                             intervals: Sequence[Interval], *, up: np.ndarray | None = None,
+                             integrator: IntervalIntegrator | None = None) -> np.ndarray:
     """Angle [rad] between measured and gyro-predicted gravity at each new pose.
 
     ``up`` is :func:`pose_specific_force` of the same intervals, when the
-    caller has it already.
+    caller has it already; ``integrator`` the motions' integrator
+    (:func:`predicted_gravity`).
     """
-    measured, predicted = predicted_gravity(calibration, recording, intervals, up=up)
+    measured, predicted = predicted_gravity(calibration, recording, intervals, integrator, up=up)
     return angle_between(measured, predicted)
 
 
 def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval],
-                gravity: float | None = None) -> dict:
+                gravity: float | None = None, *, integrator: IntervalIntegrator | None = None) -> dict:
     """The ``fit`` entries of the calibration file (``docs/architecture.rst``).
 
     The poses' calibrated means (:func:`pose_specific_force`) are computed
-    once and serve every figure that reads them.
+    once and serve every figure that reads them. ``integrator``: the
+    :class:`~imucalib.kinematics.IntervalIntegrator` of the motions between
+    these intervals, when the caller has one (the gyroscope's fit).
     """
     up = pose_specific_force(calibration, recording, intervals)
     res = gravity_residuals(calibration, recording, intervals, gravity, up=up)
@@ -231,7 +235,7 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
         "intervals": [[int(iv.start), int(iv.stop)] for iv in intervals],  # sample indices [start, stop)
     }
     if len(intervals) >= 2 and recording.gyro is not None and calibration.gyroscope is not None:
-        ang = np.degrees(gravity_direction_errors(calibration, recording, intervals, up=up))
+        ang = np.degrees(gravity_direction_errors(calibration, recording, intervals, up=up, integrator=integrator))
         out["gyroscope_angle_error_mean_deg"] = float(np.mean(ang))
         out["gyroscope_angle_error_max_deg"] = float(np.max(ang))
     coverage, flags = pose_coverage(up)

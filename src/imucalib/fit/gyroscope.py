@@ -194,6 +194,8 @@ class _Transitions:
 
     def __init__(self, recording: Recording, intervals: list[Interval]) -> None:
         self.recording = recording
+        self.intervals = intervals
+        self._acc_means: np.ndarray | None = None
         self.starts, self.stops = transition_bounds(intervals)
         self.integrator = IntervalIntegrator(recording.t, self.starts, self.stops)
         self._readings: dict = {}
@@ -212,6 +214,13 @@ class _Transitions:
             self._readings[key] = (accelerometer, _readings(self.recording, self.integrator.samples, accelerometer,
                                                             None if key is None else g_sensitivity))
         return self._readings[key][1]
+
+    def acc_means(self) -> np.ndarray:
+        """The raw accelerometer's mean over each pose (:func:`~imucalib.metrics.interval_means`, formed once;
+        not to be changed)."""
+        if self._acc_means is None:
+            self._acc_means = interval_means(self.recording.acc, self.intervals)
+        return self._acc_means
 
     def specific_force(self, accelerometer: TriadModel) -> np.ndarray:
         """The calibrated specific force [m/s²] at the motions' samples."""
@@ -274,9 +283,9 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
     ``transitions``: the fit's :class:`_Transitions` of these intervals, shared
     with its other problems (a new one by default).
     """
-    acc = accelerometer.forward(interval_means(recording.acc, intervals))
-    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
     tr = _Transitions(recording, intervals) if transitions is None else transitions
+    acc = accelerometer.forward(tr.acc_means())
+    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
     integrator = tr.integrator
     raw = tr.readings(accelerometer, g_sensitivity)  # only those the integration reads
     layout = GyroLayout(estimate_bias)
@@ -626,9 +635,9 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
 
     Returns ``fun``, ``jac``, the pose directions and the number of parameters.
     """
-    acc = static.accel if static.accel is not None else accelerometer.forward(interval_means(recording.acc, intervals))
-    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
     tr = _Transitions(recording, intervals) if transitions is None else transitions
+    acc = static.accel if static.accel is not None else accelerometer.forward(tr.acc_means())
+    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
     integrator = tr.integrator
     g_sens = static.g_sensitivity
     raw = tr.readings(accelerometer, g_sens)
@@ -1018,7 +1027,7 @@ def _direction_acc_jacobian(recording, intervals, accelerometer, gyroscope, tran
     n_tr = len(intervals) - 1
     lay = AccelLayout("upper", 1)
     base = lay.pack(accelerometer)
-    means = interval_means(recording.acc, intervals)
+    means = interval_means(recording.acc, intervals) if transitions is None else transitions.acc_means()
     rt = np.empty((n_tr, 3, 3))
     for j in range(3):
         e = np.zeros_like(dirs)
@@ -1047,6 +1056,8 @@ class GyroFit:
     drift_se: np.ndarray | None = None
     t_ref: float = 0.0  # the time [s] at which ``model.bias`` holds (the mean of the poses' times)
     rotation_sigma: float | None = None  # the rotations' direction noise per component [rad] (joint fit)
+    #: the integrator of the motions between the poses (for figures that integrate them again with the result)
+    integrator: IntervalIntegrator | None = field(default=None, repr=False, compare=False)
 
     def summary(self) -> dict:
         """The ``fit`` entries that say how the gyroscope was fitted."""
@@ -1138,7 +1149,7 @@ def fit_gyroscope(recording: Recording, intervals: list[Interval], accelerometer
                            f"others' robust σ ({np.degrees(sigma_r):.3f}°)")
     source = "joint" if joint else ("fit" if est else "poses")
     return GyroFit(model, errors | static.errors, source, left_out, static.drift if joint else None,
-                   static.drift_se if joint else None, static.t_ref, sigma)
+                   static.drift_se if joint else None, static.t_ref, sigma, tr.integrator)
 
 
 def gyroscope_errors(theta: np.ndarray, jac: np.ndarray, res: np.ndarray, layout: GyroLayout, *,

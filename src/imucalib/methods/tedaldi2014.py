@@ -190,7 +190,7 @@ def calibrate(
         model="linear",
         units=units_of(recording),
     )
-    fit = fit_summary(cal, recording, intervals, gravity)
+    fit = fit_summary(cal, recording, intervals, gravity, integrator=gyro.integrator)
     fit["threshold_multiplier"] = mult
     fit |= gyro.summary()
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
