@@ -84,3 +84,22 @@ def test_sensitivity_after_the_cost_of_the_same_factors_is_the_same() -> None:
     q2, w2 = together.sensitivity(rates, steps)
     assert np.array_equal(q2, alone_q)
     assert all(np.array_equal(a, b) for a, b in zip(w2, alone_w, strict=True))
+
+
+def test_weights_kept_by_a_caller_are_not_overwritten_by_the_next_sensitivity() -> None:
+    """The rotations array is reused only when nothing refers to it: weights (or a view of them) a caller keeps
+    stay as they were, and a reused array gives the numbers a fresh one does."""
+    rng = np.random.default_rng(15)
+    t = np.cumsum(rng.uniform(0.009, 0.011, size=5000))
+    integ = kin.IntervalIntegrator(t, np.array([10, 1000, 2000]), np.array([600, 1900, 2500]))
+    rates = rng.normal(size=(integ.samples.size, 3))
+    _, weights = integ.sensitivity(rates)
+    kept, view = [w.copy() for w in weights], weights[1]
+    _, other = integ.sensitivity(2 * rates)
+    assert all(np.array_equal(a, b) for a, b in zip(weights, kept, strict=True))
+    del weights, other
+    assert np.array_equal(view, kept[1])
+    del view
+    first = [w.copy() for w in integ.sensitivity(3 * rates)[1]]  # into the array nothing refers to any more
+    again = [w.copy() for w in kin.IntervalIntegrator(t, integ.starts, integ.stops).sensitivity(3 * rates)[1]]
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))

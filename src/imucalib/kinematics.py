@@ -34,6 +34,7 @@ integration over time steps and over many intervals together.
 from __future__ import annotations
 
 import functools
+import sys
 import weakref
 from collections.abc import Callable, Iterator
 
@@ -246,7 +247,7 @@ def _qmul_soa(p: np.ndarray, q: np.ndarray, out: np.ndarray | None = None) -> np
     return out
 
 
-def _weighted_rotations_soa(q: np.ndarray, weight: np.ndarray) -> np.ndarray:
+def _weighted_rotations_soa(q: np.ndarray, weight: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """``weight · R(q)`` for quaternions stored component-first (4, ..., L) and weights (..., L).
 
     Returns an (..., L, 3, 3) view of an array laid out (..., 3, L, 3), so that
@@ -255,9 +256,10 @@ def _weighted_rotations_soa(q: np.ndarray, weight: np.ndarray) -> np.ndarray:
     are those of ``quat_to_matrix(np.moveaxis(q, 0, -1)) * weight[..., None, None]``
     (the same normalisation and terms, Zhang 2021, eq. 13), formed from
     contiguous components instead of strided ones, :data:`ROTATION_CHUNK`
-    quaternions at a time (the temporaries stay small whatever L).
+    quaternions at a time (the temporaries stay small whatever L); ``out``: the
+    (..., 3, L, 3) array to write them into.
     """
-    r = np.empty(q.shape[1:-1] + (3, q.shape[-1], 3))
+    r = np.empty(q.shape[1:-1] + (3, q.shape[-1], 3)) if out is None else out
     add, sub, mul = np.add, np.subtract, np.multiply
     # the entries (i, j) of R: 1 − 2(u + v) on the diagonal, 2(u ∓ v) off it, from the products u, v named
     entries = [(0, 0, "yy", add, "zz"), (0, 1, "xy", sub, "wz"), (0, 2, "xz", add, "wy"),
@@ -722,6 +724,8 @@ class IntervalIntegrator:
         self._group_bytes = 32 * column
         #: (the factors, weakly; their gathered columns; their tree levels) of the last from_samples()
         self._tree_levels: tuple | None = None
+        #: the rotations array of the last sensitivity() (reused once nothing else refers to it)
+        self._rotations: np.ndarray | None = None
         self._att_index = np.concatenate(att_index) if att_index else np.zeros(0, np.intp)
         self._att_index[self._att_index < 0] = column  # the start of each interval: the identity
         self._att_trapezoid = np.concatenate(att_trapezoid) if att_trapezoid else np.zeros(0)
@@ -871,7 +875,8 @@ class IntervalIntegrator:
             for (members, _), pre in zip(self._groups, prefixes, strict=True):
                 q_end[members] = pre[:, -1].T  # the last place holds the last step in bit-reversed order too
             att = np.concatenate([pre.reshape(4, -1) for pre in prefixes] + [_IDENTITY[:, None]], axis=1)
-            rot = _weighted_rotations_soa(att.take(self._att_index, axis=1), self._att_trapezoid)
+            rot = _weighted_rotations_soa(att.take(self._att_index, axis=1), self._att_trapezoid,
+                                          self._rotations_buffer())
             for members, _ in self._groups:
                 for k in members:
                     weights.items[k] = rot[self._att_first[k] : self._att_first[k] + self._nsteps[k] + 1]
@@ -887,6 +892,17 @@ class IntervalIntegrator:
                 q_end[k] = prefix[i][:, -1]  # the product of all its blocks, as from_samples forms it
                 weights.prefix[k] = (i, prefix[i])
         return quat_normalize(q_end), weights
+
+    def _rotations_buffer(self) -> np.ndarray:
+        """The (3, samples, 3) array the short intervals' ``A_j`` are written into: the one of the last
+        :meth:`sensitivity` again once nothing refers to it any more (its weights and every view of them gone:
+        a fit's Jacobians are formed one after the other), else a new one."""
+        buf = self._rotations
+        self._rotations = None
+        if buf is None or sys.getrefcount(buf) > 2:  # 2: the name here and getrefcount's argument
+            buf = np.empty((3, self._att_index.size, 3))
+        self._rotations = buf
+        return buf
 
     def _trapezoid(self, k: int) -> np.ndarray:
         """Trapezoid weights (n + 1,) of the samples of interval ``k``."""

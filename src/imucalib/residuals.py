@@ -322,8 +322,12 @@ def gravity_direction_residuals_jac(
     return (gravity_dirs[1:] - predicted).ravel(), jac
 
 
+#: the largest block buffer :func:`linear_rate_jacobian` keeps in its ``workspace``
+WORKSPACE_BYTES = 1 << 22
+
+
 def linear_rate_jacobian(m: np.ndarray, v: np.ndarray, *, bias: bool = True,
-                         drift_time: np.ndarray | None = None):
+                         drift_time: np.ndarray | None = None, workspace: dict | None = None):
     """``∂ω_j/∂θ`` of the rates ``ω_j = M v_j``, ``v_j = u_j − b − τ_j d``, for a block of samples at a time.
 
     The parameters are ``[M (9, row by row), b (3, when bias), d (3, with
@@ -334,20 +338,29 @@ def linear_rate_jacobian(m: np.ndarray, v: np.ndarray, *, bias: bool = True,
     :meth:`IntervalIntegrator.weighted_sum`: one buffer as long as the longest
     block asked for is reused, so the per-sample Jacobian (``24 P`` bytes a
     sample) never exists for the whole recording. Its entries are those the
-    whole array would hold, so the sums are the same.
+    whole array would hold, so the sums are the same. ``workspace`` (a dict the
+    caller keeps, e.g. one per problem) holds that buffer from one Jacobian to
+    the next, so a fit's Jacobians do not each allocate and zero it afresh;
+    the Jacobian it returns is to be read before the next one is formed.
     """
     size = 9 + (3 if bias else 0) + (3 if drift_time is not None else 0)
-    buf = np.zeros((0, 3, size))
+    space = {} if workspace is None else workspace
+    buf = space.get(size, np.zeros((0, 3, size)))
     minus_m = -m
+    filled = 0  # rows of buf whose bias block holds this −M
 
     def block(a: int, b: int) -> np.ndarray:
-        nonlocal buf
+        nonlocal buf, filled
         n = b - a
         if n > buf.shape[0]:
             buf = np.zeros((n, 3, size))  # the entries never written stay 0
-            if bias:
-                buf[:, :, 9:12] = minus_m  # the same for every sample: written once
+            filled = 0
+            if buf.nbytes <= WORKSPACE_BYTES:  # a long interval's block buffer is not kept between Jacobians
+                space[size] = buf
         d = buf[:n]
+        if bias and n > filled:  # the same for every sample: written once per row
+            buf[filled:n, :, 9:12] = minus_m
+            filled = n
         for i in range(3):
             d[:, i, 3 * i : 3 * i + 3] = v[a:b]  # ∂(M v)_i / ∂M_ik = v_k
         if drift_time is not None:  # formed contiguous, then placed (the same products: τ_j (−M))

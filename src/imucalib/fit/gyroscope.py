@@ -292,6 +292,8 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
     w = None if weights is None else np.repeat(np.asarray(weights, dtype=float), 3)
     held = b"" if estimate_bias else np.asarray(bias, dtype=np.float64).tobytes()
 
+    space: dict = {}  # the rate Jacobian's block buffer, kept from one Jacobian to the next
+
     def split(th):
         return th[:9].reshape(3, 3), (th[9:12] if estimate_bias else bias)
 
@@ -311,8 +313,8 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
         m, b = split(th)
         v = rowwise(np.subtract, raw, b)
         rates = v @ m.T
-        j = gravity_direction_residuals_jac(rates, linear_rate_jacobian(m, v, bias=estimate_bias), integrator,
-                                            dirs, tr.steps(key(th), rates, keep=False))[1]
+        rate_jac = linear_rate_jacobian(m, v, bias=estimate_bias, workspace=space)
+        j = gravity_direction_residuals_jac(rates, rate_jac, integrator, dirs, tr.steps(key(th), rates, keep=False))[1]
         return j if w is None else j * w[:, None]
 
     return fun, jac, layout, dirs, (tr.starts, tr.stops)
@@ -649,6 +651,8 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     se = np.sqrt(static.variances)
     dt_pose = static.times - static.t_ref
 
+    space: dict = {}  # the rate Jacobian's block buffer, kept from one Jacobian to the next
+
     def split(th):
         return th[:9].reshape(3, 3), th[9:12], (th[12:15] if with_d else np.zeros(3))
 
@@ -673,7 +677,7 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     def jac(th, with_g: bool = False):
         m, b, dr = split(th)
         v = readings_at(th)
-        rate_jac = linear_rate_jacobian(m, v, drift_time=tau if with_d else None)
+        rate_jac = linear_rate_jacobian(m, v, drift_time=tau if with_d else None, workspace=space)
         g_jac = _g_rate_jacobian(m, tr.specific_force(accelerometer)) if with_g else None
         cols = size + 9 if with_g else size
         rates = v @ m.T
