@@ -729,6 +729,10 @@ class IntervalIntegrator:
         self._att_index = np.concatenate(att_index) if att_index else np.zeros(0, np.intp)
         self._att_index[self._att_index < 0] = column  # the start of each interval: the identity
         self._att_trapezoid = np.concatenate(att_trapezoid) if att_trapezoid else np.zeros(0)
+        #: sensitivity()'s attitude temporaries (every group's, then every sample's), kept when small
+        self._attitude_buffers = None
+        if 32 * (column + 1 + self._att_index.size) <= LEVEL_BYTES:
+            self._attitude_buffers = (np.empty((4, column + 1)), np.empty((4, self._att_index.size)))
         # longer intervals: blocks of BLOCK steps, then per interval the product of its blocks (their number
         # rounded up to a power of two, grouped by it)
         self._long = np.nonzero(widths > BLOCK)[0]
@@ -874,9 +878,12 @@ class IntervalIntegrator:
                 prefixes = _prefix_products_halves([s.take(tree, axis=1) for _, tree in self._groups])
             for (members, _), pre in zip(self._groups, prefixes, strict=True):
                 q_end[members] = pre[:, -1].T  # the last place holds the last step in bit-reversed order too
-            att = np.concatenate([pre.reshape(4, -1) for pre in prefixes] + [_IDENTITY[:, None]], axis=1)
-            rot = _weighted_rotations_soa(att.take(self._att_index, axis=1), self._att_trapezoid,
-                                          self._rotations_buffer())
+            # every attitude, then each sample's (temporaries kept by the integrator when small: reused)
+            kept = self._attitude_buffers
+            att = np.concatenate([pre.reshape(4, -1) for pre in prefixes] + [_IDENTITY[:, None]], axis=1,
+                                 out=None if kept is None else kept[0])
+            att = att.take(self._att_index, axis=1, out=None if kept is None else kept[1])
+            rot = _weighted_rotations_soa(att, self._att_trapezoid, self._rotations_buffer())
             for members, _ in self._groups:
                 for k in members:
                     weights.items[k] = rot[self._att_first[k] : self._att_first[k] + self._nsteps[k] + 1]

@@ -156,6 +156,9 @@ GYRO_ROTATION_PARAMETERS = 9
 #: bytes of calibrated pose samples an assessment holds at once (its poses are calibrated a group at a time)
 POSE_BYTES = 1 << 23
 
+#: samples of consecutive poses the verdict calibrates in one call (:meth:`_Poses.poses`)
+CALIBRATE_ROWS = 1 << 12
+
 #: raw-unit factors to SI of the physical units (``"g"`` uses the calibration's gravity)
 _NOMINAL = {"m/s^2": 1.0, "rad/s": 1.0, "deg/s": np.pi / 180}
 
@@ -325,23 +328,35 @@ class _Poses:
             self._calibrate(group, noise)
         return [self._pose[(iv.start, iv.stop)] for iv in intervals]
 
+    def _calibrated(self, group: list[Interval], with_acc: bool, g_sensitive: bool):
+        """Per pose of ``group``: its calibrated accelerometer (None unless ``with_acc``) and gyroscope samples.
+
+        Consecutive poses are calibrated together, up to :data:`CALIBRATE_ROWS` samples at a time (each row on
+        its own: the numbers of pose by pose, with a few calls instead of two per pose, and arrays small enough
+        to be reused rather than mapped afresh).
+        """
+        cal, rec = self.calibration, self.recording
+        k = 0
+        while k < len(group):
+            batch, rows = [group[k]], len(group[k])
+            k += 1
+            while k < len(group) and rows + len(group[k]) <= CALIBRATE_ROWS:
+                batch.append(group[k])
+                rows += len(group[k])
+                k += 1
+            cuts = np.cumsum([len(iv) for iv in batch])[:-1]
+            acc = cal.accelerometer_si(np.concatenate([rec.acc[iv.slice] for iv in batch])) if with_acc else None
+            raw_gyro = np.concatenate([rec.gyro[iv.slice] for iv in batch])
+            gyro = cal.gyroscope.forward(raw_gyro, acc) if g_sensitive else cal.gyroscope_si(raw_gyro)
+            accs = np.split(acc, cuts) if acc is not None else [None] * len(batch)
+            yield from zip(accs, np.split(gyro, cuts), strict=True)
+
     def _calibrate(self, group: list[Interval], noise: bool) -> None:
         """Calibrate the poses ``group`` and keep their figures (:meth:`poses`)."""
         cal, order = self.calibration, 4
         g_sensitive = cal.gyroscope is not None and np.any(cal.gyroscope.g_sensitivity)
         gyros, squares, short = [], [], {}
-        # the group's samples calibrated at once (each row on its own: the numbers of pose by pose)
-        rows = np.cumsum([len(iv) for iv in group])[:-1]
-        acc_all = None
-        if noise or g_sensitive:
-            acc_all = cal.accelerometer_si(np.concatenate([self.recording.acc[iv.slice] for iv in group]))
-        raw_gyro = np.concatenate([self.recording.gyro[iv.slice] for iv in group])
-        if g_sensitive:
-            gyro_all = cal.gyroscope.forward(raw_gyro, acc_all)  # gyroscope_si(gyro, raw_acc)
-        else:
-            gyro_all = cal.gyroscope_si(raw_gyro)
-        accs = np.split(acc_all, rows) if acc_all is not None else [None] * len(group)
-        for acc, gyro in zip(accs, np.split(gyro_all, rows), strict=True):
+        for acc, gyro in self._calibrated(group, noise or g_sensitive, g_sensitive):
             gyros.append(gyro)
             if noise:  # both sensors side by side: each column's differences and sums are as on its own
                 both = np.concatenate((acc, gyro), axis=1)
