@@ -18,6 +18,13 @@ CSV, and calibrated as ``imucalib calibrate … --method tedaldi2014 --gravity
 9.81744``. The hand-held sessions' rotations are a few hundred samples; these
 are a hundred times longer, so a memory peak that follows the longest rotation
 shows here. The goal is the same: ≤ 20 s and ≤ 0.6 GB at 3.6 M samples.
+``--cases xsens_tiled`` is its control: the same session at its own 100 Hz,
+laid end to end forwards and backwards in time (a backward copy reversed, its
+gyroscope mirrored about the initial rest's mean: the same turns undone, so
+each copy starts where the last one ended) to the same number of samples, with
+the same noise, as an imu_tk pair: the same share of motion in rotations of a
+few hundred samples. Its peak beside ``xsens_imutk``'s shows whether memory
+follows the length of a single rotation.
 
 ``--baseline DIR`` runs the same commands with another copy of the package
 (``DIR`` is put on ``PYTHONPATH``: e.g. the ``src`` of an older checkout),
@@ -27,7 +34,7 @@ parser of this copy (:data:`imucalib.io.csvparse.ENGINE`). ``--data-dir DIR``
 keeps the CSV files there and reuses them (the 10 M file takes a few minutes
 to simulate); ``--save FILE`` stores the figures. ``--sizes 360000,3600000``
 picks the sizes of the hand-held sessions, ``--cases`` the cases
-(``handheld,xsens_imutk,xsens_csv``, the default).
+(``handheld,xsens_imutk,xsens_csv,xsens_tiled``, the default).
 """
 
 from __future__ import annotations
@@ -49,7 +56,7 @@ SEED = 2024
 N_POSES = 36
 REST = 60.0
 XSENS_GRAVITY = 9.81744
-CASES = ("handheld", "xsens_imutk", "xsens_csv")
+CASES = ("handheld", "xsens_imutk", "xsens_csv", "xsens_tiled")
 
 
 def dwell_for(samples: int) -> tuple[float, float]:
@@ -71,21 +78,39 @@ def generate(samples: int, path: Path) -> None:
     write_csv(path, sim["recording"])
 
 
-def generate_xsens(samples: int, directory: Path) -> None:
-    """The Xsens session resampled to ``samples`` samples with noise, as an imu_tk pair and a CSV (own process)."""
+def _xsens():
+    """imu_tk's Xsens session and its initial rest."""
     import warnings
 
-    import numpy as np
-
-    from imucalib.io import read, write_csv
-    from imucalib.recording import Recording
+    from imucalib.io import read
     from imucalib.segment import find_initial_rest
 
     source = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "xsens_imu_tk"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         rec = read([str(source / "xsens_acc.mat"), str(source / "xsens_gyro.mat")], reader="imutk")
-    rest = rec[find_initial_rest(rec)]
+    return rec, rec[find_initial_rest(rec)]
+
+
+def _write_imutk(path_stem: Path, t, cols: dict) -> None:
+    """``cols`` as imu_tk's text pair: time and three values per line."""
+    import numpy as np
+
+    for name in ("acc", "gyro"):
+        with path_stem.with_name(f"{path_stem.name}_{name}.mat").open("w", encoding="ascii") as f:
+            for a in range(0, len(t), 1 << 18):
+                b = min(len(t), a + (1 << 18))
+                np.savetxt(f, np.column_stack([t[a:b], cols[name][a:b]]), fmt="%15.7e")
+
+
+def generate_xsens(samples: int, directory: Path) -> None:
+    """The Xsens session resampled to ``samples`` samples with noise, as an imu_tk pair and a CSV (own process)."""
+    import numpy as np
+
+    from imucalib.io import write_csv
+    from imucalib.recording import Recording
+
+    rec, rest = _xsens()
     rng = np.random.default_rng(SEED)
     t = np.linspace(rec.t[0], rec.t[-1], samples)
     cols = {}
@@ -93,12 +118,33 @@ def generate_xsens(samples: int, directory: Path) -> None:
         raw, sd = getattr(rec, name), getattr(rest, name).std(axis=0)
         cols[name] = np.stack([np.interp(t, rec.t, raw[:, i]) + sd[i] * rng.standard_normal(samples)
                                for i in range(3)], axis=1)
-    for name in ("acc", "gyro"):
-        with (directory / f"xsens_{samples}_{name}.mat").open("w", encoding="ascii") as f:
-            for a in range(0, samples, 1 << 18):  # imu_tk's text: time and three values per line
-                b = min(samples, a + (1 << 18))
-                np.savetxt(f, np.column_stack([t[a:b], cols[name][a:b]]), fmt="%15.7e")
+    _write_imutk(directory / f"xsens_{samples}", t, cols)
     write_csv(directory / f"xsens_{samples}.csv", Recording(t, cols["acc"], cols["gyro"], "counts", "counts"))
+
+
+def generate_xsens_tiled(samples: int, directory: Path) -> None:
+    """The Xsens session at its own rate laid end to end, forwards and backwards, to ``samples`` samples with
+    the same noise as :func:`generate_xsens`, as an imu_tk pair (own process)."""
+    import numpy as np
+
+    rec, rest = _xsens()
+    rng = np.random.default_rng(SEED)
+    n, step = len(rec), float(np.median(np.diff(rec.t)))
+    copy = np.arange(samples) // n
+    k = np.arange(samples) % n
+    backward = copy % 2 == 1
+    k[backward] = n - 1 - k[backward]  # a backward copy retraces the one before it, sample by sample
+    local = rec.t - rec.t[0]
+    span = local[-1] + step
+    t = copy * span + np.where(backward, local[-1] - local[k], local[k])
+    cols = {}
+    for name in ("acc", "gyro"):
+        raw, sd = getattr(rec, name), getattr(rest, name).std(axis=0)
+        values = raw[k]
+        if name == "gyro":  # turns undone: the rate mirrored about the rest's reading (bias kept)
+            values[backward] = 2 * rest.gyro.mean(axis=0) - values[backward]
+        cols[name] = values + sd * rng.standard_normal((samples, 3))
+    _write_imutk(directory / f"xsens_tiled_{samples}", t, cols)
 
 
 def run_child(cmd: list[str], env: dict | None = None) -> tuple[float, float, float | None, float]:
@@ -150,12 +196,16 @@ def main() -> None:
                         help="samples of the resampled Xsens session (default 3.6e6)")
     parser.add_argument("--generate", nargs=2, metavar=("SAMPLES", "PATH"), help=argparse.SUPPRESS)
     parser.add_argument("--generate-xsens", nargs=2, metavar=("SAMPLES", "DIR"), help=argparse.SUPPRESS)
+    parser.add_argument("--generate-xsens-tiled", nargs=2, metavar=("SAMPLES", "DIR"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.generate:
         generate(int(args.generate[0]), Path(args.generate[1]))
         return
     if args.generate_xsens:
         generate_xsens(int(args.generate_xsens[0]), Path(args.generate_xsens[1]))
+        return
+    if args.generate_xsens_tiled:
+        generate_xsens_tiled(int(args.generate_xsens_tiled[0]), Path(args.generate_xsens_tiled[1]))
         return
     cases = args.cases.split(",")
     if set(cases) - set(CASES):
@@ -189,11 +239,18 @@ def main() -> None:
                 jobs.append(("xsens_imutk", pair, ["--reader", "imutk", *gravity]))
             if "xsens_csv" in cases:
                 jobs.append(("xsens_csv", [csv], gravity))
+        if "xsens_tiled" in cases:
+            pair = [data_dir / f"xsens_tiled_{xsens}_acc.mat", data_dir / f"xsens_tiled_{xsens}_gyro.mat"]
+            if not all(p.exists() for p in pair):
+                subprocess.run([sys.executable, __file__, "--generate-xsens-tiled", str(xsens), str(data_dir)],
+                               check=True)
+            jobs.append(("xsens_tiled", pair, ["--reader", "imutk", "--gravity", str(XSENS_GRAVITY)]))
         for case, paths, options in jobs:
             path = paths[-1]
             with path.open("rb") as f:
                 samples = sum(chunk.count(b"\n") for chunk in iter(lambda f=f: f.read(1 << 24), b""))
-            samples -= case != "xsens_imutk"  # a CSV's header line
+            pair_files = case in ("xsens_imutk", "xsens_tiled")  # imu_tk's pair, read with --reader imutk
+            samples -= not pair_files  # a CSV's header line
             data = [str(p) for p in paths]
             runs: dict = {name: {"calibrate": [], "apply": []} for name in copies}
             for _ in range(args.runs):
@@ -205,7 +262,7 @@ def main() -> None:
                     if not args.no_apply:
                         out = Path(tmp) / f"applied_{name}.csv"
                         runs[name]["apply"].append(run_child(
-                            [*cli, "apply", str(cal), *data, *options[:2 if case == "xsens_imutk" else 0],
+                            [*cli, "apply", str(cal), *data, *options[:2 if pair_files else 0],
                              "-o", str(out), "--force"], env))
                         out.unlink()
             for name in copies:

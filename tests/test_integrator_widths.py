@@ -103,3 +103,68 @@ def test_weights_kept_by_a_caller_are_not_overwritten_by_the_next_sensitivity() 
     first = [w.copy() for w in integ.sensitivity(3 * rates)[1]]  # into the array nothing refers to any more
     again = [w.copy() for w in kin.IntervalIntegrator(t, integ.starts, integ.stops).sensitivity(3 * rates)[1]]
     assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
+
+
+def test_many_short_intervals_in_parts_are_the_same_as_in_one(monkeypatch) -> None:
+    """Short intervals integrated a part at a time (a recording of hours of short turns) give the numbers of one
+    part, bit for bit: attitudes, every ``A_j`` and the weighted sums, also beside long intervals."""
+    rng = np.random.default_rng(16)
+    n = 60_000
+    t = np.cumsum(rng.uniform(0.004, 0.006, size=n))
+    lengths = rng.integers(1, 700, size=60)
+    lengths[[5, 40]] = [5000, 4097]  # two long intervals among them
+    starts = np.cumsum(np.concatenate([[3], lengths[:-1] + rng.integers(1, 40, size=59)]))
+    stops = starts + lengths
+    rates = rng.normal(size=(n, 3)) * 2.0
+    one = kin.IntervalIntegrator(t, starts, stops)
+    monkeypatch.setattr(kin, "PART_STEPS", 2048)
+    parts = kin.IntervalIntegrator(t, starts, stops)
+    assert len(one._parts) == 1 and len(parts._parts) > 5  # the paths under test are the ones taken
+    assert np.array_equal(one.samples, parts.samples)
+    r = rates[one.samples]
+    values = rng.normal(size=(one.samples.size, 3, 4))
+    for steps in (None, one.step_factors(r)):
+        assert np.array_equal(parts.from_samples(r, steps), one.from_samples(r, steps))
+        q1, w1 = one.sensitivity(r, steps)
+        q2, w2 = parts.sensitivity(r, steps)
+        assert np.array_equal(q1, q2)
+        assert np.array_equal(one.weighted_sum(w1, values), parts.weighted_sum(w2, values))
+        assert np.array_equal(one.weighted_sum(w1, lambda a, b: values[a:b]),
+                              parts.weighted_sum(w2, lambda a, b: values[a:b]))
+        assert all(np.array_equal(a, b) for a, b in zip(w1, w2, strict=True))
+        assert np.array_equal(q2, parts(rates))
+
+
+def test_memory_of_the_sensitivity_does_not_follow_the_number_of_short_intervals() -> None:
+    """Eight times as many short intervals: the peak of sensitivity() and weighted_sum() beyond their inputs
+    grows by a few bytes a sample (all of one part's per-sample temporaries at once: 166 bytes a sample)."""
+    import tracemalloc
+
+    rng = np.random.default_rng(17)
+
+    def excess(count: int) -> tuple[int, int]:
+        lengths = rng.integers(200, 500, size=count)
+        starts = np.cumsum(np.concatenate([[0], lengths[:-1] + 50]))
+        stops = starts + lengths
+        t = np.arange(stops[-1] + 10) * 0.005
+        integ = kin.IntervalIntegrator(t, starts, stops)
+        r = rng.normal(size=(integ.samples.size, 3))
+        steps = integ.step_factors(r)
+
+        def values(a, b):
+            return np.ones((b - a, 3, 12))
+
+        tracemalloc.start()
+        try:
+            base = tracemalloc.get_traced_memory()[0]
+            _, weights = integ.sensitivity(r, steps)
+            integ.weighted_sum(weights, values)
+            return tracemalloc.get_traced_memory()[1] - base, integ.samples.size
+        finally:
+            tracemalloc.stop()
+
+    small, n_small = excess(1_000)  # about 350 k samples: more than one part
+    big, n_big = excess(8_000)
+    assert n_big > 7 * n_small
+    per_sample = (big - small) / (n_big - n_small)
+    assert per_sample < 40, f"{per_sample:.0f} bytes a sample more ({small / 1e6:.0f} → {big / 1e6:.0f} MB)"

@@ -37,6 +37,7 @@ import functools
 import sys
 import weakref
 from collections.abc import Callable, Iterator
+from typing import NamedTuple
 
 import numpy as np
 
@@ -610,6 +611,10 @@ RK4_CHUNK = 1 << 13
 #: :meth:`IntervalIntegrator.sensitivity` (twice this held between them)
 LEVEL_BYTES = 1 << 22
 
+#: padded steps of short intervals (up to BLOCK steps) integrated together: a recording of more is integrated a
+#: part of consecutive intervals at a time, so that memory does not follow how many short rotations it holds
+PART_STEPS = CHUNK
+
 #: samples whose per-sample Jacobians :meth:`IntervalIntegrator.weighted_sum` asks for at once (several short
 #: intervals' together)
 SPAN = 1 << 12
@@ -634,15 +639,19 @@ class IntervalIntegrator:
     change. This is the inner loop of the gyroscope cost functions (Zhang
     2021, eq. 14; Tedaldi 2014), so it avoids all per-call bookkeeping.
 
-    Memory follows the samples integrated, never the length of one interval:
-    intervals of up to :data:`BLOCK` steps are grouped by their length rounded
-    up to a power of two, each group padded to its own length; a longer
-    interval is cut into blocks of :data:`BLOCK` steps, whose products are then
-    multiplied together, and the blocks are processed :data:`CHUNK` steps at a
-    time. The blocks are aligned on the pairwise (tree) products of the module
-    docstring, and their prefix products continue from the blocks before them
-    in the order the whole interval's would be formed, so the results are the
-    same to the last bit as integrating each interval at once.
+    The temporaries follow neither the length of one interval nor how many
+    there are: intervals of up to :data:`BLOCK` steps are grouped by their
+    length rounded up to a power of two, each group padded to its own length,
+    in parts of consecutive intervals of up to :data:`PART_STEPS` padded steps
+    integrated one part at a time (one part, as a rule: a recording of hours of
+    short turns has several); a longer interval is cut into blocks of
+    :data:`BLOCK` steps, whose products are then multiplied together, and the
+    blocks are processed :data:`CHUNK` steps at a time. The blocks are
+    aligned on the pairwise (tree) products of the module docstring, and their
+    prefix products continue from the blocks before them in the order the
+    whole interval's would be formed, so the results are the same to the last
+    bit as integrating each interval at once (and, every product being formed
+    per interval, in one part or in many).
 
     Parameters
     ----------
@@ -696,43 +705,32 @@ class IntervalIntegrator:
         # intervals grouped by their length rounded up to a power of two: each group is padded to its own
         # length (with identity steps), not to the longest interval's, so memory follows the samples integrated
         widths = 1 << np.ceil(np.log2(np.maximum(nsteps, 1))).astype(int)
-        # each group's steps are gathered step-major (W, members) in bit-reversed order (_tree_products_halves)
-        self._groups = []
-        #: the attitudes of the short intervals' samples, one after the other (interval k's from _att_first[k]):
-        #: their columns among the groups' prefix products (then the identity column), and trapezoid weights
-        att_index, att_trapezoid = [], []
+        #: the short intervals in parts of consecutive intervals of up to PART_STEPS padded steps (one part, as
+        #: a rule): each part's groups, the layout of its attitudes (_ShortPart)
+        self._parts = []
+        #: per interval: its part (−1 for a long one), and the position of its first attitude in its part's
+        self._part_of = np.full(len(starts), -1)
         self._att_first = np.full(len(starts), -1)
-        column = place = 0
-        for width in np.unique(widths[widths <= BLOCK])[::-1]:  # widest first
-            members = np.nonzero(widths == width)[0]
-            gather, trapezoid = self._layout(self._step0[members], nsteps[members], int(width))
-            order = _bit_reversal(int(width))
-            self._groups.append((members, np.ascontiguousarray(gather[:, order].T)))
-            # row j's samples: the start (the identity, marked −1), then the attitude after step i at place
-            # order[i] of row j; each row as long as its interval's samples
-            m, n = len(members), nsteps[members]
-            index = np.empty((m, int(width) + 1), dtype=np.intp)
-            index[:, 0] = -1
-            index[:, 1:] = column + order[None, :] * m + np.arange(m)[:, None]
-            real = np.arange(int(width) + 1)[None, :] <= n[:, None]
-            att_index.append(index[real])
-            att_trapezoid.append(trapezoid[real])
-            self._att_first[members] = place + np.concatenate([[0], np.cumsum(n + 1)[:-1]])
-            place += int(np.sum(n + 1))
-            column += int(width) * len(members)
-        #: bytes of the groups' gathered factors (and again of their tree levels)
-        self._group_bytes = 32 * column
+        short = np.nonzero(widths <= BLOCK)[0]
+        ends = np.cumsum(widths[short])
+        a = 0
+        while a < short.size:  # each part as many intervals as fit in PART_STEPS (at least one)
+            b = max(a + 1, int(np.searchsorted(ends, (ends[a - 1] if a else 0) + PART_STEPS, side="right")))
+            self._part_of[short[a:b]] = len(self._parts)
+            self._parts.append(self._short_part(short[a:b], widths, nsteps))
+            a = b
+        #: bytes of the groups' gathered factors (and again of their tree levels), when they form one part
+        self._group_bytes = 32 * self._parts[0].columns if len(self._parts) == 1 else None
         #: (the factors, weakly; their gathered columns; their tree levels) of the last from_samples()
         self._tree_levels: tuple | None = None
         #: the rotations array of the last sensitivity() (reused once nothing else refers to it)
         self._rotations: np.ndarray | None = None
-        self._att_index = np.concatenate(att_index) if att_index else np.zeros(0, np.intp)
-        self._att_index[self._att_index < 0] = column  # the start of each interval: the identity
-        self._att_trapezoid = np.concatenate(att_trapezoid) if att_trapezoid else np.zeros(0)
         #: sensitivity()'s attitude temporaries (every group's, then every sample's), kept when small
         self._attitude_buffers = None
-        if 32 * (column + 1 + self._att_index.size) <= LEVEL_BYTES:
-            self._attitude_buffers = (np.empty((4, column + 1)), np.empty((4, self._att_index.size)))
+        if len(self._parts) == 1:
+            part = self._parts[0]
+            if 32 * (part.columns + 1 + part.att_index.size) <= LEVEL_BYTES:
+                self._attitude_buffers = (np.empty((4, part.columns + 1)), np.empty((4, part.att_index.size)))
         # longer intervals: blocks of BLOCK steps, then per interval the product of its blocks (their number
         # rounded up to a power of two, grouped by it)
         self._long = np.nonzero(widths > BLOCK)[0]
@@ -750,6 +748,43 @@ class IntervalIntegrator:
             pos = np.arange(count)[None, :]
             valid = pos < nblocks[which, None]
             self._long_groups.append((which, np.where(valid, self._block_first[which, None] + pos, owner.size)))
+
+    def _short_part(self, members: np.ndarray, widths: np.ndarray, nsteps: np.ndarray) -> _ShortPart:
+        """The groups of the short intervals ``members`` (by width, widest first) and their attitudes' layout."""
+        groups, att_index, att_trapezoid = [], [], []
+        column = place = 0
+        for width in np.unique(widths[members])[::-1]:  # widest first
+            group = members[widths[members] == width]
+            gather, trapezoid = self._layout(self._step0[group], nsteps[group], int(width))
+            order = _bit_reversal(int(width))
+            # each group's steps are gathered step-major (W, members) in bit-reversed order (_tree_products_halves)
+            groups.append((group, np.ascontiguousarray(gather[:, order].T)))
+            # row j's samples: the start (the identity, marked −1), then the attitude after step i at place
+            # order[i] of row j; each row as long as its interval's samples
+            m, n = len(group), nsteps[group]
+            index = np.empty((m, int(width) + 1), dtype=np.intp)
+            index[:, 0] = -1
+            index[:, 1:] = column + order[None, :] * m + np.arange(m)[:, None]
+            real = np.arange(int(width) + 1)[None, :] <= n[:, None]
+            att_index.append(index[real])
+            att_trapezoid.append(trapezoid[real])
+            self._att_first[group] = place + np.concatenate([[0], np.cumsum(n + 1)[:-1]])
+            place += int(np.sum(n + 1))
+            column += int(width) * len(group)
+        att_index = np.concatenate(att_index)
+        att_index[att_index < 0] = column  # the start of each interval: the identity
+        return _ShortPart(groups, att_index, np.concatenate(att_trapezoid), column)
+
+    def _part_rotations(self, k: int, s: np.ndarray) -> np.ndarray:
+        """The ``A_j`` (3, samples, 3 layout, as :func:`_weighted_rotations_soa`) of every sample of part ``k``'s
+        intervals, from the RK4 factors ``s`` (:meth:`step_factors`): as :meth:`sensitivity` forms them for one
+        part (the same numbers)."""
+        part = self._parts[k]
+        prefixes = _prefix_products_halves([s.take(tree, axis=1) for _, tree in part.groups])
+        att = np.concatenate([pre.reshape(4, -1) for pre in prefixes] + [_IDENTITY[:, None]], axis=1)
+        del prefixes
+        att = att.take(part.att_index, axis=1)
+        return _weighted_rotations_soa(att, part.att_trapezoid)
 
     def _layout(self, step0: np.ndarray, nsteps: np.ndarray, width: int) -> tuple[np.ndarray, np.ndarray]:
         """Columns of each interval's steps among the RK4 factors (the identity column past its end), and the
@@ -822,15 +857,17 @@ class IntervalIntegrator:
         s = self.step_factors(rates) if steps is None else steps
         q = np.empty((len(self.starts), 4))
         self._tree_levels = None
-        if self._groups:
-            order = np.concatenate([members for members, _ in self._groups])
-            fs = [s.take(tree, axis=1) for _, tree in self._groups]
+        for part in self._parts:  # one part at a time: its temporaries are all that exist at once
+            order = np.concatenate([members for members, _ in part.groups])
+            fs = [s.take(tree, axis=1) for _, tree in part.groups]
             # the caller keeps these factors: their gathered columns and tree levels kept for sensitivity()'s
-            # prefix products of the same factors, when small
-            levels = [] if steps is not None and self._group_bytes <= LEVEL_BYTES else None
+            # prefix products of the same factors, when small (and one part)
+            keep = steps is not None and self._group_bytes is not None and self._group_bytes <= LEVEL_BYTES
+            levels = [] if keep else None
             q[order] = _tree_products_halves(fs, levels).T
             if levels is not None:
                 self._tree_levels = (weakref.ref(steps), fs, levels)
+            del fs
         if self._long.size:
             products = np.empty((4, self._block_step0.size))
             for a, b, gather in self._block_chunks():
@@ -870,23 +907,31 @@ class IntervalIntegrator:
         s = self.step_factors(rates) if steps is None else steps
         q_end = np.empty((len(self.starts), 4))
         weights = _SensitivityWeights(self)
-        if self._groups:  # pre: the attitude after each step, bit-reversed (W, members) per group
+        if len(self._parts) == 1:  # pre: the attitude after each step, bit-reversed (W, members) per group
+            part = self._parts[0]
             kept = self._tree_levels
             if steps is not None and kept is not None and kept[0]() is steps:  # from_samples() of these factors
                 prefixes = _prefix_products_halves(kept[1], iter(kept[2]))
             else:
-                prefixes = _prefix_products_halves([s.take(tree, axis=1) for _, tree in self._groups])
-            for (members, _), pre in zip(self._groups, prefixes, strict=True):
+                prefixes = _prefix_products_halves([s.take(tree, axis=1) for _, tree in part.groups])
+            for (members, _), pre in zip(part.groups, prefixes, strict=True):
                 q_end[members] = pre[:, -1].T  # the last place holds the last step in bit-reversed order too
             # every attitude, then each sample's (temporaries kept by the integrator when small: reused)
             kept = self._attitude_buffers
             att = np.concatenate([pre.reshape(4, -1) for pre in prefixes] + [_IDENTITY[:, None]], axis=1,
                                  out=None if kept is None else kept[0])
-            att = att.take(self._att_index, axis=1, out=None if kept is None else kept[1])
-            rot = _weighted_rotations_soa(att, self._att_trapezoid, self._rotations_buffer())
-            for members, _ in self._groups:
+            att = att.take(part.att_index, axis=1, out=None if kept is None else kept[1])
+            rot = _weighted_rotations_soa(att, part.att_trapezoid, self._rotations_buffer())
+            for members, _ in part.groups:
                 for k in members:
                     weights.items[k] = rot[self._att_first[k] : self._att_first[k] + self._nsteps[k] + 1]
+        elif self._parts:  # many short intervals: each part's A_j formed when weighted_sum() reaches it
+            for part in self._parts:
+                prefixes = _prefix_products_halves([s.take(tree, axis=1) for _, tree in part.groups])
+                for (members, _), pre in zip(part.groups, prefixes, strict=True):
+                    q_end[members] = pre[:, -1].T
+                del prefixes
+            weights.factors = s
         if self._long.size:
             products = np.empty((4, self._block_step0.size))
             for a, b, gather in self._block_chunks():
@@ -907,7 +952,7 @@ class IntervalIntegrator:
         buf = self._rotations
         self._rotations = None
         if buf is None or sys.getrefcount(buf) > 2:  # 2: the name here and getrefcount's argument
-            buf = np.empty((3, self._att_index.size, 3))
+            buf = np.empty((3, self._parts[0].att_index.size, 3))
         self._rotations = buf
         return buf
 
@@ -978,6 +1023,19 @@ class IntervalIntegrator:
         return out
 
 
+class _ShortPart(NamedTuple):
+    """Consecutive short intervals integrated together (:attr:`IntervalIntegrator._parts`)."""
+
+    #: (members, gathered factor columns (W, members) in bit-reversed order) per width, widest first
+    groups: list[tuple[np.ndarray, np.ndarray]]
+    #: per attitude of the part's samples: its column among the groups' prefix products (the identity last)
+    att_index: np.ndarray
+    #: and its trapezoid weight
+    att_trapezoid: np.ndarray
+    #: the groups' padded steps
+    columns: int
+
+
 class _SensitivityWeights:
     """The ``A_j`` of :meth:`IntervalIntegrator.sensitivity`, one (n + 1, 3, 3) array per interval.
 
@@ -994,6 +1052,10 @@ class _SensitivityWeights:
         self.prefix: dict[int, tuple[int, np.ndarray]] = {}
         self.rates: np.ndarray | None = None  # the rates (len(samples), 3) the attitudes were integrated from
         self.steps: np.ndarray | None = None  # their RK4 factors, when the caller passed them
+        #: the RK4 factors of every step, when the short intervals are in several parts (their A_j formed a part
+        #: at a time, from these), and the part last formed: (its number, its A_j)
+        self.factors: np.ndarray | None = None
+        self._part: tuple[int, np.ndarray | None] = (-1, None)
 
     def __len__(self) -> int:
         return len(self.items)
@@ -1001,6 +1063,19 @@ class _SensitivityWeights:
     def __getitem__(self, m: int) -> np.ndarray:
         item = self.items[m]
         return item if item is not None else self.block(m, 0, self.integrator._nsteps[m] + 1)
+
+    def _short(self, m: int) -> np.ndarray | None:
+        """``A_j`` of short interval ``m`` of an integrator whose short intervals are in several parts (its
+        part's formed when first asked for, the one before dropped first), else None."""
+        integ = self.integrator
+        k = int(integ._part_of[m]) if self.factors is not None else -1
+        if k < 0:
+            return None
+        if self._part[0] != k:
+            self._part = (-1, None)  # one part's A_j at a time
+            self._part = (k, integ._part_rotations(k, self.factors))
+        first = integ._att_first[m]
+        return self._part[1][first : first + integ._nsteps[m] + 1]
 
     def attitudes(self, m: int, start: int, stop: int) -> np.ndarray:
         """Attitudes (4, stop − start) of samples ``start … stop − 1`` of long interval ``m`` (relative to its start).
@@ -1037,6 +1112,8 @@ class _SensitivityWeights:
     def block(self, m: int, start: int, stop: int) -> np.ndarray:
         """``A_j`` (stop − start, 3, 3) of samples ``start … stop − 1`` of interval ``m``."""
         item = self.items[m]
+        if item is None:
+            item = self._short(m)
         if item is not None:
             return item[start:stop]
         return _weighted_rotations_soa(self.attitudes(m, start, stop), self.integrator._trapezoid(m)[start:stop])
