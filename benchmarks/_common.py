@@ -93,3 +93,34 @@ def time_processes(commands: dict[str, tuple[list[str], dict | None]], runs: int
                    "times_s": [round(t, 4) for t in times[name]],
                    "cpu_median_s": round(statistics.median(cpu[name]), 4),
                    "other_programs_cpu_s": others[name]} for name in commands}
+
+
+def calls_in_turns(script: str, copies: dict[str, str], rounds: int, calls: int) -> dict[str, dict]:
+    """The library call of ``script`` timed in a fresh process per copy of the package, the copies in turns.
+
+    ``script`` is Python source defining ``call()`` (e.g. one calibration of data it reads first); ``copies``
+    maps a name to the ``src`` folder put first on ``sys.path`` (``""``: the installed copy). Each process
+    warms up with one call, then prints the median wall time of ``calls`` calls; the copies take turns
+    ``rounds`` times so that all see the same machine. Returns, by name, the median of those medians and
+    each of them [s].
+    """
+    import json
+    import os
+    import subprocess
+
+    runner = ("import json, statistics, sys, time\n"
+              "if sys.argv[1]: sys.path.insert(0, sys.argv[1])\n"
+              f"{script}\n"
+              "call()\n"
+              "times = []\n"
+              "for _ in range(int(sys.argv[2])):\n"
+              "    t0 = time.perf_counter(); call(); times.append(time.perf_counter() - t0)\n"
+              "print(json.dumps(statistics.median(times)))\n")
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1")}
+    medians: dict[str, list[float]] = {name: [] for name in copies}
+    for _ in range(rounds):
+        for name, src in copies.items():
+            out = subprocess.run([sys.executable, "-c", runner, str(Path(src).resolve()) if src else "",
+                                  str(calls)], check=True, capture_output=True, text=True, env=env)
+            medians[name].append(round(json.loads(out.stdout.strip().splitlines()[-1]), 4))
+    return {name: {"median_s": statistics.median(m), "medians_s": m} for name, m in medians.items()}

@@ -9,7 +9,9 @@
 
 ``--baseline DIR`` times the process of another copy of the package too (``DIR``
 on ``PYTHONPATH``, e.g. the ``src`` of an older checkout), in turns with this
-one (``"cli_before"``). ``--bytecode-cache`` also times the processes with
+one (``"cli_before"``), and the library call of both in turns, a fresh process
+each (``"calibrate_in_turns"``: ``"after"`` and ``"before"``, the medians of
+``--runs`` calls in each of 3 processes a copy). ``--bytecode-cache`` also times the processes with
 Python's compiled modules kept between runs (``"cli_cached"``, ``"cli_before_cached"``:
 in a directory of its own, whatever ``PYTHONDONTWRITEBYTECODE`` says), as an
 installed package runs (pip compiles the modules when it installs them); without
@@ -30,7 +32,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from _common import median_cpu_time, median_time, require_data, time_processes
+from _common import calls_in_turns, median_cpu_time, median_time, require_data, time_processes
 
 from imucalib.io import read
 from imucalib.methods import calibrate
@@ -51,6 +53,13 @@ def main() -> None:
     cmd = [sys.executable, "-m", "imucalib.cli", "calibrate", *files, "--reader", "imutk",
            "--method", "tedaldi2014", "--gravity", "9.81744", "--json"]
     cal_cpu = median_cpu_time(lambda: calibrate(rec, method="tedaldi2014", gravity=9.81744), args.runs)
+    turns = {}
+    if args.baseline:
+        here = str(Path(__file__).resolve().parents[1] / "src")
+        script = ("from imucalib.io import read\nfrom imucalib.methods import calibrate\n"
+                  f"rec = read({files!r}, reader='imutk')\n"
+                  "def call(): calibrate(rec, method='tedaldi2014', gravity=9.81744)\n")
+        turns = {"calibrate_in_turns": calls_in_turns(script, {"after": here, "before": args.baseline}, 3, args.runs)}
     commands = {"cli": (cmd, None)}
     if args.baseline:
         commands["cli_before"] = (cmd, {**os.environ, "PYTHONPATH": str(Path(args.baseline).resolve())})
@@ -71,6 +80,7 @@ def main() -> None:
         "cli_times_s": cli["times_s"],
         "cli_cpu_median_s": cli["cpu_median_s"],
         "cli_other_programs_cpu_s": cli["other_programs_cpu_s"],
+        **turns,
         **timed,
         "goals_s": {"calibrate": 0.1, "cli": 0.35},
         "imu_tk_reference_s": {"calibrate": 0.86, "program": 2.4},
