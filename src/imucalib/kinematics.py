@@ -776,15 +776,21 @@ class IntervalIntegrator:
         return _ShortPart(groups, att_index, np.concatenate(att_trapezoid), column)
 
     def _part_rotations(self, k: int, s: np.ndarray) -> np.ndarray:
-        """The ``A_j`` (3, samples, 3 layout, as :func:`_weighted_rotations_soa`) of every sample of part ``k``'s
-        intervals, from the RK4 factors ``s`` (:meth:`step_factors`): as :meth:`sensitivity` forms them for one
-        part (the same numbers)."""
+        """The ``A_j`` of every sample of part ``k``'s intervals from the RK4 factors ``s`` (:meth:`step_factors`),
+        as :meth:`sensitivity` forms them (the same numbers)."""
         part = self._parts[k]
-        prefixes = _prefix_products_halves([s.take(tree, axis=1) for _, tree in part.groups])
-        att = np.concatenate([pre.reshape(4, -1) for pre in prefixes] + [_IDENTITY[:, None]], axis=1)
-        del prefixes
-        att = att.take(part.att_index, axis=1)
-        return _weighted_rotations_soa(att, part.att_trapezoid)
+        return self._rotations_of(part, _prefix_products_halves([s.take(tree, axis=1) for _, tree in part.groups]))
+
+    @staticmethod
+    def _rotations_of(part: _ShortPart, prefixes: list[np.ndarray], buffers: tuple | None = None,
+                      out: np.ndarray | None = None) -> np.ndarray:
+        """The ``A_j`` ((samples, 3, 3) view of a (3, samples, 3) array, :func:`_weighted_rotations_soa`) of the
+        samples of ``part`` from its groups' prefix products: every attitude, then each sample's (into
+        ``buffers`` and ``out`` when given)."""
+        att = np.concatenate([pre.reshape(4, -1) for pre in prefixes] + [_IDENTITY[:, None]], axis=1,
+                             out=None if buffers is None else buffers[0])
+        att = att.take(part.att_index, axis=1, out=None if buffers is None else buffers[1])
+        return _weighted_rotations_soa(att, part.att_trapezoid, out)
 
     def _layout(self, step0: np.ndarray, nsteps: np.ndarray, width: int) -> tuple[np.ndarray, np.ndarray]:
         """Columns of each interval's steps among the RK4 factors (the identity column past its end), and the
@@ -907,8 +913,7 @@ class IntervalIntegrator:
         s = self.step_factors(rates) if steps is None else steps
         q_end = np.empty((len(self.starts), 4))
         weights = _SensitivityWeights(self)
-        if len(self._parts) == 1:  # pre: the attitude after each step, bit-reversed (W, members) per group
-            part = self._parts[0]
+        for part in self._parts:  # pre: the attitude after each step, bit-reversed (W, members) per group
             kept = self._tree_levels
             if steps is not None and kept is not None and kept[0]() is steps:  # from_samples() of these factors
                 prefixes = _prefix_products_halves(kept[1], iter(kept[2]))
@@ -916,21 +921,13 @@ class IntervalIntegrator:
                 prefixes = _prefix_products_halves([s.take(tree, axis=1) for _, tree in part.groups])
             for (members, _), pre in zip(part.groups, prefixes, strict=True):
                 q_end[members] = pre[:, -1].T  # the last place holds the last step in bit-reversed order too
-            # every attitude, then each sample's (temporaries kept by the integrator when small: reused)
-            kept = self._attitude_buffers
-            att = np.concatenate([pre.reshape(4, -1) for pre in prefixes] + [_IDENTITY[:, None]], axis=1,
-                                 out=None if kept is None else kept[0])
-            att = att.take(part.att_index, axis=1, out=None if kept is None else kept[1])
-            rot = _weighted_rotations_soa(att, part.att_trapezoid, self._rotations_buffer())
-            for members, _ in part.groups:
-                for k in members:
-                    weights.items[k] = rot[self._att_first[k] : self._att_first[k] + self._nsteps[k] + 1]
-        elif self._parts:  # many short intervals: each part's A_j formed when weighted_sum() reaches it
-            for part in self._parts:
-                prefixes = _prefix_products_halves([s.take(tree, axis=1) for _, tree in part.groups])
-                for (members, _), pre in zip(part.groups, prefixes, strict=True):
-                    q_end[members] = pre[:, -1].T
-                del prefixes
+            if len(self._parts) == 1:  # its A_j now (temporaries kept by the integrator when small: reused)
+                rot = self._rotations_of(part, prefixes, self._attitude_buffers, self._rotations_buffer())
+                for members, _ in part.groups:
+                    for k in members:
+                        weights.items[k] = rot[self._att_first[k] : self._att_first[k] + self._nsteps[k] + 1]
+            del prefixes
+        if len(self._parts) > 1:  # many short intervals: each part's A_j formed when weighted_sum() reaches it
             weights.factors = s
         if self._long.size:
             products = np.empty((4, self._block_step0.size))
