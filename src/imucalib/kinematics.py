@@ -786,9 +786,11 @@ class IntervalIntegrator:
                       out: np.ndarray | None = None) -> np.ndarray:
         """The ``A_j`` ((samples, 3, 3) view of a (3, samples, 3) array, :func:`_weighted_rotations_soa`) of the
         samples of ``part`` from its groups' prefix products: every attitude, then each sample's (into
-        ``buffers`` and ``out`` when given)."""
+        ``buffers`` and ``out`` when given). Empties ``prefixes`` once they are copied (freed before the
+        rotations are formed)."""
         att = np.concatenate([pre.reshape(4, -1) for pre in prefixes] + [_IDENTITY[:, None]], axis=1,
                              out=None if buffers is None else buffers[0])
+        prefixes.clear()
         att = att.take(part.att_index, axis=1, out=None if buffers is None else buffers[1])
         return _weighted_rotations_soa(att, part.att_trapezoid, out)
 
@@ -921,6 +923,7 @@ class IntervalIntegrator:
                 prefixes = _prefix_products_halves([s.take(tree, axis=1) for _, tree in part.groups])
             for (members, _), pre in zip(part.groups, prefixes, strict=True):
                 q_end[members] = pre[:, -1].T  # the last place holds the last step in bit-reversed order too
+            del pre
             if len(self._parts) == 1:  # its A_j now (temporaries kept by the integrator when small: reused)
                 rot = self._rotations_of(part, prefixes, self._attitude_buffers, self._rotations_buffer())
                 for members, _ in part.groups:
