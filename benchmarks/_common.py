@@ -9,6 +9,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+#: this checkout's package source
+SRC = Path(__file__).resolve().parents[1] / "src"
 
 
 def median_cpu_time(fn: Callable[[], object], runs: int) -> float:
@@ -95,13 +97,13 @@ def time_processes(commands: dict[str, tuple[list[str], dict | None]], runs: int
                    "other_programs_cpu_s": others[name]} for name in commands}
 
 
-def calls_in_turns(script: str, copies: dict[str, str], rounds: int, calls: int) -> dict[str, dict]:
-    """The library call of ``script`` timed in a fresh process per copy of the package, the copies in turns.
+def calls_in_turns(script: str, baseline: str, rounds: int, calls: int) -> dict[str, dict]:
+    """The library call of ``script`` timed with this checkout's package (``"after"``) and with the one in
+    ``baseline`` (``"before"``: e.g. the ``src`` of an older checkout), a fresh process each, in turns.
 
-    ``script`` is Python source defining ``call()`` (e.g. one calibration of data it reads first); ``copies``
-    maps a name to the ``src`` folder put first on ``sys.path`` (``""``: the installed copy). Each process
-    warms up with one call, then prints the median wall time of ``calls`` calls; the copies take turns
-    ``rounds`` times so that all see the same machine. Returns, by name, the median of those medians and
+    ``script`` is Python source defining ``call()`` (e.g. one calibration of data it reads first). Each
+    process warms up with one call, then prints the median wall time of ``calls`` calls; the two take turns
+    ``rounds`` times so that both see the same machine. Returns, by name, the median of those medians and
     each of them [s].
     """
     import json
@@ -109,7 +111,7 @@ def calls_in_turns(script: str, copies: dict[str, str], rounds: int, calls: int)
     import subprocess
 
     runner = ("import json, statistics, sys, time\n"
-              "if sys.argv[1]: sys.path.insert(0, sys.argv[1])\n"
+              "sys.path.insert(0, sys.argv[1])\n"
               f"{script}\n"
               "call()\n"
               "times = []\n"
@@ -117,10 +119,11 @@ def calls_in_turns(script: str, copies: dict[str, str], rounds: int, calls: int)
               "    t0 = time.perf_counter(); call(); times.append(time.perf_counter() - t0)\n"
               "print(json.dumps(statistics.median(times)))\n")
     env = {**os.environ, "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1")}
+    copies = {"after": SRC, "before": Path(baseline).resolve()}
     medians: dict[str, list[float]] = {name: [] for name in copies}
     for _ in range(rounds):
         for name, src in copies.items():
-            out = subprocess.run([sys.executable, "-c", runner, str(Path(src).resolve()) if src else "",
-                                  str(calls)], check=True, capture_output=True, text=True, env=env)
+            out = subprocess.run([sys.executable, "-c", runner, str(src), str(calls)], check=True,
+                                 capture_output=True, text=True, env=env)
             medians[name].append(round(json.loads(out.stdout.strip().splitlines()[-1]), 4))
     return {name: {"median_s": statistics.median(m), "medians_s": m} for name, m in medians.items()}

@@ -224,6 +224,7 @@ def main() -> None:
         data_dir = Path(args.data_dir or tmp)
         data_dir.mkdir(parents=True, exist_ok=True)
         jobs = []  # (case, input files, reader and gravity options)
+        imutk = ["--reader", "imutk", "--gravity", str(XSENS_GRAVITY)]  # an imu_tk pair of the Xsens session
         for size in sizes:
             path = data_dir / f"handheld_{size}_seed{SEED}.csv"
             if not path.exists():
@@ -234,23 +235,21 @@ def main() -> None:
             csv = data_dir / f"xsens_{xsens}.csv"
             if not all(p.exists() for p in (*pair, csv)):
                 subprocess.run([sys.executable, __file__, "--generate-xsens", str(xsens), str(data_dir)], check=True)
-            gravity = ["--gravity", str(XSENS_GRAVITY)]
             if "xsens_imutk" in cases:
-                jobs.append(("xsens_imutk", pair, ["--reader", "imutk", *gravity]))
+                jobs.append(("xsens_imutk", pair, imutk))
             if "xsens_csv" in cases:
-                jobs.append(("xsens_csv", [csv], gravity))
+                jobs.append(("xsens_csv", [csv], imutk[2:]))
         if "xsens_tiled" in cases:
             pair = [data_dir / f"xsens_tiled_{xsens}_acc.mat", data_dir / f"xsens_tiled_{xsens}_gyro.mat"]
             if not all(p.exists() for p in pair):
                 subprocess.run([sys.executable, __file__, "--generate-xsens-tiled", str(xsens), str(data_dir)],
                                check=True)
-            jobs.append(("xsens_tiled", pair, ["--reader", "imutk", "--gravity", str(XSENS_GRAVITY)]))
+            jobs.append(("xsens_tiled", pair, imutk))
         for case, paths, options in jobs:
             path = paths[-1]
             with path.open("rb") as f:
                 samples = sum(chunk.count(b"\n") for chunk in iter(lambda f=f: f.read(1 << 24), b""))
-            pair_files = case in ("xsens_imutk", "xsens_tiled")  # imu_tk's pair, read with --reader imutk
-            samples -= not pair_files  # a CSV's header line
+            samples -= len(paths) == 1  # a CSV's header line
             data = [str(p) for p in paths]
             runs: dict = {name: {"calibrate": [], "apply": []} for name in copies}
             for _ in range(args.runs):
@@ -262,7 +261,7 @@ def main() -> None:
                     if not args.no_apply:
                         out = Path(tmp) / f"applied_{name}.csv"
                         runs[name]["apply"].append(run_child(
-                            [*cli, "apply", str(cal), *data, *options[:2 if pair_files else 0],
+                            [*cli, "apply", str(cal), *data, *options[:2 if len(paths) == 2 else 0],
                              "-o", str(out), "--force"], env))
                         out.unlink()
             for name in copies:

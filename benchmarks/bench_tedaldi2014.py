@@ -11,9 +11,10 @@
 on ``PYTHONPATH``, e.g. the ``src`` of an older checkout), in turns with this
 one (``"cli_before"``), and the library call of both in turns, a fresh process
 each (``"calibrate_in_turns"``: ``"after"`` and ``"before"``, the medians of
-``--runs`` calls in each of 3 processes a copy). ``--bytecode-cache`` also times the processes with
-Python's compiled modules kept between runs (``"cli_cached"``, ``"cli_before_cached"``:
-in a directory of its own, whatever ``PYTHONDONTWRITEBYTECODE`` says), as an
+``--runs`` calls in each of 3 processes a copy). ``--bytecode-cache`` also
+times the processes with Python's compiled modules kept between runs
+(``"cli_cached"``, ``"cli_before_cached"``: in a directory of its own,
+whatever ``PYTHONDONTWRITEBYTECODE`` says), as an
 installed package runs (pip compiles the modules when it installs them); without
 it every process compiles the modules it imports from their source when the
 environment forbids writing the compiled files. Goals: ≤ 0.1 s for the library
@@ -54,14 +55,12 @@ def main() -> None:
            "--method", "tedaldi2014", "--gravity", "9.81744", "--json"]
     cal_cpu = median_cpu_time(lambda: calibrate(rec, method="tedaldi2014", gravity=9.81744), args.runs)
     turns = {}
+    commands = {"cli": (cmd, None)}
     if args.baseline:
-        here = str(Path(__file__).resolve().parents[1] / "src")
         script = ("from imucalib.io import read\nfrom imucalib.methods import calibrate\n"
                   f"rec = read({files!r}, reader='imutk')\n"
                   "def call(): calibrate(rec, method='tedaldi2014', gravity=9.81744)\n")
-        turns = {"calibrate_in_turns": calls_in_turns(script, {"after": here, "before": args.baseline}, 3, args.runs)}
-    commands = {"cli": (cmd, None)}
-    if args.baseline:
+        turns = {"calibrate_in_turns": calls_in_turns(script, args.baseline, 3, args.runs)}
         commands["cli_before"] = (cmd, {**os.environ, "PYTHONPATH": str(Path(args.baseline).resolve())})
     with tempfile.TemporaryDirectory() as cache:
         if args.bytecode_cache:
