@@ -24,12 +24,18 @@ its model variant (zhang2021 without tosses), the method's own selection runs
 once on all poses — the variant ``imucalib calibrate`` selects on the same
 recording — and the folds refit it: ten times faster, slightly optimistic for
 that one choice.
+
+A calibration made elsewhere (another tool's, or an earlier imucalib file) can
+be set beside them (``peers``): it is not refitted, only scored on the same
+held-out poses by the same figures. It is not ranked: unless it was made from
+another recording, it was fitted to those poses, so its figures are in sample
+and flatter it.
 """
 
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from functools import partial
 
 import numpy as np
@@ -118,6 +124,7 @@ def compare(
     folds: int | None = 12,
     progress: Callable[[str], None] | None = None,
     init_static: float | None = None,
+    peers: Mapping[str, object] | None = None,
 ) -> dict:
     """Calibrate with each method and cross-validate it.
 
@@ -138,6 +145,9 @@ def compare(
     init_static : float, optional
         Length of the initial rest [s] (found automatically by default,
         :func:`imucalib.segment.initial_rest`).
+    peers : mapping of str to Calibration, optional
+        Calibrations made elsewhere, by name, scored on the same held-out
+        poses without refitting (module docstring).
 
     Returns
     -------
@@ -145,8 +155,10 @@ def compare(
         ``{"static_intervals": M, "folds": K, "best": method or None, "tied": methods tied for
         the best place (then ``best`` is None), "ranked_by": text,
         "methods": [{"rank", "method", "model", "ok", "reason", "verdict", "score",
-        "cv_accelerometer_residual_rms", "cv_gyroscope_angle_error_mean_deg", "fit"}, …]}``,
-        the methods in the order of :func:`rank`.
+        "cv_accelerometer_residual_rms", "cv_gyroscope_angle_error_mean_deg", "fit"}, …],
+        "peers": [{"name", "ok", "reason", "cv_accelerometer_residual_rms",
+        "cv_gyroscope_angle_error_mean_deg"}, …]}``, the methods in the order of :func:`rank`,
+        the peers in the order given (an empty list without them).
     """
     from .segment import detect_intervals
 
@@ -195,4 +207,20 @@ def compare(
         rows.append(row)
     ranked, best = rank(rows)
     return {"static_intervals": len(intervals), "folds": len(fold_list), "best": best, "tied": tied_best(ranked),
-            "ranked_by": RANKED_BY, "methods": ranked}
+            "ranked_by": RANKED_BY, "methods": ranked,
+            "peers": [_score_peer(recording, intervals, fold_list, name, cal, gravity)
+                      for name, cal in (peers or {}).items()]}
+
+
+def _score_peer(recording: Recording, intervals: list[Interval], folds: list[int], name: str, calibration,
+                gravity: float) -> dict:
+    """A calibration made elsewhere scored on the held-out poses as it is (no refit; module docstring)."""
+    row = {"name": name, "ok": False, "reason": None, "cv_accelerometer_residual_rms": None,
+           "cv_gyroscope_angle_error_mean_deg": None}
+    try:
+        calibration.check_units(recording)
+        cv = leave_one_pose_out(recording, intervals, lambda training: calibration, gravity=gravity, folds=folds)
+    except ValueError as exc:
+        return {**row, "reason": str(exc)}
+    return {**row, "ok": True, "cv_accelerometer_residual_rms": cv["cv_accelerometer_residual_rms"],
+            "cv_gyroscope_angle_error_mean_deg": cv["cv_gyroscope_angle_error_mean_deg"]}

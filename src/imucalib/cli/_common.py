@@ -19,9 +19,9 @@ if TYPE_CHECKING:
 
 __all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_REJECTED", "STANDARD_GRAVITY", "CliError", "Progress",
            "add_force_option", "add_gravity_option", "add_init_static_option", "add_method_option",
-           "add_reader_options",
-           "check_paths", "check_verdict", "gravity_value", "normalise_argv", "positive_float", "print_json",
-           "print_verdict", "progress", "read", "read_recording", "reading_progress", "show_warning"]
+           "add_reader_options", "check_paths", "check_verdict", "gravity_value", "load_calibration",
+           "normalise_argv", "positive_float", "print_json", "print_verdict", "progress", "read", "read_recording",
+           "reading_progress", "show_warning"]
 
 #: exit code of a command that failed with a reported error
 EXIT_ERROR = 2
@@ -293,3 +293,21 @@ def show_warning(message, category=None, filename=None, lineno=None, file=None, 
         message = ("a computation went out of range (a number overflowed or was undefined), so the result may "
                    "not be reliable: check the input for extreme or constant readings")
     print(f"imucalib: warning: {message}", file=sys.stderr)
+
+
+def load_calibration(path: str, recording, gravity: float | None):
+    """A calibration file named on the command line: imucalib's JSON, or imu_tk's ``NAME_acc.calib`` pair.
+
+    imu_tk's files hold neither units nor gravity: they map the raw units of the readings they were made from,
+    taken as ``recording``'s, with ``gravity`` (default: standard gravity) as given to imu_tk.
+    """
+    from ..calibration import Calibration
+
+    if not str(path).endswith(".calib"):
+        return Calibration.load(path)
+    from ..export.imutk import from_imutk, imutk_pair
+    from ..recording import STANDARD_GRAVITY
+
+    acc, gyro = imutk_pair(path)
+    return from_imutk(acc, gyro if recording.gyro is not None else None, acc_unit=recording.acc_unit,
+                      gyro_unit=recording.gyro_unit, gravity=gravity or STANDARD_GRAVITY)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import warnings
 from typing import TYPE_CHECKING
@@ -22,6 +23,7 @@ from ._common import (
     add_init_static_option,
     add_method_option,
     add_reader_options,
+    load_calibration,
     positive_float,
     print_json,
     print_verdict,
@@ -226,8 +228,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     say = progress(not args.json and sys.stderr.isatty())
     rec = read_recording(args, args.data)
+    peers = {path: load_calibration(path, rec, args.gravity) for path in args.peer or []}
     result = compare(rec, gravity=args.gravity, methods=args.methods.split(",") if args.methods else None,
-                     folds=None if args.folds == 0 else args.folds, progress=say, init_static=args.init_static)
+                     folds=None if args.folds == 0 else args.folds, progress=say, init_static=args.init_static,
+                     peers=peers)
     if args.json:
         return print_json(result)
     print(f"{result['static_intervals']} static intervals; leave-one-pose-out over "
@@ -254,6 +258,17 @@ def cmd_compare(args: argparse.Namespace) -> int:
               "and score: nothing here prefers one)")
     else:
         print("best: none (every method was rejected or could not run)")
+    if result.get("peers"):
+        print("peers, scored as they are on the same held-out poses (not refitted, not ranked: in sample when "
+              "made from this recording):")
+    for row in result.get("peers", []):
+        name = os.path.basename(row["name"])
+        if not row["ok"]:
+            print(f"   {name}: cannot be scored: {row['reason']}")
+            continue
+        angle = row["cv_gyroscope_angle_error_mean_deg"]
+        print(f"   {name:<40}{row['cv_accelerometer_residual_rms']:>22.5f}"
+              + (f"{angle:>22.4f}" if angle is not None else f"{'-':>22}"))
     return 0
 
 
@@ -332,6 +347,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--methods", help="comma-separated methods (default: all)")
     p.add_argument("--folds", type=int, default=12,
                    help="held-out poses, spread evenly (0: every pose; default 12)")
+    p.add_argument("--peer", action="append", metavar="CALIBRATION", help="a calibration made elsewhere (imucalib's "
+                   "JSON, or imu_tk's NAME_acc.calib with NAME_gyro.calib beside it), scored on the same held-out "
+                   "poses without refitting and printed beneath the methods, not ranked (repeatable)")
     p.add_argument("--json", action="store_true", help="print the comparison as JSON")
     add_reader_options(p)
     p.set_defaults(func=cmd_compare)

@@ -16,6 +16,7 @@ from ._common import (
     add_init_static_option,
     add_reader_options,
     gravity_value,
+    load_calibration,
     print_json,
     print_verdict,
     read_recording,
@@ -36,8 +37,12 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from ..validation import validate
 
     refuse_overwriting_inputs([args.plot], [args.calibration, *args.data])
-    cal = Calibration.load(args.calibration)
-    rec = read_recording(args, args.data)
+    if args.calibration.endswith(".calib"):  # imu_tk's pair: read against the recording's units
+        rec = read_recording(args, args.data)
+        cal = load_calibration(args.calibration, rec, args.gravity)
+    else:  # checked before the recording is read
+        cal = Calibration.load(args.calibration)
+        rec = read_recording(args, args.data)
     result = {"calibration": str(args.calibration),
               **validate(cal, rec, args.gravity, init_static=args.init_static)}
     intervals = [Interval(a, b) for a, b in result.pop("intervals")]
@@ -87,7 +92,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "calibration on them: the gravity-norm residual against the noise floor and the "
                        "gyroscope's angle errors against what its noise predicts, beside the figures it had "
                        "when it was made. The verdict comes first; exit code 3 when it no longer holds.")
-    p.add_argument("calibration", help="calibration file (JSON)")
+    p.add_argument("calibration", help="calibration file (JSON), or imu_tk's NAME_acc.calib (with NAME_gyro.calib "
+                   "beside it: imu_tk's calibration checked in the same way; pass --gravity as given to imu_tk)")
     p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
     p.add_argument("--gravity", type=gravity_value, help="local gravity [m/s^2] (default: the calibration's)")
     add_init_static_option(p)

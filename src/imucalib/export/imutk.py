@@ -12,6 +12,13 @@ The canonical model maps onto it term by term when it is linear: ``T = T_a``
 or ``T_g``, ``K = diag(k1)``, ``B = b`` (with an output bias ``d`` folded into
 ``B``: ``b − d/k1``). imu_tk has no g-sensitivity: a calibration with ``G ≠ 0``
 cannot be exported. Units are kept: imu_tk's files map the same raw units.
+
+:func:`from_imutk` reads such a pair back (imu_tk's own files, e.g. to check a
+calibration imu_tk made with ``imucalib validate`` or to set it beside
+imucalib's in ``imucalib compare --peer``): ``T``, ``K``, ``B`` become ``T_a``,
+``diag(k1)``, ``b`` of a linear model; the raw units are the recording's, and
+the output is in that unit when it is physical (imu_tk keeps units), in SI for
+counts.
 """
 
 from __future__ import annotations
@@ -20,11 +27,15 @@ import warnings
 
 import numpy as np
 
-from ..calibration import Calibration
-from ..recording import ImucalibWarning
-from .linear import ExportError, gyroscope_part, linear_form
+from ..calibration import Calibration, CalibrationFileError
+from ..models import TriadModel
+from ..recording import STANDARD_GRAVITY, ImucalibWarning
+from .linear import UNIT_TO_SI, ExportError, gyroscope_part, linear_form
 
-__all__ = ["imutk_paths", "to_imutk"]
+__all__ = ["from_imutk", "imutk_pair", "imutk_paths", "to_imutk"]
+
+#: the largest imu_tk parameter file read (one is 21 numbers: a few hundred bytes)
+MAX_CALIB_BYTES = 1 << 16
 
 
 def _block(m: np.ndarray) -> str:
@@ -63,3 +74,78 @@ def imutk_paths(output: str) -> tuple[str, str]:
         raise ExportError(f"-o {output}: give a name for imu_tk's files, e.g. -o xsens (xsens_acc.calib, "
                           "xsens_gyro.calib)")
     return f"{stem}_acc.calib", f"{stem}_gyro.calib"
+
+
+def imutk_pair(path: str) -> tuple[str, str]:
+    """The accelerometer and gyroscope files of the imu_tk pair ``path`` belongs to (either may be named).
+
+    ``xsens_acc.calib`` and ``xsens_gyro.calib`` name each other by their ends ``_acc``/``_gyro``.
+    """
+    name = str(path)
+    for mine, other in (("_acc.calib", "_gyro.calib"), ("_gyro.calib", "_acc.calib")):
+        if name.endswith(mine):
+            pair = (name, name[: -len(mine)] + other)
+            return pair if mine == "_acc.calib" else (pair[1], pair[0])
+    raise CalibrationFileError(f"{path}: an imu_tk parameter file is named NAME_acc.calib or NAME_gyro.calib "
+                               "(the other of the pair beside it)")
+
+
+def _read_triad(path: str, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``T``, ``diag(K)``, ``B`` of one imu_tk parameter file (module docstring), its faults named."""
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read(MAX_CALIB_BYTES + 1)
+    except OSError as exc:
+        raise CalibrationFileError(f"{path}: the imu_tk {what} file cannot be read ({exc.strerror})") from None
+    if len(data) > MAX_CALIB_BYTES:
+        raise CalibrationFileError(f"{path}: over {MAX_CALIB_BYTES} bytes; an imu_tk parameter file holds 21 "
+                                   "numbers")
+    try:
+        values = np.array(data.decode("ascii").split(), dtype=np.float64)
+    except (UnicodeDecodeError, ValueError):
+        raise CalibrationFileError(f"{path}: not an imu_tk parameter file (21 numbers: T row by row, K row by "
+                                   "row, B)") from None
+    if values.size != 21 or not np.isfinite(values).all():
+        raise CalibrationFileError(f"{path}: an imu_tk parameter file holds 21 finite numbers (T row by row, K "
+                                   f"row by row, B); this one {values.size}")
+    t, k, b = values[:9].reshape(3, 3), values[9:18].reshape(3, 3), values[18:]
+    if np.any(k[~np.eye(3, dtype=bool)]) or not np.all(np.diag(k) > 0):
+        raise CalibrationFileError(f"{path}: imu_tk's scale matrix K is diagonal with positive entries; got "
+                                   f"{k.tolist()}")
+    if not np.allclose(np.diag(t), 1.0, rtol=0, atol=1e-9):
+        raise CalibrationFileError(f"{path}: imu_tk's misalignment T has a unit diagonal; got {np.diag(t)}")
+    t = t.copy()
+    np.fill_diagonal(t, 1.0)
+    return t, np.diag(k).copy(), b
+
+
+def from_imutk(acc_path: str, gyro_path: str | None, *, acc_unit: str, gyro_unit: str | None,
+               gravity: float = STANDARD_GRAVITY) -> Calibration:
+    """A :class:`~imucalib.calibration.Calibration` from imu_tk's parameter files (module docstring).
+
+    Parameters
+    ----------
+    acc_path, gyro_path : str
+        ``NAME_acc.calib`` and ``NAME_gyro.calib`` (``gyro_path`` None: an accelerometer-only calibration).
+    acc_unit, gyro_unit : str
+        The raw units of the readings imu_tk was given (those of the recording it is applied to).
+    gravity : float
+        The local gravity imu_tk was given [m/s²] (its files do not hold it).
+
+    Raises
+    ------
+    CalibrationFileError
+        Naming the file and what is wrong with it.
+    """
+    def triad(path, unit, shape, what):
+        t, k, b = _read_triad(path, what)
+        if shape == "upper" and np.any(np.tril(t, -1)):
+            shape = "full"
+        return TriadModel(misalignment=t, scale=k * UNIT_TO_SI.get(unit, 1.0), bias=b, shape=shape)
+
+    acc = triad(acc_path, acc_unit, "upper", "accelerometer")
+    gyro = None if gyro_path is None else triad(gyro_path, gyro_unit, "full", "gyroscope")
+    units = {"accelerometer": {"raw": acc_unit, "calibrated": "m/s^2"}}
+    if gyro is not None:
+        units["gyroscope"] = {"raw": gyro_unit, "calibrated": "rad/s"}
+    return Calibration(accelerometer=acc, gyroscope=gyro, gravity=float(gravity), method="imu_tk", units=units)
