@@ -132,13 +132,16 @@ def test_suspect_and_older_calibrations_are_used(capsys, tmp_path, ferraris_csv,
 
 
 def test_ferraris_options_need_the_ferraris_method(capsys, tmp_path, ferraris_csv):
-    code, out, err = run(capsys, "calibrate", ferraris_csv, "--turn-angle", "180")
+    code, out, err = run(capsys, "calibrate", ferraris_csv, "--turn-angle", "180", "--method", "tedaldi2014")
     assert code == 2 and "--turn-angle applies to --method ferraris only, not tedaldi2014" in err
+    code, out, err = run(capsys, "calibrate", ferraris_csv, "--turn-angle", "360", "--json")
+    assert code in (0, 3) and json.loads(out)["method"] == "ferraris"  # without --method they choose it
     (tmp_path / "s.json").write_text("{}")
     code, out, err = run(capsys, "calibrate", ferraris_csv, "--method", "six_position", "--sections",
                          tmp_path / "s.json")
     assert code == 2 and "--sections applies to --method ferraris only" in err
-    code, out, err = run(capsys, "calibrate", ferraris_csv, "--turn-angle", "90", "--sections", tmp_path / "s.json")
+    code, out, err = run(capsys, "calibrate", ferraris_csv, "--turn-angle", "90", "--sections", tmp_path / "s.json",
+                         "--method", "ellipsoid")
     assert code == 2 and "--turn-angle and --sections apply to --method ferraris only" in err
 
 

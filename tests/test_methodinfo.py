@@ -72,7 +72,7 @@ def test_the_command_line_help_names_every_method(capsys):
     with pytest.raises(SystemExit):
         main(["calibrate", "--help"])
     out = " ".join(capsys.readouterr().out.split())
-    assert f"(default: {DEFAULT_METHOD})" in out
+    assert f"(default: {DEFAULT_METHOD};" in out
     for name in NAMES:
         assert name in out
 

@@ -14,6 +14,7 @@ import re
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from imucalib.cli import main
@@ -104,3 +105,24 @@ def test_imutk_data1_is_refused_with_what_is_missing_and_how_to_record_it(capsys
     # the numbers it gives are this recording's: far fewer poses than a calibration needs
     counts = [int(c) for c in re.findall(r"×\d+: (\d+)", err)]
     assert counts and max(counts) < 4, err
+
+
+#: imucal 2.6.0's Ferraris calibration of its example from the sections its users marked
+#: (``benchmarks/peer_imucal.py``), scored by imucalib on the 13 poses it finds: |a|-g RMS and gyroscope error
+IMUCAL_IN_SAMPLE = (0.00326, 0.503)
+
+
+def test_imucal_ferraris_example_calibrates_as_the_faces_method_at_least_as_well_as_imucal(capsys):
+    path = _data("ferraris_imucal", "example_ferraris_session.csv")
+    units = ["--rate", "102.4", "--acc-unit", "m/s^2", "--gyro-unit", "deg/s"]
+    code, cal, err = _run(["calibrate", path, *units], capsys)
+    assert code == 0 and cal["method"] == "ferraris" and cal["fit"]["verdict"] != "rejected"
+    assert "only the six faces" in err
+    fit = cal["fit"]
+    assert fit["static_intervals"] == 13
+    # on the same poses, both fitted to them: imucalib's no worse than imucal's
+    assert fit["accelerometer_residual_rms"] <= IMUCAL_IN_SAMPLE[0]  # 0.00316
+    assert fit["gyroscope_angle_error_mean_deg"] <= IMUCAL_IN_SAMPLE[1]  # 0.498
+    # its gyroscope scales are imucal's (1/K_g: 0.9729, 1.0179, 1.0017 of the deg/s nominal) to 0.1 %
+    k = np.array(cal["gyroscope"]["scale"]) / (np.pi / 180)
+    np.testing.assert_allclose(k, 1 / np.array([1.027924, 0.982428, 0.99831]), rtol=1e-3)

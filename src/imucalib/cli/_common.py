@@ -102,18 +102,23 @@ def add_reader_options(p: argparse.ArgumentParser) -> None:
                    "counts)")
 
 
-def add_method_option(p: argparse.ArgumentParser, *, required: bool = False, help: str | None = None) -> None:
+def add_method_option(p: argparse.ArgumentParser, *, required: bool = False, help: str | None = None,
+                      chosen: bool = False) -> None:
     """``--method``: one of the declared methods (:func:`imucalib.methodinfo.declared`), by default the library's.
 
     The help names them; an unknown name is the command's error (exit 2, the known names in the message).
+    ``chosen``: the default is None, the library's choice (:func:`imucalib.methods.calibrate`).
     """
     from ..methodinfo import DEFAULT_METHOD, declared
 
     names = list(declared())
     text = help or "calibration method"
-    p.add_argument("--method", metavar="METHOD", required=required,
-                   default=None if required else DEFAULT_METHOD,
-                   help=f"{text}: {', '.join(names)}" + ("" if required else f" (default: {DEFAULT_METHOD})"))
+    default = None if required or chosen else DEFAULT_METHOD
+    said = (f" (default: {DEFAULT_METHOD}; ferraris when the static poses are only the six faces and "
+            f"{DEFAULT_METHOD}'s calibration is rejected)") if chosen else "" if required else \
+        f" (default: {DEFAULT_METHOD})"
+    p.add_argument("--method", metavar="METHOD", required=required, default=default,
+                   help=f"{text}: {', '.join(names)}{said}")
 
 
 def add_init_static_option(p: argparse.ArgumentParser) -> None:

@@ -144,6 +144,8 @@ def _method_options(args: argparse.Namespace) -> dict:
     given = {flag: (key, value) for flag, key, value in (("--turn-angle", "angle", args.turn_angle),
                                                         ("--sections", "sections", args.sections))
              if value is not None}
+    if given and args.method is None:  # the Ferraris options name the method
+        args.method = "ferraris"
     if given and args.method != "ferraris":
         raise CliError(f"{' and '.join(given)} {'apply' if len(given) > 1 else 'applies'} to --method ferraris "
                        f"only, not {args.method}")
@@ -154,8 +156,10 @@ def _method_options(args: argparse.Namespace) -> dict:
                                                       ("--no-noise-weights", "noise_weights", args.no_noise_weights))
              if on}
     if zhang and args.method != "zhang2021":
+        from ..methodinfo import DEFAULT_METHOD
+
         raise CliError(f"{' and '.join(zhang)} {'apply' if len(zhang) > 1 else 'applies'} to --method zhang2021 "
-                       f"only, not {args.method}")
+                       f"only, not {args.method or DEFAULT_METHOD}")
     sensors = {k: v for k, v in (("temperature_model", args.temperature_model), ("mag_field", args.mag_field),
                                  ("mag_hemisphere", args.mag_hemisphere)) if v is not None}
     if args.no_magnetometer:
@@ -302,7 +306,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "written, marked as such, and the command exits with code 3.")
     p.add_argument("data", nargs="+", help="data file(s): one CSV/MAT file, two imu_tk files "
                    "(accelerometer then gyroscope), a ROS bag, or a simulated session directory")
-    add_method_option(p)
+    add_method_option(p, chosen=True)
     p.add_argument("--model", help="model variant, e.g. linear, quadratic, cubic, all")
     add_gravity_option(p)
     add_init_static_option(p)

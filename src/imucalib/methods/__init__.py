@@ -10,16 +10,17 @@ given here take precedence.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from typing import Any
 
 from ..calibration import Calibration, with_bias_session
 from ..methodinfo import DEFAULT_METHOD, MethodInfo, accelerometer_only, declared
-from ..recording import STANDARD_GRAVITY, Recording
+from ..recording import STANDARD_GRAVITY, ImucalibWarning, Recording
 from ..thermal import calibrate_ramp, compensate
 from ..verdict import check_rate, with_verdict
 
-__all__ = ["ACCELEROMETER_ONLY", "METHODS", "calibrate", "method_names", "with_magnetometer"]
+__all__ = ["ACCELEROMETER_ONLY", "METHODS", "calibrate", "method_names", "six_faces_only", "with_magnetometer"]
 
 
 def _runner(info: MethodInfo) -> Callable[..., Calibration]:
@@ -83,7 +84,7 @@ def _recording_of(data) -> Recording:
 def calibrate(
     data,
     *,
-    method: str = DEFAULT_METHOD,
+    method: str | None = None,
     model: str | None = None,
     gravity: float = STANDARD_GRAVITY,
     **options: Any,
@@ -95,9 +96,13 @@ def calibrate(
     data : Recording or session
         Raw readings (a session contributes its ``recording`` and the options
         of its ``method_options(method)``).
-    method : str
-        One of :func:`method_names` (default :data:`~imucalib.methodinfo.DEFAULT_METHOD`, as
-        ``imucalib calibrate``).
+    method : str, optional
+        One of :func:`method_names`. By default :data:`~imucalib.methodinfo.DEFAULT_METHOD`, as
+        ``imucalib calibrate`` without ``--method``; when its calibration is rejected and the static
+        poses are only the six faces of a Ferraris procedure (:func:`six_faces_only`: six orientations
+        cannot determine the nine accelerometer parameters from the gravity norm alone), ``ferraris``
+        is tried on the same recording and its calibration returned when it is not rejected, with an
+        :class:`~imucalib.recording.ImucalibWarning` saying so.
     model : str, optional
         Model variant where the method has several (e.g. ``"linear"``, ``"cubic"``).
     gravity : float
@@ -115,6 +120,50 @@ def calibrate(
         With ``fit["verdict"]`` (``accepted``, ``suspect`` or ``rejected``) and
         ``fit["verdict_reasons"]`` (:mod:`imucalib.verdict`).
     """
+    cal = _calibrate(data, method=method or DEFAULT_METHOD, model=model, gravity=gravity, **options)
+    recording = _recording_or_none(data)
+    if (method is None and model is None and cal.fit.get("verdict") == "rejected" and recording is not None
+            and recording.gyro is not None and six_faces_only(recording, cal.fit.get("intervals") or [])):
+        try:
+            faces = _calibrate(data, method="ferraris", model=None, gravity=gravity, **options)
+        except ValueError:
+            return cal
+        if faces.fit.get("verdict") != "rejected":
+            warnings.warn(f"the static poses are only the six faces (the Ferraris procedure): {DEFAULT_METHOD} "
+                          "cannot determine the accelerometer's nine parameters from six orientations (its "
+                          "calibration was rejected), so it was calibrated with ferraris, which takes the faces' "
+                          "directions as known; pass --method to choose", ImucalibWarning, stacklevel=2)
+            return faces
+    return cal
+
+
+def _recording_or_none(data) -> Recording | None:
+    rec = data if isinstance(data, Recording) else getattr(data, "recording", None)
+    return rec if isinstance(rec, Recording) else None
+
+
+def six_faces_only(recording: Recording, intervals, *, within_deg: float = 30.0) -> bool:
+    """Whether the static poses point gravity along the six axis directions only (and each of them at least once).
+
+    A pose's direction is its mean accelerometer reading's; it counts as a face when within ``within_deg`` of
+    ±x, ±y or ±z (raw axes: a MEMS sensor's misalignment and the table's tilt are a few degrees). The initial
+    rest is one of the poses.
+    """
+    import numpy as np
+
+    if len(intervals) < 6:
+        return False
+    means = np.array([recording.acc[int(a):int(b)].mean(axis=0) for a, b in intervals])
+    u = means / np.linalg.norm(means, axis=1, keepdims=True)
+    axis = np.argmax(np.abs(u), axis=1)
+    if np.any(np.abs(u[np.arange(len(u)), axis]) < np.cos(np.radians(within_deg))):
+        return False
+    faces = {(int(k), bool(u[i, k] > 0)) for i, k in enumerate(axis)}
+    return len(faces) == 6
+
+
+def _calibrate(data, *, method: str, model: str | None, gravity: float, **options: Any) -> Calibration:
+    """:func:`calibrate` with the method named."""
     try:
         fn = METHODS[method]
     except KeyError:
