@@ -14,6 +14,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..calibration import Calibration, with_bias_session
+from ..io.posetable import PoseTable
 from ..methodinfo import DEFAULT_METHOD, MethodInfo, accelerometer_only, declared
 from ..recording import STANDARD_GRAVITY, Recording
 from ..thermal import calibrate_ramp, compensate
@@ -92,9 +93,11 @@ def calibrate(
 
     Parameters
     ----------
-    data : Recording or session
+    data : Recording or session or PoseTable
         Raw readings (a session contributes its ``recording`` and the options
-        of its ``method_options(method)``).
+        of its ``method_options(method)``); a table of averaged poses
+        (:func:`imucalib.io.read_pose_table`) has its accelerometer calibrated from its pose means
+        (:func:`imucalib.methods.pose_table.calibrate_pose_table`, whatever the default method).
     method : str
         One of :func:`method_names` (default :data:`~imucalib.methodinfo.DEFAULT_METHOD`, as
         ``imucalib calibrate``).
@@ -115,6 +118,8 @@ def calibrate(
         With ``fit["verdict"]`` (``accepted``, ``suspect`` or ``rejected``) and
         ``fit["verdict_reasons"]`` (:mod:`imucalib.verdict`).
     """
+    if isinstance(data, PoseTable):
+        return _pose_table(data, method, model, gravity, options)
     try:
         fn = METHODS[method]
     except KeyError:
@@ -152,6 +157,21 @@ def calibrate(
     if raw is not None:
         cal = with_bias_session(cal, raw)
     return with_verdict(cal, recording)
+
+
+def _pose_table(table: PoseTable, method: str, model: str | None, gravity: float, options: dict) -> Calibration:
+    """:func:`calibrate` of a pose table: its own recipe, which takes no method, model variant or option."""
+    from .pose_table import METHOD_NAME, calibrate_pose_table
+
+    if method not in (DEFAULT_METHOD, METHOD_NAME):
+        raise ValueError(f"a table of averaged poses is calibrated by the gravity-norm fit of its pose means "
+                         f"(method {METHOD_NAME!r}); {method} calibrates a recording of samples")
+    if model not in (None, "linear"):
+        raise ValueError(f"a table of averaged poses is fitted with the linear model; got model={model!r}")
+    unknown = sorted(k for k, v in options.items() if v is not None and k != "progress")
+    if unknown:
+        raise ValueError(f"a table of averaged poses takes no option {', '.join(unknown)}: they apply to recordings")
+    return calibrate_pose_table(table, gravity=gravity)
 
 
 def with_magnetometer(calibration: Calibration, recording: Recording, *, field: float | None = None,
