@@ -215,7 +215,8 @@ def _separator(line: str) -> str | None:
     return None
 
 
-def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit: str | None = None) -> PoseTable:
+def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit: str | None = None,
+                    fallback_acc_unit: str | None = None) -> PoseTable:
     """A table of averaged poses from a text file (module docstring: the layouts read).
 
     Parameters
@@ -225,6 +226,9 @@ def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit:
     acc_unit, gyro_unit : str, optional
         The units of the means (and of ``σ``), when the header does not say them (or to overrule it); the
         accelerometer's is recognised from the norms otherwise, the gyroscope's taken as counts.
+    fallback_acc_unit : str, optional
+        The accelerometer's unit where neither ``acc_unit`` nor the header gives one, instead of recognising it
+        from the norms (``imucalib apply`` gives the calibration's).
 
     Raises
     ------
@@ -257,11 +261,13 @@ def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit:
         if len(cells) != ncols:
             raise ReaderError(f"{path}, line {i + 1}: {len(cells)} columns where the first pose has {ncols}: "
                               "every pose needs the same columns")
-    text_cols = [j for j in range(ncols) if any(_number(c[j]) is None for c in table)]
+    text = {j: next((i, c[j]) for i, c in zip(rows, table, strict=True) if _number(c[j]) is None)
+            for j in range(ncols) if any(_number(c[j]) is None for c in table)}  # column → its first text
+    text_cols = list(text)
     notes: list[str] = []
     units: dict[str, str] = {}
     if header is not None:
-        names, units = _named_columns(path, _cells(lines[header], sep), ncols, text_cols, notes)
+        names, units = _named_columns(path, _cells(lines[header], sep), ncols, text, notes)
     else:
         names = _ordered_columns(path, table, ncols, text_cols, notes)
     values = {name: np.array([float(c[j]) for c in table]) for j, name in enumerate(names)
@@ -276,7 +282,7 @@ def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit:
         sigma = values["sigma"]
     if sigma is not None and "n" not in values:
         notes.append("the table gives σ but no sample count n: σ is taken as each pose mean's own standard error")
-    acc_unit = _unit("accelerometer", acc_unit or units.get("acc"), acc, notes)
+    acc_unit = _unit("accelerometer", acc_unit or units.get("acc") or fallback_acc_unit, acc, notes)
     if gyro is not None:
         gyro_unit = gyro_unit or units.get("gyro")
         if gyro_unit is None:
@@ -290,9 +296,10 @@ def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit:
         raise ReaderError(f"{path}: {exc}") from None
 
 
-def _named_columns(path: Path, header: list[str], ncols: int, text_cols: list[int],
+def _named_columns(path: Path, header: list[str], ncols: int, text: dict[int, tuple[int, str]],
                    notes: list[str]) -> tuple[list[str], dict[str, str]]:
-    """Each column's field from the header's names, and the units the names carry."""
+    """Each column's field from the header's names, and the units the names carry (``text``: the columns
+    holding text, each with its first such line and cell)."""
     if len(header) != ncols:
         raise ReaderError(f"{path}: the header names {len(header)} columns and the poses have {ncols}")
     names: list[str] = []
@@ -300,7 +307,11 @@ def _named_columns(path: Path, header: list[str], ncols: int, text_cols: list[in
     unread = []
     for j, cell in enumerate(header):
         kind, unit = _column(cell)
-        if j in text_cols:
+        if j in text and kind in _FIELDS:
+            line, cell_text = text[j]
+            raise ReaderError(f"{path}, line {line + 1}: the column {cell.strip()!r} holds {cell_text!r}, not a "
+                              "number")
+        if j in text:
             names.append("label" if "label" not in names else "")
             continue
         if kind is None or kind == "gyro_sigma" or kind in names:

@@ -58,7 +58,7 @@ from ..residuals import AccelLayout, gravity_norm_residuals
 from ..solve import errors_from_covariance, scaled_inverse
 from ..verdict import assess
 
-__all__ = ["TablePoses", "calibrate_pose_table"]
+__all__ = ["CalibratedTable", "TablePoses", "apply_to_table", "calibrate_pose_table"]
 
 #: the name a calibration from a pose table carries in ``method``
 METHOD_NAME = "pose_table"
@@ -113,7 +113,7 @@ def calibrate_pose_table(table: PoseTable, *, gravity: float) -> Calibration:
     else:
         model, residuals, which = fit_determined(means, gravity)
     name, p, _ = which
-    fit: dict = {"static_intervals": m, "poses": m, "accelerometer_model": name}
+    fit: dict = {"static_intervals": m, "accelerometer_model": name}
     if weighted:
         fit |= _weighted_figures(model, means, gravity, which, 1.0 / sigma_r)
         floor = float(np.sqrt(np.mean(sigma_r**2)))
@@ -145,11 +145,12 @@ def calibrate_pose_table(table: PoseTable, *, gravity: float) -> Calibration:
         fit["gyroscope_rest_mean_unit"] = table.gyro_unit
         fit["gyroscope_not_calibrated"] += (f"; the mean of the poses' gyroscope means (its bias where the sensor "
                                             f"was still) is gyroscope_rest_mean [{table.gyro_unit}]")
-    if table.notes:
-        fit["pose_table_notes"] = list(table.notes)
     cal = cal.with_(fit=fit)
-    poses = TablePoses(cal, table, tuple(range(m)), means, up, floor)
-    return cal.with_(fit={**fit, **assess(cal, poses=poses)})
+    verdict = assess(cal, poses=TablePoses(cal, table, tuple(range(m)), means, up, floor))
+    # how the table was read and weighted, where it did not say: notes beside the verdict's
+    verdict["verdict_notes"] = [*table.notes, *([] if weighted else [fit["accelerometer_weights"]]),
+                                *verdict["verdict_notes"]]
+    return cal.with_(fit={**fit, **verdict})
 
 
 def _weighted_figures(model, means: np.ndarray, gravity: float, which: tuple[str, int, str],
@@ -180,3 +181,40 @@ def _weighted_figures(model, means: np.ndarray, gravity: float, which: tuple[str
     fitted = np.any(expand != 0, axis=1)
     out["uncertainty"] = {k: float(v) for k, v, f in zip(lay.names("accelerometer"), se, fitted, strict=True) if f}
     return out
+
+
+@dataclass(frozen=True)
+class CalibratedTable:
+    """A pose table's calibrated means: ``acc`` [m/s²], ``gyro`` [rad/s] (None where not calibrated) and
+    ``notes`` on what was left as it was."""
+
+    acc: np.ndarray
+    gyro: np.ndarray | None
+    notes: tuple[str, ...] = ()
+
+
+def apply_to_table(calibration: Calibration, table: PoseTable) -> CalibratedTable:
+    """``calibration`` applied to the means of ``table`` (:meth:`Calibration.accelerometer_si`, ``gyroscope_si``).
+
+    Raises
+    ------
+    ValueError
+        When the table's units are not the raw units the calibration maps.
+    """
+    pairs = [("accelerometer", table.acc_unit)]
+    if calibration.gyroscope is not None and table.gyro is not None:
+        pairs.append(("gyroscope", table.gyro_unit))
+    for sensor, unit in pairs:
+        expected = calibration.units[sensor]["raw"]
+        if unit != expected:
+            raise ValueError(f"this calibration maps {sensor} readings in {expected!r}, but the table's {sensor} "
+                             f"means are in {unit!r}: read the table with the units used for calibration "
+                             f"(--{'acc' if sensor == 'accelerometer' else 'gyro'}-unit {expected})")
+    acc = calibration.accelerometer_si(table.acc)
+    notes = []
+    gyro = None
+    if table.gyro is not None and calibration.gyroscope is not None:
+        gyro = calibration.gyroscope_si(table.gyro, table.acc)
+    elif table.gyro is not None:
+        notes.append("the calibration has no gyroscope: the table's gyroscope means are left as they are")
+    return CalibratedTable(acc, gyro, tuple(notes))
