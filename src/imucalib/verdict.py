@@ -859,7 +859,7 @@ def unvisited_sigma(calibration, recording: Recording, intervals: list[Interval]
 
 def _unvisited_sigma(found: _Poses) -> dict | None:
     """:func:`unvisited_sigma` from the poses' figures of one assessment."""
-    calibration, recording, intervals = found.calibration, found.recording, found.intervals
+    calibration, intervals = found.calibration, found.intervals
     if len(intervals) < 4:
         return None
     means = found.means
