@@ -192,7 +192,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         from ..report import plot_fit
 
         if rec is None or not ivs:
-            raise CliError("this method's data has no static poses to plot")
+            raise CliError("a table of averaged poses has no samples to plot" if args.poses else
+                           "this method's data has no static poses to plot")
         plot_fit(cal, rec, ivs, args.plot)
     if args.report:
         from ..report import html_report
