@@ -174,6 +174,19 @@ def test_header_names_units_and_a_gyroscope(tmp_path):
     assert cal.fit["gyroscope_rest_mean_unit"] == "deg/s"
 
 
+def test_a_headerless_table_with_a_gyroscope_n_and_a_sigma_per_axis(tmp_path):
+    _, means, n, s = simulate(11, 10)
+    gyro = np.random.default_rng(11).normal(size=(10, 3)) * 0.01
+    rows = [[*(f"{v:.7f}" for v in means[k]), *(f"{v:.5f}" for v in gyro[k]), str(n[k]),
+             *(f"{v:.6f}" for v in s[k])] for k in range(10)]
+    table = read_pose_table(_write(tmp_path / "t.csv", rows, ","), gyro_unit="rad/s")
+    assert table.source.names == ("ax", "ay", "az", "gx", "gy", "gz", "n", "sigma_x", "sigma_y", "sigma_z")
+    assert np.array_equal(table.n, n) and np.allclose(table.gyro, gyro, atol=1e-5)
+    assert np.allclose(table.acc_sigma, s, atol=1e-6) and table.gyro_unit == "rad/s"
+    bare = _write(tmp_path / "n.csv", [[*(f"{v:.7f}" for v in means[k]), str(n[k])] for k in range(10)], ",")
+    assert read_pose_table(bare).source.names == ("ax", "ay", "az", "n")
+
+
 def test_tables_that_cannot_be_read_say_where_and_why(tmp_path):
     ragged = tmp_path / "ragged.csv"
     ragged.write_text("ax,ay,az\n0.1,0.0,1.0\n0.0,1.0\n")
@@ -263,3 +276,14 @@ def test_a_table_of_a_real_sessions_poses_gives_the_full_calibrations_accelerome
     rest, se = np.array(cal.fit["gyroscope_rest_mean"]), np.array(cal.fit["gyroscope_rest_mean_sigma"])
     assert np.all(np.abs(rest - full.gyroscope.bias) < 3 * se)
     assert json.loads(cal_path.read_text())["units"] == {"accelerometer": {"raw": "m/s^2", "calibrated": "m/s^2"}}
+    # the full calibration applied to the table (its units taken from the calibration, the header having none):
+    # the poses' calibrated |a| is g to its residual, their calibrated rate at rest nil to the rests' scatter
+    out = tmp_path / "corrected.csv"
+    code, _, err = run(capsys, "apply", full_path, table, "--poses", "-o", out)
+    assert code == 0 and "warning" not in err
+    lines = out.read_text().splitlines()
+    assert lines[0].endswith(",gyro_x_cal [rad/s],gyro_y_cal [rad/s],gyro_z_cal [rad/s]")
+    cells = np.array([[float(c) for c in line.split(",")[-6:]] for line in lines[1:]])
+    assert np.sqrt(np.mean((np.linalg.norm(cells[:, :3], axis=1) - G) ** 2)) < 2 * full.fit[
+        "accelerometer_residual_rms"]
+    assert np.all(np.abs(cells[:, 3:].mean(axis=0)) < 3 * se)

@@ -97,7 +97,8 @@ def _apply_table(args: argparse.Namespace, cal, verdict) -> int:
     if len(args.data) != 1:
         raise CliError(f"a table of averaged poses is one file; got {len(args.data)}: {', '.join(args.data)}")
     table = read_pose_table(args.data[0], acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
-                            fallback_acc_unit=cal.units["accelerometer"]["raw"])
+                            fallback_acc_unit=cal.units["accelerometer"]["raw"],
+                            fallback_gyro_unit=(cal.units.get("gyroscope") or {}).get("raw"))
     out = apply_to_table(cal, table)
     for note in out.notes:
         show_warning(note)

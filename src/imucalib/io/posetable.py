@@ -216,7 +216,7 @@ def _separator(line: str) -> str | None:
 
 
 def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit: str | None = None,
-                    fallback_acc_unit: str | None = None) -> PoseTable:
+                    fallback_acc_unit: str | None = None, fallback_gyro_unit: str | None = None) -> PoseTable:
     """A table of averaged poses from a text file (module docstring: the layouts read).
 
     Parameters
@@ -226,9 +226,9 @@ def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit:
     acc_unit, gyro_unit : str, optional
         The units of the means (and of ``σ``), when the header does not say them (or to overrule it); the
         accelerometer's is recognised from the norms otherwise, the gyroscope's taken as counts.
-    fallback_acc_unit : str, optional
-        The accelerometer's unit where neither ``acc_unit`` nor the header gives one, instead of recognising it
-        from the norms (``imucalib apply`` gives the calibration's).
+    fallback_acc_unit, fallback_gyro_unit : str, optional
+        The unit where neither ``acc_unit`` (``gyro_unit``) nor the header gives one, instead of recognising it
+        from the norms (taking counts): ``imucalib apply`` gives the calibration's.
 
     Raises
     ------
@@ -284,7 +284,7 @@ def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit:
         notes.append("the table gives σ but no sample count n: σ is taken as each pose mean's own standard error")
     acc_unit = _unit("accelerometer", acc_unit or units.get("acc") or fallback_acc_unit, acc, notes)
     if gyro is not None:
-        gyro_unit = gyro_unit or units.get("gyro")
+        gyro_unit = gyro_unit or units.get("gyro") or fallback_gyro_unit
         if gyro_unit is None:
             gyro_unit = "counts"
             notes.append("the gyroscope's unit is not in the header: taken as counts (pass --gyro-unit)")
