@@ -9,6 +9,8 @@ The Python route is the command line's::
     cal.save("calib.json")                       # the file ``imucalib calibrate session.csv -o calib.json`` writes
 
 with :func:`validate` and :func:`compare` beside them, and :class:`Calibration` (``Calibration.load``).
+A table of averaged poses, one row per orientation, is read by ``imucalib.read("poses.csv", poses=True)``
+(a :class:`PoseTable`) and its accelerometer calibrated by the same ``imucalib.calibrate(table)``.
 The names below are imported on first use (PEP 562), so that ``import imucalib``
 and the command line's start-up stay light: a command imports only what it runs.
 """
@@ -22,6 +24,7 @@ __all__ = [
     "DEFAULT_METHOD",
     "ImucalibWarning",
     "Interval",
+    "PoseTable",
     "Recording",
     "STANDARD_GRAVITY",
     "TriadModel",
@@ -45,6 +48,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "TriadModel": ".models",
     "ImucalibWarning": ".recording",
     "Interval": ".recording",
+    "PoseTable": ".io.posetable",
     "Recording": ".recording",
     "STANDARD_GRAVITY": ".recording",
 }

@@ -71,6 +71,9 @@ FIELDS: tuple[FieldInfo, ...] = (
        "pose visited, over accelerometer_noise_floor (0: every axis visited up and down; null: not determined)",
        "accelerometer"),
     _F("accelerometer_model", "", "the accelerometer model fitted (the full one or a reduced one)", "accelerometer"),
+    _F("accelerometer_weights", "", "pose_table: how the table's poses were weighted, in words", "accelerometer"),
+    _F("accelerometer_reduced_chi2", "", "pose_table: Σ (r_k/σ_r,k)² / (M − P) of the fit weighted by the table's "
+       "σ/√n", "accelerometer"),
     _F("accelerometer_model_reduced", "", "why the poses determine a reduced accelerometer model, in words",
        "accelerometer"),
     _F("accelerometer_misalignment", "", "six_position: whether the accelerometer's misalignment was estimated "
@@ -103,6 +106,11 @@ FIELDS: tuple[FieldInfo, ...] = (
     _F("gyroscope_rotation_sigma_rad", "rad", "the rotations' residual scatter the gyroscope fit weighs by",
        "gyroscope"),
     _F("gyroscope_not_calibrated", "", "why the gyroscope was left uncalibrated, in words", "gyroscope"),
+    _F("gyroscope_rest_mean", "raw", "pose_table: the mean of the poses' gyroscope means, per axis (the bias where "
+       "the sensor was still)", "gyroscope"),
+    _F("gyroscope_rest_mean_sigma", "raw", "pose_table: the standard error of gyroscope_rest_mean over the poses",
+       "gyroscope"),
+    _F("gyroscope_rest_mean_unit", "", "pose_table: the raw unit of gyroscope_rest_mean", "gyroscope"),
     _F("gyroscope_approach", "", "qureshi2017's gyroscope approach (static bias or dynamic)", "gyroscope"),
     _F("rotations_left_out", "", "the rotations left out of the gyroscope fit and why, by index", "gyroscope"),
     _F("rotations_used", "", "qureshi2017: turns used about each axis", "gyroscope"),

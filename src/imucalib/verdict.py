@@ -295,6 +295,11 @@ class _Poses:
         return self._means
 
     @property
+    def floor(self) -> float:
+        """The gravity-norm residual's white-noise floor [m/s²] (:func:`imucalib.metrics.gravity_noise_floor`)."""
+        return gravity_noise_floor(self.calibration, self.recording, self.intervals)
+
+    @property
     def up(self) -> np.ndarray:
         """The calibrated specific force of each pose (M, 3) [m/s²] (:func:`imucalib.metrics.pose_specific_force`)."""
         if self._up is None:
@@ -854,7 +859,7 @@ def unvisited_sigma(calibration, recording: Recording, intervals: list[Interval]
 
 def _unvisited_sigma(found: _Poses) -> dict | None:
     """:func:`unvisited_sigma` from the poses' figures of one assessment."""
-    calibration, recording, intervals = found.calibration, found.recording, found.intervals
+    calibration, intervals = found.calibration, found.intervals
     if len(intervals) < 4:
         return None
     means = found.means
@@ -868,7 +873,7 @@ def _unvisited_sigma(found: _Poses) -> dict | None:
     for i, s in sides:
         cap |= s * _SPHERE[:, i] >= lim
     far = cap & (np.max(_SPHERE @ up.T, axis=1) < lim)
-    floor = gravity_noise_floor(calibration, recording, intervals)
+    floor = found.floor
     if not floor > 0:
         return None
     if not np.any(far):
@@ -997,7 +1002,7 @@ def _non_finite(calibration, figures: dict) -> list[Check]:
 
 
 def assess(calibration, recording: Recording | None = None, intervals: list[Interval] | None = None, *,
-           purpose: str = "calibrate") -> dict:
+           purpose: str = "calibrate", poses=None) -> dict:
     """Every check on ``calibration`` (with the recording it was made from, when there is one).
 
     Returns ``{"verdict": …, "verdict_reasons": [...], "verdict_notes": [...], **figures}``:
@@ -1009,7 +1014,8 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     figures on that recording): the checks of the fit itself — poses per
     parameter, over-fit, the 1σ errors' usefulness — are left out; the
     residual against the noise floor, the gyroscope against its noise, the
-    time base, gravity and plausibility remain.
+    time base, gravity and plausibility remain. ``poses``: the poses' figures (``means``, ``up``, ``floor``,
+    ``intervals``) of data that are no recording, a table of averaged poses (:mod:`imucalib.methods._pose_table`).
     """
     if purpose not in ("calibrate", "validate"):
         raise ValueError(f"purpose must be 'calibrate' or 'validate'; got {purpose!r}")
@@ -1021,15 +1027,15 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     checks: list[Check] = []
     figures: dict = {}
     # the poses' figures several checks read (their means, noise, rates at rest), each computed once
-    found = None if recording is None else _Poses(calibration, recording, intervals)
-    if found is not None:  # the inputs first: a wrong time base or unit explains everything after it
+    found = poses if poses is not None else None if recording is None else _Poses(calibration, recording, intervals)
+    if recording is not None:  # the inputs first: a wrong time base or unit explains everything after it
         checks += _time_base(found)
     checks += _gravity(calibration, found)
     checks += plausibility(calibration)
     checks += _redundancy(calibration, fitted)
     if fitted:
         checks += _usefulness(calibration)
-        if recording is not None:
+        if found is not None:
             unvisited_checks, unvisited_figures = _unvisited(calibration, found)
             checks += unvisited_checks
             figures |= unvisited_figures

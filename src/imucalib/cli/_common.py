@@ -19,9 +19,9 @@ if TYPE_CHECKING:
 
 __all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_REJECTED", "STANDARD_GRAVITY", "CliError", "Progress",
            "add_force_option", "add_gravity_option", "add_init_static_option", "add_method_option",
-           "add_reader_options", "check_paths", "check_verdict", "gravity_value", "load_calibration",
-           "normalise_argv", "positive_float", "print_json", "print_verdict", "progress", "read", "read_recording",
-           "reading_progress", "show_warning"]
+           "add_poses_option", "add_reader_options", "check_paths", "check_verdict", "gravity_value",
+           "load_calibration", "normalise_argv", "positive_float", "print_json", "print_verdict", "progress", "read",
+           "read_recording", "reading_progress", "show_warning"]
 
 #: exit code of a command that failed with a reported error
 EXIT_ERROR = 2
@@ -100,6 +100,12 @@ def add_reader_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--mag-unit", choices=("counts", "uT", "gauss"),
                    help="magnetometer unit of the mx,my,mz (or mag_x,…) columns (default: from the header, else "
                    "counts)")
+
+
+def add_poses_option(p: argparse.ArgumentParser, what: str) -> None:
+    """``--poses``: the data are a table of averaged poses (:func:`imucalib.io.read_pose_table`)."""
+    p.add_argument("--poses", action="store_true", help="the data are a table of averaged poses, one row per "
+                   f"orientation (ax ay az [gx gy gz] [n] [σ], with or without a header): {what}")
 
 
 def add_method_option(p: argparse.ArgumentParser, *, required: bool = False, help: str | None = None,
@@ -202,6 +208,7 @@ def read(args: argparse.Namespace, paths: Sequence[str]):
             gyro_unit=args.gyro_unit, rate=args.rate, variable=args.variable,
             time_unit=args.time_unit, topic=args.topic, progress=bar,
             mag_unit=getattr(args, "mag_unit", None), mag_topic=getattr(args, "mag_topic", None),
+            poses=getattr(args, "poses", False),
         )
 
 

@@ -14,6 +14,7 @@ from ..io.atomic import refuse_overwriting_inputs
 from ._common import (
     CliError,
     add_force_option,
+    add_poses_option,
     add_reader_options,
     check_verdict,
     print_json,
@@ -40,6 +41,8 @@ def cmd_apply(args: argparse.Namespace) -> int:
     cal = Calibration.load(args.calibration)
     check_verdict(cal, args.calibration, args.force)
     verdict = (cal.fit or {}).get("verdict")
+    if args.poses:
+        return _apply_table(args, cal, verdict)
     if _is_bag(args) and Path(args.output).suffix.lower() != ".csv":
         from ..io.rosbag import write_calibrated_bag
 
@@ -86,6 +89,27 @@ def cmd_apply(args: argparse.Namespace) -> int:
     return 0
 
 
+def _apply_table(args: argparse.Namespace, cal, verdict) -> int:
+    """``imucalib apply --poses``: the table of averaged poses written again with its calibrated columns."""
+    from ..io.posetable import read_pose_table, write_pose_table
+    from ..methods import apply_to_table
+
+    if len(args.data) != 1:
+        raise CliError(f"a table of averaged poses is one file; got {len(args.data)}: {', '.join(args.data)}")
+    table = read_pose_table(args.data[0], acc_unit=args.acc_unit, gyro_unit=args.gyro_unit,
+                            fallback_acc_unit=cal.units["accelerometer"]["raw"],
+                            fallback_gyro_unit=(cal.units.get("gyroscope") or {}).get("raw"))
+    out = apply_to_table(cal, table)
+    for note in out.notes:
+        show_warning(note)
+    write_pose_table(args.output, table, out.acc, out.gyro)
+    if args.json:
+        return print_json({"input": args.data[0], "output": str(args.output), "poses": len(table),
+                           "calibration": str(args.calibration), "method": cal.method, "verdict": verdict})
+    print(f"wrote {len(table)} calibrated poses to {args.output}")
+    return 0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     """Add ``apply`` to the ``imucalib`` sub-commands."""
     p = sub.add_parser("apply", help="apply a calibration to a recording",
@@ -104,5 +128,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "auto (default) on the recording the calibration was made from (or a part of it), the "
                    "constant bias on any other; on: always, in the data's time base; off: never")
     add_force_option(p)
+    add_poses_option(p, "it is written again with the calibrated means appended to each row")
     add_reader_options(p)
     p.set_defaults(func=cmd_apply)

@@ -22,6 +22,7 @@ from ._common import (
     add_gravity_option,
     add_init_static_option,
     add_method_option,
+    add_poses_option,
     add_reader_options,
     load_calibration,
     positive_float,
@@ -190,14 +191,15 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     if args.output:
         cal.save(args.output)
-    rec = data if not hasattr(data, "positions_acc") else None  # turntable aggregates have no samples
-    rec = getattr(rec, "recording", rec)
+    # turntable aggregates and pose tables have no samples
+    rec = None if args.poses or hasattr(data, "positions_acc") else getattr(data, "recording", data)
     ivs = [Interval(a, b) for a, b in cal.fit.get("intervals", [])]
     if args.plot:
         from ..report import plot_fit
 
         if rec is None or not ivs:
-            raise CliError("this method's data has no static poses to plot")
+            raise CliError("a table of averaged poses has no samples to plot" if args.poses else
+                           "this method's data has no static poses to plot")
         plot_fit(cal, rec, ivs, args.plot)
     if args.report:
         from ..report import html_report
@@ -336,6 +338,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--mag-hemisphere", choices=("north", "south"), help="magnetic hemisphere: the field points "
                    "below (north, the default) or above (south) the horizontal")
     p.add_argument("--json", action="store_true", help="print the calibration as JSON on stdout")
+    add_poses_option(p, "its accelerometer is calibrated from the pose means (the gyroscope needs rotations)")
     add_reader_options(p)
     p.set_defaults(func=cmd_calibrate)
 

@@ -27,7 +27,7 @@ from ..solve import cholesky, errors_from_covariance, levenberg_marquardt, lstsq
 __all__ = ["REDUCED_MODELS", "GravityNormFit", "accelerometer_covariance", "accelerometer_errors",
            "accelerometer_figures", "determined_figures", "faces_full", "fit_determined", "fit_ellipsoid",
            "fit_gravity_norm", "fit_sphere", "full_from_sensitivity", "gravity_norm_fit", "newton_backtracking",
-           "mean_variance", "pose_covariance", "qureshi_cost", "six_position"]
+           "mean_variance", "pose_covariance", "qureshi_cost", "reduced_expansion", "six_position"]
 
 
 def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:
@@ -272,6 +272,12 @@ def fit_determined(raw_means: np.ndarray, gravity: float, *, weights: np.ndarray
     raise ValueError(f"no accelerometer model is determined by these {m} static poses: at least 4 poses in "
                      "directions spread over the sphere are needed (six faces determine a scale and a bias per axis, "
                      "nine spread poses the misalignment too)")
+
+
+def reduced_expansion(name: str) -> np.ndarray:
+    """E (9, P) of the model named ``name`` in :data:`REDUCED_MODELS`: its parameters ``φ`` as ``θ = E φ`` in
+    ``AccelLayout("upper", 1)`` order (what :func:`fit_determined` fits)."""
+    return _expand(next(row[1] for row in REDUCED_MODELS if row[0] == name))
 
 
 def _expand(shape: str | None) -> np.ndarray:

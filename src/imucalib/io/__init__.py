@@ -5,18 +5,21 @@ The readers are imported on first use (PEP 562): a submodule such as
 
 :func:`read` here is the readers' level: the file's columns, no more. What the command line reads —
 the magnetometer's columns attached, a ROS bag's magnetic-field topic, a simulated session directory —
-is :func:`imucalib.read` (:func:`imucalib.io.data.read_data`).
+is :func:`imucalib.read` (:func:`imucalib.io.data.read_data`). A table of averaged poses (one row per
+orientation) is read by :func:`read_pose_table` (:mod:`.posetable`).
 """
 
 from __future__ import annotations
 
 import importlib
 
-__all__ = ["READERS", "ReaderError", "guess_reader", "read", "write_csv"]
+__all__ = ["READERS", "PoseTable", "ReaderError", "guess_reader", "read", "read_pose_table", "write_csv",
+           "write_pose_table"]
 
 #: the public names and the module each comes from
 _LAZY = {"READERS": ".readers", "ReaderError": ".readers", "guess_reader": ".readers", "read": ".readers",
-         "write_csv": ".writers"}
+         "write_csv": ".writers", "PoseTable": ".posetable", "read_pose_table": ".posetable",
+         "write_pose_table": ".posetable"}
 
 
 def __getattr__(name: str):

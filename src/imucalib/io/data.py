@@ -42,6 +42,7 @@ def read_data(
     progress=None,
     mag_unit: str | None = None,
     mag_topic: str | None = None,
+    poses: bool = False,
 ):
     """The data in ``paths``: a :class:`~imucalib.recording.Recording`, or a simulated session.
 
@@ -54,11 +55,16 @@ def read_data(
     magnetometer columns become its ``mag`` (:func:`imucalib.io.magnetometer.attach_magnetometer`,
     ``mag_unit``), or for a ROS bag the ``sensor_msgs/MagneticField`` topic ``mag_topic``.
 
+    ``poses=True``: ``paths`` is one table of averaged poses, one row per orientation
+    (:func:`imucalib.io.posetable.read_pose_table`, with ``acc_unit`` and ``gyro_unit``).
+
     Returns
     -------
-    Recording or Session or WangSession
+    Recording or Session or WangSession or PoseTable
         What :func:`imucalib.methods.calibrate` takes.
     """
+    if poses:
+        return _pose_table(paths, reader, acc_unit, gyro_unit)
     from .readers import is_frame
 
     if is_frame(paths):
@@ -83,3 +89,15 @@ def read_data(
 
         return add_magnetic_field(rec, paths[0], mag_topic)
     return attach_magnetometer(rec, mag_unit)
+
+
+def _pose_table(paths, reader: str | None, acc_unit: str | None, gyro_unit: str | None):
+    """:func:`read_data` of a table of averaged poses: one text file."""
+    from .posetable import read_pose_table
+
+    paths = [paths] if isinstance(paths, str | Path) else list(paths)
+    if len(paths) != 1 or not isinstance(paths[0], str | Path):
+        raise ValueError(f"a table of averaged poses is one text file; got {len(paths)} inputs")
+    if reader not in (None, "csv"):
+        raise ValueError(f"a table of averaged poses is a text table: the reader {reader!r} does not apply")
+    return read_pose_table(paths[0], acc_unit=acc_unit, gyro_unit=gyro_unit)

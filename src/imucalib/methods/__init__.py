@@ -15,12 +15,14 @@ from collections.abc import Callable
 from typing import Any
 
 from ..calibration import Calibration, with_bias_session
+from ..io.posetable import PoseTable
 from ..methodinfo import DEFAULT_METHOD, MethodInfo, accelerometer_only, declared
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Recording
 from ..thermal import calibrate_ramp, compensate
 from ..verdict import check_rate, with_verdict
 
-__all__ = ["ACCELEROMETER_ONLY", "METHODS", "calibrate", "method_names", "six_faces_only", "with_magnetometer"]
+__all__ = ["ACCELEROMETER_ONLY", "METHODS", "apply_to_table", "calibrate", "method_names", "six_faces_only",
+           "with_magnetometer"]
 
 
 def _runner(info: MethodInfo) -> Callable[..., Calibration]:
@@ -93,9 +95,11 @@ def calibrate(
 
     Parameters
     ----------
-    data : Recording or session
+    data : Recording or session or PoseTable
         Raw readings (a session contributes its ``recording`` and the options
-        of its ``method_options(method)``).
+        of its ``method_options(method)``); a table of averaged poses
+        (:func:`imucalib.io.read_pose_table`) has its accelerometer calibrated from its pose means
+        (:func:`imucalib.methods._pose_table.calibrate_pose_table`, whatever the default method).
     method : str, optional
         One of :func:`method_names`. By default :data:`~imucalib.methodinfo.DEFAULT_METHOD`, as
         ``imucalib calibrate`` without ``--method``; when its calibration is rejected and the static
@@ -164,6 +168,8 @@ def six_faces_only(recording: Recording, intervals, *, within_deg: float = 30.0)
 
 def _calibrate(data, *, method: str, model: str | None, gravity: float, **options: Any) -> Calibration:
     """:func:`calibrate` with the method named."""
+    if isinstance(data, PoseTable):
+        return _calibrate_table(data, method, model, gravity, options)
     try:
         fn = METHODS[method]
     except KeyError:
@@ -201,6 +207,28 @@ def _calibrate(data, *, method: str, model: str | None, gravity: float, **option
     if raw is not None:
         cal = with_bias_session(cal, raw)
     return with_verdict(cal, recording)
+
+
+def _calibrate_table(table: PoseTable, method: str, model: str | None, gravity: float, options: dict) -> Calibration:
+    """:func:`calibrate` of a pose table: its own recipe, which takes no method, model variant or option."""
+    from ._pose_table import METHOD_NAME, calibrate_pose_table
+
+    if method not in (DEFAULT_METHOD, METHOD_NAME):
+        raise ValueError(f"a table of averaged poses is calibrated by the gravity-norm fit of its pose means "
+                         f"(method {METHOD_NAME!r}); {method} calibrates a recording of samples")
+    if model not in (None, "linear"):
+        raise ValueError(f"a table of averaged poses is fitted with the linear model; got model={model!r}")
+    unknown = sorted(k for k, v in options.items() if v is not None and k != "progress")
+    if unknown:
+        raise ValueError(f"a table of averaged poses takes no option {', '.join(unknown)}: they apply to recordings")
+    return calibrate_pose_table(table, gravity=gravity)
+
+
+def apply_to_table(calibration: Calibration, table: PoseTable):
+    """A table of averaged poses corrected by ``calibration``: a ``CalibratedTable`` (``acc``, ``gyro``, ``notes``)."""
+    from ._pose_table import apply_to_table as apply
+
+    return apply(calibration, table)
 
 
 def with_magnetometer(calibration: Calibration, recording: Recording, *, field: float | None = None,
