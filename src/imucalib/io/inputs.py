@@ -201,6 +201,24 @@ def note_physical_units(paths: Sequence[Path], rec: Recording) -> None:
                   f"{' '.join(flags)}", ImucalibWarning, stacklevel=3)
 
 
+def note_gyro_unit(paths: Sequence[Path], rec: Recording) -> None:
+    """A note when a gyroscope taken as counts holds readings that are not whole numbers (counts are).
+
+    Its unit is then rad/s or deg/s; the note names the one its readings look like (99 % of them within
+    35, as :func:`note_physical_units` judges) and the option to pass.
+    """
+    if rec.gyro is None or rec.gyro_unit != "counts" or len(rec) < 10:
+        return
+    if np.all(rec.gyro == np.round(rec.gyro)):
+        return
+    rate = float(np.percentile(np.abs(rec.gyro), 99))
+    guess = "rad/s" if rate <= 35.0 else "deg/s"
+    warnings.warn(f"{', '.join(map(str, paths))}: no gyroscope unit given or written in the header, so its readings "
+                  f"are taken as counts, but they are not whole numbers, so they are not counts: they look like "
+                  f"{guess} (99% of them within {rate:.3g}); pass --gyro-unit {guess} (or the unit the logger "
+                  "writes)", ImucalibWarning, stacklevel=3)
+
+
 # -------------------------------------------------------------------- Xsens
 _XSENS_FIELDS = ("SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z")
 

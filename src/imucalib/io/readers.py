@@ -9,10 +9,11 @@ dropped: a bad row is an error, never skipped.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -167,6 +168,8 @@ def read(
     written = any(_unit_in(named.get(f) or "") for f in ("ax", "gx"))  # a header's "[counts]" is an answer
     if acc_unit is None and gyro_unit is None and reader in ("csv", "imutk", "mat") and not written:
         inputs.note_physical_units(paths, rec)
+    elif gyro_unit is None and reader in ("csv", "imutk", "mat") and not _unit_in(named.get("gx") or ""):
+        inputs.note_gyro_unit(paths, rec)
     rec.metadata.setdefault("source", [str(p) for p in paths])
     rec.metadata["reader"] = reader
     return rec
@@ -262,18 +265,18 @@ def _read_file_blocks(paths: Sequence[Path], reader: str, columns, acc_unit, gyr
         raise ReaderError(f"{twice[0]} is given twice; several files are read as blocks of one recording (one pose "
                           "each), each file once")
     recs = []
-    seen: set[str] = set()
-    for i, p in enumerate(paths):
+    notes: dict[str, list] = {}  # a note's text without the file and its figures → [first note, files it is in]
+    for p in paths:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ImucalibWarning)
             recs.append(read(p, reader=reader, columns=columns, acc_unit=acc_unit, gyro_unit=gyro_unit, rate=rate,
                              variable=variable, time_unit=time_unit))
         for w in caught:
-            key = str(w.message).replace(str(p), "")
-            if key not in seen:
-                seen.add(key)
-                warnings.warn(w.message if i == 0 else f"{w.message} (and in the files after it)", w.category,
-                              stacklevel=3)
+            key = re.sub(r"[-+]?\d[\d.]*(?:e[-+]?\d+)?", "#", str(w.message).replace(str(p), ""))
+            notes.setdefault(key, [w, 0])[1] += 1
+    for w, count in notes.values():
+        warnings.warn(f"{w.message}" + (f" (and in {count - 1} more of the files)" if count > 1 else ""),
+                      w.category, stacklevel=3)
     first = recs[0]
     for p, rec in zip(paths[1:], recs[1:], strict=True):
         has = ("a gyroscope" if first.gyro is not None else "no gyroscope",
@@ -550,7 +553,7 @@ class _Table:
     skipped: int = 0
     rate: float | None = None
     prompts: bool = False  # lines with no number inside the rows (a logger's prompts): block boundaries
-    sample: list[str] = field(default_factory=list)  # the first rows, as text
+    sample: list[str] = dataclasses.field(default_factory=list)  # the first rows, as text
     trailing: bool = False  # a separator ends every line: the last column is the empty cell after it
 
     @property
@@ -846,7 +849,7 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     for j, name in enumerate(names):
         col = cols.get(j)
         if j in used or col is None or (table.trailing and j == table.ncols - 1):
-            continue  # a column read as a field, not read (another packet's), or the empty one a trailing separator makes
+            continue  # read as a field, not read (another packet's), or the empty cell after a trailing separator
         if temperature is None and has_header and _TEMP.match(name) and col.dtype.kind == "f":
             temperature = col
             meta["temperature_column"] = name
@@ -1076,7 +1079,10 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
             raise ReaderError(f"{path}: variable {variable!r} has {m.shape[1]} columns; pass "
                               "--columns (use '-' for t with --rate when there is no time; 4 entries "
                               "t,ax,ay,az for an accelerometer-only log)")
-        columns = [str(j) for j in range(7)]
+        columns = [str(j) for j in range(10 if m.shape[1] == 10 else 7)]
+        if m.shape[1] == 10:  # t, accelerometer, gyroscope, magnetometer: the 9-axis layout loggers write
+            warnings.warn(f"{path}: variable {variable!r} has 10 columns: taken as t,ax,ay,az,gx,gy,gz,mx,my,mz "
+                          "(pass --columns to say otherwise)", ImucalibWarning, stacklevel=3)
     mapping = _map_columns(path, names, columns, True)
     bad = ~np.isfinite(m[:, [j for j in mapping.values() if j is not None]])
     if bad.any():
@@ -1095,6 +1101,9 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
         _check_time(path, raw_t, 1, "time (row)")
         t = to_seconds(raw_t, time_unit or _infer_time_unit(raw_t), meta)
     extra, temperature = _mat_others(path, found, variable, m, mapping)
+    named, named_temp = packets.mapped_others(mapping, names, {j: m[:, j] for j in range(m.shape[1])}, meta)
+    extra.update(named)
+    temperature = named_temp if named_temp is not None else temperature
     return Recording(
         t=t, acc=m[:, [mapping["ax"], mapping["ay"], mapping["az"]]],
         gyro=None if mapping["gx"] is None else m[:, [mapping["gx"], mapping["gy"], mapping["gz"]]],
