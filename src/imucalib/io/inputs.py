@@ -128,18 +128,20 @@ def check_text(path: Path, *, gzip_ok: bool = False) -> None:
 
 # ------------------------------------------------------------------ columns
 def check_distinct_columns(columns: Sequence[str] | None) -> None:
-    """Each of t, ax … gz needs its own column: one column named twice is an error."""
+    """Each field ``--columns`` names needs its own column: one column named twice is an error
+    (the entries checked first: :func:`.columns.parse_columns`)."""
     if columns is None:
         return
-    fields = ("t", "ax", "ay", "az", "gx", "gy", "gz")
+    from .columns import parse_columns
+
     seen: dict[str, str] = {}
-    for field, c in zip(fields, columns, strict=False):
-        key = c.strip().lower()
-        if key == "-":
+    for field, c in parse_columns(columns).items():
+        key = None if c is None else c.strip().lower()
+        if key is None:
             continue
         if key in seen:
-            raise ReaderError(f"--columns names {c.strip()!r} for both {seen[key]} and {field}; each of "
-                              f"{','.join(fields)} needs its own column")
+            raise ReaderError(f"--columns names {c.strip()!r} for both {seen[key]} and {field}; each field needs "
+                              "its own column")
         seen[key] = field
 
 
