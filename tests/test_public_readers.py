@@ -44,8 +44,11 @@ def test_fxos8700_serial_monitor_dump_reads_into_its_twenty_blocks():
     assert rec.gyro is None and rec.acc.shape == expect.shape == (80000, 3)
     np.testing.assert_array_equal(rec.acc, expect)
     assert rec.metadata["blocks"] == [[4000 * k, 4000 * (k + 1)] for k in range(20)]  # 20 blocks of 10 s at 400 Hz
-    assert abs(rec.rate - 400.0) < 1e-6
+    assert np.median(np.diff(rec.t)) == pytest.approx(1 / 400)
+    assert rec.t[4000] - rec.t[3999] == pytest.approx(101 / 400)  # no time between blocks: 100 steps put there
     assert any("cut the rows into 20 blocks" in n for n in notes)
+    held = [n for n in notes if "repeat the row before exactly" in n]
+    assert len(held) == 1 and "updates at about 100 Hz" in held[0]  # an FXOS8700 at 100 Hz read at 400 Hz
     assert any("skipped 3 lines before the data" in n for n in notes)
 
 

@@ -28,7 +28,7 @@ from .columns import TIME as _TIME
 from .columns import map_columns as _map_columns
 from .columns import not_number as _not_number
 from .errors import ReaderError
-from .stamps import TIME_UNITS, repair_coarse, to_seconds
+from .stamps import TIME_UNITS, note_held_samples, repair_coarse, to_seconds
 from .stamps import check_increasing as _check_time
 from .stamps import guess_unit as _infer_time_unit
 
@@ -164,6 +164,8 @@ def read(
     inputs.check_against_header(paths, reader, rec, acc_unit, gyro_unit, time_unit, unit_in=_unit_in,
                                 phone_specs=_phone_specs)
     inputs.check_magnitudes(paths, rec)
+    if reader in ("csv", "mat") and len(rec) > 1:
+        note_held_samples(paths[0], rec.acc, rec.gyro, rec.rate)
     named = (rec.metadata.get("columns") or {}) if rec.metadata.get("header") else {}
     written = any(_unit_in(named.get(f) or "") for f in ("ax", "gx"))  # a header's "[counts]" is an answer
     if acc_unit is None and gyro_unit is None and reader in ("csv", "imutk", "mat") and not written:
@@ -815,8 +817,9 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
             t = packets.counter_times(path, cols[mapping["n"]], names[mapping["n"]], rate)
         elif rate is None:
             raise ReaderError(f"{path}: no time column found; pass --rate HZ (the sampling rate)")
-        else:
-            t = np.arange(rows) / rate
+        else:  # blocks of a logger that paused: BLOCK_GAP_STEPS steps between them, as between files
+            t = (np.arange(rows) + (0 if blocks is None else BLOCK_GAP_STEPS * np.repeat(
+                np.arange(len(blocks[1])), [b - a for a, b in blocks[1]]))) / rate
         meta["time_unit"] = None
     else:
         if rate is not None:

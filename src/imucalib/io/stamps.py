@@ -197,3 +197,25 @@ def repair_coarse(path: Path, t: np.ndarray, values: Sequence[np.ndarray], first
                   + (f"; {len(runs) - 1} gap{'s' if len(runs) > 2 else ''} between them kept" if len(runs) > 1
                      else ""), ImucalibWarning, stacklevel=4)
     return Repair(out, keep, dropped, r, interval, len(runs) - 1)
+
+
+def note_held_samples(path, acc: np.ndarray, gyro: np.ndarray | None, rate: float) -> None:
+    """A note when most rows repeat the row before exactly: a sensor read faster than it updates.
+
+    Such a log (an FXOS8700 updating at 100 Hz, read at 400 Hz) holds each reading for ``k`` rows: the
+    sensor's own rate is ``rate / k``, and a noise taken from sample-to-sample differences comes out low.
+    Nothing is changed; the note says what the rows are.
+    """
+    if len(acc) < 100:
+        return
+    same = np.all(acc[1:] == acc[:-1], axis=1)
+    if gyro is not None:
+        same &= np.all(gyro[1:] == gyro[:-1], axis=1)
+    if same.mean() <= 0.5:
+        return
+    starts = np.r_[0, np.nonzero(~same)[0] + 1, len(acc)]
+    hold = float(np.median(np.diff(starts)))
+    warnings.warn(f"{path}: {100 * same.mean():.0f}% of the rows repeat the row before exactly: each reading is "
+                  f"held for about {hold:g} rows, so the sensor updates at about {rate / hold:.4g} Hz, not "
+                  f"{rate:.4g} Hz (read faster than it updates); the rows are kept as they are, but noise figures "
+                  "from sample-to-sample differences come out low", ImucalibWarning, stacklevel=4)
