@@ -128,7 +128,7 @@ def test_serial_monitor_banner_and_prompt_blocks(tmp_path):
     text = ("--- Available filters and text transformations: colorize, debug, default, direct, hexlify, log2file, "
             "nocontrol, printable, send_on_enter, time\r\n--- More details at http://bit.ly/pio-monitor-filters\r\n")
     blocks = []
-    for k, f in enumerate(faces):
+    for f in faces:
         v = rng.normal(0, 0.02, (200, 3)) + f
         blocks.append(np.round(v, 10))
         text += ">>> Gathering data for 10 seconds...\r\n" + "".join(
@@ -210,8 +210,10 @@ def test_unit_guess_rules():
     assert guess_unit(1.6e18 + np.arange(10) * 2.5e6) == "ns"  # 400 Hz only in ns
     assert guess_unit(np.arange(10) * 0.01) == "s"
     assert guess_unit(np.arange(10) * 1000.0) == "us"  # 1 kHz in us (1 Hz in ms is not an IMU's)
-    # 100: 10 Hz in ms and 10 kHz in us are both IMU rates; 10 kHz is not typical, so ms
-    assert guess_unit(np.arange(10) * 100.0) == "ms"
+    # 100: 10 Hz in ms and 10 kHz in us are both IMU rates: the step alone decides (us), unless the first stamp
+    # is an epoch in one of them only (1.6e12 ms is 2020; 1.6e12 us is 1970)
+    assert guess_unit(np.arange(10) * 100.0) == "us"
+    assert guess_unit(1.6e12 + np.arange(10) * 100.0) == "ms"
 
 
 # ------------------------------------------------------------------ 5. --columns by field, .mat matrices

@@ -81,8 +81,8 @@ def sparse_rows(path: Path, layout: csvparse.Layout, names: Sequence[str], neede
     if skipped:
         warnings.warn(f"{path}: skipped {skipped} of {skip.size} rows that leave the columns "
                       f"{', '.join(names[j] for j in sensors)} empty (another packet's rows: the file's rows take "
-                      f"turns between packet types); {int(keep.sum())} rows read, and only the columns named (the others belong "
-                      "to the other packets)", ImucalibWarning, stacklevel=4)
+                      f"turns between packet types); {int(keep.sum())} rows read, and only the columns named (the "
+                      "others belong to the other packets)", ImucalibWarning, stacklevel=4)
     return int(keep.sum()), out
 
 

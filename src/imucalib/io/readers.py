@@ -1102,7 +1102,7 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
             raise ReaderError(f"{path}: a time column and --rate were given; pass only one")
         raw_t = m[:, mapping["t"]]
         _check_time(path, raw_t, 1, "time (row)")
-        t = to_seconds(raw_t, time_unit or _infer_time_unit(raw_t), meta)
+        t = to_seconds(raw_t, time_unit or _infer_time_unit(raw_t, path, f"column {mapping['t']}"), meta)
     extra, temperature = _mat_others(path, found, variable, m, mapping)
     named, named_temp = packets.mapped_others(mapping, names, {j: m[:, j] for j in range(m.shape[1])}, meta)
     extra.update(named)

@@ -30,8 +30,6 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 _NAMES = {"s": "seconds", "ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
 #: sampling rates IMUs record at [Hz] (the verdict refuses a recording outside them: imucalib.verdict.check_rate)
 IMU_RATES = (5.0, 50_000.0)
-#: where most IMUs record [Hz]: what breaks a tie between two units both within :data:`IMU_RATES`
-TYPICAL_RATES = (10.0, 2_000.0)
 #: Unix times of the years 2000 and 2100 [s]: a first stamp between them is an epoch in that unit
 _EPOCH = (9.46e8, 4.1e9)
 
@@ -58,11 +56,11 @@ def _magnitude_unit(step: float) -> str:
 def guess_unit(t: np.ndarray, path: Path | None = None, name: str = "time") -> str:
     """The unit of a time column from its values.
 
-    The units whose rate (1 / median step) lies in :data:`IMU_RATES` are the candidates; of several, those in
-    :data:`TYPICAL_RATES`; of several still, the one in which the first stamp is a date of 2000–2100 (epoch
-    stamps). One candidate left is taken, with a note when the median step alone (1 Hz … 100 kHz) would have
-    said another unit (``millis()`` stamps 16 ms apart are 62.5 Hz in ms, 62.5 kHz in µs); none or several
-    left, the median step decides as before.
+    The units whose rate (1 / median step) lies in :data:`IMU_RATES` are the candidates; of several, the one
+    in which the first stamp is a date of 2000–2100 (epoch stamps). One candidate left is taken, with a note
+    when the median step alone (1 Hz … 100 kHz) would have said another unit (``millis()`` stamps 16 ms apart
+    are 62.5 Hz in ms, 62.5 kHz in µs, so ms); none or several left (a step of 100: 10 Hz in ms, 10 kHz in µs),
+    the median step decides as before.
     """
     if t.size < 2:
         return "s"
@@ -72,8 +70,6 @@ def guess_unit(t: np.ndarray, path: Path | None = None, name: str = "time") -> s
         return plain
     rates = {u: 1.0 / (step * s) for u, s in TIME_UNITS.items()}
     cands = [u for u, r in rates.items() if IMU_RATES[0] <= r <= IMU_RATES[1]]
-    if len(cands) > 1:
-        cands = [u for u in cands if TYPICAL_RATES[0] <= rates[u] <= TYPICAL_RATES[1]] or cands
     if len(cands) > 1:
         epoch = [u for u in cands if _EPOCH[0] <= abs(float(t[0])) * TIME_UNITS[u] <= _EPOCH[1]]
         cands = epoch if len(epoch) == 1 else cands
