@@ -113,7 +113,8 @@ def test_savetxt_hash_header_trailing_separators_crlf(tmp_path):
     (tmp_path / "tab.tsv").write_text("t\tax\tay\taz\tgx\tgy\tgz\t\n" + "".join(ln + "\t\n" for ln in body))
     (tmp_path / "comma.csv").write_bytes(("t,ax,ay,az,gx,gy,gz,\r\n" + "".join(
         ln.replace("\t", ",") + ",\r\n" for ln in body)).encode())
-    for name in ("h.csv", "tab.tsv", "comma.csv"):
+    (tmp_path / "rows.csv").write_text("t,ax,ay,az,gx,gy,gz\n" + "".join(ln.replace("\t", ",") + ",\n" for ln in body))
+    for name in ("h.csv", "tab.tsv", "comma.csv", "rows.csv"):
         rec, _ = _read(tmp_path / name, acc_unit="m/s^2", gyro_unit="rad/s")
         assert rec.metadata["columns"]["t"] == "t"
         assert rec.extra == {}, name  # no empty column after a trailing separator
@@ -271,7 +272,8 @@ def test_mat_ten_columns_taken_with_the_magnetometer(tmp_path):
     assert np.array_equal(rec.mag, mag) and np.array_equal(rec.acc, acc)
     # the magnetometer first, named by index in the keyword form
     savemat(tmp_path / "e.mat", {"m": np.column_stack([mag, t, gyro, acc])})
-    rec = read_data(tmp_path / "e.mat", columns="mx=0,my=1,mz=2,t=3,gx=4,gy=5,gz=6,ax=7,ay=8,az=9".split(","))
+    rec = read_data(tmp_path / "e.mat", columns="mx=0,my=1,mz=2,t=3,gx=4,gy=5,gz=6,ax=7,ay=8,az=9".split(","),
+                    acc_unit="m/s^2", gyro_unit="rad/s")
     assert np.array_equal(rec.mag, mag) and np.array_equal(rec.gyro, gyro) and np.array_equal(rec.acc, acc)
 
 

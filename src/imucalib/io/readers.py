@@ -597,6 +597,8 @@ def _split_table(path: Path, columns: Sequence[str] | None = None) -> _Table:
     # semicolons or tabs between cells, commas as decimal marks
     decimal_comma = sep in (";", "\t") and any(_DECIMAL_COMMA.match(c) for c in _cells(row, sep))
     first_row = csvparse.split_cells(row.replace(",", ".") if decimal_comma else row, sep)
+    if header and len(first_row) == len(header) + 1 and first_row[-1] == "":
+        header.append("")  # the rows end with a separator, the header does not
     ncols = len(header) if header else len(first_row)
     hdr = None
     if has_header:
