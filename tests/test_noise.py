@@ -205,8 +205,9 @@ def test_constant_column_is_below_the_resolution(tmp_path, capsys):
 
 
 def test_noise_refuses_a_time_base_and_names_the_mix_up(tmp_path, capsys):
-    """Arduino millis() stamps (16 ms steps) read as microseconds: 62.5 kHz, refused, naming the mix-up; with
-    --time-unit ms the densities come out √1000 larger, as they should."""
+    """Arduino millis() stamps (16 ms steps) read as microseconds (--time-unit us): 62.5 kHz, refused, naming the
+    mix-up; without --time-unit they are read as ms (the one unit giving an IMU's rate, with a note), and the
+    densities come out √1000 larger than in µs, as they should."""
     from imucalib.cli import main
 
     rng = np.random.default_rng(8)
@@ -217,9 +218,11 @@ def test_noise_refuses_a_time_base_and_names_the_mix_up(tmp_path, capsys):
     body = "\n".join(",".join(f"{v:.6g}" for v in (t, *a, *g)) for t, a, g in zip(stamps, acc, gyro, strict=True))
     (tmp_path / "arduino.csv").write_text("t,ax,ay,az,gx,gy,gz\n" + body + "\n")
     args = ["noise", str(tmp_path / "arduino.csv"), "--whole", "--acc-unit", "m/s^2", "--gyro-unit", "rad/s"]
-    assert main(args) == 2
+    assert main([*args, "--time-unit", "us"]) == 2
     err = capsys.readouterr().err
     assert "milliseconds read as microseconds" in err and "--time-unit ms" in err and "Traceback" not in err
+    assert main([*args, "--json"]) == 0
+    assert "was read in milliseconds" in capsys.readouterr().err
     assert main([*args, "--time-unit", "ms", "--json"]) == 0
     doc = __import__("json").loads(capsys.readouterr().out)
     assert doc["rate_hz"] == pytest.approx(62.5)

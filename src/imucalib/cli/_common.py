@@ -86,16 +86,24 @@ def add_reader_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--topic", help="ROS bags: the sensor_msgs/Imu topic (needed when there are several)")
     g.add_argument("--mag-topic", help="ROS bags: a sensor_msgs/MagneticField topic to calibrate beside the IMU")
     g.add_argument("--columns", metavar="T,AX,AY,AZ,GX,GY,GZ",
-                   help="comma-separated column names or 0-based indices in the order t,ax,ay,az,gx,gy,gz, "
-                   "'-' for t when there is no time column (with --rate), e.g. --columns -,0,1,2,3,4,5; 4 entries "
-                   "t,ax,ay,az (or '-' for gx,gy,gz) for an accelerometer-only log, e.g. --columns -,0,1,2")
+                   help="which column is which (CSV header names, any case, or 0-based indices; for a .mat matrix "
+                   "indices). Positional: in the order t,ax,ay,az,gx,gy,gz, '-' for t when there is no time column "
+                   "(with --rate), e.g. --columns -,0,1,2,3,4,5; 4 entries t,ax,ay,az (or '-' for gx,gy,gz) for an "
+                   "accelerometer-only log; 10 entries add mx,my,mz (a magnetometer), 11 add temp. By field, in any "
+                   "order: --columns t=Time,ax=AccX,ay=AccY,az=AccZ,gx=GyrX,gy=GyrY,gz=GyrZ[,mx=..,my=..,mz=..]"
+                   "[,temp=..]; a field left out is absent (t too: then --rate). Rows where all the named sensor "
+                   "cells are empty (another packet's rows in a vendor's log) are skipped, with a note")
     g.add_argument("--acc-unit", choices=("counts", "g", "m/s^2"),
                    help="accelerometer unit of the input (default: from the header, else counts)")
     g.add_argument("--gyro-unit", choices=("counts", "deg/s", "rad/s"),
                    help="gyroscope unit of the input (default: from the header, else counts)")
     g.add_argument("--time-unit", choices=("s", "ms", "us", "ns"),
-                   help="unit of the time column (default: from the header or its values)")
-    g.add_argument("--rate", type=positive_float, help="sampling rate [Hz] when there is no time column")
+                   help="unit of the time column (default: from the header, else the unit in which its median step "
+                   "is a rate IMUs record at, said in a note when not plain: millis() stamps are ms, 1.6e18 epoch "
+                   "stamps ns). Stamps printed coarser than the sampling (repeating every other row) are put on "
+                   "their straight line, rows repeated exactly are dropped: both with a note")
+    g.add_argument("--rate", type=positive_float, help="sampling rate [Hz] when there is no time column (a sample "
+                   "counter such as n_samples is not one: it needs --rate)")
     g.add_argument("--variable", help="name of the matrix in a MATLAB .mat file")
     g.add_argument("--mag-unit", choices=("counts", "uT", "gauss"),
                    help="magnetometer unit of the mx,my,mz (or mag_x,…) columns (default: from the header, else "

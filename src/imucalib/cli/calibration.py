@@ -7,7 +7,6 @@ Make it (calibrate, compare the methods) and use it (detect-fall; apply is in :m
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import warnings
@@ -114,30 +113,16 @@ _SECTIONS_BYTES = 1 << 16  # a sections file is nine pairs of integers: a few hu
 
 
 def _sections(path: str) -> dict:
-    """The named Ferraris sections in the JSON file ``path``: ``{"x_p": [start, stop], …}``, checked."""
+    """The named Ferraris sections in the JSON file ``path`` (:func:`imucalib.methods.ferraris.parse_sections`)."""
     from ..io.jsontext import SmallFileError, read_json
-    from ..methods.ferraris import SECTION_NAMES
+    from ..methods.ferraris import parse_sections
 
     try:
         doc = read_json(path, _SECTIONS_BYTES, "sections file",
                         'nine pairs of sample indices {"x_p": [start, stop], …} in JSON')
-    except SmallFileError as exc:
+        return parse_sections(doc)
+    except (SmallFileError, ValueError) as exc:
         raise CliError(f"--sections {path}: {exc}") from None
-    example = '{"x_p": [start, stop], …}'
-    if not isinstance(doc, dict):
-        raise CliError(f"--sections {path}: expected a JSON object {example}; got a {type(doc).__name__}")
-    missing = [n for n in SECTION_NAMES if n not in doc]
-    unknown = sorted(set(doc) - set(SECTION_NAMES))
-    if missing or unknown:
-        raise CliError(f"--sections {path}: the object must name exactly {', '.join(SECTION_NAMES)}"
-                       + (f"; missing {', '.join(missing)}" if missing else "")
-                       + (f"; unknown {', '.join(unknown)}" if unknown else ""))
-    for name, value in doc.items():
-        if not (isinstance(value, list) and len(value) == 2 and all(type(v) is int for v in value)
-                and 0 <= value[0] < value[1]):
-            raise CliError(f"--sections {path}: {name!r} must be [start, stop], sample indices with "
-                           f"0 <= start < stop; got {json.dumps(value)}")
-    return doc
 
 
 def _method_options(args: argparse.Namespace) -> dict:
@@ -327,7 +312,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="ferraris: the known angle of each turn [deg] (default 360)")
     p.add_argument("--sections", metavar="FILE", help="ferraris: a JSON object of named sample ranges "
                    "[start, stop): x_p, x_a, y_p, y_a, z_p, z_a (each axis up, down) and x_rot, y_rot, z_rot "
-                   "(the turns), instead of finding them")
+                   "(the turns), instead of finding them; imucal's section lists ({\"x_p\": {\"start\": s, "
+                   "\"end\": e}, ...}, end exclusive) are read too")
     p.add_argument("--temperature-model", choices=("linear",), help="a session recorded while the temperature "
                    "changed (a warm-up): biases, and scale factors where the data show it, linear in temperature "
                    "(needs a temperature column)")

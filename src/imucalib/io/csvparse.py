@@ -194,7 +194,7 @@ def read_head(path: Path, max_bytes: int = _HEAD_BYTES) -> Head:
             if complete:
                 tail, tail_start = head, 0
     # the end of the last non-blank line
-    stripped = tail.rstrip()
+    stripped = tail[:len(tail.rstrip()) + (tail[len(tail.rstrip()):][:1] == b"\t")]  # a row's trailing tab is a cell
     if not stripped or tail_start + len(stripped) <= bom:
         end = bom
         last = ""

@@ -128,18 +128,20 @@ def check_text(path: Path, *, gzip_ok: bool = False) -> None:
 
 # ------------------------------------------------------------------ columns
 def check_distinct_columns(columns: Sequence[str] | None) -> None:
-    """Each of t, ax … gz needs its own column: one column named twice is an error."""
+    """Each field ``--columns`` names needs its own column: one column named twice is an error
+    (the entries checked first: :func:`.columns.parse_columns`)."""
     if columns is None:
         return
-    fields = ("t", "ax", "ay", "az", "gx", "gy", "gz")
+    from .columns import parse_columns
+
     seen: dict[str, str] = {}
-    for field, c in zip(fields, columns, strict=False):
-        key = c.strip().lower()
-        if key == "-":
+    for field, c in parse_columns(columns).items():
+        key = None if c is None else c.strip().lower()
+        if key is None:
             continue
         if key in seen:
-            raise ReaderError(f"--columns names {c.strip()!r} for both {seen[key]} and {field}; each of "
-                              f"{','.join(fields)} needs its own column")
+            raise ReaderError(f"--columns names {c.strip()!r} for both {seen[key]} and {field}; each field needs "
+                              "its own column")
         seen[key] = field
 
 
@@ -199,6 +201,24 @@ def note_physical_units(paths: Sequence[Path], rec: Recording) -> None:
     warnings.warn(f"{', '.join(map(str, paths))}: no unit given or written in a header, so the readings are taken "
                   f"as counts; they look like physical units, {' and '.join(looks)}: if they are, pass "
                   f"{' '.join(flags)}", ImucalibWarning, stacklevel=3)
+
+
+def note_gyro_unit(paths: Sequence[Path], rec: Recording) -> None:
+    """A note when a gyroscope taken as counts holds readings that are not whole numbers (counts are).
+
+    Its unit is then rad/s or deg/s; the note names the one its readings look like (99 % of them within
+    35, as :func:`note_physical_units` judges) and the option to pass.
+    """
+    if rec.gyro is None or rec.gyro_unit != "counts" or len(rec) < 10:
+        return
+    if np.all(rec.gyro == np.round(rec.gyro)):
+        return
+    rate = float(np.percentile(np.abs(rec.gyro), 99))
+    guess = "rad/s" if rate <= 35.0 else "deg/s"
+    warnings.warn(f"{', '.join(map(str, paths))}: no gyroscope unit given or written in the header, so its readings "
+                  f"are taken as counts, but they are not whole numbers, so they are not counts: they look like "
+                  f"{guess} (99% of them within {rate:.3g}); pass --gyro-unit {guess} (or the unit the logger "
+                  "writes)", ImucalibWarning, stacklevel=3)
 
 
 # -------------------------------------------------------------------- Xsens

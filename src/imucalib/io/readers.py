@@ -9,6 +9,7 @@ dropped: a bad row is an error, never skipped.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import warnings
 from collections.abc import Sequence
@@ -19,8 +20,17 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..recording import ACC_UNITS, GYRO_UNITS, ImucalibWarning, Recording
-from . import csvparse, inputs
+from . import csvparse, inputs, packets
+from .columns import FIELDS
+from .columns import PATTERNS as _PATTERNS
+from .columns import TEMP as _TEMP
+from .columns import TIME as _TIME
+from .columns import map_columns as _map_columns
+from .columns import not_number as _not_number
 from .errors import ReaderError
+from .stamps import TIME_UNITS, note_held_samples, repair_coarse, to_seconds
+from .stamps import check_increasing as _check_time
+from .stamps import guess_unit as _infer_time_unit
 
 if TYPE_CHECKING:
     from .phone import PhoneFile
@@ -30,8 +40,6 @@ if TYPE_CHECKING:
 __all__ = ["READERS", "ReaderError", "guess_reader", "is_frame", "read"]
 
 READERS = ("csv", "imutk", "mat", "phone", "rosbag")
-TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
-FIELDS = ("t", "ax", "ay", "az", "gx", "gy", "gz")
 
 
 # ------------------------------------------------------------------ entry
@@ -156,10 +164,14 @@ def read(
     inputs.check_against_header(paths, reader, rec, acc_unit, gyro_unit, time_unit, unit_in=_unit_in,
                                 phone_specs=_phone_specs)
     inputs.check_magnitudes(paths, rec)
+    if reader in ("csv", "mat") and len(rec) > 1:
+        note_held_samples(paths[0], rec.acc, rec.gyro, rec.rate)
     named = (rec.metadata.get("columns") or {}) if rec.metadata.get("header") else {}
     written = any(_unit_in(named.get(f) or "") for f in ("ax", "gx"))  # a header's "[counts]" is an answer
     if acc_unit is None and gyro_unit is None and reader in ("csv", "imutk", "mat") and not written:
         inputs.note_physical_units(paths, rec)
+    elif gyro_unit is None and reader in ("csv", "imutk", "mat") and not _unit_in(named.get("gx") or ""):
+        inputs.note_gyro_unit(paths, rec)
     rec.metadata.setdefault("source", [str(p) for p in paths])
     rec.metadata["reader"] = reader
     return rec
@@ -255,18 +267,18 @@ def _read_file_blocks(paths: Sequence[Path], reader: str, columns, acc_unit, gyr
         raise ReaderError(f"{twice[0]} is given twice; several files are read as blocks of one recording (one pose "
                           "each), each file once")
     recs = []
-    seen: set[str] = set()
-    for i, p in enumerate(paths):
+    notes: dict[str, list] = {}  # a note's text without the file and its figures → [first note, files it is in]
+    for p in paths:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ImucalibWarning)
             recs.append(read(p, reader=reader, columns=columns, acc_unit=acc_unit, gyro_unit=gyro_unit, rate=rate,
                              variable=variable, time_unit=time_unit))
         for w in caught:
-            key = str(w.message).replace(str(p), "")
-            if key not in seen:
-                seen.add(key)
-                warnings.warn(w.message if i == 0 else f"{w.message} (and in the files after it)", w.category,
-                              stacklevel=3)
+            key = re.sub(r"[-+]?\d[\d.]*(?:e[-+]?\d+)?", "#", str(w.message).replace(str(p), ""))
+            notes.setdefault(key, [w, 0])[1] += 1
+    for w, count in notes.values():
+        warnings.warn(f"{w.message}" + (f" (and in {count - 1} more of the files)" if count > 1 else ""),
+                      w.category, stacklevel=3)
     first = recs[0]
     for p, rec in zip(paths[1:], recs[1:], strict=True):
         has = ("a gyroscope" if first.gyro is not None else "no gyroscope",
@@ -361,55 +373,12 @@ def _parse_block(path: Path, lines: list[str], first_line: int, ncols: int | Non
     return np.array(rows, dtype=np.float64)
 
 
-def _check_time(path: Path, t: np.ndarray, first_line: int, name: str = "time") -> None:
-    d = np.diff(t)
-    bad = np.nonzero(d <= 0)[0]
-    if bad.size:
-        i = int(bad[0])
-        what = "duplicated" if d[i] == 0 else "goes backwards"
-        raise ReaderError(
-            f"{path}: line {first_line + i + 1}, {name}: timestamp {what} "
-            f"({float(t[i]):.10g} then {float(t[i + 1]):.10g}); timestamps must increase strictly "
-            "(sort the file or remove duplicated rows)"
-        )
-
-
-def _infer_time_unit(t: np.ndarray) -> str:
-    """Unit of a time column from its median step, assuming 1 Hz … 100 kHz sampling.
-
-    A median step above 1e4 means nanoseconds (≥ 10 µs in ns), above 10
-    microseconds, above 0.5 milliseconds, else seconds.
-    """
-    if t.size < 2:
-        return "s"
-    step = float(np.median(np.diff(t)))
-    if step > 1e4:
-        return "ns"
-    if step > 10:
-        return "us"
-    if step > 0.5:
-        return "ms"
-    return "s"
-
-
-def _to_seconds(t: np.ndarray, unit: str, metadata: dict) -> np.ndarray:
-    metadata["time_unit"] = unit
-    metadata["t0"] = float(t[0])
-    scale = TIME_UNITS[unit]
-    seconds = t * scale
-    # epoch-like stamps lose precision as float seconds: keep them relative to the start
-    if abs(seconds[0]) > 1e6:
-        seconds = (t - t[0]) * scale
-        metadata["time_relative"] = True
-    return seconds
-
-
 # ------------------------------------------------------------------ imu_tk
 def _read_imutk(acc_path: Path, gyro_path: Path, acc_unit, gyro_unit, time_unit) -> Recording:
     (ta, acc), (tg, gyro) = (_imutk_table(path) for path in (acc_path, gyro_path))
     meta: dict = {"source": [str(acc_path), str(gyro_path)]}
     unit = time_unit or "s"
-    t_acc = _to_seconds(ta, unit, meta)
+    t_acc = to_seconds(ta, unit, meta)
     t_gyro = (tg - ta[0]) * TIME_UNITS[unit] if meta.get("time_relative") else tg * TIME_UNITS[unit]
     del ta, tg
     return Recording.from_streams(
@@ -449,8 +418,8 @@ def _imutk_table(path: Path) -> tuple[np.ndarray, np.ndarray]:
                 t, xyz = np.empty(body.rows), np.empty((body.rows, 3))
                 csvparse.parse(layout, ["float"] * 4, names, required=range(4),  # no text copy: no checksum
                                out={0: t, 1: xyz[:, 0], 2: xyz[:, 1], 3: xyz[:, 2]}, plan=body, checksum=False)
-                _check_time(path, t, 1)
-                return t, xyz
+                rep = repair_coarse(path, t, [xyz], 1)
+                return rep.t, (xyz if rep.keep is None else xyz[rep.keep])
         except ReaderError:
             pass
     data = _numeric_table(path, path.read_bytes().decode("utf-8-sig", errors="replace"), 4, names)
@@ -486,22 +455,13 @@ def _numeric_table(path: Path, text: str, ncols: int, names: Sequence[str]) -> n
         if blank:
             raise ReaderError(f"{path}: line {blank[0] + 1} is empty; remove blank lines")
         data = _parse_block(path, lines, 1, ncols, None, names)
-    _check_time(path, data[:, 0], 1)
+    rep = repair_coarse(path, data[:, 0], [data[:, 1:]], 1)
+    data = data if rep.keep is None else data[rep.keep]
+    data[:, 0] = rep.t
     return data
 
 
 # --------------------------------------------------------------------- CSV
-_AXIS = r"[_\s\.\-]?\(?([xyz])\)?"
-_PATTERNS = {
-    "acc": re.compile(r"^(?:a|acc|accel|accelerometer|acceleration|linear_acceleration|"
-                      r"a_rs_s|lin_acc)" + _AXIS + r"(?:$|[_\s\[\(])", re.I),
-    "gyro": re.compile(r"^(?:g|gyr|gyro|gyroscope|w|omega|angular_velocity|rot|rate|"
-                       r"w_rs_s)" + _AXIS + r"(?:$|[_\s\[\(])", re.I),
-}
-_TIME = re.compile(r"^#?\s*(?:t|time|timestamp|stamp|time_stamp)(?:$|[_\s\[\(])", re.I)
-_TEMP = re.compile(r"^(?:temp|temperature)(?:$|[_\s\[\(])", re.I)
-
-
 def _unit_in(name: str) -> str | None:
     """A unit written in a column name: ``[m/s^2]``, ``(dps)``, ``_ms`` …"""
     m = re.search(r"[\[\(]\s*([^\]\)]+?)\s*[\]\)]", name)
@@ -569,8 +529,9 @@ def _table_start(lines: list[str]) -> int:
     """
     if len(lines) < 3:
         return 0
-    sep = _sniff_separator(lines[-1])
-    width = len(_cells(lines[-1], sep))
+    last = next((ln for ln in reversed(lines) if not _is_prompt(ln, _sniff_separator(ln))), lines[-1])
+    sep = _sniff_separator(last)  # the table's width: its last row's (a logger's prompt may come after it)
+    width = len(_cells(last, sep))
     if width < 2 or len(_cells(lines[0], sep)) == width:
         return 0
     for k in range(1, len(lines) // 2 + 1):
@@ -594,6 +555,8 @@ class _Table:
     skipped: int = 0
     rate: float | None = None
     prompts: bool = False  # lines with no number inside the rows (a logger's prompts): block boundaries
+    sample: list[str] = dataclasses.field(default_factory=list)  # the first rows, as text
+    trailing: bool = False  # a separator ends every line: the last column is the empty cell after it
 
     @property
     def names(self) -> list[str]:
@@ -623,6 +586,8 @@ def _split_table(path: Path, columns: Sequence[str] | None = None) -> _Table:
     first = _cells(lines[start], sep)
     has_header = any(_not_number(c) for c in first)
     header = [c.strip('"\'').strip() for c in first] if has_header else None
+    if header and re.match(r"#\s", header[0]):  # numpy.savetxt's header="…" writes "# " before the names
+        header[0] = header[0][1:].strip()
     row0 = start + 1 if has_header else start
     first_line = row0 + 1
     if row0 >= len(head.lines):
@@ -632,6 +597,8 @@ def _split_table(path: Path, columns: Sequence[str] | None = None) -> _Table:
     # semicolons or tabs between cells, commas as decimal marks
     decimal_comma = sep in (";", "\t") and any(_DECIMAL_COMMA.match(c) for c in _cells(row, sep))
     first_row = csvparse.split_cells(row.replace(",", ".") if decimal_comma else row, sep)
+    if header and len(first_row) == len(header) + 1 and first_row[-1] == "":
+        header.append("")  # the rows end with a separator, the header does not
     ncols = len(header) if header else len(first_row)
     hdr = None
     if has_header:
@@ -639,7 +606,9 @@ def _split_table(path: Path, columns: Sequence[str] | None = None) -> _Table:
         hdr = (head.offsets[start], hdr_end)
     layout = csvparse.Layout(path, hdr, (head.offsets[row0], head.end), first_line, sep, decimal_comma, ncols,
                              head.size, head.mtime_ns)
+    trailing = first_row[-1:] == [""] and (header is None or header[-1] == "") and sep not in (None, " ")
     table = _Table(header, first_line, sep, ncols, layout, first_row, skipped=start, rate=_preamble_rate(preamble),
+                   sample=head.lines[row0:row0 + 1000], trailing=trailing,
                    prompts=any(_is_prompt(ln, sep) for ln in head.lines[row0:] + ([] if head.complete else
                                                                                   [head.last])))
     if start:
@@ -772,7 +741,7 @@ def _parse_table(path: Path, table: _Table, required: Sequence[int], *, others: 
     for j in range(table.ncols):
         if j in required and kinds[j] == "text":
             kinds[j] = "float"  # the parse names the bad cell
-        elif j not in required and not others:
+        elif (j not in required and not others) or (table.trailing and j == table.ncols - 1):
             kinds[j] = None
     cols, parsed = csvparse.parse(table.layout, kinds, table.names, required=required, out=out, plan=plan)
     if facts is not None:
@@ -798,10 +767,14 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     first_line, names = table.first_line, table.names
     mapping = _map_columns(path, names, columns, has_header)
     numeric_cols = sorted({j for j in mapping.values() if j is not None})
+    sensors = [mapping[f] for f in (*FIELDS[1:], "mx", "my", "mz") if mapping[f] is not None]
     # the samples go straight into the recording's arrays: no copy of the whole table
     blocks = _prompt_blocks(path, table) if frame is None and table.prompts else None
-    plan = csvparse.plan(table.layout) if frame is None and blocks is None else None
-    rows = plan.rows if plan is not None else len(frame) if frame is not None else blocks[0].shape[0]
+    sparse = (packets.sparse_rows(path, table.layout, names, numeric_cols, sensors) if frame is None and blocks is None
+              and packets.has_empty_cells(table.sample, table.sep, sensors) else None)
+    plan = csvparse.plan(table.layout) if frame is None and blocks is None and sparse is None else None
+    rows = (plan.rows if plan is not None else len(frame) if frame is not None else sparse[0] if sparse is not None
+            else blocks[0].shape[0])
     if rows == 0:
         raise ReaderError(f"{path}: no data rows after the header")
     has_gyro = mapping["gx"] is not None
@@ -814,6 +787,8 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     parsed: dict = {}
     if blocks is not None:
         cols = {j: blocks[0][:, j] for j in range(table.ncols)}
+    elif sparse is not None:
+        cols = sparse[1]
     elif frame is None:
         cols = _parse_table(path, table, numeric_cols, out=out, plan=plan, facts=parsed)
     else:
@@ -823,7 +798,8 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     for f, view in targets.items():
         if cols[mapping[f]] is not view:  # a column used for two fields
             view[:] = cols[mapping[f]]
-    meta: dict = {"columns": {f: (names[j] if j is not None else None) for f, j in mapping.items()},
+    meta: dict = {"columns": {f: (names[j] if j is not None else None) for f, j in mapping.items()
+                              if f in FIELDS or j is not None},
                   "column_names": list(names), "header": has_header, "separator": table.sep or " "}
     if table.skipped:
         meta["preamble_lines"] = table.skipped
@@ -839,9 +815,13 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
         if rate is None and table.rate is not None:
             rate = table.rate
             meta["rate_from"] = "preamble"
-        if rate is None:
+        if mapping["n"] is not None:
+            t = packets.counter_times(path, cols[mapping["n"]], names[mapping["n"]], rate)
+        elif rate is None:
             raise ReaderError(f"{path}: no time column found; pass --rate HZ (the sampling rate)")
-        t = np.arange(rows) / rate
+        else:  # blocks of a logger that paused: BLOCK_GAP_STEPS steps between them, as between files
+            t = (np.arange(rows) + (0 if blocks is None else BLOCK_GAP_STEPS * np.repeat(
+                np.arange(len(blocks[1])), [b - a for a, b in blocks[1]]))) / rate
         meta["time_unit"] = None
     else:
         if rate is not None:
@@ -850,11 +830,16 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
                 "pass only one (use --columns with '-' for t to ignore the time column)"
             )
         raw_t, offset = _time_column(cols[tcol])
-        _check_time(path, raw_t, first_line, names[tcol])
+        rep = repair_coarse(path, raw_t, [acc] + ([gyro] if has_gyro else []), first_line, names[tcol])
+        raw_t = rep.t
+        if rep.keep is not None:  # repeated rows dropped: every column with them
+            acc, gyro = acc[rep.keep], (gyro[rep.keep] if has_gyro else None)
+            cols = {j: c[rep.keep] for j, c in cols.items()}
+            parsed.pop("digest", None)  # the rows are no longer the file's: a writer writes them anew
         unit = time_unit or _unit_in(names[tcol]) if has_header else time_unit
         if unit not in TIME_UNITS:
-            unit = time_unit or _infer_time_unit(raw_t)
-        t = _to_seconds(raw_t, unit, meta)
+            unit = time_unit or _infer_time_unit(raw_t, path, names[tcol])
+        t = to_seconds(raw_t, unit, meta)
         if offset:
             meta["t0"] = offset
             meta["time_relative"] = True
@@ -865,19 +850,18 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     if gu not in GYRO_UNITS:
         gu = "counts"
     used = {j for j in mapping.values() if j is not None}
-    temperature = None
-    extra = {}
+    extra, temperature = packets.mapped_others(mapping, names, cols, meta)
     for j, name in enumerate(names):
-        if j in used:
-            continue
-        col = cols[j]
+        col = cols.get(j)
+        if j in used or col is None or (table.trailing and j == table.ncols - 1):
+            continue  # read as a field, not read (another packet's), or the empty cell after a trailing separator
         if temperature is None and has_header and _TEMP.match(name) and col.dtype.kind == "f":
             temperature = col
             meta["temperature_column"] = name
         extra[name if name not in extra else f"{name} (column {j + 1})"] = col
     rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
                     extra=extra, metadata=meta)
-    if "digest" in parsed and not csvparse.is_gzip(path):  # what apply needs to copy the file's own text (io.writers)
+    if parsed.get("digest") and not csvparse.is_gzip(path):  # what apply needs to copy the file's own text (io.writers)
         meta["source_layout"] = {**table.layout.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec),
                                  "digest": parsed["digest"]}
     return rec
@@ -959,96 +943,6 @@ def _frame_columns(label: Path, frame, required: Sequence[int], out: dict[int, n
             values = out[j]
         cols[j] = values
     return cols, stamps
-
-
-def _not_number(cell: str) -> bool:
-    try:
-        float(cell)
-        return False
-    except ValueError:
-        return True
-
-
-def _map_columns(path: Path, names: list[str], columns, has_header: bool) -> dict:
-    """Column index of each of t, ax…gz (None for a missing time column; gx, gy, gz None when there is no gyroscope).
-
-    ``columns`` has 7 entries (``t,ax,ay,az,gx,gy,gz``; ``-`` for ``t`` when there is no time column, ``-`` for
-    gx, gy and gz when there is no gyroscope) or 4 (``t,ax,ay,az``: an accelerometer-only log). Without it, a header
-    that names accelerometer columns and no gyroscope column is an accelerometer-only log (with a note), and a file
-    without a header is read by its width: 7 or 6 columns with a gyroscope, 4 or 3 without (with a note).
-    """
-    if columns is not None:
-        columns = [c.strip() for c in columns]
-        if len(columns) not in (4, 7):
-            raise ReaderError(
-                f"--columns needs 7 entries in the order {','.join(FIELDS)} (or 4, {','.join(FIELDS[:4])}, for an "
-                f"accelerometer-only log); got {len(columns)}"
-            )
-        if len(columns) == 4:
-            columns += ["-", "-", "-"]
-        absent = [f for f, c in zip(FIELDS, columns, strict=True) if c == "-"]
-        if any(f.startswith("a") for f in absent):
-            raise ReaderError(f"--columns: the accelerometer's columns are needed ('-' given for "
-                              f"{', '.join(f for f in absent if f.startswith('a'))}); '-' stands for an absent time "
-                              "column or an absent gyroscope")
-        if 0 < sum(f.startswith("g") for f in absent) < 3:
-            raise ReaderError("--columns: give all three gyroscope columns, or '-' for each of gx, gy, gz when "
-                              "there is no gyroscope")
-        out = {}
-        lower = [n.lower() for n in names]
-        for field, c in zip(FIELDS, columns, strict=True):
-            if c == "-":
-                out[field] = None
-            elif c.isdigit():
-                j = int(c)
-                if j >= len(names):
-                    raise ReaderError(f"{path}: --columns {field}={c}: the file has only "
-                                      f"{len(names)} columns (0-based indices)")
-                out[field] = j
-            elif c.lower() in lower:
-                out[field] = lower.index(c.lower())
-            else:
-                raise ReaderError(f"{path}: --columns {field}={c!r}: no such column; the "
-                                  f"columns are {', '.join(names)}")
-        return out
-    if not has_header:
-        width = len(names)
-        if width in (7, 4):
-            fields = FIELDS[:width]
-            warnings.warn(f"{path}: no header: the columns were taken as {','.join(fields)}"
-                          + (" (an accelerometer-only log)" if width == 4 else "")
-                          + " (pass --columns to say otherwise)", ImucalibWarning, stacklevel=4)
-            return {**dict.fromkeys(FIELDS), **dict(zip(fields, range(width), strict=True))}
-        if width in (6, 3):
-            fields = FIELDS[1:width + 1]
-            warnings.warn(f"{path}: no header and {width} columns: they were taken as {','.join(fields)}, "
-                          "with no time column" + (" (an accelerometer-only log)" if width == 3 else "")
-                          + " (pass --columns to say otherwise)", ImucalibWarning, stacklevel=4)
-            return {**dict.fromkeys(FIELDS), **dict(zip(fields, range(width), strict=True))}
-        raise ReaderError(f"{path}: no header and {width} columns: pass --columns with 7 "
-                          f"0-based indices in the order {','.join(FIELDS)} ('-' for t when there is "
-                          f"no time column), or 4 ({','.join(FIELDS[:4])}) for an accelerometer-only log")
-    out: dict = {"t": None}
-    for j, name in enumerate(names):
-        if out["t"] is None and _TIME.match(name):
-            out["t"] = j
-            continue
-        for kind, pat in _PATTERNS.items():
-            m = pat.match(name)
-            if m:
-                key = ("a" if kind == "acc" else "g") + m.group(1).lower()
-                out.setdefault(key, j)
-    missing = [f for f in FIELDS[1:] if f not in out]
-    if missing == ["gx", "gy", "gz"]:
-        warnings.warn(f"{path}: no gyroscope columns (found {', '.join(names)}): read as an accelerometer-only log",
-                      ImucalibWarning, stacklevel=4)
-        return {**out, **dict.fromkeys(missing)}
-    if missing:
-        raise ReaderError(
-            f"{path}: missing columns {', '.join(missing)} (found {', '.join(names)}); pass "
-            f"--columns with the names in the order {','.join(FIELDS)}"
-        )
-    return out
 
 
 # ------------------------------------------------------------ phone apps
@@ -1190,7 +1084,10 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
             raise ReaderError(f"{path}: variable {variable!r} has {m.shape[1]} columns; pass "
                               "--columns (use '-' for t with --rate when there is no time; 4 entries "
                               "t,ax,ay,az for an accelerometer-only log)")
-        columns = [str(j) for j in range(7)]
+        columns = [str(j) for j in range(10 if m.shape[1] == 10 else 7)]
+        if m.shape[1] == 10:  # t, accelerometer, gyroscope, magnetometer: the 9-axis layout loggers write
+            warnings.warn(f"{path}: variable {variable!r} has 10 columns: taken as t,ax,ay,az,gx,gy,gz,mx,my,mz "
+                          "(pass --columns to say otherwise)", ImucalibWarning, stacklevel=3)
     mapping = _map_columns(path, names, columns, True)
     bad = ~np.isfinite(m[:, [j for j in mapping.values() if j is not None]])
     if bad.any():
@@ -1207,8 +1104,11 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
             raise ReaderError(f"{path}: a time column and --rate were given; pass only one")
         raw_t = m[:, mapping["t"]]
         _check_time(path, raw_t, 1, "time (row)")
-        t = _to_seconds(raw_t, time_unit or _infer_time_unit(raw_t), meta)
+        t = to_seconds(raw_t, time_unit or _infer_time_unit(raw_t, path, f"column {mapping['t']}"), meta)
     extra, temperature = _mat_others(path, found, variable, m, mapping)
+    named, named_temp = packets.mapped_others(mapping, names, {j: m[:, j] for j in range(m.shape[1])}, meta)
+    extra.update(named)
+    temperature = named_temp if named_temp is not None else temperature
     return Recording(
         t=t, acc=m[:, [mapping["ax"], mapping["ay"], mapping["az"]]],
         gyro=None if mapping["gx"] is None else m[:, [mapping["gx"], mapping["gy"], mapping["gz"]]],

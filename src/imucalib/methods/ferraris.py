@@ -71,10 +71,39 @@ METHOD = MethodInfo(
           "docstring)",
 )
 
-__all__ = ["SECTION_NAMES", "calibrate", "closed_form_errors", "sections_from_ranges"]
+__all__ = ["SECTION_NAMES", "calibrate", "closed_form_errors", "parse_sections", "sections_from_ranges"]
 
 #: the named sections of a Ferraris session: each axis up (``_p``) and down (``_a``), and its turn
 SECTION_NAMES = ("x_p", "y_p", "z_p", "x_a", "y_a", "z_a", "x_rot", "y_rot", "z_rot")
+
+
+def parse_sections(doc) -> dict[str, list[int]]:
+    """A sections document (parsed JSON) as ``{name: [start, stop]}``, sample indices, ``stop`` exclusive.
+
+    Two forms are read: imucalib's ``{"x_p": [start, stop], …}`` and imucal's ``{"x_p": {"start": s, "end": e},
+    …}`` (the section list its annotation tool saves; imucal slices ``data.iloc[start:end]``, so its ``end`` is
+    exclusive too and is taken as it is). Raises ValueError naming what is wrong.
+    """
+    example = '{"x_p": [start, stop], …} or imucal\'s {"x_p": {"start": s, "end": e}, …}'
+    if not isinstance(doc, dict):
+        raise ValueError(f"expected a JSON object {example}; got a {type(doc).__name__}")
+    missing = [n for n in SECTION_NAMES if n not in doc]
+    unknown = sorted(set(doc) - set(SECTION_NAMES))
+    if missing or unknown:
+        raise ValueError(f"the object must name exactly {', '.join(SECTION_NAMES)}"
+                         + (f"; missing {', '.join(missing)}" if missing else "")
+                         + (f"; unknown {', '.join(unknown)}" if unknown else ""))
+    out = {}
+    for name in SECTION_NAMES:
+        value = doc[name]
+        if isinstance(value, dict) and set(value) == {"start", "end"}:
+            value = [value["start"], value["end"]]
+        if not (isinstance(value, list) and len(value) == 2 and all(type(v) is int for v in value)
+                and 0 <= value[0] < value[1]):
+            raise ValueError(f"{name!r} must be [start, stop] or {{\"start\": start, \"end\": stop}}, sample "
+                             f"indices with 0 <= start < stop; got {value!r}")
+        out[name] = list(value)
+    return out
 
 
 def sections_from_ranges(recording: Recording, ranges: dict, bias: np.ndarray | None = None
