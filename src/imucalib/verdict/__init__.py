@@ -68,8 +68,9 @@ from ..constants import GRAVITY_RANGE
 from ..fit.accelerometer import REDUCED_MODELS, fit_sphere
 from ..fit.magnetometer import WEAK_DIP_DEG
 from ..methodinfo import needing
-from ..metrics import gravity_direction_errors, transition_bounds
+from ..metrics import transition_bounds
 from ..recording import Interval, Recording
+from ..segment import unreliable_transitions
 from .base import (
     GYRO_ROTATION_PARAMETERS,
     LEVELS,
@@ -86,6 +87,7 @@ from .base import (
     white_noise_variance,
 )
 from .coverage import unvisited_checks, unvisited_sigma
+from .raw import raw_checks
 
 __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibility", "plausible",
            "predicted_direction_error", "rest_noise", "rest_rates", "time_unit_hint", "turn_speed",
@@ -255,15 +257,18 @@ def _redundancy(calibration, fitted: bool = True) -> list[Check]:
 
     On a recording the calibration was not fitted to (``fitted=False``) the poses are not the fit's, so neither
     their number nor an over-fit means anything; a residual far above the noise floor still does, whatever the
-    method (an exact method's residual on new poses is a real one).
+    method (an exact method's residual on new poses is a real one). A method that determines its parameters
+    exactly (``six_position``, ``ferraris``: no redundancy to count, no over-fit to find) is judged on the
+    residual over its poses as well, by the same limits: ``calibrate`` and ``validate`` on the same data agree.
     """
     fit = calibration.fit or {}
     out = []
     m = fit.get("static_intervals")
     exact = "accelerometer" in str(fit.get("uncertainty_unavailable", "")) or calibration.method in needing(
         "six faces")
-    if not m or (exact and fitted):
+    if not m:
         return out
+    fitted = fitted and not exact  # the checks of the fit's redundancy: not for an exact method
     p = _accelerometer_parameters(calibration)
     per = m / p
     lim = THRESHOLDS["poses_per_parameter"]
@@ -288,33 +293,47 @@ def _redundancy(calibration, fitted: bool = True) -> list[Check]:
 
 
 def _gyroscope(calibration, found: Poses) -> tuple[list[Check], dict]:
+    """The gyroscope's gravity-direction error between poses against what the sensor noise alone predicts.
+
+    Judged on every rotation whose integration the data allow (:func:`imucalib.segment.unreliable_transitions`
+    finds the rest: saturated samples, spikes, sampling gaps, unsteady poses — faults of the data, found from
+    the recording alone), the ones the fit left out because their error was far from the others' included:
+    ``calibrate`` and ``validate`` judge the same rotations of the same data by the same limits.
+    """
     recording, intervals = found.recording, found.intervals
     fit = calibration.fit or {}
-    mean_deg = fit.get("gyroscope_angle_error_mean_deg")
-    if mean_deg is None or len(intervals) < 2:
+    if fit.get("gyroscope_angle_error_mean_deg") is None or len(intervals) < 2:
         return [], {}
     pred = predicted_error_of(found, None)
+    errors = found.direction_errors
     left = {int(k) for k in fit.get("rotations_left_out", {})}
-    keep = np.array([k not in left for k in range(len(pred))])
+    faulty = unreliable_transitions(recording, intervals)
+    judged = np.array([k not in faulty for k in range(len(pred))])
     figures: dict = {}
     out = []
-    if left:  # judged on the rotations the fit kept: the ones left out are known to be unreliable
-        errors = gravity_direction_errors(calibration, recording, intervals, up=found.up)
-        mean_deg = float(np.degrees(np.mean(errors[keep])))
-        figures["gyroscope_angle_error_kept_mean_deg"] = mean_deg
+    if left:
+        kept = np.array([k not in left for k in range(len(pred))])
+        if np.any(kept):
+            figures["gyroscope_angle_error_kept_mean_deg"] = float(np.degrees(np.mean(errors[kept])))
         if len(left) > len(pred) / 3:
             out.append(Check(1, f"{len(left)} of the {len(pred)} rotations between poses were left out of the "
                                 "gyroscope fit (notes below say why): the rest may not cover every axis well"))
-    pred_deg = float(np.degrees(np.mean(pred[keep]))) if np.any(keep) else float("nan")
-    ratio = mean_deg / pred_deg if pred_deg > 0 else float("inf")
-    figures |= {"gyroscope_angle_error_predicted_deg": pred_deg, "gyroscope_error_to_noise": ratio}
-    floor = THRESHOLDS["gyro_error_floor_deg"]
-    level = min(grade(ratio, THRESHOLDS["gyro_error_to_noise"]), grade(mean_deg, floor))
-    if level:
-        out.append(Check(level, f"the gyroscope's gravity-direction error between poses is {mean_deg:.3g}° (mean), "
-                                f"{ratio:.3g}× the {pred_deg:.2g}° the sensor noise alone predicts for these "
-                                f"rotations (limit {THRESHOLDS['gyro_error_to_noise'][0]:g}×): the gyroscope "
-                                "calibration does not explain the rotations"))
+    if np.any(judged):
+        mean_deg = float(np.degrees(np.mean(errors[judged])))
+        pred_deg = float(np.degrees(np.mean(pred[judged])))
+        ratio = mean_deg / pred_deg if pred_deg > 0 else float("inf")
+        figures |= {"gyroscope_angle_error_predicted_deg": pred_deg, "gyroscope_error_to_noise": ratio}
+        if faulty:
+            figures["gyroscope_angle_error_reliable_mean_deg"] = mean_deg
+        floor = THRESHOLDS["gyro_error_floor_deg"]
+        level = min(grade(ratio, THRESHOLDS["gyro_error_to_noise"]), grade(mean_deg, floor))
+        over = (f" over the {int(np.sum(judged))} rotations without saturated samples, spikes or gaps"
+                if faulty else "")
+        if level:
+            out.append(Check(level, f"the gyroscope's gravity-direction error between poses is {mean_deg:.3g}° "
+                                    f"(mean{over}), {ratio:.3g}× the {pred_deg:.2g}° the sensor noise alone "
+                                    f"predicts for these rotations (limit {THRESHOLDS['gyro_error_to_noise'][0]:g}×): "
+                                    "the gyroscope calibration does not explain the rotations"))
     for k, why in sorted(fit.get("rotations_left_out", {}).items(), key=lambda kv: int(kv[0])):
         out.append(Check(0, f"the rotation from pose {int(k) + 1} to {int(k) + 2} was left out of the gyroscope "
                             f"fit: {why}"))
@@ -605,6 +624,9 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
         checks += _known_turns(calibration, recording)
     if calibration.gyroscope is not None:
         checks += _gyroscope_bias_drift(calibration)
+    raw, raw_figures = raw_checks(calibration, found)  # never worse than the raw readings (verdict.raw)
+    checks += raw
+    figures |= raw_figures
     checks += _magnetometer(calibration)
     checks += _non_finite(calibration, figures)
     level = max((c.level for c in checks), default=0)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..metrics import COVERAGE_CONE_DEG, column_sums, interval_means, transition_bounds
+from ..metrics import COVERAGE_CONE_DEG, column_sums, gravity_direction_errors, interval_means, transition_bounds
 from ..recording import Interval, Recording
 
 __all__ = ["CALIBRATE_ROWS", "GYRO_ROTATION_PARAMETERS", "LEVELS", "NOMINAL", "POSE_BYTES", "THRESHOLDS", "Check",
@@ -217,6 +217,7 @@ class Poses:
         self.calibration, self.recording, self.intervals = calibration, recording, intervals
         self._means: np.ndarray | None = None
         self._up: np.ndarray | None = None
+        self._errors: np.ndarray | None = None
         self._pose: dict[tuple[int, int], tuple[float, float, np.ndarray]] = {}
 
     @property
@@ -234,6 +235,15 @@ class Poses:
             self._up = self.calibration.accelerometer_si(self.means)
             self._up.flags.writeable = False
         return self._up
+
+    @property
+    def direction_errors(self) -> np.ndarray:
+        """The calibrated gravity-direction error [rad] of every rotation between consecutive poses (M − 1,)
+        (:func:`imucalib.metrics.gravity_direction_errors`), those the fit left out included."""
+        if self._errors is None:
+            self._errors = gravity_direction_errors(self.calibration, self.recording, self.intervals, up=self.up)
+            self._errors.flags.writeable = False
+        return self._errors
 
     def poses(self, intervals: list[Interval], noise: bool = True) -> list[tuple[float | None, float | None,
                                                                                 np.ndarray]]:
