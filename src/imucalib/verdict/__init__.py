@@ -18,7 +18,12 @@ the fit did not minimise, or that it cannot change:
   poses against what the sensor noise alone predicts for these rotations
   (:func:`predicted_direction_error`, from the white noise of the sensor at
   rest: a shaken accelerometer or a trembling hand is not noise that excuses
-  the error);
+  the error), over every rotation without saturated samples, spikes or gaps
+  (the fit's outliers included), as ``validate`` judges it;
+* **the raw readings** — with physical units, a calibration worse than the
+  identity one (no bias, nominal scale, no misalignment) on ``|a| − g`` over
+  the poses or on the gravity-direction error over every rotation is
+  rejected (:mod:`imucalib.verdict.raw`);
 * **the gyroscope at rest** — the calibrated rate's mean over the static poses
   against the standard error the poses' scatter allows (a bias the rest
   contradicts), and enough rotations kept for the gyroscope's nine scale and
