@@ -244,3 +244,34 @@ def test_the_ferraris_session_fitted_as_poses_is_worse_than_raw():
     assert fit["gyroscope_angle_error_mean_deg_raw"] == pytest.approx(angle_raw, rel=1e-9)
     assert fit["gyroscope_angle_error_mean_deg"] > 3 * angle_raw
     assert fit["verdict"] == "rejected" and _raw_reason(cal) is not None
+
+
+def test_calibrate_and_validate_judge_the_same_rotations_and_residual_alike():
+    """On the same recording and poses the two purposes share their figures and limits: the gyroscope's noise check
+    over the same rotations (spiking ones set aside by both), an exact method's residual judged by both."""
+    from imucalib.metrics import fit_summary
+
+    rec = _faulty_session(0)  # four of ten rotations spike
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        cal = calibrate(rec, method="tedaldi2014", gravity=G)
+    fit = {k: v for k, v in cal.fit.items() if not k.startswith("verdict")}
+    made, checked = assess(cal.with_(fit=fit), rec), assess(cal.with_(fit=fit), rec, purpose="validate")
+    for key in ("gyroscope_error_to_noise", "gyroscope_angle_error_reliable_mean_deg",
+                "accelerometer_residual_rms_raw", "gyroscope_angle_error_mean_deg_raw"):
+        assert made[key] == checked[key], key
+
+    sim = session("handheld", rng=1, procedure="ferraris")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        exact = calibrate(sim, method="six_position")
+    iv = [Interval(int(a), int(b)) for a, b in exact.fit["intervals"]]
+    # the z scale 1 % off: the residual over the faces tens of times the noise floor
+    off = exact.with_(accelerometer=exact.accelerometer.with_(scale=exact.accelerometer.scale * [1, 1, 1.01]))
+    fit = fit_summary(off, sim.recording, iv) | {"uncertainty_unavailable": exact.fit.get("uncertainty_unavailable")}
+    assert fit["accelerometer_residual_to_noise"] > 40
+    made = assess(off.with_(fit=fit), sim.recording, iv)
+    checked = assess(off.with_(fit=fit), sim.recording, iv, purpose="validate")
+    assert made["verdict"] == checked["verdict"] == "rejected"
+    floor = [r for r in made["verdict_reasons"] if "white-noise floor" in r]
+    assert floor and floor == [r for r in checked["verdict_reasons"] if "white-noise floor" in r]
