@@ -117,8 +117,9 @@ def raw_checks(calibration, found: Poses | None) -> tuple[list[Check], dict]:
     if c.residual_rms_raw is not None:
         figures["accelerometer_residual_rms_raw"] = c.residual_rms_raw
         if c.residual_rms > c.residual_rms_raw:
+            ratio = c.residual_rms / c.residual_rms_raw if c.residual_rms_raw > 0 else np.inf
             worse.append(f"|a| − g RMS over the {c.poses} poses is {c.residual_rms:.3g} m/s² calibrated against "
-                         f"{c.residual_rms_raw:.3g} m/s² raw ({c.residual_rms / c.residual_rms_raw:.3g}×)")
+                         f"{c.residual_rms_raw:.3g} m/s² raw ({ratio:.3g}×)")
     if c.angle_error_mean_deg_raw is not None:
         figures["gyroscope_angle_error_mean_deg_raw"] = c.angle_error_mean_deg_raw
         if c.angle_error_mean_deg > c.angle_error_mean_deg_raw:
@@ -135,7 +136,9 @@ def raw_checks(calibration, found: Poses | None) -> tuple[list[Check], dict]:
                                "rotations, turning slowly (no spikes, no clipping), or choose a method that suits "
                                "the recording"))
     if c.skipped:
-        checks.append(Check(0, f"{' and '.join(c.skipped)} (no physical unit declared or recognised): the "
+        counts = ("the accelerometer's and the gyroscope's readings are counts" if len(c.skipped) == 2
+                  else c.skipped[0])
+        checks.append(Check(0, f"{counts} (no physical unit declared or recognised): the "
                                "calibration is not compared with the raw readings (pass --acc-unit and --gyro-unit "
                                "if the readings are in physical units)"))
     return checks, figures
