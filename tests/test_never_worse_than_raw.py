@@ -275,3 +275,23 @@ def test_calibrate_and_validate_judge_the_same_rotations_and_residual_alike():
     assert made["verdict"] == checked["verdict"] == "rejected"
     floor = [r for r in made["verdict_reasons"] if "white-noise floor" in r]
     assert floor and floor == [r for r in checked["verdict_reasons"] if "white-noise floor" in r]
+
+
+def test_validate_rejects_a_calibration_worse_than_the_new_recordings_raw_readings():
+    """A calibration of one sensor (biased by 0.2 m/s², scales 1 % off) on another, already right in m/s² and
+    rad/s: on the new recording it is worse than the raw readings, and validate says the sensor changed."""
+    rng = np.random.default_rng(3)
+    off = _good_sensor(rng)
+    off = off.with_(accelerometer=off.accelerometer.with_(bias=[0.2, -0.15, 0.1], scale=[1.01, 0.99, 1.01]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        first = session("handheld", rng=3, truth=off, n_poses=16, quantise=False, full_scale=None, turn_on=0.05)
+        cal = calibrate(first.recording, method="tedaldi2014", gravity=G)
+        right = Calibration(units=SI, gravity=G)  # the identity: raw readings that need no calibration
+        other = session("handheld", rng=4, truth=right, n_poses=8, quantise=False, full_scale=None, turn_on=0.05)
+        checked = validate(cal, other.recording)
+    assert cal.fit["verdict"] == "accepted"
+    assert checked["verdict"] == "rejected"
+    assert checked["accelerometer_residual_rms"] > 10 * checked["accelerometer_residual_rms_raw"]
+    reason = next(r for r in checked["verdict_reasons"] if "worse than the raw readings" in r)
+    assert "the sensor has changed since it was calibrated" in reason

@@ -629,7 +629,7 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
         checks += _known_turns(calibration, recording)
     if calibration.gyroscope is not None:
         checks += _gyroscope_bias_drift(calibration)
-    raw, raw_figures = raw_checks(calibration, found)  # never worse than the raw readings (verdict.raw)
+    raw, raw_figures = raw_checks(calibration, found, fitted)  # never worse than the raw readings (verdict.raw)
     checks += raw
     figures |= raw_figures
     checks += _magnetometer(calibration)

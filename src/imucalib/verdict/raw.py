@@ -101,11 +101,13 @@ def compare_with_raw(found: Poses) -> RawComparison:
                          tuple(skipped))
 
 
-def raw_checks(calibration, found: Poses | None) -> tuple[list[Check], dict]:
+def raw_checks(calibration, found: Poses | None, fitted: bool = True) -> tuple[list[Check], dict]:
     """Rejected when the calibration leaves ``|a| − g`` or the gyroscope's gravity-direction error larger than
     the raw readings do (:func:`compare_with_raw`); a note when the readings are counts.
 
-    Returns the findings and the figures ``accelerometer_residual_rms_raw`` and
+    ``fitted=False``: ``found`` is a recording the calibration was not made from (``validate``), and the
+    reason says the sensor has changed since. Returns the findings and the figures
+    ``accelerometer_residual_rms_raw`` and
     ``gyroscope_angle_error_mean_deg_raw`` (beside ``accelerometer_residual_rms`` and
     ``gyroscope_angle_error_mean_deg``, the calibrated ones over the same poses and every rotation).
     """
@@ -129,12 +131,14 @@ def raw_checks(calibration, found: Poses | None) -> tuple[list[Check], dict]:
                          f"{c.angle_error_mean_deg_raw:.3g}° raw ({ratio:.3g}×)")
     checks = []
     if worse:
+        why = ("The fit holds on what it was fitted to, not on the rest (too few poses or rotations, or "
+               "rotations it left out): the raw readings are better than this calibration; record again with more "
+               "poses and rotations, turning slowly (no spikes, no clipping), or choose a method that suits the "
+               "recording" if fitted else
+               "On this recording the raw readings are better than this calibration: the sensor has changed since "
+               "it was calibrated (its biases moved, or it is another sensor); calibrate it again")
         checks.append(Check(2, "the calibration is worse than the raw readings (no bias, the unit's nominal "
-                               f"scale, no misalignment): {'; '.join(worse)}. The fit holds on what it was fitted "
-                               "to, not on the rest (too few poses or rotations, or rotations it left out): the raw "
-                               "readings are better than this calibration; record again with more poses and "
-                               "rotations, turning slowly (no spikes, no clipping), or choose a method that suits "
-                               "the recording"))
+                               f"scale, no misalignment): {'; '.join(worse)}. {why}"))
     if c.skipped:
         counts = ("the accelerometer's and the gyroscope's readings are counts" if len(c.skipped) == 2
                   else c.skipped[0])
