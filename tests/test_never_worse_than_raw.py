@@ -115,7 +115,7 @@ def test_the_seed_once_suspect_while_worse_than_raw_is_rejected_with_both_figure
     # without the comparison with the raw readings the same checks find it only suspect
     import imucalib.verdict
 
-    monkeypatch.setattr(imucalib.verdict, "raw_checks", lambda calibration, found: ([], {}))
+    monkeypatch.setattr(imucalib.verdict, "raw_checks", lambda calibration, found, fitted: ([], {}))
     without = assess(cal.with_(fit={k: v for k, v in fit.items() if not k.startswith("verdict")}), rec)
     assert without["verdict"] == "suspect"
     assert without["verdict_reasons"] == [r for r in fit["verdict_reasons"] if r != reason]
