@@ -30,7 +30,7 @@ STAGES = [
     ("fit/gyroscope.py", "_solve_joint"),
     ("fit/gyroscope.py", "joint_errors"),
     ("metrics.py", "fit_summary"),
-    ("verdict.py", "assess"),
+    ("verdict/__init__.py", "assess"),
     ("kinematics.py", "step_factors"),
     ("kinematics.py", "from_samples"),
     ("kinematics.py", "sensitivity"),

@@ -184,7 +184,8 @@ def _fit_keys_in_source() -> set[str]:
             keys |= set(re.findall(r"(\w+)=", body))
     magnetometer = (ROOT / "src" / "imucalib" / "fit" / "magnetometer.py").read_text(encoding="utf-8")
     keys |= set(re.findall(r'"(magnetometer_\w+)":', magnetometer))
-    keys |= set(re.findall(r'figures\["(\w+)"\]', (ROOT / "src" / "imucalib" / "verdict.py").read_text()))
+    for path in (ROOT / "src" / "imucalib" / "verdict").glob("*.py"):  # the verdict's figures, in its package
+        keys |= set(re.findall(r'figures\["(\w+)"\]', path.read_text(encoding="utf-8")))
     return keys
 
 

@@ -94,7 +94,7 @@ def _sessions():
 @pytest.mark.parametrize("name", ["handheld2", "xsens"])
 def test_shared_pose_figures_are_the_figures_alone(name, pose_bytes, monkeypatch):
     if pose_bytes:
-        monkeypatch.setattr(verdict, "POSE_BYTES", pose_bytes)
+        monkeypatch.setattr(verdict.base, "POSE_BYTES", pose_bytes)  # the poses' figures live in verdict.base
     found = {n: (rec, kw) for n, rec, kw in _sessions()}
     if name not in found:
         pytest.skip(f"real data not present: {DATA} (needs ../shared/data)")

@@ -6,7 +6,8 @@
 * ``gyroscope_angle_error_mean_deg`` / ``_max_deg`` — angles between the gravity
   direction measured at each static pose and the one predicted by integrating
   the calibrated gyroscope (RK4) from the previous pose (Tedaldi 2014; Zhang
-  2021, eq. 14);
+  2021, eq. 14), over every rotation between consecutive poses: a rotation a
+  fit leaves out of its cost (spikes, saturation, an outlier) is still scored;
 * ``next_poses`` — up to three up-directions (body frame, unit vectors) that,
   recorded next, would most shrink the worst 1σ of the linear accelerometer
   model (:func:`imucalib.plans.next_poses`).

@@ -64,6 +64,9 @@ FIELDS: tuple[FieldInfo, ...] = (
     _F("faces_tilt_deg", "deg", "each face's tilt from its axis", "poses"),
     # accelerometer
     _F("accelerometer_residual_rms", "m/s^2", "RMS of |a| − g over the static poses", "accelerometer"),
+    _F("accelerometer_residual_rms_raw", "m/s^2", "RMS of |a| − g over the same poses for the raw readings (the "
+       "identity calibration: no bias, the unit's nominal scale, no misalignment; physical units only)",
+       "accelerometer"),
     _F("accelerometer_noise_floor", "m/s^2", "the residual RMS the white noise alone leaves", "accelerometer"),
     _F("accelerometer_residual_to_noise", "", "accelerometer_residual_rms over accelerometer_noise_floor",
        "accelerometer"),
@@ -79,14 +82,20 @@ FIELDS: tuple[FieldInfo, ...] = (
     _F("accelerometer_misalignment", "", "six_position: whether the accelerometer's misalignment was estimated "
        "(from the rotations) or held at zero, in words", "accelerometer"),
     # gyroscope
-    _F("gyroscope_angle_error_mean_deg", "deg", "mean gravity-direction error after integrating each rotation",
-       "gyroscope"),
+    _F("gyroscope_angle_error_mean_deg", "deg", "mean gravity-direction error after integrating each rotation, over "
+       "every rotation between the poses (those left out of the fit included)", "gyroscope"),
+    _F("gyroscope_angle_error_mean_deg_raw", "deg", "gyroscope_angle_error_mean_deg for the raw readings (the "
+       "identity calibration of both sensors; physical units only)", "gyroscope"),
     _F("gyroscope_angle_error_max_deg", "deg", "largest gravity-direction error after a rotation", "gyroscope"),
     _F("gyroscope_angle_error_kept_mean_deg", "deg", "mean gravity-direction error over the rotations kept",
        "gyroscope"),
+    _F("gyroscope_angle_error_reliable_mean_deg", "deg", "mean gravity-direction error over the rotations without "
+       "saturated samples, spikes or gaps (the ones the verdict's noise check judges), when some have them",
+       "gyroscope"),
     _F("gyroscope_angle_error_predicted_deg", "deg", "the mean gravity-direction error the noise alone predicts",
        "gyroscope"),
-    _F("gyroscope_error_to_noise", "", "gyroscope_angle_error_mean_deg over the predicted", "gyroscope"),
+    _F("gyroscope_error_to_noise", "", "the mean gravity-direction error over the predicted, over the rotations "
+       "without saturated samples, spikes or gaps", "gyroscope"),
     _F("gyroscope_rest_rate_deg_s", "deg/s", "the calibrated rate at rest, per axis (mean over the poses)",
        "gyroscope"),
     _F("gyroscope_rest_rate_to_scatter", "", "the largest rest rate over its scatter between poses", "gyroscope"),

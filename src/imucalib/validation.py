@@ -29,13 +29,17 @@ from .segment import gyro_still, initial_rest, static_at, still_intervals
 from .thermal import compensate
 from .verdict import assess
 
-__all__ = ["MIN_POSES", "THRESHOLD_MULTIPLIER", "VALIDATION_KEYS", "find_poses", "validate"]
+__all__ = ["MIN_POSES", "RAW_KEYS", "THRESHOLD_MULTIPLIER", "VALIDATION_KEYS", "find_poses", "validate"]
 
 #: the fit figures compared between the new recording and the calibration's own
 VALIDATION_KEYS = ("accelerometer_residual_rms", "gyroscope_angle_error_mean_deg",
                    "gyroscope_angle_error_max_deg", "temperature_c")
 #: the fit figures on the new recording the verdict rests on, besides :data:`VALIDATION_KEYS`
 _FIGURES = ("accelerometer_noise_floor", "accelerometer_residual_to_noise")
+#: the raw readings' figures on the new recording (the identity calibration, physical units only:
+#: :mod:`imucalib.verdict.raw`), beside the calibrated ``accelerometer_residual_rms`` and
+#: ``gyroscope_angle_error_mean_deg``
+RAW_KEYS = ("accelerometer_residual_rms_raw", "gyroscope_angle_error_mean_deg_raw")
 #: the accelerometer detector's threshold, in multiples of the initial rest's variance norm
 THRESHOLD_MULTIPLIER = VALIDATE_MULTIPLIER
 #: the fewest static poses (the initial rest included) a validation needs
@@ -101,6 +105,7 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
         "gyroscope_angle_error_mean_deg", "gyroscope_angle_error_max_deg",
         "temperature_c", "accelerometer_noise_floor", "accelerometer_residual_to_noise",
         "gyroscope_angle_error_predicted_deg", "gyroscope_error_to_noise",
+        "accelerometer_residual_rms_raw", "gyroscope_angle_error_mean_deg_raw",
         "at_calibration": {...}, "ratios": {...}, "intervals"}``: the verdict of the
         calibration on this recording (``accepted``, ``suspect`` or ``rejected``,
         with the reasons, worst first), the figures on this recording (``None``
@@ -109,7 +114,10 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
         calibration's own ``fit``, the ratios now / at calibration of the
         residual, the angle errors and the residual-to-noise figure (``None``
         where either is missing), and the poses as ``[start, stop)`` sample
-        ranges. Rotations with sampling gaps are named in ``verdict_notes``.
+        ranges. The ``…_raw`` figures are the raw readings' on this recording (the
+        identity calibration, :mod:`imucalib.verdict.raw`; ``None`` for readings in
+        counts): a calibration worse than them is rejected, as ``calibrate`` rejects it.
+        Rotations with sampling gaps are named in ``verdict_notes``.
 
     Raises
     ------
@@ -136,9 +144,11 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
     verdict["verdict_notes"] += gap_flags(recording, poses)  # their rotations' angle errors are unreliable
     figures = {k: fit.get(k) for k in (*VALIDATION_KEYS, *_FIGURES)}
     gyro = {k: verdict.pop(k, None) for k in ("gyroscope_angle_error_predicted_deg", "gyroscope_error_to_noise")}
+    raw = {k: verdict.pop(k, None) for k in RAW_KEYS}
     return {"method": calibration.method, "gravity": gravity, **verdict,
-            "static_intervals": fit["static_intervals"], **figures, **gyro,
-            "at_calibration": {k: then.get(k) for k in ("static_intervals", *VALIDATION_KEYS, *_FIGURES, *gyro)},
+            "static_intervals": fit["static_intervals"], **figures, **gyro, **raw,
+            "at_calibration": {k: then.get(k) for k in ("static_intervals", *VALIDATION_KEYS, *_FIGURES, *gyro,
+                                                        *RAW_KEYS)},
             "ratios": {k: _ratio(figures[k], then.get(k))
                        for k in (*VALIDATION_KEYS[:3], "accelerometer_residual_to_noise")},
             "intervals": fit["intervals"]}

@@ -77,6 +77,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
         ref = f"   (at calibration {then[k]:.4g}: ×{now / then[k]:.2f})" if then.get(k) else ""
         if k == "gyroscope_angle_error_predicted_deg" and result["gyroscope_error_to_noise"] is not None:
             ref = f"   (the error is {result['gyroscope_error_to_noise']:.3g}× it)"
+        if result.get(f"{k}_raw") is not None:  # the raw readings (the identity calibration) on the same data
+            ref += f"   (raw readings {result[k + '_raw']:.4g})"
         print(f"  {label:<24}{now:10.4g} {unit}{ref}")
     if args.plot:
         print(f"plot written to {args.plot}")

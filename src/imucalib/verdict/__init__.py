@@ -18,7 +18,12 @@ the fit did not minimise, or that it cannot change:
   poses against what the sensor noise alone predicts for these rotations
   (:func:`predicted_direction_error`, from the white noise of the sensor at
   rest: a shaken accelerometer or a trembling hand is not noise that excuses
-  the error);
+  the error), over every rotation without saturated samples, spikes or gaps
+  (the fit's outliers included), as ``validate`` judges it;
+* **the raw readings** — with physical units, a calibration worse than the
+  identity one (no bias, nominal scale, no misalignment) on ``|a| − g`` over
+  the poses or on the gravity-direction error over every rotation is
+  rejected (:mod:`imucalib.verdict.raw`);
 * **the gyroscope at rest** — the calibrated rate's mean over the static poses
   against the standard error the poses' scatter allows (a bias the rest
   contradicts), and enough rotations kept for the gyroscope's nine scale and
@@ -62,327 +67,36 @@ with z up or down off by 7-5500× the floor
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import numpy as np
 
-from .constants import GRAVITY_RANGE
-from .fit.accelerometer import REDUCED_MODELS, accelerometer_covariance, fit_sphere, pose_covariance
-from .fit.magnetometer import WEAK_DIP_DEG
-from .methodinfo import needing
-from .metrics import (
-    COVERAGE_CONE_DEG,
-    column_sums,
-    gravity_direction_errors,
-    gravity_noise_floor,
-    interval_means,
-    transition_bounds,
+from ..constants import GRAVITY_RANGE
+from ..fit.accelerometer import REDUCED_MODELS, fit_sphere
+from ..fit.magnetometer import WEAK_DIP_DEG
+from ..methodinfo import needing
+from ..metrics import transition_bounds
+from ..recording import Interval, Recording
+from ..segment import unreliable_transitions
+from .base import (
+    GYRO_ROTATION_PARAMETERS,
+    LEVELS,
+    NOMINAL,
+    THRESHOLDS,
+    Check,
+    Poses,
+    grade,
+    predicted_direction_error,
+    predicted_error_of,
+    rest_noise,
+    rest_rates,
+    rest_rates_of,
+    white_noise_variance,
 )
-from .recording import Interval, Recording
-from .residuals import AccelLayout, gravity_norm_residuals
-from .solve import covariance
+from .coverage import unvisited_checks, unvisited_sigma
+from .raw import raw_checks
 
 __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibility", "plausible",
            "predicted_direction_error", "rest_noise", "rest_rates", "time_unit_hint", "turn_speed",
            "unvisited_sigma", "white_noise_variance", "with_verdict"]
-
-LEVELS = ("accepted", "suspect", "rejected")
-
-#: (suspect, rejected) limits of each figure; see the module docstring for where they come from
-THRESHOLDS = {
-    # sampling rate [Hz] outside which no IMU records
-    "rate_hz": (5.0, 50_000.0),
-    # median angular speed the accelerometer sees between poses [deg/s]: a hand turns at 2-1500 deg/s
-    "turn_speed_deg_s": (2.0, 1500.0),
-    # |a| at rest against the declared gravity with physical units: relative difference
-    "rest_norm_rel": (0.05, 0.15),
-    # calibrated scale against the declared unit's nominal factor: relative difference
-    "nominal_scale_rel": (0.15, 0.5),
-    # accelerometer cross-axis (misalignment) terms [deg]: one die's own axes
-    "cross_axis_deg": (3.0, 15.0),
-    # gyroscope cross-axis terms [deg]: T_g also holds the rotation between the gyroscope's and the
-    # accelerometer's frames (two dies, or a package mounted askew); the Xsens MTi of ../shared/data has a
-    # 3.1° term (imu_tk finds the same), so 3° would call a real, good sensor suspect
-    "gyro_cross_axis_deg": (6.0, 15.0),
-    # static poses per estimated accelerometer parameter (the over-fit check below judges the fit itself;
-    # this one says the poses are few before the residual can)
-    "poses_per_parameter": (1.5, 1.0),
-    # gravity-norm residual / white-noise floor, too high
-    "residual_to_noise_high": (8.0, 40.0),
-    # the same, normalised by sqrt((M - p) / M), too low: an over-fit
-    "residual_to_noise_low": 0.4,
-    # gyroscope gravity-direction error / noise prediction (means over the rotations)
-    "gyro_error_to_noise": (10.0, 40.0),
-    # the mean gravity-direction error [deg] below which the gyroscope check does not make a calibration
-    # suspect, and below which it does not reject one: a model that leaves a fraction of a degree between
-    # poses is worse than it could be, not wrong
-    "gyro_error_floor_deg": (0.25, 2.0),
-    # calibrated gyroscope at rest: |mean rate over the poses| / its standard error from the poses' scatter,
-    # and the rate [deg/s] below which that is not a reason (0.02 deg/s: 1.2 deg of heading a minute)
-    "rest_rate_to_scatter": (6.0, 20.0),
-    "rest_rate_floor_deg_s": (0.02, 0.1),
-    # rotations kept in the gyroscope fit: direction components (two per rotation) per scale and
-    # misalignment parameter (nine)
-    "rotations_per_parameter": (2.0, 1.0),
-    # known-angle turns: relative error of the angle (re-integrated with the calibration; measured with the
-    # poses' rough gyroscope scale, good to a few per cent, only the rejecting limit applies)
-    "turn_angle_rel": (0.03, 0.2),
-    # 1 sigma of a scale factor, relative; of a misalignment term [deg]
-    "scale_sigma_rel": 0.02,
-    "misalignment_sigma_deg": 1.0,
-    # an accelerometer parameter whose 1σ moves the output at 1 g by more than this fraction of g, and by more
-    # than holding it at its nominal value would, makes the calibration worse than the nominal one: rejected
-    # (2 % of g: the scale limit above, in the output's terms, for every kind of parameter)
-    "parameter_effect_g": 0.02,
-    # a pose visits the gravity directions within this angle [deg] of its own (metrics.pose_coverage's cone: an
-    # axis never within it of up or down leaves that side to the other side alone, Ru 2022 §3.1); over the
-    # directions outside every pose's cone, the 1σ of the calibrated |a| the fit's covariance predicts is set
-    # against residual_to_noise_high, the limits validate judges a new recording by (unvisited_sigma)
-    "coverage_cone_deg": COVERAGE_CONE_DEG,
-    # magnetometer: relative spread of the calibrated field's norm over the poses; spread of its dip [deg];
-    # mean error of the field direction carried by the gyroscope from pose to pose [deg]. A good calibration
-    # in a uniform field leaves ~0.1 % and ~0.05° (noise and the gyroscope's own error); a plain ellipsoid
-    # fit of a die whose axes are permuted leaves tens of degrees; iron nearby (a desk, a laptop) leaves a
-    # field that is not uniform, which no calibration can fix
-    "mag_norm_spread": (0.02, 0.05),
-    "mag_dip_spread_deg": (2.0, 5.0),
-    "mag_direction_error_deg": (3.0, 10.0),
-}
-
-#: the gyroscope parameters the rotations between poses determine: three scales, six misalignment terms
-GYRO_ROTATION_PARAMETERS = 9
-
-#: bytes of calibrated pose samples an assessment holds at once (its poses are calibrated a group at a time)
-POSE_BYTES = 1 << 23
-
-#: samples of consecutive poses the verdict calibrates in one call (:meth:`_Poses.poses`)
-CALIBRATE_ROWS = 1 << 12
-
-#: raw-unit factors to SI of the physical units (``"g"`` uses the calibration's gravity)
-_NOMINAL = {"m/s^2": 1.0, "rad/s": 1.0, "deg/s": np.pi / 180}
-
-
-@dataclass(frozen=True)
-class Check:
-    """One finding: ``level`` 1 makes the calibration suspect, 2 rejects it; 0 is a note."""
-
-    level: int
-    text: str
-
-
-def white_noise_variance(x: np.ndarray, order: int = 4) -> np.ndarray:
-    """Per-column variance of the white noise in ``x`` (N, K), blind to slow disturbances.
-
-    The ``order``-th difference of white noise of variance ``σ²`` has the
-    variance ``C(2·order, order) σ²``, while a disturbance at frequency ``f``
-    is scaled by ``(2 sin(π f Δt))^order``: a 5 Hz shake sampled at 100 Hz by
-    ``0.31⁴ ≈ 0.01``, hand sway and drift by far less. So the noise of a
-    sensor on a vibrating table, or held by a hand, is its own.
-    """
-    x = np.asarray(x, dtype=float)
-    if x.shape[0] <= order + 1:
-        return np.var(x, axis=0)
-    return _from_squares(np.add.reduce(_squared_differences(x, order), axis=0), x.shape[0], order)
-
-
-def _squared_differences(x: np.ndarray, order: int) -> np.ndarray:
-    """The squared ``order``-th differences of ``x`` (N, K) over its rows, as ``np.diff(x, n=order, axis=0)**2``."""
-    d = x
-    for _ in range(order):
-        d = d[1:] - d[:-1]
-    return d * d
-
-
-def _from_squares(total: np.ndarray, n: int, order: int) -> np.ndarray:
-    """:func:`white_noise_variance` from the column sums of :func:`_squared_differences` of ``n`` rows (``np.mean``'s
-    division, then the binomial factor)."""
-    return total / (n - order) / math.comb(2 * order, order)
-
-
-def rest_noise(calibration, recording: Recording, intervals: list[Interval],
-               rest: Interval | None = None) -> tuple[float, float]:
-    """Per-sample white-noise variances (accelerometer [m²/s⁴], gyroscope [rad²/s²]) of the sensor at rest.
-
-    From the initial rest (``rest``, default the first interval), or the
-    static poses' median when that is lower (a rest that was disturbed), each
-    by :func:`white_noise_variance` of the calibrated readings, the mean over
-    the three axes: what the sensor's own noise is, not what a vibration or
-    a hand added to the poses.
-    """
-    return _rest_noise(_Poses(calibration, recording, intervals), rest)
-
-
-def _rest_noise(found: _Poses, rest: Interval | None) -> tuple[float, float]:
-    """:func:`rest_noise` from the poses' figures of one assessment."""
-    rest = rest or found.intervals[0]
-    (s_a2, s_g2, _), *poses = found.poses([rest] + [iv for iv in found.intervals if iv is not rest and len(iv) > 20])
-    if poses:
-        s_a2 = min(s_a2, float(np.median([p[0] for p in poses])))
-        s_g2 = min(s_g2, float(np.median([p[1] for p in poses])))
-    return s_a2, s_g2
-
-
-def predicted_direction_error(calibration, recording: Recording, intervals: list[Interval],
-                              rest: Interval | None = None) -> np.ndarray:
-    """The mean gravity-direction error [rad] each rotation would show from sensor noise alone.
-
-    Per rotation ``k`` (pose ``k`` to ``k+1``, duration ``T_k``), the error has
-    two components perpendicular to gravity, each of variance
-
-    ``σ_g² T_k Δt`` (the gyroscope's white noise integrated: angle random walk)
-    ``+ σ_b² T_k²`` (the bias's error over the turn) ``+ (σ_a/g)² (1/n_k + 1/n_{k+1})``
-    (the two poses' mean directions),
-
-    with ``σ_g``, ``σ_a`` the calibrated per-sample white noise of the sensor at
-    rest (:func:`rest_noise`: a vibration or tremor the poses carry is a
-    disturbance the calibration has to survive, not noise that excuses its
-    error), ``Δt`` the sampling interval and ``σ_b² = σ_g²/n_rest`` the noise
-    of the rest's mean; a 2-D Gaussian error of that variance has the mean
-    norm ``√(π v / 2)``.
-    """
-    return _predicted_direction_error(_Poses(calibration, recording, intervals), rest)
-
-
-def _predicted_direction_error(found: _Poses, rest: Interval | None) -> np.ndarray:
-    """:func:`predicted_direction_error` from the poses' figures of one assessment."""
-    calibration, recording, intervals = found.calibration, found.recording, found.intervals
-    rest = rest or intervals[0]
-    s_a2, s_g2 = _rest_noise(found, rest)
-    s_b2 = s_g2 / max(len(rest), 1)  # the rest's mean: noise only, whatever the fit made of the bias
-    starts, stops = transition_bounds(intervals)
-    t = recording.t
-    dur = t[stops] - t[starts]
-    dt = recording.step
-    n = np.array([len(iv) for iv in intervals], dtype=float)
-    g = calibration.gravity
-    v = s_g2 * dur * dt + s_b2 * dur**2 + s_a2 / g**2 * (1 / n[:-1] + 1 / n[1:])
-    return np.sqrt(np.pi * v / 2)
-
-
-def rest_rates(calibration, recording: Recording, intervals: list[Interval]) -> np.ndarray:
-    """The calibrated gyroscope's mean rate [rad/s] over each static pose (M, 3)."""
-    return _rest_rates(_Poses(calibration, recording, intervals))
-
-
-def _rest_rates(found: _Poses) -> np.ndarray:
-    """:func:`rest_rates` from the poses' figures of one assessment."""
-    return np.array([rate for _, _, rate in found.poses(found.intervals, noise=False)])
-
-
-class _Poses:
-    """Figures of the static poses that several checks read, each computed once per assessment.
-
-    Each figure is computed when first asked for, by the same operations in the same order as the check
-    that reads it would compute it alone, so every figure is the same to the last bit. Per pose only its
-    figures are kept; its calibrated samples only while its group is summed (:meth:`poses`), so memory
-    follows :data:`POSE_BYTES` or the longest pose, not the recording. Shared arrays are read-only, so no
-    check can change them for another.
-    """
-
-    def __init__(self, calibration, recording: Recording, intervals: list[Interval]) -> None:
-        self.calibration, self.recording, self.intervals = calibration, recording, intervals
-        self._means: np.ndarray | None = None
-        self._up: np.ndarray | None = None
-        self._pose: dict[tuple[int, int], tuple[float, float, np.ndarray]] = {}
-
-    @property
-    def means(self) -> np.ndarray:
-        """The raw accelerometer's mean over each pose (M, 3) (:func:`imucalib.metrics.interval_means`)."""
-        if self._means is None:
-            self._means = interval_means(self.recording.acc, self.intervals)
-            self._means.flags.writeable = False
-        return self._means
-
-    @property
-    def floor(self) -> float:
-        """The gravity-norm residual's white-noise floor [m/s²] (:func:`imucalib.metrics.gravity_noise_floor`)."""
-        return gravity_noise_floor(self.calibration, self.recording, self.intervals)
-
-    @property
-    def up(self) -> np.ndarray:
-        """The calibrated specific force of each pose (M, 3) [m/s²] (:func:`imucalib.metrics.pose_specific_force`)."""
-        if self._up is None:
-            self._up = self.calibration.accelerometer_si(self.means)
-            self._up.flags.writeable = False
-        return self._up
-
-    def poses(self, intervals: list[Interval], noise: bool = True) -> list[tuple[float | None, float | None,
-                                                                                np.ndarray]]:
-        """Per interval: the calibrated accelerometer's and gyroscope's white-noise variances (the means over
-        the axes of :func:`white_noise_variance`; None unless ``noise``) and the gyroscope's mean rate (3,)
-        [rad/s].
-
-        The calibrated readings are those of ``Calibration.accelerometer_si`` and ``gyroscope_si``; the
-        g-sensitivity term reads the calibrated accelerometer already computed for the variance. The poses are
-        calibrated a group at a time (about :data:`POSE_BYTES` of samples), and each group's sums over the rows
-        taken in one pass (:func:`imucalib.metrics.column_sums`: the same additions as pose by pose).
-        """
-        todo, group, size = {}, [], 0
-        for iv in intervals:
-            key = (iv.start, iv.stop)
-            if key not in todo and (key not in self._pose or (noise and self._pose[key][0] is None)):
-                todo[key] = iv
-        for iv in todo.values():
-            if group and size + len(iv) > POSE_BYTES // 72:  # held a sample: the rates, six squared differences
-                self._calibrate(group, noise)
-                group, size = [], 0
-            group.append(iv)
-            size += len(iv)
-        if group:
-            self._calibrate(group, noise)
-        return [self._pose[(iv.start, iv.stop)] for iv in intervals]
-
-    def _calibrated(self, group: list[Interval], with_acc: bool, g_sensitive: bool):
-        """Per pose of ``group``: its calibrated accelerometer (None unless ``with_acc``) and gyroscope samples.
-
-        Consecutive poses are calibrated together, up to :data:`CALIBRATE_ROWS` samples at a time (each row on
-        its own: the numbers of pose by pose, with a few calls instead of two per pose, and arrays small enough
-        to be reused rather than mapped afresh).
-        """
-        cal, rec = self.calibration, self.recording
-        k = 0
-        while k < len(group):
-            batch, rows = [group[k]], len(group[k])
-            k += 1
-            while k < len(group) and rows + len(group[k]) <= CALIBRATE_ROWS:
-                batch.append(group[k])
-                rows += len(group[k])
-                k += 1
-            cuts = np.cumsum([len(iv) for iv in batch])[:-1]
-            acc = cal.accelerometer_si(np.concatenate([rec.acc[iv.slice] for iv in batch])) if with_acc else None
-            raw_gyro = np.concatenate([rec.gyro[iv.slice] for iv in batch])
-            gyro = cal.gyroscope.forward(raw_gyro, acc) if g_sensitive else cal.gyroscope_si(raw_gyro)
-            accs = np.split(acc, cuts) if acc is not None else [None] * len(batch)
-            yield from zip(accs, np.split(gyro, cuts), strict=True)
-
-    def _calibrate(self, group: list[Interval], noise: bool) -> None:
-        """Calibrate the poses ``group`` and keep their figures (:meth:`poses`)."""
-        cal, order = self.calibration, 4
-        g_sensitive = cal.gyroscope is not None and np.any(cal.gyroscope.g_sensitivity)
-        gyros, squares, short = [], [], {}
-        for acc, gyro in self._calibrated(group, noise or g_sensitive, g_sensitive):
-            gyros.append(gyro)
-            if noise:  # both sensors side by side: each column's differences and sums are as on its own
-                both = np.concatenate((acc, gyro), axis=1)
-                if both.shape[0] <= order + 1:
-                    short[len(gyros) - 1] = white_noise_variance(both, order)
-                else:
-                    squares.append(_squared_differences(both, order))
-        rates = column_sums(gyros)
-        square_sums = iter(column_sums(squares)) if squares else iter(())
-        add = np.add.reduce  # np.mean's sum, without its per-call overhead
-        for k, (iv, gyro) in enumerate(zip(group, gyros, strict=True)):
-            s_a2 = s_g2 = None
-            if noise:
-                v = short[k] if k in short else _from_squares(next(square_sums), len(iv), order)
-                v_a, v_g = v[:3], v[3:]
-                s_a2, s_g2 = float(add(v_a) / v_a.size), float(add(v_g) / v_g.size)
-            self._pose[(iv.start, iv.stop)] = (s_a2, s_g2, rates[k] / gyro.shape[0])
-
-
-def _level(value: float, limits: tuple[float, float]) -> int:
-    return 2 if value > limits[1] else 1 if value > limits[0] else 0
 
 
 def check_rate(recording: Recording) -> None:
@@ -423,10 +137,10 @@ def turn_speed(calibration, recording: Recording, intervals: list[Interval]) -> 
     The angle between the calibrated gravity directions of consecutive poses
     over the time between them: independent of the gyroscope and its unit.
     """
-    return _turn_speed(_Poses(calibration, recording, intervals))
+    return _turn_speed(Poses(calibration, recording, intervals))
 
 
-def _turn_speed(found: _Poses) -> float:
+def _turn_speed(found: Poses) -> float:
     """:func:`turn_speed` from the poses' figures of one assessment."""
     recording, intervals = found.recording, found.intervals
     if len(intervals) < 2:
@@ -440,7 +154,7 @@ def _turn_speed(found: _Poses) -> float:
     return float(np.median(ang[ok] / dur[ok])) if np.any(ok) else float("nan")
 
 
-def _time_base(found: _Poses) -> list[Check]:
+def _time_base(found: Poses) -> list[Check]:
     speed = _turn_speed(found)
     lo, hi = THRESHOLDS["turn_speed_deg_s"]
     if not np.isfinite(speed) or lo <= speed <= hi:
@@ -453,7 +167,7 @@ def _time_base(found: _Poses) -> list[Check]:
                      f"outside the {lo:g}-{hi:g} deg/s of a hand: check the time base")]
 
 
-def _gravity(calibration, found: _Poses | None) -> list[Check]:
+def _gravity(calibration, found: Poses | None) -> list[Check]:
     recording, intervals = (None, []) if found is None else (found.recording, found.intervals)
     g = calibration.gravity
     out = []
@@ -473,7 +187,7 @@ def _gravity(calibration, found: _Poses | None) -> list[Check]:
             radius = float(np.median(np.linalg.norm(means, axis=1)))
         norm = radius * factor
         rel = abs(norm / g - 1)
-        level = _level(rel, THRESHOLDS["rest_norm_rel"])
+        level = grade(rel, THRESHOLDS["rest_norm_rel"])
         if level:
             out.append(Check(level, f"the raw |a| at rest is {norm:.4g} m/s² (read as {unit}, biases taken out), "
                                     f"{100 * rel:.1f} % "
@@ -509,11 +223,11 @@ def plausibility(calibration) -> list[Check]:
         if model is None:  # an accelerometer-only calibration
             continue
         unit = calibration.units[sensor]["raw"]
-        nominal = calibration.gravity if unit == "g" else _NOMINAL.get(unit)
+        nominal = calibration.gravity if unit == "g" else NOMINAL.get(unit)
         if nominal is not None:
             rel = np.abs(model.scale / nominal - 1)
             worst = int(np.argmax(rel))
-            level = _level(float(rel[worst]), THRESHOLDS["nominal_scale_rel"])
+            level = grade(float(rel[worst]), THRESHOLDS["nominal_scale_rel"])
             if level:
                 out.append(Check(level, f"the {sensor} scale factor of axis {'xyz'[worst]} is "
                                         f"{model.scale[worst] / nominal:.4g}× the nominal factor of the declared "
@@ -521,7 +235,7 @@ def plausibility(calibration) -> list[Check]:
         off = np.abs(model.misalignment - np.diag(np.diag(model.misalignment)))
         deg = float(np.degrees(np.arctan(off.max())))
         limits = THRESHOLDS["cross_axis_deg" if sensor == "accelerometer" else "gyro_cross_axis_deg"]
-        level = _level(deg, limits)
+        level = grade(deg, limits)
         if level:
             i, j = np.unravel_index(int(np.argmax(off)), off.shape)
             out.append(Check(level, f"the {sensor} cross-axis term {'xyz'[i]}{'xyz'[j]} is {deg:.1f}° (limit "
@@ -548,15 +262,18 @@ def _redundancy(calibration, fitted: bool = True) -> list[Check]:
 
     On a recording the calibration was not fitted to (``fitted=False``) the poses are not the fit's, so neither
     their number nor an over-fit means anything; a residual far above the noise floor still does, whatever the
-    method (an exact method's residual on new poses is a real one).
+    method (an exact method's residual on new poses is a real one). A method that determines its parameters
+    exactly (``six_position``, ``ferraris``: no redundancy to count, no over-fit to find) is judged on the
+    residual over its poses as well, by the same limits: ``calibrate`` and ``validate`` on the same data agree.
     """
     fit = calibration.fit or {}
     out = []
     m = fit.get("static_intervals")
     exact = "accelerometer" in str(fit.get("uncertainty_unavailable", "")) or calibration.method in needing(
         "six faces")
-    if not m or (exact and fitted):
+    if not m:
         return out
+    fitted = fitted and not exact  # the checks of the fit's redundancy: not for an exact method
     p = _accelerometer_parameters(calibration)
     per = m / p
     lim = THRESHOLDS["poses_per_parameter"]
@@ -566,7 +283,7 @@ def _redundancy(calibration, fitted: bool = True) -> list[Check]:
                          f"{lim[0]:g} wanted): the fit can follow the noise; record more poses"))
     ratio = fit.get("accelerometer_residual_to_noise")
     if ratio is not None and np.isfinite(ratio):
-        level = _level(ratio, THRESHOLDS["residual_to_noise_high"])
+        level = grade(ratio, THRESHOLDS["residual_to_noise_high"])
         if level:
             out.append(Check(level, f"the gravity-norm residual is {ratio:.3g}× the white-noise floor (limit "
                                     f"{THRESHOLDS['residual_to_noise_high'][0]:g}×): the model leaves structure or "
@@ -580,41 +297,55 @@ def _redundancy(calibration, fitted: bool = True) -> list[Check]:
     return out
 
 
-def _gyroscope(calibration, found: _Poses) -> tuple[list[Check], dict]:
+def _gyroscope(calibration, found: Poses) -> tuple[list[Check], dict]:
+    """The gyroscope's gravity-direction error between poses against what the sensor noise alone predicts.
+
+    Judged on every rotation whose integration the data allow (:func:`imucalib.segment.unreliable_transitions`
+    finds the rest: saturated samples, spikes, sampling gaps, unsteady poses — faults of the data, found from
+    the recording alone), the ones the fit left out because their error was far from the others' included:
+    ``calibrate`` and ``validate`` judge the same rotations of the same data by the same limits.
+    """
     recording, intervals = found.recording, found.intervals
     fit = calibration.fit or {}
-    mean_deg = fit.get("gyroscope_angle_error_mean_deg")
-    if mean_deg is None or len(intervals) < 2:
+    if fit.get("gyroscope_angle_error_mean_deg") is None or len(intervals) < 2:
         return [], {}
-    pred = _predicted_direction_error(found, None)
+    pred = predicted_error_of(found, None)
+    errors = found.direction_errors
     left = {int(k) for k in fit.get("rotations_left_out", {})}
-    keep = np.array([k not in left for k in range(len(pred))])
+    faulty = unreliable_transitions(recording, intervals)
+    judged = np.array([k not in faulty for k in range(len(pred))])
     figures: dict = {}
     out = []
-    if left:  # judged on the rotations the fit kept: the ones left out are known to be unreliable
-        errors = gravity_direction_errors(calibration, recording, intervals, up=found.up)
-        mean_deg = float(np.degrees(np.mean(errors[keep])))
-        figures["gyroscope_angle_error_kept_mean_deg"] = mean_deg
+    if left:
+        kept = np.array([k not in left for k in range(len(pred))])
+        if np.any(kept):
+            figures["gyroscope_angle_error_kept_mean_deg"] = float(np.degrees(np.mean(errors[kept])))
         if len(left) > len(pred) / 3:
             out.append(Check(1, f"{len(left)} of the {len(pred)} rotations between poses were left out of the "
                                 "gyroscope fit (notes below say why): the rest may not cover every axis well"))
-    pred_deg = float(np.degrees(np.mean(pred[keep]))) if np.any(keep) else float("nan")
-    ratio = mean_deg / pred_deg if pred_deg > 0 else float("inf")
-    figures |= {"gyroscope_angle_error_predicted_deg": pred_deg, "gyroscope_error_to_noise": ratio}
-    floor = THRESHOLDS["gyro_error_floor_deg"]
-    level = min(_level(ratio, THRESHOLDS["gyro_error_to_noise"]), _level(mean_deg, floor))
-    if level:
-        out.append(Check(level, f"the gyroscope's gravity-direction error between poses is {mean_deg:.3g}° (mean), "
-                                f"{ratio:.3g}× the {pred_deg:.2g}° the sensor noise alone predicts for these "
-                                f"rotations (limit {THRESHOLDS['gyro_error_to_noise'][0]:g}×): the gyroscope "
-                                "calibration does not explain the rotations"))
+    if np.any(judged):
+        mean_deg = float(np.degrees(np.mean(errors[judged])))
+        pred_deg = float(np.degrees(np.mean(pred[judged])))
+        ratio = mean_deg / pred_deg if pred_deg > 0 else float("inf")
+        figures |= {"gyroscope_angle_error_predicted_deg": pred_deg, "gyroscope_error_to_noise": ratio}
+        if faulty:
+            figures["gyroscope_angle_error_reliable_mean_deg"] = mean_deg
+        floor = THRESHOLDS["gyro_error_floor_deg"]
+        level = min(grade(ratio, THRESHOLDS["gyro_error_to_noise"]), grade(mean_deg, floor))
+        over = (f" over the {int(np.sum(judged))} rotations without saturated samples, spikes or gaps"
+                if faulty else "")
+        if level:
+            out.append(Check(level, f"the gyroscope's gravity-direction error between poses is {mean_deg:.3g}° "
+                                    f"(mean{over}), {ratio:.3g}× the {pred_deg:.2g}° the sensor noise alone "
+                                    f"predicts for these rotations (limit {THRESHOLDS['gyro_error_to_noise'][0]:g}×): "
+                                    "the gyroscope calibration does not explain the rotations"))
     for k, why in sorted(fit.get("rotations_left_out", {}).items(), key=lambda kv: int(kv[0])):
         out.append(Check(0, f"the rotation from pose {int(k) + 1} to {int(k) + 2} was left out of the gyroscope "
                             f"fit: {why}"))
     return out, figures
 
 
-def _rest_rate(found: _Poses) -> tuple[list[Check], dict]:
+def _rest_rate(found: Poses) -> tuple[list[Check], dict]:
     """The calibrated gyroscope at rest against what the poses' scatter allows.
 
     Per axis, the mean calibrated rate over the static poses ``r̄`` (each pose
@@ -626,7 +357,7 @@ def _rest_rate(found: _Poses) -> tuple[list[Check], dict]:
     """
     if len(found.intervals) < 4:
         return [], {}
-    w = np.degrees(_rest_rates(found))
+    w = np.degrees(rest_rates_of(found))
     m = w.shape[0]
     mean = w.mean(axis=0)
     se = w.std(axis=0, ddof=1) / np.sqrt(m)
@@ -634,8 +365,8 @@ def _rest_rate(found: _Poses) -> tuple[list[Check], dict]:
     z[(mean == 0)] = 0.0
     figures = {"gyroscope_rest_rate_deg_s": [float(x) for x in mean],
                "gyroscope_rest_rate_to_scatter": float(z.max())}
-    levels = [min(_level(float(z[j]), THRESHOLDS["rest_rate_to_scatter"]),
-                  _level(float(abs(mean[j])), THRESHOLDS["rest_rate_floor_deg_s"])) for j in range(3)]
+    levels = [min(grade(float(z[j]), THRESHOLDS["rest_rate_to_scatter"]),
+                  grade(float(abs(mean[j])), THRESHOLDS["rest_rate_floor_deg_s"])) for j in range(3)]
     j = int(np.argmax(levels))
     if not levels[j]:
         return [], figures
@@ -679,7 +410,7 @@ def _known_turns(calibration, recording: Recording) -> list[Check]:
             w = calibration.gyroscope_si(recording.gyro[s0:s1], recording.acc[s0:s1])
             measured = float(np.degrees(abs(np.trapezoid(w[:, axis], recording.t[s0:s1]))))
         rel = abs(measured / angle - 1)
-        level = _level(rel, lim)
+        level = grade(rel, lim)
         if "measured_deg" in sec and level == 1:
             level = 0  # one rough scale for all three axes is itself good to a few per cent only
         if level:
@@ -727,7 +458,7 @@ def _worse_than_nominal(calibration, unc: dict, params: dict) -> list[Check]:
     acc = calibration.accelerometer
     g = calibration.gravity
     unit = calibration.units["accelerometer"]["raw"]
-    nominal = g if unit == "g" else _NOMINAL.get(unit) if unit == "m/s^2" else None
+    nominal = g if unit == "g" else NOMINAL.get(unit) if unit == "m/s^2" else None
     k1 = np.abs(acc.scale)
     x = g / k1
     floor = THRESHOLDS["parameter_effect_g"] * g
@@ -780,165 +511,6 @@ def _gyroscope_bias_drift(calibration) -> list[Check]:
                      "drift, but another recording keeps the constant bias: take its bias from a rest of its own")]
 
 
-def _sphere_directions(n: int) -> np.ndarray:
-    """``n`` unit vectors spread evenly over the sphere (a Fibonacci lattice: equal areas, no pole crowding)."""
-    k = np.arange(n) + 0.5
-    z = 1 - 2 * k / n
-    phi = np.pi * (1 + np.sqrt(5.0)) * k
-    r = np.sqrt(1 - z * z)
-    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
-
-
-#: the directions :func:`unvisited_sigma` evaluates the calibrated |a|'s 1σ at (4.5° apart on average)
-_SPHERE = _sphere_directions(2000)
-
-
-def _accelerometer_covariances(calibration, means: np.ndarray, floor: float
-                                ) -> tuple[AccelLayout, np.ndarray, np.ndarray]:
-    """The accelerometer's parameter layout and two covariances of the gravity-norm fit at ``means``.
-
-    The fit's: the covariance the methods' 1σ come from (:func:`imucalib.fit.accelerometer.pose_covariance`,
-    each pose's scatter from its own residual; a reduced model, ``fit["accelerometer_model"]``, has none on
-    the terms it holds). The noise's: ``floor² (JᵀJ)⁻¹`` of the model with every term
-    (:func:`imucalib.solve.covariance`, the Gauss–Markov covariance of least squares with pose errors of
-    variance ``floor²``): each pose mean's white noise alone, the least any pose carries, with the terms a
-    reduced model held at none counted as unknown. The fit's scatter comes from the ``M − P`` residual degrees
-    of freedom — none where the poses determine the parameters exactly, two or three on a thin session, where a
-    small χ² makes it arbitrarily small — so neither bounds the other. Both infinite on the diagonal of a
-    parameter the poses do not determine.
-    """
-    acc = calibration.accelerometer
-    g = calibration.gravity
-    order = 3 if np.any(acc.scale_cubic) else 2 if np.any(acc.scale_quadratic) else 1
-    layout = AccelLayout("upper", order)
-    r, j = gravity_norm_residuals(layout.pack(acc), layout, means, g, jacobian=True)
-    if order == 1:
-        name = (calibration.fit or {}).get("accelerometer_model")
-        row = next((r for r in REDUCED_MODELS if r[0] == name and name != "linear"), None)
-        fitted = accelerometer_covariance(acc, means, g, which=None if row is None else (row[0], row[2], row[3]))
-    else:
-        fitted, bad = pose_covariance(j, r)
-        fitted[bad, bad] = np.inf
-    noise, bad = covariance(j, np.full(len(means), floor), dof=len(means))
-    noise[bad, bad] = np.inf
-    return layout, fitted, noise
-
-
-def unvisited_sigma(calibration, recording: Recording, intervals: list[Interval]) -> dict | None:
-    """The 1σ of the calibrated ``|a|`` over the gravity directions no pose visited, against the noise floor.
-
-    A static pose visits the directions within :data:`THRESHOLDS` ``["coverage_cone_deg"]`` of its gravity
-    direction. An axis side (``+z``: z up) that no pose visits (:func:`imucalib.metrics.pose_coverage`: Ru 2022,
-    §3.1, each axis is calibrated from both orientations) leaves the directions in its cone that no pose's
-    cone reaches unvisited. Over those directions ``u`` of an even grid on the sphere, the raw reading ``x_u``
-    the calibration maps to ``g u`` and
-
-    ``σ(u)² = j(u)ᵀ C j(u)``,   ``j(u) = ∂‖h(x_u, θ)‖/∂θ``
-
-    (the delta method: first-order propagation of the parameters' covariance ``C`` through ``‖h‖``, the
-    norm of the accelerometer model ``h`` of Zhang 2021, eqs. (1)-(2), whose residual ``‖h(x_k, θ)‖ − g``
-    eq. (10) fits), with ``C`` the HC3 sandwich of the gravity-norm fit at the calibration's own parameters
-    (:func:`imucalib.fit.accelerometer.pose_covariance`; MacKinnon & White 1985), or the poses' white noise
-    alone where that gives more (``floor² (JᵀJ)⁻¹``: a fit with few residual degrees of freedom can
-    find a scatter below what the noise allows). ``σ(u)`` is the RMS of
-    the error ``‖h(x_u)‖ − g`` a pose in direction ``u`` would show, so ``σ(u)`` over the noise floor
-    (:func:`imucalib.metrics.gravity_noise_floor` on the calibration's poses, the floor ``validate``
-    divides the residual of a new recording by) is the ratio ``validate`` would find on poses there.
-
-    Returns
-    -------
-    dict or None
-        ``{"ratio", "sigma", "floor", "direction", "unvisited"}``: the largest ``σ(u)`` over the unvisited
-        directions [m/s²] and its ratio to the floor (infinite where a parameter the poses do not determine
-        moves ``|a|``), the floor [m/s²], that direction (unit vector) and the fraction of the sphere
-        unvisited; ``ratio`` 0 when every direction is visited. None with fewer than four poses, without a
-        noise floor, or for a polynomial model that does not invert over gravity's range.
-    """
-    return _unvisited_sigma(_Poses(calibration, recording, intervals))
-
-
-def _unvisited_sigma(found: _Poses) -> dict | None:
-    """:func:`unvisited_sigma` from the poses' figures of one assessment."""
-    calibration, intervals = found.calibration, found.intervals
-    if len(intervals) < 4:
-        return None
-    means = found.means
-    up = found.up
-    up = up / np.linalg.norm(up, axis=1, keepdims=True)
-    lim = np.cos(np.radians(THRESHOLDS["coverage_cone_deg"]))
-    # the axis sides no pose points within the cone of (metrics.pose_coverage), and in their cones the
-    # directions no pose's cone reaches
-    sides = [(i, s) for i in range(3) for s in (1.0, -1.0) if np.max(s * up[:, i]) < lim]
-    cap = np.zeros(len(_SPHERE), dtype=bool)
-    for i, s in sides:
-        cap |= s * _SPHERE[:, i] >= lim
-    far = cap & (np.max(_SPHERE @ up.T, axis=1) < lim)
-    floor = found.floor
-    if not floor > 0:
-        return None
-    if not np.any(far):
-        return {"ratio": 0.0, "sigma": 0.0, "floor": floor, "direction": None, "unvisited": 0.0}
-    u = _SPHERE[far]
-    try:
-        raw = calibration.accelerometer.inverse(calibration.gravity * u)
-    except ValueError:  # a polynomial the gravity's range does not invert: the model check says why
-        return None
-    layout, *covariances = _accelerometer_covariances(calibration, means, floor)
-    _, j = gravity_norm_residuals(layout.pack(calibration.accelerometer), layout, raw, calibration.gravity,
-                                  jacobian=True)
-    sigma = np.zeros(len(u))
-    for cov in covariances:
-        undetermined = ~np.isfinite(np.diag(cov))
-        finite = np.where(np.isfinite(cov), cov, 0.0)
-        s = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", j, finite, j), 0.0))
-        s[np.any(np.abs(j[:, undetermined]) > 0, axis=1)] = np.inf
-        sigma = np.maximum(sigma, s)
-    k = int(np.argmax(sigma))
-    return {"ratio": float(sigma[k] / floor), "sigma": float(sigma[k]), "floor": float(floor),
-            "direction": u[k].tolist(), "unvisited": float(np.mean(far))}
-
-
-def _unvisited(calibration, poses: _Poses) -> tuple[list[Check], dict]:
-    """Rejected when, in a direction no pose visited, the fit's own 1σ of ``|a|`` is what ``validate`` rejects.
-
-    The limits are ``validate``'s (:data:`THRESHOLDS` ``["residual_to_noise_high"]``): a calibration whose
-    ``|a|`` has, where the poses did not look, a 1σ above the rejecting limit × the noise floor would be
-    rejected by ``validate`` on a recording with poses there, so it is rejected now, naming the direction.
-    Above the suspect limit, suspect. No parameter is held at a nominal value instead: the combination the
-    poses leave undetermined mixes the axis's scale, bias and misalignment, and a nominal scale (the unit's
-    factor, or the other axes' mean for counts) is itself off by tenths of a per cent to per cents, far
-    above the floor, so the reduced model would fail the same test.
-    """
-    if calibration.accelerometer is None:
-        return [], {}
-    found = _unvisited_sigma(poses)
-    if found is None:
-        return [], {}
-    # a JSON number, or None where a parameter the poses do not determine moves |a| there (an infinite 1σ)
-    figures = {"accelerometer_unvisited_sigma_to_noise": found["ratio"] if np.isfinite(found["ratio"]) else None}
-    limits = THRESHOLDS["residual_to_noise_high"]
-    level = _level(found["ratio"], limits)
-    if not level:
-        return [], figures
-    u = np.asarray(found["direction"])
-    i = int(np.argmax(np.abs(u)))
-    up = poses.up
-    c = up[:, i] / np.linalg.norm(up, axis=1)
-    cone = THRESHOLDS["coverage_cone_deg"]
-    lim = np.cos(np.radians(cone))
-    both = c.max() < lim and c.min() > -lim
-    side = ("±" if both else "+" if u[i] > 0 else "−") + "xyz"[i]
-    where = "up or down" if both else "up" if u[i] > 0 else "down"
-    how = ("a parameter the poses do not determine moves |a| there" if not np.isfinite(found["ratio"]) else
-           f"the fit leaves |a| a 1σ of {found['sigma']:.2g} m/s² there, {found['ratio']:.3g}× the "
-           f"{found['floor']:.2g} m/s² noise floor validate judges by (limit {limits[level - 1]:g}×)")
-    text = (f"the poses do not visit {side} (the gravity direction's {'xyz'[i]} component spans {c.min():+.2f}.."
-            f"{c.max():+.2f}, none within {cone:g}° of {'xyz'[i]} {where}): {how}; with {'xyz'[i]} {where} the "
-            f"calibration {'would not' if level == 2 else 'may not'} hold: record poses with {'xyz'[i]} pointing "
-            f"{'up and down' if both else where}")
-    return [Check(level, text)], figures
-
-
 def _magnetometer(calibration) -> list[Check]:
     fit = calibration.fit or {}
     if fit.get("magnetometer_error"):
@@ -956,7 +528,7 @@ def _magnetometer(calibration) -> list[Check]:
         value = fit.get(key)
         if value is None or not np.isfinite(value):
             continue
-        level = _level(value, THRESHOLDS[limit])
+        level = grade(value, THRESHOLDS[limit])
         if level:
             out.append(Check(level, text.format(factor * value, factor * THRESHOLDS[limit][level - 1])))
     drift = fit.get("magnetometer_hard_iron_drift_over_session")
@@ -1027,7 +599,7 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     checks: list[Check] = []
     figures: dict = {}
     # the poses' figures several checks read (their means, noise, rates at rest), each computed once
-    found = poses if poses is not None else None if recording is None else _Poses(calibration, recording, intervals)
+    found = poses if poses is not None else None if recording is None else Poses(calibration, recording, intervals)
     if recording is not None:  # the inputs first: a wrong time base or unit explains everything after it
         checks += _time_base(found)
     checks += _gravity(calibration, found)
@@ -1036,8 +608,8 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     if fitted:
         checks += _usefulness(calibration)
         if found is not None:
-            unvisited_checks, unvisited_figures = _unvisited(calibration, found)
-            checks += unvisited_checks
+            coverage_checks, unvisited_figures = unvisited_checks(calibration, found)
+            checks += coverage_checks
             figures |= unvisited_figures
         if calibration.gyroscope is not None:
             checks += _rotations_used(calibration, intervals)
@@ -1058,6 +630,9 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
         checks += _known_turns(calibration, recording)
     if calibration.gyroscope is not None:
         checks += _gyroscope_bias_drift(calibration)
+    raw, raw_figures = raw_checks(calibration, found, fitted)  # never worse than the raw readings (verdict.raw)
+    checks += raw
+    figures |= raw_figures
     checks += _magnetometer(calibration)
     checks += _non_finite(calibration, figures)
     level = max((c.level for c in checks), default=0)
