@@ -118,6 +118,7 @@ def compare(
     folds: int | None = 12,
     progress: Callable[[str], None] | None = None,
     init_static: float | None = None,
+    magnetometer: bool = True,
 ) -> dict:
     """Calibrate with each method and cross-validate it.
 
@@ -138,6 +139,10 @@ def compare(
     init_static : float, optional
         Length of the initial rest [s] (found automatically by default,
         :func:`imucalib.segment.initial_rest`).
+    magnetometer : bool
+        Calibrate the recording's magnetometer (if it has one) in each method's calibration on all poses
+        (its figures then enter the row's ``fit`` and its verdict); False leaves it out. The folds never
+        calibrate it: the cross-validated figures judge the accelerometer and the gyroscope only.
 
     Returns
     -------
@@ -167,14 +172,14 @@ def compare(
                "cv_accelerometer_residual_rms": None, "cv_gyroscope_angle_error_mean_deg": None}
         say(f"{name}: calibrating")
 
-        def fit(training, name=name, model=model, extra=None):
+        def fit(training, name=name, model=model, extra=None, magnetometer=False):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", ImucalibWarning)
                 return calibrate(recording, method=name, model=model, gravity=gravity,
-                                 intervals=training, **(extra or {}))
+                                 intervals=training, magnetometer=magnetometer, **(extra or {}))
 
         try:
-            full = fit(intervals)
+            full = fit(intervals, magnetometer=magnetometer)
             sel = full.fit.get("model_selection")
             row["model"] = model or (sel["requested"] if sel else full.model)
             if sel:

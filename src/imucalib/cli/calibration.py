@@ -227,7 +227,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     say = progress(not args.json and sys.stderr.isatty())
     rec = read_recording(args, args.data)
     result = compare(rec, gravity=args.gravity, methods=args.methods.split(",") if args.methods else None,
-                     folds=None if args.folds == 0 else args.folds, progress=say, init_static=args.init_static)
+                     folds=None if args.folds == 0 else args.folds, progress=say, init_static=args.init_static,
+                     magnetometer=not args.no_magnetometer)
     if args.json:
         return print_json(result)
     print(f"{result['static_intervals']} static intervals; leave-one-pose-out over "
@@ -332,6 +333,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--methods", help="comma-separated methods (default: all)")
     p.add_argument("--folds", type=int, default=12,
                    help="held-out poses, spread evenly (0: every pose; default 12)")
+    p.add_argument("--no-magnetometer", action="store_true", help="leave the magnetometer uncalibrated (the "
+                   "cross-validation folds never calibrate it: their figures judge the accelerometer and gyroscope)")
     p.add_argument("--json", action="store_true", help="print the comparison as JSON")
     add_reader_options(p)
     p.set_defaults(func=cmd_compare)

@@ -68,6 +68,7 @@ from ..metrics import interval_means, transition_bounds
 from ..models import AXES, MagnetometerModel
 from ..recording import Interval, Recording
 from .accelerometer import fit_ellipsoid
+from .magnetometer_invariants import FIELD_DISTURBED_CHI2, central_jacobian, field_scatter, fit_invariants
 
 __all__ = ["MIN_MAG_POSES", "MagnetometerFit", "alignment_from_rotations", "fit_magnetometer", "pose_figures",
            "pose_references", "soft_iron_from_ellipsoid"]
@@ -292,27 +293,39 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
         def fun_final(th):
             return np.concatenate([g / s for g, s in zip(groups(th), sigma, strict=True)])
 
-        jac = _central_jacobian(fun_final, theta, scale)
+        jac = central_jacobian(fun_final, theta, scale)
         try:
             cov = np.linalg.inv(jac.T @ jac)
         except np.linalg.LinAlgError:
             return np.full((theta.size, theta.size), np.nan)
         return cov + _carried_covariance(calibration, references, groups, theta, sigma, jac, cov)
 
-    # (M5): the hard iron drifting linearly in time (a die warming up, currents nearby), kept only where the
-    # poses show it: the drift's χ² against its own covariance beyond the 99.9 % point of χ²(3)
-    use_static = use.copy()
-    th_d, sig_d = solve(np.concatenate([theta, np.zeros(3)]), np.concatenate([scale, np.full(3, scale[0])]),
-                        sigma, use)
-    scale_d = np.concatenate([scale, np.full(3, scale[0])])
-    cov_d = covariance(th_d, sig_d, scale_d)
-    drift_chi2 = float(th_d[13:] @ np.linalg.solve(cov_d[13:, 13:], th_d[13:])) if np.all(np.isfinite(cov_d)) \
-        else 0.0
-    if drift_chi2 > DRIFT_CHI2:
-        theta, sigma, cov, scale = th_d, sig_d, cov_d, scale_d
+    # (I): a field that is not the same at every pose (the poses' norms scatter far beyond their noise) leaves
+    # the rotation and motion-sample equations out: the two invariants of each pose, with the accelerometer
+    field_chi2, _ = field_scatter(recording.mag, intervals, theta[:3], _sym(theta[3:9]))
+    uniform = field_chi2 <= FIELD_DISTURBED_CHI2
+    invariants = None
+    if not uniform:
+        invariants = fit_invariants(mag_means, acc_means, calibration.accelerometer,
+                                    (calibration.fit or {}).get("uncertainty") or {}, theta, scale, unpack,
+                                    min_pose, DRIFT_CHI2)
+        theta, cov = invariants.theta, invariants.covariance
+        use[:] = True  # no rotation equations in this fit: every transition is scored
     else:
-        use[:] = use_static
-        cov = covariance(theta, sigma, scale)
+        # (M5): the hard iron drifting linearly in time (a die warming up, currents nearby), kept only where the
+        # poses show it: the drift's χ² against its own covariance beyond the 99.9 % point of χ²(3)
+        use_static = use.copy()
+        th_d, sig_d = solve(np.concatenate([theta, np.zeros(3)]), np.concatenate([scale, np.full(3, scale[0])]),
+                            sigma, use)
+        scale_d = np.concatenate([scale, np.full(3, scale[0])])
+        cov_d = covariance(th_d, sig_d, scale_d)
+        drift_chi2 = float(th_d[13:] @ np.linalg.solve(cov_d[13:, 13:], th_d[13:])) \
+            if np.all(np.isfinite(cov_d)) else 0.0
+        if drift_chi2 > DRIFT_CHI2:
+            theta, sigma, cov, scale = th_d, sig_d, cov_d, scale_d
+        else:
+            use[:] = use_static
+            cov = covariance(theta, sigma, scale)
     p = theta.size
     b, s, o, dip, drift = unpack(theta)
     if np.linalg.det(s) <= 0 or np.any(np.linalg.eigvalsh(s) <= 0):
@@ -359,6 +372,12 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
         "magnetometer_hard_iron_drift_sigma_per_min": sd[13:16].tolist() if p > 13 else None,
         "magnetometer_hard_iron_drift_over_session": float(np.linalg.norm(s @ drift) * np.ptp(min_pose))
         if p > 13 else None,
+        # (I): whether the field was uniform over the poses, and what the fit held it to
+        "magnetometer_field_uniform": bool(uniform),
+        "magnetometer_field_scatter_chi2": field_chi2,
+        "magnetometer_field_error": None if invariants is None else invariants.field_error,
+        "magnetometer_accelerometer_shift_sigma": None if invariants is None
+        else invariants.accelerometer_shift_sigma,
     }
     return MagnetometerFit(model=model, figures=figures, uncertainty=unc, covariance=cov)
 
@@ -390,15 +409,3 @@ def _carried_covariance(calibration, references, groups, theta, sigma, jac, cov)
         sens = -pinv @ ((moved - base) / h)
         extra += np.outer(sens, sens) * sd**2
     return extra
-
-
-def _central_jacobian(fun, x: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """∂fun/∂x by central differences with steps proportional to ``scale``."""
-    f0 = fun(x)
-    jac = np.empty((f0.size, x.size))
-    for i in range(x.size):
-        h = 1e-6 * scale[i]
-        e = np.zeros_like(x)
-        e[i] = h
-        jac[:, i] = (fun(x + e) - fun(x - e)) / (2 * h)
-    return jac
