@@ -30,6 +30,14 @@ poses. The joint fit adds ``ḃ`` and keeps it only where the poses show it (its
 χ² against its own covariance beyond the 99.9 % point of χ²(3)); ``b`` is
 then the hard iron at ``t̄``.                                             (M5)
 
+All of (M2)–(M5) assume one uniform field, each pose's reading differing from
+it by the readings' noise. Where the poses' field norms scatter far beyond that
+noise (a desk, a computer or the holder's body nearby), every pose carries a
+field error of its own, the same in all its equations; then the fit keeps,
+of each pose, only what does not depend on its heading — the field's vertical
+component and its horizontal magnitude — and fits them jointly with the
+accelerometer (:mod:`imucalib.fit.magnetometer_invariants`, (I1)–(I4)).  (I)
+
 (M2) alone is the usual ellipsoid fit: it leaves ``O`` free, so a magnetometer
 die whose axes are permuted and reflected relative to the accelerometer's (the
 MPU-9250's magnetometer has x and y swapped and z reversed) keeps a wandering
@@ -300,32 +308,33 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
             return np.full((theta.size, theta.size), np.nan)
         return cov + _carried_covariance(calibration, references, groups, theta, sigma, jac, cov)
 
+    # (M5): the hard iron drifting linearly in time (a die warming up, currents nearby), kept only where the
+    # poses show it: the drift's χ² against its own covariance beyond the 99.9 % point of χ²(3)
+    use_static = use.copy()
+    th_d, sig_d = solve(np.concatenate([theta, np.zeros(3)]), np.concatenate([scale, np.full(3, scale[0])]),
+                        sigma, use)
+    scale_d = np.concatenate([scale, np.full(3, scale[0])])
+    cov_d = covariance(th_d, sig_d, scale_d)
+    drift_chi2 = float(th_d[13:] @ np.linalg.solve(cov_d[13:, 13:], th_d[13:])) if np.all(np.isfinite(cov_d)) \
+        else 0.0
+    if drift_chi2 > DRIFT_CHI2:
+        theta, sigma, cov, scale = th_d, sig_d, cov_d, scale_d
+    else:
+        use[:] = use_static
+        cov = covariance(theta, sigma, scale)
+
     # (I): a field that is not the same at every pose (the poses' norms scatter far beyond their noise) leaves
     # the rotation and motion-sample equations out: the two invariants of each pose, with the accelerometer
-    field_chi2, _ = field_scatter(recording.mag, intervals, theta[:3], _sym(theta[3:9]))
+    b, s, _, _, drift = unpack(theta)
+    field_chi2, _ = field_scatter(recording.mag - np.outer((recording.t - t_ref) / 60.0, drift), intervals, b, s)
     uniform = field_chi2 <= FIELD_DISTURBED_CHI2
     invariants = None
     if not uniform:
         invariants = fit_invariants(mag_means, acc_means, calibration.accelerometer,
-                                    (calibration.fit or {}).get("uncertainty") or {}, theta, scale, unpack,
-                                    min_pose, DRIFT_CHI2)
+                                    (calibration.fit or {}).get("uncertainty") or {}, theta[:13], scale[:13],
+                                    unpack, min_pose, DRIFT_CHI2)
         theta, cov = invariants.theta, invariants.covariance
         use[:] = True  # no rotation equations in this fit: every transition is scored
-    else:
-        # (M5): the hard iron drifting linearly in time (a die warming up, currents nearby), kept only where the
-        # poses show it: the drift's χ² against its own covariance beyond the 99.9 % point of χ²(3)
-        use_static = use.copy()
-        th_d, sig_d = solve(np.concatenate([theta, np.zeros(3)]), np.concatenate([scale, np.full(3, scale[0])]),
-                            sigma, use)
-        scale_d = np.concatenate([scale, np.full(3, scale[0])])
-        cov_d = covariance(th_d, sig_d, scale_d)
-        drift_chi2 = float(th_d[13:] @ np.linalg.solve(cov_d[13:, 13:], th_d[13:])) \
-            if np.all(np.isfinite(cov_d)) else 0.0
-        if drift_chi2 > DRIFT_CHI2:
-            theta, sigma, cov, scale = th_d, sig_d, cov_d, scale_d
-        else:
-            use[:] = use_static
-            cov = covariance(theta, sigma, scale)
     p = theta.size
     b, s, o, dip, drift = unpack(theta)
     if np.linalg.det(s) <= 0 or np.any(np.linalg.eigvalsh(s) <= 0):
