@@ -244,6 +244,10 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
     except ValueError as exc:
         raise ValueError(f"the magnetometer readings do not determine hard and soft iron: {exc}") from None
     use = np.ones(len(intervals) - 1, bool)
+    # the rotations the gyroscope's fit left out (a spike, a bump) are wrong here too: not in (M4)
+    left_out = [int(k) for k in (calibration.fit or {}).get("rotations_left_out") or {}]
+    use[[k for k in left_out if 0 <= k < use.size]] = False
+    gyro_ok = use.copy()
     o0 = alignment_from_rotations((mag_means - b0) @ s0, up, rot, use, hemisphere)
     n0 = (mag_means - b0) @ s0 @ o0.T
     n0 /= np.linalg.norm(n0, axis=1, keepdims=True)
@@ -334,7 +338,7 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
                                     (calibration.fit or {}).get("uncertainty") or {}, theta[:13], scale[:13],
                                     unpack, min_pose, DRIFT_CHI2)
         theta, cov = invariants.theta, invariants.covariance
-        use[:] = True  # no rotation equations in this fit: every transition is scored
+        use[:] = gyro_ok  # no rotation equations in this fit: every rotation the gyroscope kept is scored
     p = theta.size
     b, s, o, dip, drift = unpack(theta)
     if np.linalg.det(s) <= 0 or np.any(np.linalg.eigvalsh(s) <= 0):
