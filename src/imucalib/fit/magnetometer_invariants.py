@@ -16,14 +16,16 @@ of its own, the same for all the equations of that pose, and
   chain of them ties the headings, which a local field error turns freely.
 
 What stays is the two quantities of each pose that do not depend on its
-heading: the field's component along gravity and its horizontal magnitude (the
-invariants of the dip-angle methods: the calibrated field's norm and its dot
-product with the calibrated gravity are constant over the poses, fitted jointly
-for the accelerometer and the magnetometer by Papafotis & Sotiriadis,
-"Accelerometer and Magnetometer Joint Calibration and Axes Alignment",
-Technologies 8(1), 11, 2020; the accelerometer–magnetometer method of Li, Li &
-Wang 2009, Ru 2022 ref. [69] and Table 4). Written here as a maximum-likelihood
-fit, derived as follows.
+heading: the field's component along gravity and its horizontal magnitude. These
+are the invariants of the dip-angle methods — the calibrated field's norm and
+its dot product with the calibrated gravity are the same at every pose — as
+Papafotis & Sotiriadis fit them jointly for the accelerometer and the
+magnetometer ("Accelerometer and Magnetometer Joint Calibration and Axes
+Alignment", Technologies 8(1), 11, 2020), and as the dot-product-invariant
+methods reviewed in Ru 2022, §4 and Table 4, use them between two sensors. The
+equations below are not those papers' (whose equation numbers are not quoted
+here): they are the maximum-likelihood form of the same invariants under an
+isotropic field error, derived as follows.
 
 Pose ``i`` (of ``M``) reads the field ``m_i = O S (u_i − b)`` (the model
 (M1), ``F = 1``) in a frame whose up direction is ``d_i``, the calibrated
