@@ -125,6 +125,7 @@ def compare(
     progress: Callable[[str], None] | None = None,
     init_static: float | None = None,
     peers: Mapping[str, object] | None = None,
+    magnetometer: bool = True,
 ) -> dict:
     """Calibrate with each method and cross-validate it.
 
@@ -148,6 +149,10 @@ def compare(
     peers : mapping of str to Calibration, optional
         Calibrations made elsewhere, by name, scored on the same held-out
         poses without refitting (module docstring).
+    magnetometer : bool
+        Calibrate the recording's magnetometer (if it has one) in each method's calibration on all poses
+        (its figures then enter the row's ``fit`` and its verdict); False leaves it out. The folds never
+        calibrate it: the cross-validated figures judge the accelerometer and the gyroscope only.
 
     Returns
     -------
@@ -179,14 +184,14 @@ def compare(
                "cv_accelerometer_residual_rms": None, "cv_gyroscope_angle_error_mean_deg": None}
         say(f"{name}: calibrating")
 
-        def fit(training, name=name, model=model, extra=None):
+        def fit(training, name=name, model=model, extra=None, magnetometer=False):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", ImucalibWarning)
                 return calibrate(recording, method=name, model=model, gravity=gravity,
-                                 intervals=training, **(extra or {}))
+                                 intervals=training, magnetometer=magnetometer, **(extra or {}))
 
         try:
-            full = fit(intervals)
+            full = fit(intervals, magnetometer=magnetometer)
             sel = full.fit.get("model_selection")
             row["model"] = model or (sel["requested"] if sel else full.model)
             if sel:

@@ -148,6 +148,14 @@ FIELDS: tuple[FieldInfo, ...] = (
     _F("magnetometer_hard_iron_drift_sigma_per_min", "raw/min", "1σ error of the hard-iron drift", "magnetometer"),
     _F("magnetometer_hard_iron_drift_over_session", "calibrated", "how far the hard-iron drift moves the "
        "calibrated field over the session", "magnetometer"),
+    _F("magnetometer_field_uniform", "", "whether the field was the same at every pose (else the fit held it "
+       "to each pose's vertical component and horizontal magnitude)", "magnetometer"),
+    _F("magnetometer_field_scatter_chi2", "", "the poses' field norms' scatter per degree of freedom against "
+       "their noise", "magnetometer"),
+    _F("magnetometer_field_error", "calibrated", "the field's error at a pose where the field is not uniform, "
+       "1σ (None: uniform)", "magnetometer"),
+    _F("magnetometer_accelerometer_shift_sigma", "", "how far the joint fit moved the accelerometer's parameters, "
+       "in their 1σ (None: uniform field)", "magnetometer"),
     _F("magnetometer_error", "", "why the magnetometer was left uncalibrated, in words", "magnetometer"),
     # method
     _F("converged", "", "whether the method's iterative solver converged", "method"),

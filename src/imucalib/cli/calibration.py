@@ -222,7 +222,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     peers = {path: load_calibration(path, rec, args.gravity) for path in args.peer or []}
     result = compare(rec, gravity=args.gravity, methods=args.methods.split(",") if args.methods else None,
                      folds=None if args.folds == 0 else args.folds, progress=say, init_static=args.init_static,
-                     peers=peers)
+                     peers=peers, magnetometer=not args.no_magnetometer)
     if args.json:
         return print_json(result)
     print(f"{result['static_intervals']} static intervals; leave-one-pose-out over "
@@ -343,6 +343,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--peer", action="append", metavar="CALIBRATION", help="a calibration made elsewhere (imucalib's "
                    "JSON, or imu_tk's NAME_acc.calib with NAME_gyro.calib beside it), scored on the same held-out "
                    "poses without refitting and printed beneath the methods, not ranked (repeatable)")
+    p.add_argument("--no-magnetometer", action="store_true", help="leave the magnetometer uncalibrated (the "
+                   "cross-validation folds never calibrate it: their figures judge the accelerometer and gyroscope)")
     p.add_argument("--json", action="store_true", help="print the comparison as JSON")
     add_reader_options(p)
     p.set_defaults(func=cmd_compare)

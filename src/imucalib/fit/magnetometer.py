@@ -30,6 +30,14 @@ poses. The joint fit adds ``ḃ`` and keeps it only where the poses show it (its
 χ² against its own covariance beyond the 99.9 % point of χ²(3)); ``b`` is
 then the hard iron at ``t̄``.                                             (M5)
 
+All of (M2)–(M5) assume one uniform field, each pose's reading differing from
+it by the readings' noise. Where the poses' field norms scatter far beyond that
+noise (a desk, a computer or the holder's body nearby), every pose carries a
+field error of its own, the same in all its equations; then the fit keeps,
+of each pose, only what does not depend on its heading — the field's vertical
+component and its horizontal magnitude — and fits them jointly with the
+accelerometer (:mod:`imucalib.fit.magnetometer_invariants`, (I1)–(I4)).  (I)
+
 (M2) alone is the usual ellipsoid fit: it leaves ``O`` free, so a magnetometer
 die whose axes are permuted and reflected relative to the accelerometer's (the
 MPU-9250's magnetometer has x and y swapped and z reversed) keeps a wandering
@@ -68,6 +76,7 @@ from ..metrics import interval_means, transition_bounds
 from ..models import AXES, MagnetometerModel
 from ..recording import Interval, Recording
 from .accelerometer import fit_ellipsoid
+from .magnetometer_invariants import FIELD_DISTURBED_CHI2, central_jacobian, field_scatter, fit_invariants
 
 __all__ = ["MIN_MAG_POSES", "MagnetometerFit", "alignment_from_rotations", "fit_magnetometer", "pose_figures",
            "pose_references", "soft_iron_from_ellipsoid"]
@@ -235,6 +244,10 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
     except ValueError as exc:
         raise ValueError(f"the magnetometer readings do not determine hard and soft iron: {exc}") from None
     use = np.ones(len(intervals) - 1, bool)
+    # the rotations the gyroscope's fit left out (a spike, a bump) are wrong here too: not in (M4)
+    left_out = [int(k) for k in (calibration.fit or {}).get("rotations_left_out") or {}]
+    use[[k for k in left_out if 0 <= k < use.size]] = False
+    gyro_ok = use.copy()
     o0 = alignment_from_rotations((mag_means - b0) @ s0, up, rot, use, hemisphere)
     n0 = (mag_means - b0) @ s0 @ o0.T
     n0 /= np.linalg.norm(n0, axis=1, keepdims=True)
@@ -292,7 +305,7 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
         def fun_final(th):
             return np.concatenate([g / s for g, s in zip(groups(th), sigma, strict=True)])
 
-        jac = _central_jacobian(fun_final, theta, scale)
+        jac = central_jacobian(fun_final, theta, scale)
         try:
             cov = np.linalg.inv(jac.T @ jac)
         except np.linalg.LinAlgError:
@@ -313,6 +326,19 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
     else:
         use[:] = use_static
         cov = covariance(theta, sigma, scale)
+
+    # (I): a field that is not the same at every pose (the poses' norms scatter far beyond their noise) leaves
+    # the rotation and motion-sample equations out: the two invariants of each pose, with the accelerometer
+    b, s, _, _, drift = unpack(theta)
+    field_chi2, _ = field_scatter(recording.mag - np.outer((recording.t - t_ref) / 60.0, drift), intervals, b, s)
+    uniform = field_chi2 <= FIELD_DISTURBED_CHI2
+    invariants = None
+    if not uniform:
+        invariants = fit_invariants(mag_means, acc_means, calibration.accelerometer,
+                                    (calibration.fit or {}).get("uncertainty") or {}, theta[:13], scale[:13],
+                                    unpack, min_pose, DRIFT_CHI2)
+        theta, cov = invariants.theta, invariants.covariance
+        use[:] = gyro_ok  # no rotation equations in this fit: every rotation the gyroscope kept is scored
     p = theta.size
     b, s, o, dip, drift = unpack(theta)
     if np.linalg.det(s) <= 0 or np.any(np.linalg.eigvalsh(s) <= 0):
@@ -359,6 +385,12 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
         "magnetometer_hard_iron_drift_sigma_per_min": sd[13:16].tolist() if p > 13 else None,
         "magnetometer_hard_iron_drift_over_session": float(np.linalg.norm(s @ drift) * np.ptp(min_pose))
         if p > 13 else None,
+        # (I): whether the field was uniform over the poses, and what the fit held it to
+        "magnetometer_field_uniform": bool(uniform),
+        "magnetometer_field_scatter_chi2": field_chi2,
+        "magnetometer_field_error": None if invariants is None else invariants.field_error,
+        "magnetometer_accelerometer_shift_sigma": None if invariants is None
+        else invariants.accelerometer_shift_sigma,
     }
     return MagnetometerFit(model=model, figures=figures, uncertainty=unc, covariance=cov)
 
@@ -390,15 +422,3 @@ def _carried_covariance(calibration, references, groups, theta, sigma, jac, cov)
         sens = -pinv @ ((moved - base) / h)
         extra += np.outer(sens, sens) * sd**2
     return extra
-
-
-def _central_jacobian(fun, x: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """∂fun/∂x by central differences with steps proportional to ``scale``."""
-    f0 = fun(x)
-    jac = np.empty((f0.size, x.size))
-    for i in range(x.size):
-        h = 1e-6 * scale[i]
-        e = np.zeros_like(x)
-        e[i] = h
-        jac[:, i] = (fun(x + e) - fun(x - e)) / (2 * h)
-    return jac
