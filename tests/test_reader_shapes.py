@@ -299,3 +299,43 @@ def test_sections_both_forms():
         parse_sections({**imucal, "x_p": {"start": 50, "end": 40}})
     with pytest.raises(ValueError, match="missing z_rot"):
         parse_sections({k: v for k, v in imucal.items() if k != "z_rot"})
+
+
+def test_date_time_stamps_read_as_times_and_copied_as_written(tmp_path):
+    """A logger's ``2024-05-01 12:00:00.010`` stamps: the same recording as
+    numeric seconds give, and ``apply`` copies the rows' text, stamps included, as written."""
+    pytest.importorskip("pandas")
+    import json
+
+    from imucalib.cli import main
+    from imucalib.scenarios import session
+
+    rec = session("handheld", rng=2).recording
+    rows = np.column_stack([rec.acc, rec.gyro])
+    epoch = np.datetime64("2024-05-01T12:00:00", "ns") + (rec.t * 1e9).round().astype("timedelta64[ns]")
+    stamps = [str(s).replace("T", " ")[:26] for s in epoch]
+    text = "".join(f"{s},{','.join(f'{v:.0f}' for v in r)}\n" for s, r in zip(stamps, rows, strict=True))
+    (tmp_path / "dated.csv").write_text("time,ax,ay,az,gx,gy,gz\n" + text)
+    numeric = "".join(f"{t:.6f},{','.join(f'{v:.0f}' for v in r)}\n" for t, r in zip(rec.t, rows, strict=True))
+    (tmp_path / "plain.csv").write_text("t,ax,ay,az,gx,gy,gz\n" + numeric)
+    with pytest.warns(ImucalibWarning, match="holds dates and times"):
+        dated = read(str(tmp_path / "dated.csv"))
+    plain = read(str(tmp_path / "plain.csv"))
+    np.testing.assert_allclose(dated.t, plain.t, atol=1e-6)
+    np.testing.assert_array_equal(dated.acc, plain.acc)
+    np.testing.assert_array_equal(dated.gyro, plain.gyro)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main(["calibrate", str(tmp_path / "dated.csv"), "-o", str(tmp_path / "c.json")]) == 0
+        assert main(["apply", str(tmp_path / "c.json"), str(tmp_path / "dated.csv"), "-o",
+                     str(tmp_path / "out.csv")]) == 0
+    out = (tmp_path / "out.csv").read_text().splitlines()
+    assert out[1].startswith(stamps[0] + ",") and len(out) == len(rows) + 1
+    assert json.loads((tmp_path / "c.json").read_text())["fit"]["verdict"] == "accepted"
+
+
+def test_date_time_stamps_without_a_header_say_what_to_pass(tmp_path):
+    pytest.importorskip("pandas")
+    (tmp_path / "d.csv").write_text("".join(f"2024-05-01 12:00:00.{k:02d}0,0,0,1,0,0,0\n" for k in range(50)))
+    with pytest.raises(ReaderError, match="no header naming the columns.*--rate"):
+        read(str(tmp_path / "d.csv"))

@@ -269,6 +269,11 @@ def gravity_noise_floor(calibration, recording: Recording, intervals: Sequence[I
     samples along the mean direction divided by ``√n_k``; a perfect model
     would leave residuals of about this size, so ``residual / floor`` well
     above 1 means model error or poses that were not still.
+
+    A sensor read faster than it updates repeats each reading for several rows (held samples): a pose
+    of ``n`` rows then holds only its ``n_k`` updates' worth of noise, and ``n_k`` (the rows that differ
+    from the row before, plus one) takes the place of ``n`` where over :data:`HELD_FRACTION` of the
+    pose's rows repeat the row before exactly.
     """
     var = []
     model = calibration.accelerometer
@@ -287,8 +292,19 @@ def gravity_noise_floor(calibration, recording: Recording, intervals: Sequence[I
             a = calibration.accelerometer_si(raw)
             u = add(a, axis=0) / n
             along = a @ (u / np.sqrt(u.dot(u)))
-        var.append(_sample_variance(along) / n)
+        var.append(_sample_variance(along) / _updates(raw))
     return float(np.sqrt(np.mean(var))) if var else 0.0
+
+
+#: the share of a pose's rows repeating the row before above which they are taken as held samples
+HELD_FRACTION = 0.25
+
+
+def _updates(raw: np.ndarray) -> int:
+    """The independent readings of a pose's rows ``raw`` (N, 3): N, or its updates when its samples are held."""
+    n = raw.shape[0]
+    held = int(np.count_nonzero(np.all(raw[1:] == raw[:-1], axis=1)))
+    return n - held if held > HELD_FRACTION * (n - 1) else n
 
 
 def _sample_variance(x: np.ndarray) -> float:

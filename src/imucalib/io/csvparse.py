@@ -382,6 +382,14 @@ def digest() -> hashlib.blake2b:
     return hashlib.blake2b(digest_size=16)
 
 
+def file_digest(layout: Layout):
+    """:func:`digest` of the file of ``layout``, its ``layout.size`` bytes, as a parse would have fed it."""
+    d = digest()
+    with open_binary(layout.path) as f:
+        _feed(d, f, layout.size)
+    return d
+
+
 def plan(layout: Layout, chunk_bytes: int | None = None) -> Plan:
     """One pass over the body: where its chunks end, and their lines (rows to allocate before parsing)."""
     return Plan(tuple((len(ch.data), ch.lines, ch.comments) for ch in chunks(layout, chunk_bytes)))

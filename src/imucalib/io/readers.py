@@ -28,7 +28,7 @@ from .columns import TIME as _TIME
 from .columns import map_columns as _map_columns
 from .columns import not_number as _not_number
 from .errors import ReaderError
-from .stamps import TIME_UNITS, note_held_samples, repair_coarse, to_seconds
+from .stamps import TIME_UNITS, datetime_cells, note_held_samples, read_dated, repair_coarse, to_seconds
 from .stamps import check_increasing as _check_time
 from .stamps import guess_unit as _infer_time_unit
 
@@ -763,6 +763,13 @@ def _time_column(col: np.ndarray) -> tuple[np.ndarray, int]:
 
 def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=None) -> Recording:
     table = _split_table(path, columns) if frame is None else _frame_table(frame)
+    dated = datetime_cells(table.first_row) if frame is None else []
+    source = table.layout  # where the file's rows lie: apply copies their text (io.writers)
+    if dated:  # date-time stamps: read as a DataFrame's datetimes are
+        frame = read_dated(path, skiprows=table.skipped, sep=table.sep, dated=dated,
+                           has_header=table.header is not None and not datetime_cells(table.header))
+        table = _frame_table(frame)
+        dated_digest = None if csvparse.is_gzip(path) else csvparse.file_digest(source).hexdigest()
     has_header = table.header is not None
     first_line, names = table.first_line, table.names
     mapping = _map_columns(path, names, columns, has_header)
@@ -784,7 +791,7 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     out: dict[int, np.ndarray] = {}
     for f, view in targets.items():
         out.setdefault(mapping[f], view)
-    parsed: dict = {}
+    parsed: dict = {"digest": dated_digest} if dated else {}
     if blocks is not None:
         cols = {j: blocks[0][:, j] for j in range(table.ncols)}
     elif sparse is not None:
@@ -862,7 +869,7 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
     rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
                     extra=extra, metadata=meta)
     if parsed.get("digest") and not csvparse.is_gzip(path):  # what apply needs to copy the file's own text (io.writers)
-        meta["source_layout"] = {**table.layout.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec),
+        meta["source_layout"] = {**source.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec),
                                  "digest": parsed["digest"]}
     return rec
 

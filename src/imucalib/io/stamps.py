@@ -13,6 +13,7 @@ Each repair or guess that is not plain is said in an :class:`~imucalib.recording
 
 from __future__ import annotations
 
+import re
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -23,7 +24,8 @@ import numpy as np
 from ..recording import ImucalibWarning
 from .errors import ReaderError
 
-__all__ = ["IMU_RATES", "TIME_UNITS", "Repair", "check_increasing", "guess_unit", "repair_coarse", "to_seconds"]
+__all__ = ["IMU_RATES", "TIME_UNITS", "Repair", "check_increasing", "datetime_cells", "guess_unit", "read_dated",
+           "repair_coarse", "to_seconds"]
 
 #: the length of each time unit a time column can be written in [s]
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
@@ -215,3 +217,44 @@ def note_held_samples(path, acc: np.ndarray, gyro: np.ndarray | None, rate: floa
                   f"held for about {hold:g} rows, so the sensor updates at about {rate / hold:.4g} Hz, not "
                   f"{rate:.4g} Hz (read faster than it updates); the rows are kept as they are, but noise figures "
                   "from sample-to-sample differences come out low", ImucalibWarning, stacklevel=4)
+
+
+#: a calendar date and time of day as loggers print them: ISO 8601 (``2024-05-01T12:00:00.010Z``) or with a
+#: blank for the ``T`` (``2024-05-01 12:00:00.010``), optionally quoted, with a UTC offset
+_DATETIME = re.compile(r'^"?\d{4}-\d{2}-\d{2}[T ]\d{1,2}:\d{2}(?::\d{2}(?:\.\d+)?)?(?:Z|[+-]\d{2}:?\d{2})?"?$')
+
+
+def datetime_cells(cells: Sequence[str]) -> list[int]:
+    """The indices of the cells of a row that are a calendar date and time (:data:`_DATETIME`)."""
+    return [j for j, c in enumerate(cells) if _DATETIME.match(c.strip())]
+
+
+def read_dated(path: Path, *, skiprows: int, sep: str | None, dated: Sequence[int], has_header: bool):
+    """A delimited file whose rows carry date-time stamps, as a DataFrame with those columns as datetimes.
+
+    The readers read such a file as a DataFrame (its stamps become nanoseconds, as a DataFrame's datetimes
+    do); that needs pandas, and the rows need a header to name their columns.
+    """
+    from ..recording import require_pandas
+
+    if not has_header:
+        raise ReaderError(f"{path}: the rows begin with a date and time but have no header naming the columns: "
+                          "add one, or pass --columns -,AX,AY,AZ,GX,GY,GZ (0-based indices) and --rate HZ to "
+                          "leave the stamps out")
+    try:
+        pd = require_pandas(f"{path}: date-time stamps")
+    except ValueError as exc:
+        raise ReaderError(f"{exc}; or pass --columns without the time column and --rate HZ") from None
+    frame = pd.read_csv(path, skiprows=skiprows, sep=sep if sep not in (None, " ") else r"\s+", header=0,
+                        engine="python" if sep in (None, " ") else "c")
+    frame.columns = [str(c).strip() for c in frame.columns]
+    for j in dated:
+        name = frame.columns[j]
+        try:
+            stamps = pd.to_datetime(frame[name], utc=True, format="ISO8601")
+        except (ValueError, TypeError) as exc:
+            raise ReaderError(f"{path}: the column {name!r} holds dates and times that cannot be read: {exc}") from None
+        frame[name] = stamps.dt.tz_localize(None)
+    warnings.warn(f"{path}: the column {frame.columns[dated[0]]!r} holds dates and times: they were read as time "
+                  "stamps (to the nanosecond, UTC where an offset is given)", ImucalibWarning, stacklevel=5)
+    return frame
