@@ -8,8 +8,8 @@ import warnings
 
 import numpy as np
 
-from imucalib.metrics import HELD_FRACTION, gravity_noise_floor
 from imucalib.methods import calibrate
+from imucalib.metrics import HELD_FRACTION, gravity_noise_floor
 from imucalib.recording import Interval, Recording
 from imucalib.scenarios import session
 
