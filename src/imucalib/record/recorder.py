@@ -114,6 +114,7 @@ class Recorder:
         self.scale: float | None = None  # rad/s per raw gyroscope unit
         self.suggestion: np.ndarray | None = None
         self._countdown = None
+        self._restarted = False
         self._held_said = -1.0
         self._last_warning: dict[str, float] = {}
         self._checked = 0  # samples checked against the gyroscope's range and for fast rotations
@@ -121,11 +122,15 @@ class Recorder:
     # ------------------------------------------------------------ input
     def feed(self, lines: list) -> None:
         """Take the next lines of the stream (bytes as read, newlines included, or :class:`~.lines.TooLong`)."""
-        for line in lines:
+        for k, line in enumerate(lines):
             if self.format is None:
                 self._head.append(line)
                 if len(self._head) >= HEAD_LINES:
-                    self._start()
+                    try:
+                        self._start()
+                    except ValueError:  # the lines stay with the head: the caller keeps them
+                        self._head += lines[k + 1:]
+                        raise
                 continue
             self._line(line)
         self._analyse(final=False)
@@ -361,18 +366,23 @@ class Recorder:
                 return 0.0
         return None if found.stop >= m else self._time(found.stop)
 
-    def _restart(self, m: int, moved: float) -> None:
-        """Drop the samples ``[0, m)``: the rest starts again after them."""
+    def _restart(self, m: int, moved: float | None) -> None:
+        """Drop the samples ``[0, m)``: the rest starts again after them (said once while the sensor keeps moving)."""
         self.dropped_before_rest += m
         keep = self.n - m
         self._raw[:keep] = self._raw[m:self.n]
         del self._lines[:m]
         self._notes = [(max(i - m, 0), e) for i, e in self._notes]
-        self.n, self._done, self._written, self._countdown = keep, 0, 0, None
+        said = self._countdown is not None and self._countdown < int(np.ceil(self.rest_seconds))
+        self.n, self._done, self._written = keep, 0, 0
+        if self._restarted and not said:
+            return
+        self._restarted = True
+        when = f"{moved:.1f} s into the initial rest" if moved else "during the initial rest"
         self.emit({"event": "rest", "restart": True, "moved_t": moved, "remaining_s": int(np.ceil(self.rest_seconds)),
-                   "message": f"the sensor moved {moved:.1f} s into the initial rest: put it down and keep it "
-                              f"still; the {self.rest_seconds:g} s rest starts again (the samples before are "
-                              "left out of the session)"})
+                   "message": f"the sensor moved {when}: put it down and keep it still; the {self.rest_seconds:g} s "
+                              "rest starts again once it is (the samples before are left out of the session)"})
+        self._countdown = None
 
     # ----------------------------------------------------------- checks
     def _fast(self, m: int) -> None:
@@ -439,8 +449,8 @@ class Recorder:
             self._held_said = -1.0
             return
         seconds = self._time(run.stop - 1) - self._time(run.start)
-        step = 0.5 * np.floor(seconds / 0.5)
-        if step <= self._held_said or step < 0.5:
+        step = 1.0 if seconds >= HOLD_SECONDS else 0.5 if seconds >= 0.5 else 0.0
+        if step <= self._held_said or step == 0.0:  # said twice: at half a second, and once held long enough
             return
         self._held_said = step
         mean = self._raw[run.start:run.stop, 1:4].mean(axis=0)

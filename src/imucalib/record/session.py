@@ -234,12 +234,17 @@ def record(stream, output: str | Path | SessionWriter, recorder: Recorder, *, po
                 break
             last, said = time.monotonic(), 0
             for k in range(0, len(item), 2000):  # Ctrl-C is looked at between slices of a long batch
-                recorder.feed(item[k:k + 2000])
+                try:
+                    recorder.feed(item[k:k + 2000])
+                except ValueError as exc:  # the stream cannot be followed: keep what was read, say where it is
+                    stop.set()
+                    recorder._head += item[k + 2000:]
+                    while not q.empty():
+                        more = q.get_nowait()
+                        recorder._head += more if isinstance(more, list) else []
+                    _not_a_table(recorder, writer, exc)
                 if interrupted.is_set():
                     break
-    except ValueError as exc:  # the stream cannot be followed: keep what was read, say where it is
-        stop.set()
-        _not_a_table(recorder, writer, exc)
     except BaseException:
         stop.set()
         writer.finish(rename=False)
