@@ -257,7 +257,12 @@ def record(stream, output: str | Path | SessionWriter, recorder: Recorder, *, po
     try:
         recorder.end_stream()
     except ValueError as exc:
-        _not_a_table(recorder, writer, exc)
+        if error is None:
+            _not_a_table(recorder, writer, exc)
+        writer.write_lines([ln for ln in recorder._head if not isinstance(ln, TooLong)])
+        partial = writer.finish(rename=False)
+        raise RecordError(f"reading {source.name} failed after {recorder.line_no + len(recorder._head)} lines "
+                          f"({type(error).__name__}: {error}); the lines read so far are in {partial}") from None
     except BaseException:
         writer.finish(rename=False)
         raise
