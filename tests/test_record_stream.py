@@ -165,6 +165,17 @@ def test_the_same_events_whatever_the_batching(tmp_path):
         record(Batches(data, sizes), tmp_path / f"s{k}.csv", Recorder(events.append))
         runs.append(json.dumps(events))
         assert (tmp_path / f"s{k}.csv").read_bytes() == data
+    # the recorder itself, given the lines in batches of other sizes
+    lines = data.splitlines(keepends=True)
+    for sizes in ([1], [20000], [3, 1000, 17]):
+        events, recorder, i, k = [], None, 0, 0
+        recorder = Recorder(events.append)
+        while i < len(lines):
+            n = sizes[k % len(sizes)]
+            recorder.feed(lines[i:i + n])
+            i, k = i + n, k + 1
+        recorder.close()
+        runs.append(json.dumps(events))
     assert all(r == runs[0] for r in runs[1:])
     kinds = [e["kind"] for e in json.loads(runs[0]) if e["event"] == "warning"]
     assert "saturation" in kinds and "wobble" in kinds

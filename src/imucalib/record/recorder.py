@@ -490,7 +490,7 @@ class Recorder:
         self.emit({"event": "pose", "pose": k, "start": iv.start, "stop": iv.stop, "t_start": self._time(iv.start),
                    "t_stop": self._time(iv.stop - 1), "seconds": self._time(iv.stop - 1) - self._time(iv.start),
                    "up": up.tolist(), "words": describe_direction(up), "directions_from": self.source_of_directions,
-                   "already_held": before, "coverage": coverage,
+                   "already_held": before, "coverage": coverage, "directions": self.directions.tolist(),
                    "checklist": self._checklist().as_event()})
         if not self.complete:
             self._try_calibration(m)
