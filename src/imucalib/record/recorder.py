@@ -444,7 +444,7 @@ class Recorder:
         """While a pose is held: how long, its direction, how far from the suggestion, whether already held."""
         from ..plans import describe_direction
 
-        run = self.detector.current()
+        run = self._current_run()
         if run is None or run.start == 0 or run.stop - run.start < 2:
             self._held_said = -1.0
             return
@@ -462,6 +462,18 @@ class Recorder:
         if self.suggestion is not None:
             event["to_suggestion_deg"] = angle_deg(up, self.suggestion)
         self.emit(event)
+
+    def _current_run(self) -> Interval | None:
+        """The static run the detector's final statistic ends in (None when moving), looked for after the last
+        interval only: :meth:`~imucalib.segment.StillDetector.current` at a cost that does not grow with the
+        session."""
+        det = self.detector
+        stat = det.stream.statistic
+        if stat.size == 0 or stat[-1] >= det.threshold:
+            return None
+        start = det.intervals[-1].stop if det.intervals else 0
+        above = np.nonzero(stat[start:] >= det.threshold)[0]
+        return Interval(start + int(above[-1]) + 1 if above.size else start, stat.size, "static")
 
     def _direction_of(self, mean: np.ndarray) -> np.ndarray:
         dirs, _ = up_directions(np.vstack([*self._means, mean]), gravity=self._gravity_unit(), trial=self.trial)
