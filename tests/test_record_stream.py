@@ -25,7 +25,7 @@ import pytest
 
 from imucalib.io import read, write_csv
 from imucalib.methods import calibrate
-from imucalib.record import LineSplitter, RecordError, Recorder, Source, record
+from imucalib.record import LineSplitter, Recorder, RecordError, Source, record
 from imucalib.scenarios.handheld import generate
 
 SRC = Path(__file__).resolve().parents[1] / "src"
@@ -160,14 +160,14 @@ def test_the_same_events_whatever_the_batching(tmp_path):
     write_csv(path, s["recording"])
     data = path.read_bytes()
     runs = []
-    for k, sizes in enumerate(([len(data)], [37], [1, 2, 3, 500, 7, 65536, 11], [4096], [100_000, 1])):
+    for k, sizes in enumerate(([len(data)], [37], [1, 2, 3, 500, 7, 65536, 11])):
         events = []
         record(Batches(data, sizes), tmp_path / f"s{k}.csv", Recorder(events.append))
         runs.append(json.dumps(events))
         assert (tmp_path / f"s{k}.csv").read_bytes() == data
     # the recorder itself, given the lines in batches of other sizes
     lines = data.splitlines(keepends=True)
-    for sizes in ([1], [20000], [3, 1000, 17]):
+    for sizes in ([1], [3, 1000, 17]):
         events, recorder, i, k = [], None, 0, 0
         recorder = Recorder(events.append)
         while i < len(lines):
@@ -215,7 +215,7 @@ def test_an_existing_session_or_partial_is_never_destroyed(tmp_path, short_sessi
     csv, _ = short_session
     out = tmp_path / "s.csv"
     out.write_text("a finished session\n")
-    run = _run(["-", "-o", str(out)], input=csv.read_text())
+    run = _run(["-", "-o", str(out)], input=csv.read_text()[:2000])
     assert run.returncode == 2 and "already there" in run.stderr and "--force" in run.stderr
     assert out.read_text() == "a finished session\n" and not (tmp_path / "s.csv.partial").exists()
     run = _run(["-", "-o", str(out), "--force"], input=csv.read_text())
@@ -224,7 +224,7 @@ def test_an_existing_session_or_partial_is_never_destroyed(tmp_path, short_sessi
     # the .partial an earlier, killed run left: never truncated, nor appended to
     (tmp_path / "t.csv.partial").write_text("an earlier session\n")
     for extra in ([], ["--force"]):
-        run = _run(["-", "-o", str(tmp_path / "t.csv"), *extra], input=csv.read_text())
+        run = _run(["-", "-o", str(tmp_path / "t.csv"), *extra], input=csv.read_text()[:2000])
         assert run.returncode == 2 and "unfinished session" in run.stderr
         assert (tmp_path / "t.csv.partial").read_text() == "an earlier session\n"
         assert not (tmp_path / "t.csv").exists()
@@ -232,9 +232,11 @@ def test_an_existing_session_or_partial_is_never_destroyed(tmp_path, short_sessi
 
 def test_special_files_and_symbolic_links(tmp_path, short_session):
     csv, _ = short_session
+    csv = tmp_path / "in.csv"  # the first 20 s of the session: its rest and a few poses
+    csv.write_bytes(b"".join(_rows(short_session[0])[:2001]))
     fifo = tmp_path / "pipe"
     os.mkfifo(fifo)
-    run = _run(["-", "-o", str(fifo)], input=csv.read_text())
+    run = _run(["-", "-o", str(fifo)], input=csv.read_text()[:2000])
     assert run.returncode == 2 and "FIFO" in run.stderr and stat.S_ISFIFO(os.stat(fifo).st_mode)
     run = _run(["-", "-o", str(tmp_path / "s.csv"), "--events", "/dev/sda"], input="t\n")
     assert run.returncode == 2 and not (tmp_path / "s.csv").exists()
@@ -242,13 +244,13 @@ def test_special_files_and_symbolic_links(tmp_path, short_session):
     victim = tmp_path / "victim.txt"
     victim.write_text("precious\n")
     os.symlink(victim, tmp_path / "v.csv.partial")
-    run = _run(["-", "-o", str(tmp_path / "v.csv")], input=csv.read_text())
+    run = _run(["-", "-o", str(tmp_path / "v.csv")], input=csv.read_text()[:2000])
     assert run.returncode == 2 and victim.read_text() == "precious\n"
     # -o a link: followed as the shell follows it, the link stays (and the file it names is a session kept)
     target = tmp_path / "real.csv"
     target.write_text("old\n")
     os.symlink(target, tmp_path / "link.csv")
-    run = _run(["-", "-o", str(tmp_path / "link.csv")], input=csv.read_text())
+    run = _run(["-", "-o", str(tmp_path / "link.csv")], input=csv.read_text()[:2000])
     assert run.returncode == 2 and target.read_text() == "old\n"
     run = _run(["-", "-o", str(tmp_path / "link.csv"), "--force"], input=csv.read_text())
     assert run.returncode == 0 and (tmp_path / "link.csv").is_symlink()

@@ -181,7 +181,7 @@ class EventLog:
     """
 
     def __init__(self, target: str | None) -> None:
-        from ..io.atomic import _target, temporary_prefix
+        from ..io.atomic import output_target, temporary_prefix
 
         self.target = target
         self.fh = None
@@ -190,7 +190,7 @@ class EventLog:
             self.fh = sys.stdout
         elif target:
             try:
-                path, stream = _target(target)
+                path, stream = output_target(target)
             except (ValueError, OSError) as exc:
                 raise CliError(f"--events {exc}") from None
             if not path.parent.is_dir():
@@ -222,14 +222,14 @@ class EventLog:
 
 def cmd_record(args: argparse.Namespace) -> int:
     """``imucalib record``: :func:`imucalib.record.record` with a live view, the events, then calibrate."""
-    from ..io.atomic import _target, refuse_overwriting_inputs
+    from ..io.atomic import output_target, refuse_overwriting_inputs
     from ..record import Recorder, SessionWriter, open_source, record
 
     refuse_overwriting_inputs([args.output, args.events if args.events != "-" else None, args.calibrate],
                               [args.source[len("serial:"):].split("?")[0]] if args.source.startswith("serial:")
                               else [])
     if args.calibrate:
-        _target(args.calibrate)  # refused now, not after the session
+        output_target(args.calibrate)  # refused now, not after the session
     writer = SessionWriter(args.output, force=args.force)
     ended: dict = {}
     try:
@@ -298,7 +298,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "Ctrl-C, SIGTERM or the end of the stream finishes.")
     p.add_argument("source", help="- (standard input), serial:/dev/ttyUSB0?baud=115200 (pyserial), tcp://HOST:PORT, "
                    "or phyphox://HOST:8080 (phyphox's remote access)")
-    p.add_argument("-o", "--output", required=True, help="the session file to write (CSV: the header and rows as read); an existing one is kept unless --force")
+    p.add_argument("-o", "--output", required=True, help="the session file to write (CSV: the header and rows as "
+                   "read); an existing one is kept unless --force")
     p.add_argument("--events", metavar="FILE", help="also write every event as one JSON line to FILE (- for "
                    "stdout, the view then on stderr)")
     add_method_option(p, help="the method the session is for")

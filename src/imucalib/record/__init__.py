@@ -48,8 +48,16 @@ from .guidance import Checklist, checklist
 from .lines import MAX_LINE, LineFormat, LineSplitter, RowCheck, TooLong
 from .recorder import HEAD_LINES, MAX_STEP_DEG, Recorder
 from .session import RecordError, RecordResult, SessionWriter, check_session_output, record
-from .sources import FdSource, PhyphoxStream, ReadlineSource, SerialSource, SocketSource, Source, SourceGone, \
-    open_source
+from .sources import (
+           FdSource,
+           PhyphoxStream,
+           ReadlineSource,
+           SerialSource,
+           SocketSource,
+           Source,
+           SourceGone,
+           open_source,
+)
 
 __all__ = ["Recorder", "LineFormat", "LineSplitter", "RowCheck", "TooLong", "SessionWriter", "record",
            "open_source", "RecordResult", "RecordError", "MAX_STEP_DEG", "MAX_LINE", "HEAD_LINES",

@@ -42,7 +42,7 @@ class TooLong:
 
 
 class LineSplitter:
-    """Bytes as read → complete lines (newline included), each at most ``limit`` bytes; longer ones as :class:`TooLong`."""
+    """Bytes as read → complete lines (newline included) of at most ``limit`` bytes; longer ones as :class:`TooLong`."""
 
     def __init__(self, limit: int = MAX_LINE) -> None:
         self.limit = int(limit)
@@ -179,7 +179,7 @@ class LineFormat:
         return fmt, [str(w.message) for w in caught]
 
     def parse(self, line: bytes) -> tuple[float, ...] | None:
-        """``(t_raw, ax, ay, az, gx, gy, gz)`` of a data line (numbers, maybe not finite), or None when it is not one."""
+        """``(t_raw, ax, ay, az, gx, gy, gz)`` of a data line (maybe not finite), or None when it is not one."""
         try:
             text = line.decode("utf-8").strip()
         except UnicodeDecodeError:

@@ -140,6 +140,12 @@ class Recorder:
         self.end_stream()
         self.conclude()
 
+    def unread(self, more: list | None = None) -> list[bytes]:
+        """The lines taken but not followed (the head, when the stream is not a table), ``more`` after them; cleared."""
+        head = [ln for ln in [*self._head, *(more or [])] if not isinstance(ln, TooLong)]
+        self._head = []
+        return head
+
     def end_stream(self) -> None:
         """Finish the head, the last block and pose: every line the session keeps handed to the sink."""
         if self.format is None and self._head:

@@ -22,7 +22,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .lines import LineSplitter, TooLong
+from .lines import LineSplitter
 from .recorder import Recorder
 from .sources import Source, SourceGone, as_source
 
@@ -36,11 +36,11 @@ def check_session_output(output: str | Path, *, force: bool = False) -> tuple[Pa
     and for an existing ``.partial``; ``ValueError``, ``OSError`` for what
     :mod:`imucalib.io.atomic` refuses, and for a FIFO or device.
     """
-    from ..io.atomic import _target
+    from ..io.atomic import output_target
 
     if str(output).endswith(".partial"):
         raise ValueError(f"-o {output}: name the finished file; {output}.partial is written while recording")
-    target, stream = _target(output)
+    target, stream = output_target(output)
     if stream:
         raise ValueError(f"{output}: is a FIFO or a device; a session is a file that calibrate reads back: "
                          "give a file name")
@@ -171,11 +171,9 @@ class RecordError(OSError):
     """Reading the stream failed: the session so far is kept (the message says where)."""
 
 
-def _not_a_table(recorder: Recorder, writer: SessionWriter, exc: ValueError):
+def _not_a_table(recorder: Recorder, writer: SessionWriter, exc: ValueError, more: list | None = None):
     """The stream is not a table that can be followed: its lines so far into the ``.partial``, and why."""
-    head = [ln for ln in recorder._head if not isinstance(ln, TooLong)]
-    recorder._head = []
-    writer.write_lines(head)
+    writer.write_lines(recorder.unread(more))
     partial = writer.finish(rename=False)
     raise ValueError(f"{exc} (the {writer.lines} lines read so far are in {partial})") from None
 
@@ -238,11 +236,11 @@ def record(stream, output: str | Path | SessionWriter, recorder: Recorder, *, po
                     recorder.feed(item[k:k + 2000])
                 except ValueError as exc:  # the stream cannot be followed: keep what was read, say where it is
                     stop.set()
-                    recorder._head += item[k + 2000:]
+                    more = list(item[k + 2000:])
                     while not q.empty():
-                        more = q.get_nowait()
-                        recorder._head += more if isinstance(more, list) else []
-                    _not_a_table(recorder, writer, exc)
+                        queued = q.get_nowait()
+                        more += queued if isinstance(queued, list) else []
+                    _not_a_table(recorder, writer, exc, more)
                 if interrupted.is_set():
                     break
     except BaseException:
@@ -259,9 +257,10 @@ def record(stream, output: str | Path | SessionWriter, recorder: Recorder, *, po
     except ValueError as exc:
         if error is None:
             _not_a_table(recorder, writer, exc)
-        writer.write_lines([ln for ln in recorder._head if not isinstance(ln, TooLong)])
+        head = recorder.unread()
+        writer.write_lines(head)
         partial = writer.finish(rename=False)
-        raise RecordError(f"reading {source.name} failed after {recorder.line_no + len(recorder._head)} lines "
+        raise RecordError(f"reading {source.name} failed after {recorder.line_no + len(head)} lines "
                           f"({type(error).__name__}: {error}); the lines read so far are in {partial}") from None
     except BaseException:
         writer.finish(rename=False)
