@@ -280,7 +280,11 @@ def cmd_record(args: argparse.Namespace) -> int:
         if args.events == "-":
             argv.append("--json")
         cal_args = parser.parse_args(normalise_argv(argv))
-        code = int(cal_args.func(cal_args) or 0)
+        try:
+            code = int(cal_args.func(cal_args) or 0)
+        except (ValueError, OSError, CliError) as exc:  # said here, so that the verdict stays the last line
+            print(f"imucalib calibrate: error: {exc}", file=sys.stderr)
+            code = 2
     if ended:
         say(verdict_line(ended))
     return code
