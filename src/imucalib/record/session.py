@@ -13,7 +13,6 @@ session an earlier run left unfinished — is never truncated or appended to.
 
 from __future__ import annotations
 
-import errno
 import os
 import queue
 import signal
@@ -47,11 +46,11 @@ def check_session_output(output: str | Path, *, force: bool = False) -> tuple[Pa
     if not target.parent.is_dir():
         raise ValueError(f"{target}: its directory does not exist")
     if (target.exists() or target.is_symlink()) and not force:
-        raise FileExistsError(errno.EEXIST, f"{output}: a session is already there; it is kept: give a new name "
+        raise FileExistsError(f"{output}: a session is already there; it is kept: give a new name "
                                             "(or --force to replace it at the end of this one)")
     partial = target.with_name(target.name + ".partial")
     if partial.exists() or partial.is_symlink():
-        raise FileExistsError(errno.EEXIST, f"{partial}: an unfinished session of an earlier run is there; it "
+        raise FileExistsError(f"{partial}: an unfinished session of an earlier run is there; it "
                                             "is never overwritten: calibrate or rename it (imucalib calibrate "
                                             f"{partial}), or give -o another name")
     return target, partial
@@ -71,7 +70,7 @@ class SessionWriter:
         try:
             fd = os.open(self.partial, flags, 0o666)
         except FileExistsError:
-            raise FileExistsError(errno.EEXIST, f"{self.partial}: appeared meanwhile; it is never overwritten: "
+            raise FileExistsError(f"{self.partial}: appeared meanwhile; it is never overwritten: "
                                                 "give -o another name") from None
         self._fh = os.fdopen(fd, "wb")
         self._lock = threading.Lock()
