@@ -240,9 +240,21 @@ def cmd_record(args: argparse.Namespace) -> int:
         writer.partial.unlink()
         raise
 
+    page = None
+    if args.view:
+        import webbrowser
+
+        from ..record.view import LiveView
+
+        page = LiveView(port=args.view_port)
+        (print if args.events != "-" else lambda m: print(m, file=sys.stderr))(f"live view: {page.url}")
+        webbrowser.open(page.url)
+
     def on_event(event: dict) -> None:
         log(event)
         view(event)
+        if page is not None:
+            page(event)
         if event["event"] == "end":
             ended.update(event)
 
@@ -251,6 +263,8 @@ def cmd_record(args: argparse.Namespace) -> int:
                             columns=args.columns.split(",") if args.columns else None, acc_unit=args.acc_unit,
                             gyro_unit=args.gyro_unit, time_unit=args.time_unit, rate=args.rate,
                             gyro_range=args.gyro_range, directory=writer.output.parent)
+        if page is not None:
+            page.recorder = recorder
         with open_source(args.source) as stream:
             result = record(stream, writer, recorder)
     except BaseException:
@@ -261,6 +275,8 @@ def cmd_record(args: argparse.Namespace) -> int:
     finally:
         view.close()
         log.close()
+        if page is not None:
+            page.close()
     say = (lambda m: print(m, file=sys.stderr)) if args.events == "-" else print
     how = " (interrupted: the lines read until then)" if result.interrupted else \
         f" ({result.ended}: the session ends there)" if result.ended else ""
@@ -309,6 +325,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_method_option(p, help="the method the session is for")
     p.add_argument("--force", action="store_true", help="replace an existing session at OUTPUT at the end (it is "
                    "kept otherwise)")
+    p.add_argument("--view", action="store_true", help="open a live picture in the browser (a local page: the "
+                   "coverage sphere with the poses held, the current orientation, the suggested next one, the "
+                   "checklist)")
+    p.add_argument("--view-port", type=int, default=0, metavar="PORT", help="the local port of --view (default: "
+                   "any free one)")
     p.add_argument("--no-bell", action="store_true", help="no terminal bell when a pose is held")
     p.add_argument("--calibrate", metavar="CAL.json", help="calibrate the session at the end and write this file")
     p.add_argument("--rest", type=positive_float, default=5.0, help="seconds of initial rest to count down "
