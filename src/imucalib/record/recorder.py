@@ -538,16 +538,23 @@ class Recorder:
         from ..models import TriadModel
         from ..segment import gyro_still
 
-        rec = self.recording(m)
         bias = self._means_gyro_bias()
         if self.scale is None and len(self.poses) >= 3:
             with contextlib.suppress(ValueError, FloatingPointError):
-                s = rough_scale(rec, self._intervals(), TriadModel(), bias)
+                s = rough_scale(self.recording(m), self._intervals(), TriadModel(), bias)
                 if np.isfinite(s) and s > 0:
                     self.scale = float(s)
         if self.scale is None:
             return
-        still = gyro_still(rec[: iv.stop], self.rest, self.scale, [iv])[iv.slice]
+        # the rest and the pose with half a second around it: the windows of the pose's samples are the same,
+        # and the cost does not grow with the session
+        pad = int(np.ceil(0.5 * self.rate))
+        lo, hi = max(iv.start - pad, self.rest.stop), min(iv.stop + pad, m)
+        keep = np.r_[0:self.rest.stop, lo:hi]
+        local = Recording(t=np.arange(keep.size) / self.rate, acc=self._raw[keep, 1:4], gyro=self._raw[keep, 4:7],
+                          acc_unit=self.format.acc_unit, gyro_unit=self.format.gyro_unit)
+        pose = Interval(self.rest.stop + iv.start - lo, self.rest.stop + iv.stop - lo, "static")
+        still = gyro_still(local, self.rest, self.scale, [pose])[pose.slice]
         moving = 1.0 - float(np.mean(still))
         if moving > 0.25:
             self._warn("wobble", iv.stop - 1, f"pose {k} wobbles: the gyroscope moves during {100 * moving:.0f} % "
