@@ -425,8 +425,9 @@ def test_a_serial_port_recorded_until_ctrl_c(tmp_path, short_session):
                             stderr=subprocess.PIPE, env=ENV)
     partial = tmp_path / "s.csv.partial"
     deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and not partial.exists():  # created once the port is open (and flushed)
-        time.sleep(0.05)
+    while time.monotonic() < deadline and proc.poll() is None and not any(  # until the recorder has opened the port
+            os.path.realpath(f"/proc/{proc.pid}/fd/{fd}") == port for fd in os.listdir(f"/proc/{proc.pid}/fd")):
+        time.sleep(0.02)
     os.set_blocking(master, False)  # a recorder that stopped reading fails the test instead of hanging it
     buf, sent = b"".join(data), 0
     while sent < len(buf) and time.monotonic() < deadline and proc.poll() is None:

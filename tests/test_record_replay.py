@@ -1,8 +1,8 @@
 """Guided recording of a real session: one stream through standard input, TCP and a pseudo-terminal.
 
 The MPU9250 session of Zhang 2021's first author (``mpu9250_gesture/caldata.mat``,
-41,308 samples at 100 Hz, raw counts, about 40 hand-held poses) as a text
-stream: each transport must give the same events and the same session file,
+100 Hz, raw counts; its first 200 s: the rest and about 20 hand-held poses) as
+a text stream: each transport must give the same events and the same session file,
 the stream's header and rows unchanged, and the verdict ``calibrate`` gives.
 """
 
@@ -29,7 +29,7 @@ def stream(tmp_path_factory):
     if not mat.exists():
         pytest.skip(f"{mat} not present (fresh clone): real-data test skipped")
     sio = pytest.importorskip("scipy.io")
-    data = sio.loadmat(mat)["cal_data"]
+    data = sio.loadmat(mat)["cal_data"][:20000]  # its rest and first 20 poses: complete at pose 13
     text = "t,ax,ay,az,gx,gy,gz\n" + "".join(",".join(f"{v:.9g}" for v in row[:7]) + "\n" for row in data)
     path = tmp_path_factory.mktemp("mpu") / "mpu9250.csv"
     path.write_text(text)
@@ -94,5 +94,5 @@ def test_a_real_session_through_stdin_tcp_and_a_pty(tmp_path, stream):
         assert _events(tmp_path / f"{name}.jsonl") == events
     assert (tmp_path / "stdin.csv").read_bytes() == data
     poses = [e for e in events if e["event"] == "pose"]
-    assert len(poses) >= 30 and events[-1]["verdict"] == "accepted"
+    assert len(poses) >= 15 and events[-1]["verdict"] == "accepted"
     assert any(e["event"] == "complete" for e in events)
