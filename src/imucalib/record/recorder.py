@@ -92,6 +92,7 @@ class Recorder:
         self.bad = 0  # lines left out of the session
         self.gaps = 0
         self.dropped_before_rest = 0  # samples of a rest that started again
+        self.restarts = 0
         self._raw = np.empty((4096, 7))
         self._lines: list[bytes] = []  # the lines of the samples [written, n)
         self._written = 0  # samples whose lines went to the sink
@@ -169,7 +170,8 @@ class Recorder:
             if self.final is not None:
                 verdict, reasons = self.final.fit.get("verdict"), list(self.final.fit.get("verdict_reasons") or [])
         self.emit({"event": "end", "lines": self.line_no, "samples": self.n, "bad_lines": self.bad,
-                   "gaps": self.gaps, "poses": len(self.poses), "complete": self.complete, "t": self._time(self.n - 1),
+                   "gaps": self.gaps, "rest_restarts": self.restarts, "left_out_before_rest": self.dropped_before_rest,
+                   "poses": len(self.poses), "complete": self.complete, "t": self._time(self.n - 1),
                    "verdict": verdict, "reasons": reasons[:3], "redo": self._redo(verdict, reasons),
                    "error": self.trial_error if verdict is None and self.poses else None})
 
@@ -375,6 +377,7 @@ class Recorder:
     def _restart(self, m: int, moved: float | None) -> None:
         """Drop the samples ``[0, m)``: the rest starts again after them (said once while the sensor keeps moving)."""
         self.dropped_before_rest += m
+        self.restarts += 1
         keep = self.n - m
         self._raw[:keep] = self._raw[m:self.n]
         del self._lines[:m]
@@ -613,6 +616,10 @@ class Recorder:
         if verdict == "accepted":
             return []
         out = list(reasons[:3])
+        if self.dropped_before_rest and len(self.poses) < 4:
+            out.append(f"keep the sensor still for the whole initial rest ({self.rest_seconds:g} s): it started again "
+                       f"{self.restarts} time(s), and the {self.dropped_before_rest} samples before its last start "
+                       "are not in the session (a recording with a shorter rest: --rest SECONDS)")
         if self.rest is None:
             return ["record the initial rest: the sensor still for "
                     f"{self.rest_seconds:g} s at the start", *out]
