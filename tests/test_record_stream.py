@@ -450,3 +450,58 @@ def test_a_reader_that_fails_ends_the_recorder_with_its_reason(tmp_path, short_s
     assert "the driver crashed" in result["error"] and str(tmp_path / "s.csv") in result["error"]
     kept = (tmp_path / "s.csv").read_bytes()
     assert kept and data.startswith(kept)
+
+
+def test_ctrl_c_on_a_silent_phyphox_phone(tmp_path):
+    """A phone that has sent a session and then nothing more: Ctrl-C ends it within a second, calibrated."""
+    import http.server
+    from urllib.parse import parse_qs, urlsplit
+
+    s = generate(np.random.default_rng(4), n_poses=12, rest=8.0, quantise=False)
+    rec, truth = s["recording"], s["truth"]
+    acc, gyro = truth.accelerometer_si(rec.acc), truth.gyroscope_si(rec.gyro, rec.acc)
+    t = rec.t
+
+    class Phone(http.server.BaseHTTPRequestHandler):
+        def log_message(self, *args):
+            pass
+
+        def do_GET(self):
+            url = urlsplit(self.path)
+            q = {k: v[0] for k, v in parse_qs(url.query).items()}
+            if url.path == "/control":
+                body = {"result": True}
+            else:
+                buf = {}
+                for name, x in (("acc", acc), ("gyr", gyro)):
+                    since = q[f"{name}_time"]
+                    keep = t > (-1.0 if since == "full" else float(since))
+                    buf[f"{name}_time"] = {"buffer": t[keep].tolist()}
+                    for j, c in enumerate("XYZ"):
+                        buf[f"{name}{c}"] = {"buffer": x[keep, j].tolist()}
+                body = {"buffer": buf, "status": {"measuring": True}}
+            data = json.dumps(body).encode()
+            self.send_response(200)
+            self.send_header("Content-Length", str(len(data)))
+            self.end_headers()
+            self.wfile.write(data)
+
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Phone)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    out = tmp_path / "s.csv"
+    try:
+        proc = subprocess.Popen([*CLI, "record", f"phyphox://127.0.0.1:{server.server_port}", "-o", str(out),
+                                 "--calibrate", str(tmp_path / "cal.json")], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, env=ENV)
+        _wait_rows(Path(str(out) + ".partial"), len(t) - 20, proc)  # every sample but the last block's
+        time.sleep(0.3)
+        proc.send_signal(signal.SIGINT)
+        took = _time_to_file(out, proc)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        server.shutdown()
+    assert proc.returncode == 0, stderr.decode()
+    assert took < 1.0, took
+    assert read(out).acc.shape[0] == len(t) and b"interrupted" in stdout
+    verdict = json.loads((tmp_path / "cal.json").read_text())["fit"]["verdict"]
+    assert stdout.decode().splitlines()[-1].startswith(f"verdict: {verdict} ")  # the last word is calibrate's
