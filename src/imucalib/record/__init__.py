@@ -35,6 +35,9 @@ uses (:mod:`.recorder`):
 * at the end, the calibration of the whole session: its verdict and what to
   record again.
 
+:class:`~imucalib.record.view.LiveView` (``imucalib record --view``) draws it
+live in the browser, from a local page of the standard library's HTTP server.
+
 Every event is a dict ``{"event": kind, ...}`` with sample indices (0-based,
 into the session's data rows) and times [s from its first sample]:
 ``format``, ``rest`` (countdown, restart, then done), ``holding``, ``pose``,

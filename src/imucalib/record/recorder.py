@@ -286,6 +286,11 @@ class Recorder:
 
     # --------------------------------------------------------- samples
     @property
+    def unparsed(self) -> int:
+        """The lines left out of the session (the older name of :attr:`bad`)."""
+        return self.bad
+
+    @property
     def t(self) -> np.ndarray:
         """Times of the samples so far [s from the first]."""
         return self._times(0, self.n)
