@@ -505,3 +505,35 @@ def test_ctrl_c_on_a_silent_phyphox_phone(tmp_path):
     assert read(out).acc.shape[0] == len(t) and b"interrupted" in stdout
     verdict = json.loads((tmp_path / "cal.json").read_text())["fit"]["verdict"]
     assert stdout.decode().splitlines()[-1].startswith(f"verdict: {verdict} ")  # the last word is calibrate's
+
+
+def test_a_killed_session_resumed(tmp_path, short_session):
+    """A run killed mid-session leaves its .partial; --resume follows it again and appends the stream's rest."""
+    csv, _ = short_session
+    data = _rows(csv)
+    out = tmp_path / "s.csv"
+    proc = subprocess.Popen([*CLI, "record", "-", "-o", str(out)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, env=ENV)
+    proc.stdin.write(b"".join(data[:5001]))
+    proc.stdin.flush()
+    _wait_rows(tmp_path / "s.csv.partial", 4991, proc)
+    proc.kill()
+    proc.wait(timeout=60)
+    proc.stdin.close()
+    proc.stdout.close()
+    proc.stderr.close()
+    kept = (tmp_path / "s.csv.partial").read_bytes().splitlines(keepends=True)
+    assert kept == data[:len(kept)]
+    # the logger's stream again from a few rows before where the file ends, with its header
+    again = [data[0], *data[len(kept) - 5:]]
+    run = _run(["-", "-o", str(out), "--resume", "--events", str(tmp_path / "e.jsonl")],
+               input=b"".join(again).decode())
+    assert run.returncode == 0, run.stderr
+    assert out.read_bytes() == b"".join(data) and not (tmp_path / "s.csv.partial").exists()
+    events = _events((tmp_path / "e.jsonl").read_text())
+    bad = [e for e in events if e["event"] == "warning" and e["kind"] == "bad_line"]
+    # the stream's header and its five rows the file has already: left out, one note each, numbered after the file's
+    assert [e["line"] for e in bad] == list(range(len(kept) + 1, len(kept) + 7))
+    assert "not a row" in bad[0]["reason"] and all("backwards" in e["reason"] for e in bad[1:-1])
+    assert "repeated" in bad[-1]["reason"]  # the last row the file holds, sent again
+    assert events[-1]["verdict"] == "accepted"

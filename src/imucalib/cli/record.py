@@ -230,14 +230,15 @@ def cmd_record(args: argparse.Namespace) -> int:
                               else [])
     if args.calibrate:
         output_target(args.calibrate)  # refused now, not after the session
-    writer = SessionWriter(args.output, force=args.force)
+    writer = SessionWriter(args.output, force=args.force, resume=args.resume)
     ended: dict = {}
     try:
         view = _view(sys.stderr if args.events == "-" else sys.stdout, bell=not args.no_bell)
         log = EventLog(args.events)
     except BaseException:
         writer.finish(rename=False)
-        writer.partial.unlink()
+        if not writer.resumed:
+            writer.partial.unlink()
         raise
 
     page = None
@@ -268,7 +269,7 @@ def cmd_record(args: argparse.Namespace) -> int:
         with open_source(args.source) as stream:
             result = record(stream, writer, recorder)
     except BaseException:
-        if writer.lines == 0:  # nothing was recorded: no empty .partial left behind
+        if writer.lines == 0 and not writer.resumed:  # nothing was recorded: no empty .partial left behind
             writer.finish(rename=False)
             writer.partial.unlink(missing_ok=True)
         raise
@@ -330,6 +331,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "checklist)")
     p.add_argument("--view-port", type=int, default=0, metavar="PORT", help="the local port of --view (default: "
                    "any free one)")
+    p.add_argument("--resume", action="store_true", help="continue the session an earlier run left in "
+                   "OUTPUT.partial (killed, or its stream lost): its lines are followed again, the stream's rows "
+                   "appended (its header lines and rows stamped before the last one are left out)")
     p.add_argument("--no-bell", action="store_true", help="no terminal bell when a pose is held")
     p.add_argument("--calibrate", metavar="CAL.json", help="calibrate the session at the end and write this file")
     p.add_argument("--rest", type=positive_float, default=5.0, help="seconds of initial rest to count down "

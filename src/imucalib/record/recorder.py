@@ -141,6 +141,11 @@ class Recorder:
         self.end_stream()
         self.conclude()
 
+    def mark_written(self) -> None:
+        """Take every line so far as in the session file already (a session resumed from its ``.partial``)."""
+        self._lines = []
+        self._written = self.n
+
     def unread(self, more: list | None = None) -> list[bytes]:
         """The lines taken but not followed (the head, when the stream is not a table), ``more`` after them; cleared."""
         head = [ln for ln in [*self._head, *(more or [])] if not isinstance(ln, TooLong)]
@@ -277,7 +282,8 @@ class Recorder:
     def _write(self, stop: int) -> None:
         """Hand the lines of samples ``[written, stop)`` to the sink."""
         k = stop - self._written
-        if k <= 0:
+        if k <= 0 or not self._lines:
+            self._written = max(self._written, stop)
             return
         if self.sink is not None:
             self.sink(self._lines[:k])

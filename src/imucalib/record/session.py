@@ -28,12 +28,14 @@ from .sources import Source, SourceGone, as_source
 __all__ = ["SessionWriter", "RecordResult", "record", "check_session_output"]
 
 
-def check_session_output(output: str | Path, *, force: bool = False) -> tuple[Path, Path]:
+def check_session_output(output: str | Path, *, force: bool = False, resume: bool = False) -> tuple[Path, Path]:
     """The file a session goes to and its ``.partial``, or the reason they cannot be written (an exception).
 
     Raises ``FileExistsError`` for an existing session (without ``force``)
-    and for an existing ``.partial``; ``ValueError``, ``OSError`` for what
-    :mod:`imucalib.io.atomic` refuses, and for a FIFO or device.
+    and for an existing ``.partial`` (without ``resume``: then it must be a
+    regular file, not a link, ending with a whole line); ``ValueError``,
+    ``OSError`` for what :mod:`imucalib.io.atomic` refuses, and for a FIFO or
+    device.
     """
     from ..io.atomic import output_target
 
@@ -49,10 +51,19 @@ def check_session_output(output: str | Path, *, force: bool = False) -> tuple[Pa
         raise FileExistsError(f"{output}: a session is already there; it is kept: give a new name "
                                             "(or --force to replace it at the end of this one)")
     partial = target.with_name(target.name + ".partial")
-    if partial.exists() or partial.is_symlink():
-        raise FileExistsError(f"{partial}: an unfinished session of an earlier run is there; it "
-                                            "is never overwritten: calibrate or rename it (imucalib calibrate "
-                                            f"{partial}), or give -o another name")
+    if resume:
+        if partial.is_symlink() or not partial.is_file():
+            raise ValueError(f"--resume: {partial} is not a regular file (nothing to resume, or a link): give -o "
+                             "the session to continue")
+        with open(partial, "rb") as fh:
+            fh.seek(max(partial.stat().st_size - 1, 0))
+            if fh.read(1) not in (b"\n", b""):
+                raise ValueError(f"--resume: {partial} ends inside a line (the run was killed while writing it); "
+                                 "calibrate it as it is, or give -o another name")
+    elif partial.exists() or partial.is_symlink():
+        raise FileExistsError(f"{partial}: an unfinished session of an earlier run is there; it is never "
+                              f"overwritten: continue it (--resume), calibrate or rename it (imucalib calibrate "
+                              f"{partial}), or give -o another name")
     return target, partial
 
 
@@ -61,18 +72,25 @@ class SessionWriter:
 
     Thread-safe. ``OUTPUT`` is checked by :func:`check_session_output`; the
     ``.partial`` is created new (never through a symbolic link, never over a
-    file).
+    file) — or, with ``resume``, an existing one is appended to (its lines in
+    :attr:`resumed`, for the recorder to follow first).
     """
 
-    def __init__(self, output: str | Path, *, force: bool = False) -> None:
-        self.output, self.partial = check_session_output(output, force=force)
-        flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
-        try:
-            fd = os.open(self.partial, flags, 0o666)
-        except FileExistsError:
-            raise FileExistsError(f"{self.partial}: appeared meanwhile; it is never overwritten: "
-                                                "give -o another name") from None
-        self._fh = os.fdopen(fd, "wb")
+    def __init__(self, output: str | Path, *, force: bool = False, resume: bool = False) -> None:
+        self.output, self.partial = check_session_output(output, force=force, resume=resume)
+        nofollow = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+        self.resumed: list[bytes] = []
+        if resume:
+            fd = os.open(self.partial, os.O_RDWR | os.O_APPEND | nofollow)
+            with open(fd, "rb", closefd=False) as fh:
+                self.resumed = fh.read().splitlines(keepends=True)
+        else:
+            try:
+                fd = os.open(self.partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL | nofollow, 0o666)
+            except FileExistsError:
+                raise FileExistsError(f"{self.partial}: appeared meanwhile; it is never overwritten: "
+                                      "give -o another name") from None
+        self._fh = os.fdopen(fd, "ab" if resume else "wb")
         self._lock = threading.Lock()
         self.lines = 0
 
@@ -199,6 +217,16 @@ def record(stream, output: str | Path | SessionWriter, recorder: Recorder, *, po
         Reading the stream failed (the session so far is at ``output``).
     """
     writer = output if isinstance(output, SessionWriter) else SessionWriter(output, force=force)
+    if writer.resumed:  # the session so far, followed again; its lines are in the file already
+        from .recorder import HEAD_LINES
+
+        if len(writer.resumed) < HEAD_LINES:
+            writer.finish(rename=False)
+            raise ValueError(f"--resume: {writer.partial} holds {len(writer.resumed)} lines, fewer than the "
+                             f"{HEAD_LINES} the layout is read from: give -o another name")
+        recorder.sink = None
+        recorder.feed(writer.resumed)
+        recorder.mark_written()
     recorder.sink = writer.write_lines
     source = as_source(stream)
     q: queue.Queue = queue.Queue()
