@@ -116,6 +116,7 @@ class Recorder:
         self.suggestion: np.ndarray | None = None
         self._countdown = None
         self._restarted = False
+        self._closing = False
         self._held_said = -1.0
         self._last_warning: dict[str, float] = {}
         self._checked = 0  # samples checked against the gyroscope's range and for fast rotations
@@ -161,6 +162,7 @@ class Recorder:
                 self._decided(decision)
         self._analyse(final=True)
         if self.detector is not None:
+            self._closing = True  # the last pose: no trial calibration, conclude() calibrates the whole session
             for iv in self.detector.close():
                 self._interval(iv, self.n)
         elif self.n:  # the stream ended during the initial rest: keep what was recorded
@@ -524,6 +526,8 @@ class Recorder:
                    "up": up.tolist(), "words": describe_direction(up), "directions_from": self.source_of_directions,
                    "already_held": before, "coverage": coverage, "directions": self.directions.tolist(),
                    "checklist": self._checklist().as_event()})
+        if self._closing:
+            return
         if not self.complete:
             self._try_calibration(m)
         if not self.complete:
