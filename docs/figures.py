@@ -126,6 +126,55 @@ def coverage_sphere(plt, cache: dict) -> None:
         ax.view_init(elev=18, azim=-60)
 
 
+@_figure("record_view.png")
+def record_view(plt, cache: dict) -> None:
+    """What ``imucalib record --view`` draws, six poses into a session: the halves of the sphere, the checklist."""
+    import tempfile
+
+    from imucalib.io import write_csv
+    from imucalib.record import Recorder
+
+    sim, _ = cache.setdefault("handheld", _handheld())
+    with tempfile.TemporaryDirectory() as tmp:
+        write_csv(Path(tmp) / "s.csv", sim.recording)
+        lines = (Path(tmp) / "s.csv").read_bytes().splitlines(keepends=True)
+    events: list[dict] = []
+    recorder = Recorder(events.append)
+    for k in range(0, len(lines), 10):
+        recorder.feed(lines[k:k + 10])
+        if sum(e["event"] == "pose" for e in events) >= 6:
+            break
+    pose = [e for e in events if e["event"] == "pose"][-1]
+    nxt = [e for e in events if e["event"] == "next_pose"][-1]
+    dirs = np.asarray(pose["directions"])
+    fig, axes = plt.subplots(1, 3, figsize=(10, 3.6), constrained_layout=True,
+                             gridspec_kw={"width_ratios": [1, 1, 1.2]})
+    t = np.linspace(0, 2 * np.pi, 200)
+    for ax, sign, title in ((axes[0], 1, "z up half (from above)"), (axes[1], -1, "z down half (from below)")):
+        ax.plot(np.cos(t), np.sin(t), color="0.6", lw=0.8)
+        mine = dirs[np.sign(dirs[:, 2] + 1e-12) == sign]
+        ax.scatter(mine[:, 0], sign * mine[:, 1], s=60, c="C2", edgecolors="k", zorder=3, label="held")
+        for u, style in ((np.asarray(nxt["up"]), dict(s=180, facecolors="none", edgecolors="C1", linewidths=2,
+                                                              label="suggested next")),):
+            if np.sign(u[2] + 1e-12) == sign:
+                ax.scatter([u[0]], [sign * u[1]], zorder=4, **style)
+        ax.set_aspect("equal")
+        ax.set_xlim(-1.15, 1.15)
+        ax.set_ylim(-1.15, 1.15)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        ax.set_title(title, fontsize=9)
+    axes[0].legend(loc="lower left", fontsize=7, frameon=False)
+    cl = pose["checklist"]
+    text = [f"pose {pose['pose']} done: {pose['words']}", f"now turn to {nxt['words']}", "", "faces:"]
+    text += [f"  {'[x]' if ok else '[ ]'} {name}" for name, ok in cl["faces"].items()]
+    text += [f"corners {cl['corners']}/8, turned about "
+             + " ".join(a for a, ok in cl["turned"].items() if ok), "still missing:"]
+    text += [f"  {m}" for m in cl["missing"][:6]]
+    axes[2].axis("off")
+    axes[2].text(0, 1, "\n".join(text), va="top", family="monospace", fontsize=7.5, transform=axes[2].transAxes)
+
+
 @_figure("tremor_creep.png")
 def tremor_creep(plt, cache: dict) -> None:
     """A hold that begins with creep, and the spectrum of hand tremor (sway 0.5–2 Hz, tremor 8–12 Hz)."""

@@ -4,12 +4,18 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+import tempfile
 from pathlib import Path
 
 from ._common import CliError, add_gravity_option, add_method_option, normalise_argv, positive_float
 
 __all__ = ["register", "cmd_record"]
+
+
+def _held_as(k: int | None) -> str:
+    return "" if k is None else " (already held as the initial rest)" if k == 0 else f" (already held as pose {k})"
 
 
 def _lines_for(event: dict) -> list[str]:
@@ -20,36 +26,73 @@ def _lines_for(event: dict) -> list[str]:
         return [f"reading the stream: accelerometer in {event['acc_unit']}, gyroscope in {event['gyro_unit']}, "
                 f"time from the {event['time'] if event['time'] != 'column' else 'time column'}", *notes]
     if kind == "rest":
+        if event.get("restart"):
+            return [f"initial rest: {event['message']}"]
         if event.get("remaining_s"):
             return [f"initial rest: keep the sensor still on the table … {event['remaining_s']} s"]
-        return [f"initial rest done ({event['t']:.1f} s): take the first pose"]
+        return [f"initial rest done ({event['t']:.1f} s): take the first pose and hold it still"]
+    if kind == "holding":
+        to = (f"; the suggested pose is {event['to_suggestion_deg']:.0f}° away" if "to_suggestion_deg" in event
+              else "")
+        if event.get("already_held") is not None:
+            return [f"  holding {event['words']} … {event['seconds']:.1f} s{_held_as(event['already_held'])}: "
+                    "turn to a new orientation"]
+        if event.get("enough"):
+            return [f"  holding {event['words']} … {event['seconds']:.1f} s: held — now turn to the next pose{to}"]
+        return [f"  holding {event['words']} … {event['seconds']:.1f} s, keep still{to}"]
     if kind == "pose":
-        cov = " ".join(f"{a}[{lo:+.1f},{hi:+.1f}]" for a, (lo, hi) in event["coverage"].items())
-        return [f"pose {event['pose']} held {event['seconds']:.1f} s at t = {event['t_start']:.1f} s: "
-                f"{event['words']}   coverage {cov}"]
+        cl = event.get("checklist") or {}
+        missing = cl.get("missing")
+        src = "" if event.get("directions_from") != "raw" else " (direction from raw readings: rough)"
+        out = [f"pose {event['pose']} done ({event['seconds']:.1f} s at t = {event['t_start']:.1f} s): "
+               f"{event['words']}{src}{_held_as(event.get('already_held'))}"]
+        if cl:
+            faces = " ".join(f"[{'x' if ok else ' '}] {name}" for name, ok in cl["faces"].items())
+            out.append(f"  faces {faces}   corners {cl['corners']}/8   turned about "
+                       + " ".join(f"[{'x' if ok else ' '}] {a}" for a, ok in cl["turned"].items()))
+        if missing:
+            out.append(f"  still missing: {', '.join(missing)}")
+        return out
     if kind == "next_pose":
         then = f" (then {', then '.join(event['then'])})" if event.get("then") else ""
-        return [f"  next: {event['words']}{then}"]
+        return [f"  now turn to {event['words']} — {event.get('turn_deg', float('nan')):.0f}° from this pose{then}"]
     if kind == "warning":
         return [f"warning: {event['message']}"]
+    if kind == "silence":
+        return [f"waiting: {event['message']}"]
     if kind == "complete":
         return [f"COMPLETE after pose {event['poses']} (t = {event['t']:.1f} s): {event['message']}"]
     if kind == "end":
-        return [f"end of the stream: {event['lines']} lines, {event['samples']} samples, {event['poses']} poses"
-                + (f", {event['unparsed_lines']} line(s) that do not parse (kept in the file)"
-                   if event["unparsed_lines"] else "")
-                + ("" if event["complete"] else "; not yet enough for an accepted calibration")]
+        out = [f"end of the stream: {event['lines']} lines, {event['samples']} samples, {event['poses']} poses"
+               + (f", {event['bad_lines']} line(s) left out" if event.get("bad_lines") else "")
+               + (f", {event['gaps']} gap(s)" if event.get("gaps") else "")]
+        return out
     return [json.dumps(event)]
 
 
-class PlainView:
-    """Every event as plain lines on ``out``."""
+def verdict_line(event: dict) -> str:
+    """The last line of a session: the verdict of its calibration and what to redo (an ``end`` event)."""
+    verdict = event.get("verdict")
+    redo = "; ".join(event.get("redo") or ["record the session again"])
+    if verdict == "accepted":
+        return "verdict: accepted — the session calibrates; nothing to redo"
+    if verdict is not None:
+        return f"verdict: {verdict} — redo: {redo}"
+    return ("verdict: none, the session does not calibrate" + (f" ({event['error']})" if event.get("error") else "")
+            + f" — redo: {redo}")
 
-    def __init__(self, out) -> None:
-        self.out = out
+
+class PlainView:
+    """Every event as plain lines on ``out``; a terminal bell with each pose when ``bell``."""
+
+    def __init__(self, out, *, bell: bool = False) -> None:
+        self.out, self.bell = out, bell
 
     def __call__(self, event: dict) -> None:
-        for line in _lines_for(event):
+        lines = _lines_for(event)
+        if self.bell and event["event"] == "pose" and lines:
+            lines[0] = "\a" + lines[0]
+        for line in lines:
             print(line, file=self.out, flush=True)
 
     def close(self) -> None:
@@ -59,11 +102,12 @@ class PlainView:
 class RichView:
     """A live terminal view (rich): the rest countdown, poses held, coverage, the next pose, the last warnings."""
 
-    def __init__(self, out) -> None:
+    def __init__(self, out, *, bell: bool = False) -> None:
         from rich.console import Console
         from rich.live import Live
 
         self.console = Console(file=out)
+        self.out, self.bell = out, bell
         self.state = {"status": "waiting for the stream …", "poses": [], "next": "", "warnings": [],
                       "coverage": {}, "complete": None}
         self.live = Live(self._render(), console=self.console, refresh_per_second=8, transient=False)
@@ -80,6 +124,8 @@ class RichView:
         table.add_row("poses held", str(len(s["poses"])) + (f"  (last: {s['poses'][-1]})" if s["poses"] else ""))
         if s["coverage"]:
             table.add_row("coverage", "  ".join(f"{a} {lo:+.1f}..{hi:+.1f}" for a, (lo, hi) in s["coverage"].items()))
+        if s.get("missing"):
+            table.add_row("still missing", ", ".join(s["missing"]))
         if s["next"]:
             table.add_row("next pose", f"[bold cyan]{s['next']}[/]")
         if s["complete"]:
@@ -96,6 +142,11 @@ class RichView:
         elif kind == "pose":
             s["poses"].append(event["words"])
             s["coverage"] = event["coverage"]
+            s["missing"] = (event.get("checklist") or {}).get("missing", [])
+            if self.bell:
+                self.out.write("\a")
+        elif kind == "holding":
+            s["status"] = _lines_for(event)[0].strip()
         elif kind == "next_pose":
             s["next"] = event["words"]
         elif kind == "warning":
@@ -103,38 +154,55 @@ class RichView:
         elif kind == "complete":
             s["complete"] = event["message"]
             s["next"] = ""
-        elif kind in ("format", "end"):
-            s["status"] = _lines_for(event)[0]
+        elif kind in ("format", "end", "silence"):
+            s["status"] = " ".join(_lines_for(event))
         self.live.update(self._render())
 
     def close(self) -> None:
         self.live.stop()
 
 
-def _view(out):
-    """Rich's live view on a terminal that has it, else plain lines."""
+def _view(out, *, bell: bool = True):
+    """Rich's live view on a terminal that has it, else plain lines; the bell on a terminal only."""
     if out.isatty():
         try:
-            return RichView(out)
+            return RichView(out, bell=bell)
         except ImportError:
             pass
-    return PlainView(out)
+    return PlainView(out, bell=bell and out.isatty())
 
 
 class EventLog:
-    """Each event as one JSON line: on stdout (``-``) or in ``FILE.partial``, renamed to ``FILE`` at the end."""
+    """Each event as one JSON line: on stdout (``-``), into a FIFO or device as a stream, or into a file.
+
+    A file is written under a hidden temporary name next to it and moved into
+    place at the end (:mod:`imucalib.io.atomic`'s rules: a symbolic link
+    followed, a read-only file, a directory, a block device or socket refused).
+    """
 
     def __init__(self, target: str | None) -> None:
+        from ..io.atomic import output_target, temporary_prefix
+
         self.target = target
         self.fh = None
+        self.tmp = None
         if target == "-":
             self.fh = sys.stdout
         elif target:
-            path = Path(target)
+            try:
+                path, stream = output_target(target)
+            except (ValueError, OSError) as exc:
+                raise CliError(f"--events {exc}") from None
             if not path.parent.is_dir():
                 raise CliError(f"--events {target}: its directory does not exist")
-            self.partial = path.with_name(path.name + ".partial")
-            self.fh = open(self.partial, "w", encoding="utf-8")  # noqa: SIM115 (closed by close)
+            self.path = path
+            if stream:
+                flags = os.O_WRONLY | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
+                self.fh = os.fdopen(os.open(path, flags), "w", encoding="utf-8")
+            else:
+                fd, name = tempfile.mkstemp(dir=path.parent, prefix=temporary_prefix(path), suffix=".tmp")
+                self.tmp = Path(name)
+                self.fh = os.fdopen(fd, "w", encoding="utf-8")
 
     def __call__(self, event: dict) -> None:
         if self.fh is not None:
@@ -142,76 +210,131 @@ class EventLog:
             self.fh.flush()
 
     def close(self) -> None:
-        if self.fh is not None and self.target != "-":
+        if self.fh is None or self.target == "-":
+            return
+        self.fh.close()
+        self.fh = None
+        if self.tmp is not None:
             from ..io.atomic import move_into_place
 
-            self.fh.close()
-            move_into_place(self.partial, Path(self.target))
+            move_into_place(self.tmp, self.path)
 
 
 def cmd_record(args: argparse.Namespace) -> int:
     """``imucalib record``: :func:`imucalib.record.record` with a live view, the events, then calibrate."""
-    from ..io.atomic import refuse_overwriting_inputs
-    from ..record import Recorder, open_source, record
+    from ..io.atomic import output_target, refuse_overwriting_inputs
+    from ..record import Recorder, SessionWriter, open_source, record
 
-    out = Path(args.output)
-    if out.suffix == ".partial":
-        raise CliError(f"-o {out}: name the finished file; {out}.partial is written while recording")
     refuse_overwriting_inputs([args.output, args.events if args.events != "-" else None, args.calibrate],
                               [args.source[len("serial:"):].split("?")[0]] if args.source.startswith("serial:")
                               else [])
-    view = _view(sys.stderr if args.events == "-" else sys.stdout)
-    log = EventLog(args.events)
+    if args.calibrate:
+        output_target(args.calibrate)  # refused now, not after the session
+    writer = SessionWriter(args.output, force=args.force, resume=args.resume)
+    ended: dict = {}
+    try:
+        view = _view(sys.stderr if args.events == "-" else sys.stdout, bell=not args.no_bell)
+        log = EventLog(args.events)
+    except BaseException:
+        writer.finish(rename=False)
+        if not writer.resumed:
+            writer.partial.unlink()
+        raise
+
+    page = None
+    if args.view:
+        import webbrowser
+
+        from ..record.view import LiveView
+
+        page = LiveView(port=args.view_port)
+        (print if args.events != "-" else lambda m: print(m, file=sys.stderr))(f"live view: {page.url}")
+        webbrowser.open(page.url)
 
     def on_event(event: dict) -> None:
         log(event)
         view(event)
+        if page is not None:
+            page(event)
+        if event["event"] == "end":
+            ended.update(event)
 
     try:
         recorder = Recorder(on_event, method=args.method, gravity=args.gravity, rest=args.rest,
                             columns=args.columns.split(",") if args.columns else None, acc_unit=args.acc_unit,
                             gyro_unit=args.gyro_unit, time_unit=args.time_unit, rate=args.rate,
-                            gyro_range=args.gyro_range, directory=out.parent)
+                            gyro_range=args.gyro_range, directory=writer.output.parent)
+        if page is not None:
+            page.recorder = recorder
         with open_source(args.source) as stream:
-            result = record(stream, out, recorder)
+            result = record(stream, writer, recorder)
+    except BaseException:
+        if writer.lines == 0 and not writer.resumed:  # nothing was recorded: no empty .partial left behind
+            writer.finish(rename=False)
+            writer.partial.unlink(missing_ok=True)
+        raise
     finally:
         view.close()
         log.close()
+        if page is not None:
+            page.close()
     say = (lambda m: print(m, file=sys.stderr)) if args.events == "-" else print
-    say(f"session written to {result.path}" + (" (interrupted: the lines read until then)"
-                                                 if result.interrupted else ""))
-    if not args.calibrate:
-        return 0
-    from . import calibration
+    how = " (interrupted: the lines read until then)" if result.interrupted else \
+        f" ({result.ended}: the session ends there)" if result.ended else ""
+    say(f"session written to {result.path}{how}")
+    code = 0
+    if args.calibrate:
+        from . import calibration
 
-    parser = argparse.ArgumentParser(prog="imucalib")
-    calibration.register(parser.add_subparsers(dest="command"))
-    argv = ["calibrate", str(result.path), "--method", args.method, "--gravity", str(args.gravity),
-            "-o", args.calibrate]
-    for flag, value in (("--columns", args.columns), ("--acc-unit", args.acc_unit), ("--gyro-unit", args.gyro_unit),
-                        ("--time-unit", args.time_unit), ("--rate", args.rate)):
-        if value is not None:
-            argv += [flag, str(value)]
-    if args.events == "-":
-        argv.append("--json")
-    cal_args = parser.parse_args(normalise_argv(argv))
-    return int(cal_args.func(cal_args) or 0)
+        parser = argparse.ArgumentParser(prog="imucalib")
+        calibration.register(parser.add_subparsers(dest="command"))
+        argv = ["calibrate", str(result.path), "--method", args.method, "--gravity", str(args.gravity),
+                "-o", args.calibrate]
+        for flag, value in (("--columns", args.columns), ("--acc-unit", args.acc_unit),
+                            ("--gyro-unit", args.gyro_unit), ("--time-unit", args.time_unit), ("--rate", args.rate)):
+            if value is not None:
+                argv += [flag, str(value)]
+        if args.events == "-":
+            argv.append("--json")
+        cal_args = parser.parse_args(normalise_argv(argv))
+        try:
+            code = int(cal_args.func(cal_args) or 0)
+        except (ValueError, OSError, CliError) as exc:  # said here, so that the verdict stays the last line
+            print(f"imucalib calibrate: error: {exc}", file=sys.stderr)
+            code = 2
+    if ended:
+        say(verdict_line(ended))
+    return code
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add record to the ``imucalib`` sub-commands."""
     p = sub.add_parser("record", help="record a session from a live stream, guided pose by pose",
                        description="Read a sensor's live text stream (one sample per line, any layout the CSV "
-                       "reader takes), write every line to OUTPUT as it comes (OUTPUT.partial until the end), "
-                       "and say what to do: the initial rest's countdown, each pose held, the coverage, the next "
-                       "pose to take, warnings (too fast, wobbling) and 'complete' once the poses support an "
-                       "accepted calibration. Ctrl-C or the end of the stream finishes.")
+                       "reader takes), write its header and rows to OUTPUT as they come (OUTPUT.partial until the "
+                       "end; lines that are not rows are left out, each with a note), and say what to do: the "
+                       "initial rest's countdown, each pose while held and once done, the checklist of what is "
+                       "missing, the next pose to take, warnings (too fast, wobbling, gaps) and 'complete' once "
+                       "the poses support an accepted calibration; the last line is the session's verdict. "
+                       "Ctrl-C, SIGTERM or the end of the stream finishes.")
     p.add_argument("source", help="- (standard input), serial:/dev/ttyUSB0?baud=115200 (pyserial), tcp://HOST:PORT, "
                    "or phyphox://HOST:8080 (phyphox's remote access)")
-    p.add_argument("-o", "--output", required=True, help="the session file to write (CSV, the lines as read)")
+    p.add_argument("-o", "--output", required=True, help="the session file to write (CSV: the header and rows as "
+                   "read); an existing one is kept unless --force")
     p.add_argument("--events", metavar="FILE", help="also write every event as one JSON line to FILE (- for "
                    "stdout, the view then on stderr)")
     add_method_option(p, help="the method the session is for")
+    p.add_argument("--force", action="store_true", help="replace an existing session at OUTPUT at the end (it is "
+                   "kept otherwise)")
+    p.add_argument("--view", action="store_true", help="open a live picture in the browser (a local page: the "
+                   "coverage sphere with the poses held, the current orientation, the suggested next one, the "
+                   "checklist)")
+    p.add_argument("--view-port", type=int, default=0, metavar="PORT", help="the local port of --view (default: "
+                   "any free one)")
+    p.add_argument("--resume", action="store_true", help="continue the session an earlier run left in "
+                   "OUTPUT.partial (killed, or its stream lost): its lines are followed again, the stream's rows "
+                   "appended (its header lines and rows stamped before the last one are left out)")
+    p.add_argument("--no-bell", action="store_true", help="no terminal bell when a pose is held")
     p.add_argument("--calibrate", metavar="CAL.json", help="calibrate the session at the end and write this file")
     p.add_argument("--rest", type=positive_float, default=5.0, help="seconds of initial rest to count down "
                    "(default 5)")

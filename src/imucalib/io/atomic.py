@@ -49,7 +49,7 @@ from pathlib import Path
 from typing import IO
 
 __all__ = ["OutputIsInputError", "atomic_create", "atomic_path", "atomic_write", "move_into_place",
-           "refuse_overwriting_inputs",
+           "output_target", "refuse_overwriting_inputs",
            "temporary_prefix"]
 
 
@@ -97,6 +97,17 @@ def _target(path: str | Path) -> tuple[Path, bool]:
         raise PermissionError(errno.EACCES, f"{path}: the file is read-only for you; it is not replaced (make it "
                                             "writable, or give another name)")
     return path, False
+
+
+def output_target(path: str | Path) -> tuple[Path, bool]:
+    """The file an output named ``path`` goes to, and whether it is a stream written into (a FIFO or device).
+
+    The checks every writer here makes, for writers that write the file
+    themselves (a recording kept as it comes): a symbolic link followed;
+    ``-``, a directory, a block device, a socket and a read-only file refused
+    (``ValueError``, ``OSError``).
+    """
+    return _target(path)
 
 
 def _stream(target: Path, mode: str, text: dict) -> IO:

@@ -1,0 +1,301 @@
+"""The session file and the loop that records a stream into it: :class:`SessionWriter`, :func:`record`.
+
+The session's lines go to ``OUTPUT.partial`` as they are kept (flushed:
+readable at any time, and after a killed process), which is renamed to
+``OUTPUT`` on a clean finish. What is at ``OUTPUT`` is never destroyed: the
+rules of :mod:`imucalib.io.atomic` (a symbolic link followed to the file it
+names, never replaced by a file; a block device, a socket, a directory and a
+read-only file refused), and beyond them: a FIFO or a character device is
+refused (a session is a file that ``calibrate`` reads back), an existing
+session is kept unless ``force``, and an existing ``OUTPUT.partial`` — a
+session an earlier run left unfinished — is never truncated or appended to.
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import signal
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from .lines import LineSplitter
+from .recorder import Recorder
+from .sources import Source, SourceGone, as_source
+
+__all__ = ["SessionWriter", "RecordResult", "record", "check_session_output"]
+
+
+def check_session_output(output: str | Path, *, force: bool = False, resume: bool = False) -> tuple[Path, Path]:
+    """The file a session goes to and its ``.partial``, or the reason they cannot be written (an exception).
+
+    Raises ``FileExistsError`` for an existing session (without ``force``)
+    and for an existing ``.partial`` (without ``resume``: then it must be a
+    regular file, not a link, ending with a whole line); ``ValueError``,
+    ``OSError`` for what :mod:`imucalib.io.atomic` refuses, and for a FIFO or
+    device.
+    """
+    from ..io.atomic import output_target
+
+    if str(output).endswith(".partial"):
+        raise ValueError(f"-o {output}: name the finished file; {output}.partial is written while recording")
+    target, stream = output_target(output)
+    if stream:
+        raise ValueError(f"{output}: is a FIFO or a device; a session is a file that calibrate reads back: "
+                         "give a file name")
+    if not target.parent.is_dir():
+        raise ValueError(f"{target}: its directory does not exist")
+    if (target.exists() or target.is_symlink()) and not force:
+        raise FileExistsError(f"{output}: a session is already there; it is kept: give a new name "
+                                            "(or --force to replace it at the end of this one)")
+    partial = target.with_name(target.name + ".partial")
+    if resume:
+        if partial.is_symlink() or not partial.is_file():
+            raise ValueError(f"--resume: {partial} is not a regular file (nothing to resume, or a link): give -o "
+                             "the session to continue")
+        with open(partial, "rb") as fh:
+            fh.seek(max(partial.stat().st_size - 1, 0))
+            if fh.read(1) not in (b"\n", b""):
+                raise ValueError(f"--resume: {partial} ends inside a line (the run was killed while writing it); "
+                                 "calibrate it as it is, or give -o another name")
+    elif partial.exists() or partial.is_symlink():
+        raise FileExistsError(f"{partial}: an unfinished session of an earlier run is there; it is never "
+                              f"overwritten: continue it (--resume), calibrate or rename it (imucalib calibrate "
+                              f"{partial}), or give -o another name")
+    return target, partial
+
+
+class SessionWriter:
+    """Lines written to ``OUTPUT.partial`` as they come, flushed; :meth:`finish` renames it to ``OUTPUT``.
+
+    Thread-safe. ``OUTPUT`` is checked by :func:`check_session_output`; the
+    ``.partial`` is created new (never through a symbolic link, never over a
+    file) — or, with ``resume``, an existing one is appended to (its lines in
+    :attr:`resumed`, for the recorder to follow first).
+    """
+
+    def __init__(self, output: str | Path, *, force: bool = False, resume: bool = False) -> None:
+        self.output, self.partial = check_session_output(output, force=force, resume=resume)
+        nofollow = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+        self.resumed: list[bytes] = []
+        if resume:
+            fd = os.open(self.partial, os.O_RDWR | os.O_APPEND | nofollow)
+            with open(fd, "rb", closefd=False) as fh:
+                self.resumed = fh.read().splitlines(keepends=True)
+        else:
+            try:
+                fd = os.open(self.partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL | nofollow, 0o666)
+            except FileExistsError:
+                raise FileExistsError(f"{self.partial}: appeared meanwhile; it is never overwritten: "
+                                      "give -o another name") from None
+        self._fh = os.fdopen(fd, "ab" if resume else "wb")
+        self._lock = threading.Lock()
+        self.lines = 0
+
+    def write(self, line: bytes) -> bool:
+        """Append one line (newline included); False once finished."""
+        return self.write_lines([line])
+
+    def write_lines(self, lines: list[bytes]) -> bool:
+        """Append lines (newlines included) and flush; False once finished."""
+        with self._lock:
+            if self._fh is None:
+                return False
+            self._fh.writelines(lines)
+            self._fh.flush()
+            self.lines += len(lines)
+            return True
+
+    def finish(self, *, rename: bool = True) -> Path:
+        """Close the file (synced to the disk) and move it onto ``OUTPUT``; returns the file's path."""
+        with self._lock:
+            if self._fh is not None:
+                self._fh.flush()
+                os.fsync(self._fh.fileno())
+                self._fh.close()
+                self._fh = None
+        if not rename:
+            return self.partial
+        if not self.partial.exists():
+            return self.output
+        from ..io.atomic import move_into_place
+
+        move_into_place(self.partial, self.output)
+        return self.output
+
+
+@dataclass
+class RecordResult:
+    """What :func:`record` did: the file, lines read, lines left out, poses, complete, interrupted, how it ended."""
+
+    path: Path
+    lines: int
+    bad: int
+    poses: int
+    complete: bool
+    interrupted: bool
+    ended: str | None = None  # how the source ended when it went away (a device unplugged, a peer gone)
+
+    @property
+    def unparsed(self) -> int:
+        """The lines left out (the older name)."""
+        return self.bad
+
+
+@dataclass
+class _End:
+    reason: str | None
+
+
+@dataclass
+class _Failed:
+    error: BaseException
+
+
+def _pump(source: Source, q: queue.Queue, stop: threading.Event, poll: float) -> None:
+    """Read the source until it ends or ``stop`` is set, its lines queued in batches; a failure queued too."""
+    split = LineSplitter()
+    try:
+        try:
+            while not stop.is_set():
+                chunk = source.read(poll)
+                if chunk is None:
+                    continue
+                if not chunk:
+                    break
+                lines = split.push(chunk)
+                if lines:
+                    q.put(lines)
+            else:
+                return
+        except SourceGone as exc:
+            tail = split.close()
+            if tail:
+                q.put(tail)
+            q.put(_End(str(exc)))
+            return
+        tail = split.close()
+        if tail:
+            q.put(tail)
+        q.put(_End(None))
+    except BaseException as exc:  # noqa: BLE001 (any failure of the reader ends the session with its reason)
+        q.put(_Failed(exc))
+
+
+class RecordError(OSError):
+    """Reading the stream failed: the session so far is kept (the message says where)."""
+
+
+def _not_a_table(recorder: Recorder, writer: SessionWriter, exc: ValueError, more: list | None = None):
+    """The stream is not a table that can be followed: its lines so far into the ``.partial``, and why."""
+    writer.write_lines(recorder.unread(more))
+    partial = writer.finish(rename=False)
+    raise ValueError(f"{exc} (the {writer.lines} lines read so far are in {partial})") from None
+
+
+def record(stream, output: str | Path | SessionWriter, recorder: Recorder, *, poll: float = 0.1,
+           force: bool = False, silence: float = 5.0) -> RecordResult:
+    """Record ``stream`` into ``output`` while ``recorder`` follows it.
+
+    ``stream``: a :class:`~imucalib.record.sources.Source`, or any binary
+    stream with ``read1`` or ``readline``. The lines the recorder keeps are
+    written to ``output + ".partial"`` as each block is analysed (flushed);
+    at the end of the stream, when the device or peer goes away, on Ctrl-C
+    or SIGTERM (looked at every ``poll`` seconds, data flowing or not), the
+    session is finished, renamed to ``output`` and calibrated by the
+    recorder (its ``end`` event). A process killed meanwhile leaves the
+    ``.partial`` file with every line kept up to then. ``silence``: after
+    this many seconds without a line, a ``silence`` event (then every as many).
+
+    Raises
+    ------
+    ValueError
+        The stream is not a table that can be followed (its lines so far are in the ``.partial`` file).
+    RecordError
+        Reading the stream failed (the session so far is at ``output``).
+    """
+    writer = output if isinstance(output, SessionWriter) else SessionWriter(output, force=force)
+    if writer.resumed:  # the session so far, followed again; its lines are in the file already
+        from .recorder import HEAD_LINES
+
+        if len(writer.resumed) < HEAD_LINES:
+            writer.finish(rename=False)
+            raise ValueError(f"--resume: {writer.partial} holds {len(writer.resumed)} lines, fewer than the "
+                             f"{HEAD_LINES} the layout is read from: give -o another name")
+        recorder.sink = None
+        recorder.feed(writer.resumed)
+        recorder.mark_written()
+    recorder.sink = writer.write_lines
+    source = as_source(stream)
+    q: queue.Queue = queue.Queue()
+    stop, interrupted = threading.Event(), threading.Event()
+    thread = threading.Thread(target=_pump, args=(source, q, stop, poll), daemon=True, name="imucalib-record")
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, lambda signum, frame: interrupted.set())
+    thread.start()
+    ended, error = None, None
+    last, said = time.monotonic(), 0
+    try:
+        while not interrupted.is_set():
+            try:
+                item = q.get(timeout=poll)
+            except queue.Empty:
+                quiet = time.monotonic() - last
+                if silence and quiet >= silence * (said + 1):
+                    said += 1
+                    recorder.emit({"event": "silence", "seconds": round(silence * said, 1),
+                                   "message": f"no data for {silence * said:g} s: is the sensor still sending? "
+                                              "(check the cable or connection, the port, the baud rate)"})
+                continue
+            if isinstance(item, _End):
+                ended = item.reason
+                break
+            if isinstance(item, _Failed):
+                error = item.error
+                break
+            last, said = time.monotonic(), 0
+            for k in range(0, len(item), 2000):  # Ctrl-C is looked at between slices of a long batch
+                try:
+                    recorder.feed(item[k:k + 2000])
+                except ValueError as exc:  # the stream cannot be followed: keep what was read, say where it is
+                    stop.set()
+                    more = list(item[k + 2000:])
+                    while not q.empty():
+                        queued = q.get_nowait()
+                        more += queued if isinstance(queued, list) else []
+                    _not_a_table(recorder, writer, exc, more)
+                if interrupted.is_set():
+                    break
+    except BaseException:
+        stop.set()
+        writer.finish(rename=False)
+        raise
+    finally:
+        stop.set()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    thread.join(timeout=1.0)
+    try:
+        recorder.end_stream()
+    except ValueError as exc:
+        if error is None:
+            _not_a_table(recorder, writer, exc)
+        head = recorder.unread()
+        writer.write_lines(head)
+        partial = writer.finish(rename=False)
+        raise RecordError(f"reading {source.name} failed after {recorder.line_no + len(head)} lines "
+                          f"({type(error).__name__}: {error}); the lines read so far are in {partial}") from None
+    except BaseException:
+        writer.finish(rename=False)
+        raise
+    path = writer.finish()
+    recorder.conclude()
+    if error is not None:
+        raise RecordError(f"reading {source.name} failed after {recorder.line_no} lines "
+                          f"({type(error).__name__}: {error}); the session so far is in {path}")
+    return RecordResult(path, recorder.line_no, recorder.bad, len(recorder.poses), recorder.complete,
+                        interrupted.is_set(), ended)
