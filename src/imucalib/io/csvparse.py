@@ -126,8 +126,10 @@ def open_binary(path: Path) -> Iterator[io.BufferedIOBase]:
         return
     import gzip
 
+    from .expansion import open_gzip  # its decompressed text bounded (a decompression bomb is refused)
+
     try:
-        with gzip.open(path, "rb") as f:
+        with open_gzip(path) as f:
             yield f
     except EOFError:
         raise ReaderError(f"{path}: the gzip-compressed file is cut short (its stream ends before its end "

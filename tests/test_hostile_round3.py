@@ -1,0 +1,214 @@
+"""Hostile inputs, third round: bounded memory on any input, no silent wrong numbers, nothing a file or a name
+can do to a terminal, a spreadsheet or the network.
+
+Memory and time bounds are those of the process: the commands that could exhaust them run in a child under
+``resource`` limits (RLIMIT_AS on its address space, RLIMIT_CPU on its processor time), and their peak resident
+memory is read from the child's own ``/proc/self/status``.
+"""
+
+from __future__ import annotations
+
+import bz2
+import gzip
+import io
+import json
+import os
+import re
+import struct
+import subprocess
+import sys
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from imucalib.io import expansion
+
+SRC = Path(__file__).resolve().parent.parent / "src"
+#: the address space a command may use on a hostile input [bytes]: the interpreter, numpy and scipy take
+#: about 150 MB of it calibrating a real session
+ADDRESS_SPACE = 1 << 30
+#: processor seconds a command may use on a hostile input
+CPU_SECONDS = 60
+
+_LIMITED = """\
+import resource, sys
+resource.setrlimit(resource.RLIMIT_AS, ({space}, {space}))
+resource.setrlimit(resource.RLIMIT_CPU, ({cpu}, {cpu}))
+from imucalib.cli import main
+try:
+    code = main(sys.argv[1:])
+finally:
+    peak = next(ln.split()[1] for ln in open('/proc/self/status') if ln.startswith('VmHWM:'))
+    sys.stderr.write(f'\\nPEAK_KB {{peak}}\\n')
+sys.exit(code)
+"""
+
+
+def limited(*args, cwd=None, space=ADDRESS_SPACE, cpu=CPU_SECONDS, env=None):
+    """``imucalib ARGS`` in a child under RLIMIT_AS ``space`` and RLIMIT_CPU ``cpu``: (exit code, stdout,
+    stderr without the peak line, peak resident memory [kB])."""
+    env = {**os.environ, "PYTHONPATH": str(SRC), "OPENBLAS_NUM_THREADS": "1", **(env or {})}
+    r = subprocess.run([sys.executable, "-c", _LIMITED.format(space=space, cpu=cpu), *map(str, args)],
+                       capture_output=True, text=True, cwd=cwd, env=env, timeout=10 * cpu)
+    found = re.search(r"\nPEAK_KB (\d+)\n", r.stderr)
+    err = r.stderr.replace(found.group(0), "\n") if found else r.stderr
+    return r.returncode, r.stdout, err.strip(), int(found.group(1)) if found else 0
+
+
+def one_line(err: str) -> bool:
+    return "Traceback" not in err and err.count("\n") == 0 and err.startswith("imucalib ")
+
+
+# ------------------------------------------------------------------ decompression bombs
+def gzip_bomb(path: Path, megabytes: int) -> None:
+    """A ``.csv.gz`` of a header and ``megabytes`` MiB of ``0,0,0,0,0,0,0`` rows: one compressed MiB repeated
+    as gzip members (a reader decompresses them as one stream)."""
+    row = b"0,0,0,0,0,0,0\n"
+    member = gzip.compress(row * ((1 << 20) // len(row)), 9)
+    with path.open("wb") as f:
+        f.write(gzip.compress(b"t,ax,ay,az,gx,gy,gz\n"))
+        for _ in range(megabytes):
+            f.write(member)
+
+
+def mat_bomb(path: Path, rows: int) -> None:
+    """A MATLAB v5 file with one zlib-compressed ``rows`` × 7 matrix of zeros (MAT-file format, Table 1-1)."""
+    data = rows * 7 * 8
+    name = struct.pack("<HH4s", 1, 1, b"d\0\0\0")  # a small element: miINT8, 1 byte, "d"
+    body = (struct.pack("<II", 6, 8) + struct.pack("<II", 6, 0)  # array flags: mxDOUBLE_CLASS
+            + struct.pack("<II", 5, 8) + struct.pack("<ii", rows, 7)  # dimensions
+            + name + struct.pack("<II", 9, data))  # the real part's tag: miDOUBLE
+    element = struct.pack("<II", 14, len(body) + data) + body  # miMATRIX
+    c = zlib.compressobj(9)
+    parts = [c.compress(element)]
+    zeros = b"\0" * (1 << 20)
+    left = data
+    while left > 0:
+        parts.append(c.compress(zeros[:min(left, len(zeros))]))
+        left -= len(zeros)
+    parts.append(c.flush())
+    stream = b"".join(parts)
+    header = b"MATLAB 5.0 MAT-file, crafted".ljust(116, b" ") + b"\0" * 8 + struct.pack("<H", 0x0100) + b"IM"
+    path.write_bytes(header + struct.pack("<II", 15, len(stream)) + stream)
+
+
+@pytest.fixture(scope="module")
+def bombs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("bombs")
+    gzip_bomb(d / "bomb.csv.gz", 1200)
+    mat_bomb(d / "bomb.mat", 16_000_000)  # 896 MB of doubles
+    return d
+
+
+def test_a_gzip_bomb_is_refused_in_bounded_memory(bombs):
+    path = bombs / "bomb.csv.gz"
+    assert path.stat().st_size < 2_600_000  # 1.2 GB of text
+    code, _, err, peak = limited("calibrate", path)
+    assert code == 2 and one_line(err), err
+    assert "decompression bomb" in err and "gunzip -k" in err, err
+    assert peak < 250_000, peak  # refused while its length is measured, before a row is parsed
+
+
+def test_a_mat_zlib_bomb_is_refused_in_bounded_memory(bombs):
+    path = bombs / "bomb.mat"
+    assert path.stat().st_size < 2_000_000
+    code, _, err, peak = limited("calibrate", path, "--reader", "mat")
+    assert code == 2 and one_line(err), err
+    assert "decompression bomb" in err, err
+    assert peak < 250_000, peak  # counted, never kept
+
+
+def test_a_recording_that_compresses_well_is_read(tmp_path):
+    """The budget leaves room for real recordings: a session's CSV gzip-compressed reads as the plain file."""
+    from imucalib.io import read, write_csv
+    from synth import tedaldi_session
+
+    rec, _, _ = tedaldi_session(seed=3)
+    write_csv(tmp_path / "s.csv", rec)
+    (tmp_path / "s.csv.gz").write_bytes(gzip.compress((tmp_path / "s.csv").read_bytes(), 9))
+    np.testing.assert_array_equal(read(tmp_path / "s.csv.gz").acc, read(tmp_path / "s.csv").acc)
+
+
+def test_the_gzip_budget_counts_decompressed_bytes(tmp_path, monkeypatch):
+    monkeypatch.setattr(expansion, "EXPANSION_FLOOR", 1 << 16)
+    path = tmp_path / "b.csv.gz"
+    gzip_bomb(path, 2)
+    with expansion.open_gzip(path) as f, pytest.raises(Exception, match="decompression bomb"):
+        while f.read(4096):
+            pass
+    with expansion.open_gzip(path) as f, pytest.raises(Exception, match="decompression bomb"):
+        f.read()
+    with expansion.open_gzip(path) as f, pytest.raises(Exception, match="decompression bomb"):
+        f.seek(1 << 21)
+
+
+# ROS 1 bags: a real bag written by rosbags, its bz2 chunk swapped for streams of zeros
+def _ros1_records(blob: bytes):
+    """``(start, header fields, data start, data length)`` of each top-level record of a ROS 1 bag."""
+    pos = 13
+    while pos + 4 <= len(blob):
+        (hlen,) = struct.unpack_from("<I", blob, pos)
+        header = blob[pos + 4:pos + 4 + hlen]
+        (dlen,) = struct.unpack_from("<I", blob, pos + 4 + hlen)
+        fields, i = {}, 0
+        while i < hlen:
+            (n,) = struct.unpack_from("<I", header, i)
+            k, _, v = header[i + 4:i + 4 + n].partition(b"=")
+            fields[k] = v
+            i += 4 + n
+        yield pos, fields, pos + 8 + hlen, dlen
+        pos += 8 + hlen + dlen
+
+
+def bag_bomb(path: Path, streams: int, honest: bool) -> None:
+    """A ROS 1 bag of one IMU message in a bz2 chunk, then ``streams`` × 64 MiB of zeros compressed into the
+    same chunk; the chunk declares its true size when ``honest``, else the size of the message alone."""
+    pytest.importorskip("rosbags")
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    Imu = store.types["sensor_msgs/msg/Imu"]
+    Header = store.types["std_msgs/msg/Header"]
+    Time = store.types["builtin_interfaces/msg/Time"]
+    V3 = store.types["geometry_msgs/msg/Vector3"]
+    Q = store.types["geometry_msgs/msg/Quaternion"]
+    plain = path.with_suffix(".plain.bag")
+    w = Writer(plain)
+    w.set_compression(Writer.CompressionFormat.BZ2)
+    with w:
+        conn = w.add_connection("/imu", Imu.__msgtype__, typestore=store)
+        for k in range(3):
+            msg = Imu(Header(k, Time(1, k * 1000), "imu"), Q(0, 0, 0, 1), np.zeros(9), V3(0, 0, 0), np.zeros(9),
+                      V3(0, 0, 9.8), np.zeros(9))
+            w.write(conn, 1_000_000_000 + k * 1000, store.serialize_ros1(msg, Imu.__msgtype__))
+    blob = bytearray(plain.read_bytes())
+    plain.unlink()
+    chunk = next(r for r in _ros1_records(bytes(blob)) if r[1].get(b"op") == b"\x05")
+    start, fields, data_at, dlen = chunk
+    content = bz2.decompress(bytes(blob[data_at:data_at + dlen]))
+    zeros = bz2.compress(b"\0" * (64 << 20), 9)
+    data = bz2.compress(content, 9) + zeros * streams
+    size = len(content) + (64 << 20) * streams if honest else len(content)
+    header_at = start + 4
+    i = blob.index(b"size=", header_at) + 5
+    blob[i:i + 4] = struct.pack("<I", min(size, 0xFFFFFFFF))
+    blob[data_at - 4:data_at] = struct.pack("<I", len(data))
+    blob[data_at:data_at + dlen] = data
+    j = blob.index(b"index_pos=") + 10  # the bag header's pointer to the index, moved by the new chunk length
+    (index_pos,) = struct.unpack_from("<Q", blob, j)
+    blob[j:j + 8] = struct.pack("<Q", index_pos + len(data) - dlen)
+    path.write_bytes(bytes(blob))
+
+
+@pytest.mark.parametrize("honest", [True, False])
+def test_a_ros1_bag_with_a_bz2_bomb_chunk_is_refused_in_bounded_memory(tmp_path, honest):
+    path = tmp_path / "bomb.bag"
+    bag_bomb(path, 40, honest)  # 2.7 GB of zeros behind one message
+    assert path.stat().st_size < 50_000
+    code, _, err, peak = limited("calibrate", path)
+    assert code == 2 and one_line(err), err
+    assert ("decompression bomb" if honest else "holds more than the") in err, err
+    assert peak < 250_000, peak
