@@ -212,3 +212,82 @@ def test_a_ros1_bag_with_a_bz2_bomb_chunk_is_refused_in_bounded_memory(tmp_path,
     assert code == 2 and one_line(err), err
     assert ("decompression bomb" if honest else "holds more than the") in err, err
     assert peak < 250_000, peak
+
+
+# ------------------------------------------------------------------ URL chains
+@pytest.fixture
+def listener():
+    """A local TCP listener that must receive no connection: (port, a function counting the connections)."""
+    import socket
+
+    srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(8)
+    srv.setblocking(False)
+
+    def accepted() -> int:
+        n = 0
+        while True:
+            try:
+                conn, _ = srv.accept()
+            except BlockingIOError:
+                return n
+            conn.close()
+            n += 1
+
+    yield srv.getsockname()[1], accepted
+    srv.close()
+
+
+@pytest.mark.parametrize("allowed, url, refused", [
+    ("zip", "zip://rec.csv::ftp://127.0.0.1:{port}/a.zip", "ftp"),
+    ("tar", "tar://rec.csv::ftp://127.0.0.1:{port}/a.tar", "ftp"),
+    ("zip,simplecache", "zip://rec.csv::simplecache::http://127.0.0.1:{port}/a.zip", "http"),
+    ("zip", "zip://rec.csv::/tmp/a.zip", "file"),
+])
+def test_every_protocol_of_an_fsspec_chain_must_be_allowed(tmp_path, listener, allowed, url, refused):
+    from imucalib.batch import ManifestError, read_manifest, run_batch
+
+    port, accepted = listener
+    manifest = tmp_path / "m.csv"
+    manifest.write_text(f"device,files\nA,{url.format(port=port)}\n", encoding="utf-8")
+    with pytest.raises(ManifestError, match=f"the URL scheme {refused} is not among those allowed"):
+        read_manifest(manifest, allow_urls=allowed)
+    with pytest.raises(ManifestError, match="each must be allowed"):
+        run_batch(manifest, tmp_path / "s.sqlite", allow_urls=allowed)
+    assert accepted() == 0 and not (tmp_path / "s.sqlite").exists()
+    everything = ",".join(["zip", "tar", "ftp", "http", "simplecache", "file"])
+    assert read_manifest(manifest, allow_urls=everything)[0].files == (url.format(port=port),)
+
+
+# ------------------------------------------------------------------ export --temperature
+@pytest.fixture(scope="module")
+def thermal_cal(tmp_path_factory):
+    from imucalib.scenarios import handheld
+    from imucalib.thermal import ThermalModel
+
+    rng = np.random.default_rng(0)
+    truth = handheld.consumer_truth(rng)
+    cal = truth.with_(thermal=ThermalModel(coefficients=handheld.datasheet_thermal(rng, truth),
+                                           range_c=(10.0, 40.0)))
+    path = tmp_path_factory.mktemp("thermal") / "c.json"
+    cal.save(path)
+    return path
+
+
+@pytest.mark.parametrize("temperature", ["-300", "1e6", "1e300", "nan", "inf"])
+def test_export_refuses_a_temperature_no_sensor_is_at(thermal_cal, tmp_path, temperature):
+    code, out, err, _ = limited("export", thermal_cal, "--format", "kalibr", f"--temperature={temperature}",
+                                "--raw-scale", "1,1", "-o", tmp_path / "k.yaml")
+    assert code == 2 and one_line(err) and "no temperature a working sensor is at" in err, err
+    assert not (tmp_path / "k.yaml").exists()
+
+
+def test_export_warns_when_the_temperature_extrapolates(thermal_cal, tmp_path):
+    code, out, err, _ = limited("export", thermal_cal, "--format", "kalibr", "--temperature", "70",
+                                "--raw-scale", "1,1", "-o", tmp_path / "k.yaml")
+    assert code == 0, err
+    assert "70 °C is outside the 10.0–40.0 °C the thermal calibration was made from: it extrapolates" in err, err
+    code, _, err, _ = limited("export", thermal_cal, "--format", "kalibr", "--temperature", "30",
+                              "--raw-scale", "1,1", "-o", tmp_path / "k2.yaml")
+    assert code == 0 and "extrapolates" not in err, err

@@ -95,7 +95,7 @@ from .recording import STANDARD_GRAVITY
 from .store import Store, canonical_json, check_store_path, parse_time
 
 __all__ = ["EXCERPT_CHARS", "MANIFEST_COLUMNS", "BatchError", "ManifestError", "Row", "dask_client", "execute",
-           "is_url", "read_manifest", "run_batch", "run_row", "url_schemes"]
+           "is_url", "read_manifest", "run_batch", "run_row", "url_protocols", "url_schemes"]
 
 #: the manifest's columns; ``device`` and ``files`` are required
 MANIFEST_COLUMNS = ("device", "files", "method", "model", "reader", "columns", "acc_unit", "gyro_unit",
@@ -178,15 +178,32 @@ def url_schemes(allow_urls: bool | str | Sequence[str] | None) -> frozenset[str]
     return schemes
 
 
+def url_protocols(name: str) -> list[str]:
+    """Every protocol an fsspec URL reads through, outermost first: ``zip://rec.csv::ftp://host/a.zip`` reads a
+    zip through FTP (``["zip", "ftp"]``). A chained part without ``://`` names a protocol (``simplecache::``),
+    or, last, a local file (``file``)."""
+    parts = name.split("::")
+    out = []
+    for i, part in enumerate(parts):
+        head, sep, _ = part.partition("://")
+        out.append(head.lower() if sep else "file" if i == len(parts) - 1 else part.strip().lower())
+    return out
+
+
 def _check_url(name: str, schemes: frozenset[str] | None) -> None:
-    scheme = name.partition("://")[0].lower()
-    if schemes is None or scheme in schemes:
+    """Every protocol of ``name``'s chain allowed (:func:`url_protocols`), else a ValueError naming the first not."""
+    protocols = url_protocols(name)
+    scheme = protocols[0]
+    if schemes is None or all(p in schemes for p in protocols):
         return
     if not schemes:
         raise ValueError(f"{name}: a URL; a manifest's URLs are read only when allowed (imucalib batch "
-                         f"--allow-urls, or --allow-urls {scheme} for this scheme alone): allow them for "
-                         "manifests you trust, since the batch connects to the hosts they name")
-    raise ValueError(f"{name}: the URL scheme {scheme} is not among those allowed ({', '.join(sorted(schemes))})")
+                         f"--allow-urls, or --allow-urls {','.join(dict.fromkeys(protocols))} for this URL alone): "
+                         "allow them for manifests you trust, since the batch connects to the hosts they name")
+    refused = next(p for p in protocols if p not in schemes)
+    chain = f" (the URL reads through {'::'.join(protocols)}: each must be allowed)" if len(protocols) > 1 else ""
+    raise ValueError(f"{name}: the URL scheme {refused} is not among those allowed "
+                     f"({', '.join(sorted(schemes))}){chain}")
 
 
 def _local(base: Path, name: str) -> str:

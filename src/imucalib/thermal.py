@@ -38,6 +38,7 @@ unchanged. Nonlinear scale factors follow temperature only through the biases.
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass, field
 
@@ -45,8 +46,8 @@ import numpy as np
 
 from .recording import ImucalibWarning, Interval, Recording
 
-__all__ = ["REFERENCE_C", "SIGNIFICANCE", "ThermalModel", "calibrate_ramp", "combine", "compensate",
-           "decompensate", "evaluate", "thermal_parameters"]
+__all__ = ["POSSIBLE_C", "REFERENCE_C", "SIGNIFICANCE", "ThermalModel", "at_temperature", "calibrate_ramp",
+           "combine", "compensate", "decompensate", "evaluate", "thermal_parameters"]
 
 #: reference temperature ``T₀`` [°C] of a thermal model (datasheets quote their figures at 25 °C)
 REFERENCE_C = 25.0
@@ -149,6 +150,33 @@ def evaluate(calibration, temperature: float):
     values = calibration.parameters()
     deltas = model.deltas(float(temperature))
     return calibration.with_(thermal=None).with_parameters({k: values[k] + float(v) for k, v in deltas.items()})
+
+
+#: the temperatures a working IMU can be at [°C]: above absolute zero, and below the 260 °C peak of lead-free
+#: reflow soldering (IPC/JEDEC J-STD-020), past which no board-mounted sensor survives
+POSSIBLE_C = (-273.15, 260.0)
+
+
+def at_temperature(calibration, temperature: float):
+    """``(calibration at temperature, notes)``: :func:`evaluate` for a temperature a user gave.
+
+    A temperature no sensor can be at (not a number, below absolute zero, above :data:`POSSIBLE_C`) is a
+    ValueError; one outside the temperatures the model was made from (by more than 1 °C, as :func:`compensate`
+    allows) gets a note that it extrapolates there.
+    """
+    t = float(temperature)
+    lo_c, hi_c = POSSIBLE_C
+    if not (math.isfinite(t) and lo_c <= t <= hi_c):
+        raise ValueError(f"{temperature!r} °C is no temperature a working sensor is at (expected {lo_c:g} to "
+                         f"{hi_c:g} °C: above absolute zero and below soldering heat)")
+    notes = []
+    model = calibration.thermal
+    if model is not None:
+        lo, hi = model.range_c
+        if not lo - 1.0 <= t <= hi + 1.0:
+            notes.append(f"{t:g} °C is outside the {lo:.1f}–{hi:.1f} °C the thermal calibration was made from: it "
+                         "extrapolates there")
+    return evaluate(calibration, t), notes
 
 
 # ------------------------------------------------------------------ compensation (T2)

@@ -74,9 +74,12 @@ def cmd_export(args: argparse.Namespace) -> int:
         if cal.thermal is None:
             raise CliError(f"--temperature applies to a calibration that follows temperature; {args.calibration} "
                            "is for one temperature")
-        from ..thermal import evaluate
+        from ..thermal import at_temperature
 
-        cal = evaluate(cal, args.temperature)
+        try:
+            cal, notes = at_temperature(cal, args.temperature)
+        except ValueError as exc:
+            raise CliError(f"--temperature {args.temperature}: {exc}") from None
     elif cal.thermal is not None and fmt != "c":
         raise CliError(f"{args.calibration} follows temperature, which --format {fmt} has no place for: pass "
                        "--temperature C to write it at one temperature (the C header follows it)")
