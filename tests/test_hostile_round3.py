@@ -291,3 +291,61 @@ def test_export_warns_when_the_temperature_extrapolates(thermal_cal, tmp_path):
     code, _, err, _ = limited("export", thermal_cal, "--format", "kalibr", "--temperature", "30",
                               "--raw-scale", "1,1", "-o", tmp_path / "k2.yaml")
     assert code == 0 and "extrapolates" not in err, err
+
+
+# ------------------------------------------------------------------ the accelerometer's sign convention
+@pytest.fixture(scope="module")
+def flat_session():
+    """A hand-held session whose initial rest lies flat, face up (+g on z), as users record them."""
+    from imucalib.scenarios import session
+
+    s = session("handheld", rng=np.random.default_rng(3))
+    return s.recording, s.truth
+
+
+def _negated(rec, axes=(0, 1, 2)):
+    from imucalib.recording import Recording
+
+    acc = rec.acc.copy()
+    acc[:, list(axes)] *= -1
+    return Recording(rec.t, acc, rec.gyro, acc_unit=rec.acc_unit, gyro_unit=rec.gyro_unit)
+
+
+def _calibrate_noting(rec):
+    import warnings
+
+    from imucalib.methods import calibrate
+    from imucalib.recording import ImucalibWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ImucalibWarning)
+        cal = calibrate(rec)
+    return cal, [str(w.message) for w in caught if issubclass(w.category, ImucalibWarning)]
+
+
+def test_an_accelerometer_reading_minus_g_up_is_named(flat_session):
+    rec, truth = flat_session
+    _, notes = _calibrate_noting(rec)
+    assert not any("reports -g up" in n for n in notes), notes
+    cal, notes = _calibrate_noting(_negated(rec))
+    said = [n for n in notes if "reports -g up" in n]
+    assert len(said) == 1 and "initial rest reads -9.8" in said[0], notes
+    # what the note warns of: the calibrated rest is -g on z, the opposite of the truth's
+    rest = slice(*cal.fit["intervals"][0])
+    np.testing.assert_allclose(cal.accelerometer_si(_negated(rec).acc[rest]).mean(0),
+                               -truth.accelerometer_si(rec.acc[rest]).mean(0), atol=0.05)
+
+
+def test_validate_names_a_calibration_with_negated_accelerometer_scales(flat_session):
+    import warnings
+
+    from imucalib.recording import ImucalibWarning
+    from imucalib.validation import validate
+
+    rec, truth = flat_session
+    flipped = truth.with_parameters({f"accelerometer.scale.{a}": -v for a, v in
+                                     zip("xyz", truth.accelerometer.scale, strict=True)})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ImucalibWarning)
+        validate(flipped, rec)
+    assert any("reports -g up" in str(w.message) for w in caught), [str(w.message) for w in caught]
