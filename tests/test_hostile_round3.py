@@ -349,3 +349,80 @@ def test_validate_names_a_calibration_with_negated_accelerometer_scales(flat_ses
         warnings.simplefilter("always", ImucalibWarning)
         validate(flipped, rec)
     assert any("reports -g up" in str(w.message) for w in caught), [str(w.message) for w in caught]
+
+
+# ------------------------------------------------------------------ terminal control sequences
+#: what a hostile name carries: clear the screen, retitle the window, a one-character CSI, a right-to-left override
+CONTROLS = "\x1b[2J\x1b]0;owned\x07\x9b31m\u202e"
+ESCAPED = "\\x1b[2J\\x1b]0;owned\\x07\\x9b31m\\u202e"
+
+
+def _no_controls(text: str) -> bool:
+    return not any(c in text for c in "\x1b\x07\x9b\u202e\r")
+
+
+@pytest.fixture(scope="module")
+def session_files(tmp_path_factory):
+    from imucalib.io import write_csv
+    from synth import tedaldi_session
+
+    d = tmp_path_factory.mktemp("controls")
+    rec, truth, _ = tedaldi_session(seed=12, noise_acc=0.003, noise_gyro=0.002)
+    write_csv(d / "s.csv", rec)
+    truth.save(d / "c.json")
+    return d
+
+
+def test_an_unknown_fit_key_is_printed_escaped(session_files, tmp_path):
+    d = json.loads((session_files / "c.json").read_text(encoding="utf-8"))
+    d.setdefault("fit", {})[f"key{CONTROLS}"] = 1
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps(d), encoding="utf-8")
+    code, out, err, _ = limited("export", path)
+    assert code == 0 and _no_controls(out + err) and f"key{ESCAPED}" in err, err
+
+
+def test_header_names_in_the_missing_columns_error_are_escaped(tmp_path):
+    path = tmp_path / "h.csv"
+    path.write_text(f"t,a{CONTROLS},ay,az,gx,gy,gz\n" + "0,1,2,3,4,5,6\n" * 20, encoding="utf-8")
+    code, out, err, _ = limited("calibrate", path, "--columns", "t,ax,ay,az,gx,gy,gz")
+    assert code == 2 and one_line(err) and _no_controls(out + err) and ESCAPED in err, err
+
+
+def test_a_file_name_is_printed_escaped(session_files, tmp_path):
+    code, out, err, _ = limited("calibrate", tmp_path / f"no{CONTROLS}.csv")
+    assert code == 2 and one_line(err) and _no_controls(out + err) and ESCAPED in err, err
+
+
+def test_store_list_prints_a_stored_error_escaped(tmp_path):
+    manifest = tmp_path / "m.csv"
+    manifest.write_text(f"device,files\nA,{tmp_path}/gone{CONTROLS}.csv\n", encoding="utf-8")
+    code, out, err, _ = limited("batch", manifest, "--store", tmp_path / "s.sqlite")
+    assert code == 3 and _no_controls(out + err), out + err
+    code, out, err, _ = limited("store", "list", "--store", tmp_path / "s.sqlite")
+    assert code == 0 and _no_controls(out + err) and "gone\\x1b[2J" in out, out
+
+
+def test_printable_escapes_every_control_and_keeps_the_rest():
+    from hypothesis import given
+    from hypothesis import strategies as st
+
+    from imucalib.printable import printable
+
+    @given(st.text())
+    def check(text):
+        out = printable(text)
+        assert not any((ord(c) < 0x20 and c not in "\n\t") or 0x7f <= ord(c) <= 0x9f
+                       or c in "\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069" for c in out)
+        assert printable(out) == out  # an escaped text prints as it is
+        if text.isprintable():
+            assert out == text
+
+    check()
+
+
+def test_a_terminal_that_is_not_utf8_gets_the_message_not_an_encoding_error(session_files, tmp_path):
+    code, out, err, _ = limited("calibrate", session_files / "s.csv", "-o", tmp_path / "c.json",
+                                env={"PYTHONIOENCODING": "ascii"})
+    assert code == 0 and "Traceback" not in err and "encod" not in err, err
+    assert (tmp_path / "c.json").exists()

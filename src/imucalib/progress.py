@@ -20,6 +20,8 @@ import sys
 import time
 from typing import TextIO
 
+from .printable import printable
+
 __all__ = ["Progress", "stage_printer"]
 
 
@@ -59,7 +61,7 @@ class Progress:
     def __init__(self, label: str, total: int | None = None, *, enabled: bool = True,
                  stream: TextIO | None = None, interval: float = 5.0, unit: str = "it",
                  bar: bool | None = None) -> None:
-        self.label, self.total, self.enabled = label, total, enabled
+        self.label, self.total, self.enabled = printable(label), total, enabled  # a file name's controls escaped
         self.stream = stream if stream is not None else sys.stderr
         self.interval, self.unit = interval, unit
         self.done = 0
@@ -143,6 +145,6 @@ def stage_printer(enabled: bool, stream: TextIO | None = None):
     start = time.perf_counter()
 
     def say(msg: str) -> None:
-        print(f"[{time.perf_counter() - start:6.2f} s] {msg}", file=out, flush=True)
+        print(f"[{time.perf_counter() - start:6.2f} s] {printable(msg)}", file=out, flush=True)
 
     return say
