@@ -454,3 +454,79 @@ def test_store_export_writes_formula_like_text_as_text(tmp_path):
     assert all(r["files"].startswith("'=cmd|") for r in rows)
     assert {r["temperature_c"] for r in rows} == {"-5.0"}  # numbers stay numbers
     assert all(float(r["accelerometer.bias.x"]) == 0.0 for r in rows)
+
+
+# ------------------------------------------------------------------ batch: check first, hash what is read
+def test_batch_refuses_a_huge_sparse_file_before_hashing_it(tmp_path):
+    sparse = tmp_path / "sparse.csv"
+    with open(sparse, "wb") as f:
+        f.truncate(100 << 30)  # 100 GB of zeros, stored sparse: hashing it takes minutes
+    manifest = tmp_path / "m.csv"
+    manifest.write_text(f"device,files\nA,{sparse}\n", encoding="utf-8")
+    code, out, err, _ = limited("batch", manifest, "--store", tmp_path / "s.sqlite", "--json", cpu=20)
+    assert code == 3, err  # not killed by RLIMIT_CPU
+    error = json.loads(out)["errors"][0]["error"]
+    assert "NUL bytes" in error and "sparse" in error, error
+
+
+SHADOW = "root:*:19000:0:99999:7:::\ndaemon:*:19000:0:99999:7:::\nsshd:!:19000::::::\n"
+
+
+@pytest.mark.parametrize("content", [SHADOW, "root,x,0,0,root,/root,/bin/bash\nbin,x,2,2,bin,/bin,/usr/sbin/nologin\n",
+                                     "Secret-Token=ghp_ABCDEFGHIJKLMNOP\n"])
+@pytest.mark.parametrize("columns", [None, ("t", "ax", "ay", "q", "gx", "gy", "gz")])
+def test_a_row_naming_a_file_that_is_no_recording_stores_nothing_of_it(tmp_path, content, columns):
+    from imucalib.batch import Row, run_row
+
+    path = tmp_path / "shadow"
+    path.write_text(content, encoding="ascii")
+    out = run_row({"row": Row(line=2, device="A", files=(str(path),), columns=columns), "skip": []})
+    assert out["status"] == "failed"
+    error = out["error"].replace(str(path), "")
+    for line in content.splitlines():
+        for i in range(len(line) - 3):
+            assert line[i:i + 4] not in error, (line[i:i + 4], out["error"])
+
+
+def test_a_recordings_header_is_still_named_in_its_error(tmp_path, session_files):
+    from imucalib.batch import Row, run_row
+
+    out = run_row({"row": Row(line=2, device="A", files=(str(session_files / "s.csv"),),
+                              columns=("t", "ax", "ay", "q", "gx", "gy", "gz")), "skip": []})
+    assert "no such column" in out["error"] and "ax [counts]" in out["error"], out["error"]
+
+
+# ------------------------------------------------------------------ the store's dates
+@pytest.mark.parametrize("second", ["2024-05-01T00:00", "2024-05-01T00:00:00Z", "2024-05-01T02:00+02:00"])
+def test_one_moment_written_two_ways_is_one_record(tmp_path, session_files, second):
+    manifest = tmp_path / "m.csv"
+    manifest.write_text(f"device,files,recorded_at\nA,{session_files / 's.csv'},2024-05-01\n", encoding="utf-8")
+    code, out, err, _ = limited("batch", manifest, "--store", tmp_path / "s.sqlite", "--json")
+    assert code == 0 and json.loads(out)["calibrated"] == 1, err
+    manifest.write_text(f"device,files,recorded_at\nA,{session_files / 's.csv'},{second}\n", encoding="utf-8")
+    code, out, err, _ = limited("batch", manifest, "--store", tmp_path / "s.sqlite", "--json")
+    assert code == 0 and json.loads(out)["skipped"] == 1, out + err
+    from imucalib.store import Store, instant_key
+
+    with Store(tmp_path / "s.sqlite", readonly=True) as st:
+        assert len(st.records()) == 1
+    assert instant_key("2024-05-01T14:30+02:00") == instant_key("2024-05-01T12:30:00") == "2024-05-01T12:30:00"
+
+
+# ------------------------------------------------------------------ -o and symbolic links in shared folders
+@pytest.mark.skipif(os.geteuid() != 0, reason="a symbolic link of another user is made with lchown (root)")
+def test_a_symlink_of_another_user_in_a_sticky_world_writable_folder_is_not_followed(tmp_path, session_files):
+    shared = tmp_path / "tmp"
+    shared.mkdir()
+    os.chmod(shared, 0o1777)
+    victim = tmp_path / "precious.json"
+    victim.write_text("keep me", encoding="utf-8")
+    link = shared / "c.json"
+    os.symlink(victim, link)
+    os.lchown(link, 4242, 4242)  # planted by another user
+    code, out, err, _ = limited("calibrate", session_files / "s.csv", "-o", link)
+    assert code == 2 and one_line(err) and "a symbolic link of another user" in err, err
+    assert victim.read_text(encoding="utf-8") == "keep me" and link.is_symlink()
+    os.lchown(link, os.geteuid(), os.getegid())  # the user's own link is followed, as the shell's > does
+    code, out, err, _ = limited("calibrate", session_files / "s.csv", "-o", link)
+    assert code == 0 and victim.read_text(encoding="utf-8").startswith("{"), err

@@ -88,11 +88,11 @@ from typing import Any
 
 from .io.atomic import refuse_overwriting_inputs
 from .io.errors import ReaderError
-from .io.inputs import check_input_path, path_kind
+from .io.inputs import check_input_path, check_text, path_kind
 from .io.rosbag import is_rosbag
 from .methodinfo import DEFAULT_METHOD
 from .recording import STANDARD_GRAVITY
-from .store import Store, canonical_json, check_store_path, parse_time
+from .store import Store, canonical_json, check_store_path, instant_key, parse_time
 
 __all__ = ["EXCERPT_CHARS", "MANIFEST_COLUMNS", "BatchError", "ManifestError", "Row", "dask_client", "execute",
            "is_url", "read_manifest", "run_batch", "run_row", "url_protocols", "url_schemes"]
@@ -365,6 +365,19 @@ def _check_local(path: Path) -> None:
                           "a simulated session session.json)")
 
 
+def _check_content(path: Path, reader: str | None) -> None:
+    """The checks a text reader makes of a regular file's first kilobytes (:func:`~.io.inputs.check_text`:
+    binary, sparse, UTF-16 or compressed in another way), before the whole file is hashed: a 100 GB sparse file
+    is refused in milliseconds, as ``imucalib calibrate`` refuses it."""
+    from .io.readers import guess_reader
+
+    if not path.is_file():
+        return
+    reader = reader or guess_reader([path])
+    if reader in ("csv", "imutk", "phone"):
+        check_text(path, gzip_ok=reader == "csv")
+
+
 def _hash_path(path: Path) -> tuple[str, int]:
     """SHA-256 of a file's contents, or of a folder's (names and contents of the files directly inside it)."""
     h = hashlib.sha256()
@@ -442,6 +455,21 @@ def _heads(paths: Sequence[Path | None]) -> list[str]:
     return out
 
 
+#: the longest run of a file that is no recording that a stored error may hold [characters]
+_STRANGER_CHARS = 3
+_NUMBER = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
+
+
+def _looks_like_recording(head: str) -> bool:
+    """Whether the first bytes of a file hold a line of at least three numbers (a row of readings), cells
+    split at commas, semicolons, tabs or spaces."""
+    for line in head.splitlines()[:200]:
+        cells = [c for c in re.split(r"[,;\t ]+", line.strip()) if c]
+        if sum(bool(_NUMBER.match(c)) for c in cells) >= 3:
+            return True
+    return False
+
+
 def _cut_content(text: str, heads: Sequence[str], limit: int = EXCERPT_CHARS) -> str:
     """``text`` with every run of more than ``limit`` characters that is found in one of ``heads`` cut to
     its first ``limit`` characters."""
@@ -453,7 +481,7 @@ def _cut_content(text: str, heads: Sequence[str], limit: int = EXCERPT_CHARS) ->
         if j <= n and any(text[i:j] in h for h in heads):
             while j < n and any(text[i:j + 1] in h for h in heads):
                 j += 1
-            out.append(text[i:i + limit] + "…")
+            out.append("…")  # nothing of it: its first characters are what a secret's file starts with
             i = j
         else:
             out.append(text[i])
@@ -472,7 +500,9 @@ def _message(exc: BaseException, replace: dict[str, str], paths: Sequence[str] =
     keep = {f"\0{k}\0": p for k, p in enumerate(sorted({*paths, *replace.values()}, key=len, reverse=True))}
     for key, p in keep.items():
         text = text.replace(p, key)
-    text = _cut_content(_short_quotes(text), heads)
+    # a file that is no recording (/etc/shadow): nothing of it longer than a few characters
+    strangers = [h for h in heads if not _looks_like_recording(h)]
+    text = _short_quotes(_cut_content(_cut_content(text, strangers, _STRANGER_CHARS), heads))
     for key, p in keep.items():
         text = text.replace(key, p)
     return text or type(exc).__name__
@@ -515,6 +545,7 @@ def run_row(task: dict) -> dict:
                 if is_url(name):
                     replace[str(p)] = name
                 _check_local(p)
+                _check_content(p, row.reader)  # what the reader refuses from its first bytes, before hashing it all
                 sha, size = _hash_path(p)
             except Exception as exc:  # the row fails with this file's error; the batch goes on
                 problems.append(_message(exc, replace, row.files, _heads([p])))
@@ -753,7 +784,8 @@ def run_batch(manifest: str | Path, store: str | Path, *, workers: int | None = 
         # the largest recordings first: the last ones to finish are then short, and the workers end together
         order = sorted(range(len(rows)), key=lambda k: -_size(rows[k]))
         tasks = [{"row": rows[k], "skip": sorted(stored.get(
-            (rows[k].device, rows[k].recorded_at or "", canonical_json(rows[k].settings())), ()))} for k in order]
+            (rows[k].device, instant_key(rows[k].recorded_at), canonical_json(rows[k].settings())), ()))}
+            for k in order]
         for i, res in execute(run_row, tasks, workers=workers, scheduler=scheduler, chunksize=chunksize,
                               progress=progress):
             row = rows[order[i]]

@@ -58,7 +58,7 @@ from .io.atomic import atomic_create, atomic_write
 from .io.jsontext import dumps, jsonable
 
 __all__ = ["SCHEMA_VERSION", "STATUSES", "SUMMARY_COLUMNS", "Store", "StoreError", "canonical_json",
-           "check_store_path", "parse_time", "record_key", "spreadsheet_text"]
+           "check_store_path", "instant_key", "parse_time", "record_key", "spreadsheet_text"]
 
 #: ``PRAGMA user_version`` of the store's schema
 SCHEMA_VERSION = 1
@@ -135,6 +135,17 @@ def parse_time(text: str | datetime | date | None, *, what: str = "time") -> tup
     if moment.tzinfo is None:
         moment = moment.replace(tzinfo=UTC)
     return normalised, moment.timestamp()
+
+
+def instant_key(text: str | datetime | date | None) -> str:
+    """One text per instant, for a record's identity: ``2024-05-01``, ``2024-05-01T00:00`` and
+    ``2024-05-01T02:00+02:00`` are the same moment (a time without a zone is UTC) and give ``"2024-05-01"``;
+    another moment gives its UTC date-time without a zone (``2024-05-01T14:30:00``); None gives ``""``."""
+    _, ts = parse_time(text)
+    if ts is None:
+        return ""
+    moment = datetime.fromtimestamp(ts, UTC).replace(tzinfo=None)
+    return moment.date().isoformat() if moment.time() == datetime.min.time() else moment.isoformat()
 
 
 def canonical_json(obj: Any) -> str:
@@ -301,7 +312,7 @@ class Store:
             cal = dumps(cal, indent=2)
         created = record.get("created") or datetime.now(UTC).replace(microsecond=0).isoformat()
         values = {
-            "record_key": record_key(device, recorded_at, settings, record["source_sha256"]),
+            "record_key": record_key(device, instant_key(recorded_at), settings, record["source_sha256"]),
             "device": device, "recorded_at": recorded_at, "recorded_ts": ts,
             "temperature_c": record.get("temperature_c"), "method": record["method"],
             "model": record.get("model"), "status": record["status"], "verdict": record.get("verdict"),
@@ -338,11 +349,12 @@ class Store:
     # --------------------------------------------------------------- reading
     @_sql_errors
     def source_hashes(self) -> dict[tuple[str, str, str], set[str]]:
-        """``(device, recorded_at or "", settings JSON) → {source hashes}`` of every record (what a batch skips)."""
+        """``(device, instant_key(recorded_at), settings JSON) → {source hashes}`` of every record (what a batch
+        skips): one key per moment, however its time was written (:func:`instant_key`)."""
         out: dict[tuple[str, str, str], set[str]] = {}
         for device, at, settings, source in self._db.execute(
                 "SELECT device, recorded_at, settings, source_sha256 FROM calibrations"):
-            out.setdefault((device, at or "", settings), set()).add(source)
+            out.setdefault((device, instant_key(at), settings), set()).add(source)
         return out
 
     @_sql_errors

@@ -10,7 +10,9 @@ its temporary file and leaves the target as it was. A process killed outright
 half-written target, and such a leftover never blocks a later run.
 
 What is at the target is never destroyed: a symbolic link is followed (the
-file it names is replaced, the link stays, as the shell's ``>`` does); a
+file it names is replaced, the link stays, as the shell's ``>`` does), except
+one of another user in a sticky world-writable folder such as ``/tmp``, which
+is refused as the kernel's protected-symlinks rule refuses it; a
 character device or FIFO (``/dev/null``, a named pipe) is written into as a
 stream, never replaced by a regular file; a block device, a socket, ``-`` and
 an existing file the user may not write (read-only for a non-root user) are
@@ -77,6 +79,7 @@ def _target(path: str | Path) -> tuple[Path, bool]:
     if not path.name:
         raise ValueError(f"{str(path)!r}: not a file name")
     if path.is_symlink():
+        _check_protected_symlink(path)
         real = Path(os.path.realpath(path))
         if real.is_symlink():  # realpath stops at a loop
             raise OSError(errno.ELOOP, f"{path}: a loop of symbolic links; give a file name")
@@ -97,6 +100,23 @@ def _target(path: str | Path) -> tuple[Path, bool]:
         raise PermissionError(errno.EACCES, f"{path}: the file is read-only for you; it is not replaced (make it "
                                             "writable, or give another name)")
     return path, False
+
+
+def _check_protected_symlink(link: Path) -> None:
+    """Refuse to follow ``link`` where the kernel's protected-symlinks rule would (Linux ``fs.protected_symlinks``):
+    a symbolic link in a sticky, world-writable folder (``/tmp``) owned by neither the user nor the folder's
+    owner. Following it by name and renaming onto its target would let anyone who can write in ``/tmp`` choose
+    which of the user's files is replaced."""
+    try:
+        folder = os.stat(link.parent)
+        owner = os.lstat(link).st_uid
+    except OSError:
+        return
+    shared = folder.st_mode & stat.S_ISVTX and folder.st_mode & stat.S_IWOTH
+    if shared and owner not in (os.geteuid(), folder.st_uid):
+        raise PermissionError(errno.EACCES, f"{link}: a symbolic link of another user (uid {owner}) in the shared "
+                                            f"folder {link.parent}; it is not followed (another user may have put "
+                                            "it there to make you overwrite a file): give another name")
 
 
 def _stream(target: Path, mode: str, text: dict) -> IO:
