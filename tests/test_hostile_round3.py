@@ -530,3 +530,89 @@ def test_a_symlink_of_another_user_in_a_sticky_world_writable_folder_is_not_foll
     os.lchown(link, os.geteuid(), os.getegid())  # the user's own link is followed, as the shell's > does
     code, out, err, _ = limited("calibrate", session_files / "s.csv", "-o", link)
     assert code == 0 and victim.read_text(encoding="utf-8").startswith("{"), err
+
+
+# ------------------------------------------------------------------ export: values no file may hold
+@pytest.fixture(scope="module")
+def counts_cal(tmp_path_factory):
+    from imucalib.calibration import Calibration
+
+    cal = Calibration(method="tedaldi2014", fit={"verdict": "accepted", "verdict_reasons": []}).with_parameters(
+        {**{f"accelerometer.scale.{a}": 5.98e-4 for a in "xyz"}, **{f"gyroscope.scale.{a}": 1.33e-4 for a in "xyz"}})
+    path = tmp_path_factory.mktemp("export") / "c.json"
+    cal.save(path)
+    return path
+
+
+@pytest.mark.parametrize("scale", ["1e308,1e308", "1e-320,1", "-1,1", "nan,1", "inf,1"])
+@pytest.mark.parametrize("fmt", ["openvins", "kalibr"])
+def test_export_refuses_a_raw_scale_that_is_no_scale(counts_cal, tmp_path, scale, fmt):
+    code, out, err, _ = limited("export", counts_cal, "--format", fmt, f"--raw-scale={scale}",
+                                "-o", tmp_path / "x.yaml")
+    assert code == 2 and one_line(err.splitlines()[-1]) and "Traceback" not in err, err
+    assert not (tmp_path / "x.yaml").exists()
+
+
+def _noise_json(tmp_path, **changes):
+    doc = {"accelerometer": {"unit": "m/s^2", "white_noise_density": [1e-3] * 3, "random_walk": [1e-4] * 3},
+           "gyroscope": {"unit": "rad/s", "white_noise_density": [1e-4] * 3, "random_walk": [1e-5] * 3},
+           "rate_hz": 200.0}
+    for key, value in changes.items():
+        part, _, name = key.partition("__")
+        if name:
+            if value is None:
+                del doc[part][name]
+            else:
+                doc[part][name] = value
+        elif value is None:
+            del doc[part]
+        else:
+            doc[part] = value
+    path = tmp_path / "noise.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"accelerometer__random_walk": None}, "no 'random_walk' entry"),
+    ({"gyroscope__white_noise_density": None}, "no 'white_noise_density' entry"),
+    ({"rate_hz": "1e999"}, "rate_hz must be a positive number"),
+    ({"rate_hz": -100}, "rate_hz must be a positive number"),
+    ({"rate_hz": "fast"}, "could not convert"),
+    ({"accelerometer__white_noise_density": [-1e-3] * 3}, "accelerometer_noise_density must be a positive"),
+])
+def test_export_refuses_a_noise_json_missing_or_bad_entries(counts_cal, tmp_path, changes, words):
+    noise = _noise_json(tmp_path, **changes)
+    code, out, err, _ = limited("export", counts_cal, "--format", "kalibr", "--raw-scale", "1,1",
+                                "--noise", noise, "-o", tmp_path / "x.yaml")
+    assert code == 2 and one_line(err) and words in err, err
+    assert not (tmp_path / "x.yaml").exists()
+    good = _noise_json(tmp_path)
+    code, out, err, _ = limited("export", counts_cal, "--format", "kalibr", "--raw-scale", "1,1",
+                                "--noise", good, "-o", tmp_path / "x.yaml")
+    assert code == 0 and "update_rate: 200.0" in (tmp_path / "x.yaml").read_text(encoding="utf-8"), err
+
+
+CC = __import__("shutil").which("cc") or __import__("shutil").which("gcc")
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler")
+def test_a_float_header_with_constants_below_floats_range_compiles_with_werror(tmp_path):
+    from imucalib.calibration import Calibration
+    from imucalib.export import to_c
+    from imucalib.recording import ImucalibWarning
+
+    cal = Calibration(method="tedaldi2014").with_parameters({"accelerometer.scale_cubic.x": 1e-50,
+                                                             "gyroscope.scale_quadratic.y": -3e-47})
+    with pytest.warns(ImucalibWarning, match=r"2 constant\(s\) below float's range .* written as 0"):
+        header = to_c(cal, ctype="float")
+    (tmp_path / "cal.h").write_text(header, encoding="utf-8")
+    (tmp_path / "main.c").write_text('#include "cal.h"\nint main(void){float a[3],g[3];const float r[3]={1,2,3};'
+                                     "imucalib_apply(r,r,a,g);return a[0]!=a[0];}\n", encoding="utf-8")
+    r = subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-Werror", "-o", str(tmp_path / "m"),
+                        str(tmp_path / "main.c"), "-lm"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    huge = Calibration(method="tedaldi2014").with_parameters({"accelerometer.scale_cubic.x": 1e39})
+    with pytest.raises(ValueError, match="beyond float's range"):
+        to_c(huge, ctype="float")
+    assert "1e-50" in to_c(cal) and "e-47" in to_c(cal)  # double holds them

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import warnings
 from pathlib import Path
@@ -25,6 +26,9 @@ def _raw_scale(text: str) -> tuple[float, float]:
         values = ()
     if len(values) != 2:
         raise argparse.ArgumentTypeError(f"expected two numbers ACC,GYRO (e.g. 0.000598,0.000133); got {text!r}")
+    if not all(math.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"expected two positive numbers ACC,GYRO (m/s^2 and rad/s per count); got "
+                                         f"{text!r}")
     return values  # type: ignore[return-value]
 
 
