@@ -616,3 +616,30 @@ def test_a_float_header_with_constants_below_floats_range_compiles_with_werror(t
     with pytest.raises(ValueError, match="beyond float's range"):
         to_c(huge, ctype="float")
     assert "1e-50" in to_c(cal) and "e-47" in to_c(cal)  # double holds them
+
+
+# ------------------------------------------------------------------ thermal: names and temperatures a file may hold
+def test_a_thermal_parameter_the_calibration_lacks_is_a_plain_error(thermal_cal, tmp_path):
+    d = json.loads(thermal_cal.read_text(encoding="utf-8"))
+    d["gyroscope"] = None  # an accelerometer-only calibration whose thermal model varies the gyroscope
+    d["units"]["gyroscope"] = d["units"].get("gyroscope")
+    d["thermal"]["parameters"]["gyroscope.bias.x"] = {"coefficients": [1e-4, 0.0], "order": 1}
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps(d), encoding="utf-8")
+    for args in (["export", path], ["export", path, "--format", "kalibr", "--temperature", "30"],
+                 ["validate", path, thermal_cal]):
+        code, out, err, _ = limited(*args)
+        assert code == 2 and one_line(err) and "which the calibration does not have" in err, err
+
+
+@pytest.mark.parametrize("temperature", [[[20.0, 21.0], [22.0, 23.0]], [25.0], "hot", [1.0, "x", 2.0], True])
+def test_thermal_refuses_a_fit_temperature_that_is_no_temperature(session_files, tmp_path, temperature):
+    paths = []
+    for k, t in enumerate((temperature, 35.0)):
+        d = json.loads((session_files / "c.json").read_text(encoding="utf-8"))
+        d.setdefault("fit", {})["temperature_c"] = t
+        paths.append(tmp_path / f"c{k}.json")
+        paths[-1].write_text(json.dumps(d), encoding="utf-8")
+    code, out, err, _ = limited("thermal", *paths, "-o", tmp_path / "t.json")
+    assert code == 2 and one_line(err) and "calibration 1" in err, err
+    assert not (tmp_path / "t.json").exists()

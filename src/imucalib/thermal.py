@@ -136,6 +136,20 @@ class ThermalModel:
             raise ValueError(f"the thermal section is malformed: {exc}") from None
 
 
+def _fit_temperature(t, number: int) -> float:
+    """The temperature [°C] of a calibration's ``fit["temperature_c"]``: a number, or its recording's
+    ``[lowest, mean, highest]``; a ValueError naming calibration ``number`` for anything else."""
+    if t is None or t == []:
+        raise ValueError(f"calibration {number} has no temperature: it was made from a recording without a "
+                         "temperature column")
+    if isinstance(t, list | tuple) and len(t) == 3:
+        t = t[1]
+    if isinstance(t, bool) or not isinstance(t, int | float) or not math.isfinite(t):
+        raise ValueError(f"calibration {number}: fit.temperature_c must be a temperature [°C] or [lowest, mean, "
+                         f"highest]; got {str(t)[:40]}")
+    return float(t)
+
+
 def thermal_parameters(calibration) -> list[str]:
     """Names of ``calibration``'s parameters a thermal model may vary (biases, scales, misalignments)."""
     return [n for n in calibration.parameters() if n.split(".")[0] in ("accelerometer", "gyroscope")
@@ -149,6 +163,12 @@ def evaluate(calibration, temperature: float):
         return calibration
     values = calibration.parameters()
     deltas = model.deltas(float(temperature))
+    missing = sorted(set(deltas) - set(values))
+    if missing:
+        raise ValueError(f"the thermal model varies {', '.join(missing)}, which the calibration does not have "
+                         f"(its {calibration.model} model, {'no gyroscope, ' if calibration.gyroscope is None else ''}"
+                         "its misalignment shape): the file is damaged or was edited; combine the calibrations "
+                         "again (imucalib thermal)")
     return calibration.with_(thermal=None).with_parameters({k: values[k] + float(v) for k, v in deltas.items()})
 
 
@@ -321,11 +341,7 @@ def combine(calibrations: list, *, reference_c: float = REFERENCE_C, max_order: 
         raise ValueError(f"a thermal model needs calibrations at two or more temperatures; got {len(calibrations)}")
     temps = []
     for i, cal in enumerate(calibrations):
-        t = (cal.fit or {}).get("temperature_c")
-        if not t:
-            raise ValueError(f"calibration {i + 1} has no temperature: it was made from a recording without a "
-                             "temperature column")
-        temps.append(float(t[1] if isinstance(t, list | tuple) else t))
+        temps.append(_fit_temperature((cal.fit or {}).get("temperature_c"), i + 1))
         if cal.thermal is not None:
             raise ValueError(f"calibration {i + 1} already follows temperature; combine calibrations made at one "
                              "temperature each")
