@@ -643,3 +643,40 @@ def test_thermal_refuses_a_fit_temperature_that_is_no_temperature(session_files,
     code, out, err, _ = limited("thermal", *paths, "-o", tmp_path / "t.json")
     assert code == 2 and one_line(err) and "calibration 1" in err, err
     assert not (tmp_path / "t.json").exists()
+
+
+# ------------------------------------------------------------------ a store record nested without end
+@pytest.mark.parametrize("column", ["notes", "files", "calibration"])
+def test_a_store_record_nested_100000_deep_is_a_plain_error(tmp_path, column):
+    import sqlite3
+
+    from imucalib.calibration import Calibration
+    from imucalib.store import Store
+
+    with Store(tmp_path / "s.sqlite") as st:
+        st.add({"device": "A", "recorded_at": None, "temperature_c": None, "method": "tedaldi2014",
+                "status": "ok", "verdict": "accepted",
+                "calibration": Calibration(method="tedaldi2014", fit={"verdict": "accepted", "verdict_reasons": []}),
+                "files": [], "source_sha256": "x", "settings": {"method": "tedaldi2014"}, "error": None})
+    db = sqlite3.connect(tmp_path / "s.sqlite")
+    db.execute(f"UPDATE calibrations SET {column} = ?", ("[" * 100_000 + "]" * 100_000,))
+    db.commit()
+    db.close()
+    for args in (["store", "list"], ["store", "get", "A", "-o", tmp_path / "c.json"],
+                 ["store", "export", "-o", tmp_path / "x.csv"]):
+        code, out, err, _ = limited(*args, "--store", tmp_path / "s.sqlite")
+        if column == "calibration" and args[1] == "list":
+            assert code == 0, err  # the list does not read the calibration
+            continue
+        assert code == 2 and one_line(err) and "nested more than" in err, err
+
+
+def test_running_out_of_memory_is_a_one_line_error(tmp_path):
+    path = tmp_path / "big.csv"
+    with path.open("w", encoding="ascii") as f:
+        f.write("ax,ay,az,gx,gy,gz\n")
+        block = "0,0,1,0,0,0\n" * 100_000
+        for _ in range(40):
+            f.write(block)
+    code, out, err, peak = limited("calibrate", path, "--rate", "100", space=450 << 20)
+    assert code == 2 and one_line(err) and "out of memory" in err, err

@@ -55,7 +55,7 @@ from typing import Any
 
 from .calibration import Calibration
 from .io.atomic import atomic_create, atomic_write
-from .io.jsontext import dumps, jsonable
+from .io.jsontext import dumps, jsonable, loads
 
 __all__ = ["SCHEMA_VERSION", "STATUSES", "SUMMARY_COLUMNS", "Store", "StoreError", "canonical_json",
            "check_store_path", "instant_key", "parse_time", "record_key", "spreadsheet_text"]
@@ -374,10 +374,14 @@ class Store:
         out = []
         for row in self._db.execute(sql, params):
             rec = dict(zip(cols, row, strict=True))
-            for k in _JSON_COLUMNS:
-                rec[k] = json.loads(rec[k]) if rec[k] is not None else None
-            if with_calibration and rec["calibration"] is not None:
-                rec["calibration"] = json.loads(rec["calibration"])
+            try:  # nested at most MAX_DEPTH levels: a crafted store cannot exhaust the stack
+                for k in _JSON_COLUMNS:
+                    rec[k] = loads(rec[k]) if rec[k] is not None else None
+                if with_calibration and rec["calibration"] is not None:
+                    rec["calibration"] = loads(rec["calibration"])
+            except ValueError as exc:
+                raise StoreError(f"{self.path}: record {rec.get('id')} is damaged ({exc}); delete it or restore the "
+                                 "store from a copy") from None
             out.append(rec)
         return out
 
