@@ -680,3 +680,86 @@ def test_running_out_of_memory_is_a_one_line_error(tmp_path):
             f.write(block)
     code, out, err, peak = limited("calibrate", path, "--rate", "100", space=450 << 20)
     assert code == 2 and one_line(err) and "out of memory" in err, err
+
+
+# ------------------------------------------------------------------ a full disk
+@pytest.fixture
+def tiny_disk(tmp_path):
+    """A 96 kB file system (tmpfs), nearly filled; skipped where it cannot be mounted (not root, a container)."""
+    where = tmp_path / "tiny"
+    where.mkdir()
+    if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=96k", "tmpfs", str(where)],
+                                           capture_output=True).returncode != 0:
+        pytest.skip("a small file system cannot be mounted here (needs root and mount)")
+    try:
+        yield where
+    finally:
+        subprocess.run(["umount", str(where)], capture_output=True)
+
+
+def _fill(where: Path, leave: int) -> None:
+    free = os.statvfs(where).f_bavail * os.statvfs(where).f_frsize
+    (where / "fill").write_bytes(b"\0" * max(free - leave, 0))
+
+
+def test_a_full_disk_is_named_for_an_output_file(tiny_disk, session_files):
+    _fill(tiny_disk, 4096)
+    (tiny_disk / "c.json").write_text("before", encoding="utf-8")
+    code, out, err, _ = limited("calibrate", session_files / "s.csv", "-o", tiny_disk / "c.json")
+    assert code == 2 and one_line(err) and "the disk is full" in err and str(tiny_disk / "c.json") in err, err
+    assert (tiny_disk / "c.json").read_text(encoding="utf-8") == "before"
+    assert sorted(p.name for p in tiny_disk.iterdir()) == ["c.json", "fill"]  # no temporary file left
+
+
+def test_a_full_disk_is_named_for_the_store(tiny_disk, session_files, tmp_path):
+    manifest = tmp_path / "m.csv"
+    manifest.write_text(f"device,files\nA,{session_files / 's.csv'}\n", encoding="utf-8")
+    _fill(tiny_disk, 8192)
+    code, out, err, _ = limited("batch", manifest, "--store", tiny_disk / "s.sqlite")
+    assert code == 2 and one_line(err) and "the disk holding it is full" in err, err
+
+
+# ------------------------------------------------------------------ misleading messages
+@pytest.mark.parametrize("encoding", ["utf-32", "utf-32-le", "utf-32-be"])
+def test_utf32_is_called_utf32(tmp_path, encoding):
+    path = tmp_path / "u.csv"
+    text = "t,ax,ay,az,gx,gy,gz\n" + "0.0,1,2,3,4,5,6\n" * 50
+    path.write_bytes(text.encode(encoding))
+    code, out, err, _ = limited("calibrate", path)
+    assert code == 2 and one_line(err) and "UTF-32" in err and "UTF-16" not in err, err
+
+
+def test_apply_to_a_gz_name_writes_gzip(tmp_path, session_files):
+    from imucalib.io import read
+
+    for name in ("out.csv.gz", "OUT.CSV.GZ"):
+        code, out, err, _ = limited("apply", session_files / "c.json", session_files / "s.csv",
+                                    "-o", tmp_path / name)
+        assert code == 0, err
+        assert (tmp_path / name).read_bytes()[:2] == b"\x1f\x8b"
+        back = read(tmp_path / name)
+        np.testing.assert_array_equal(back.acc, read(session_files / "s.csv").acc)
+        assert "acc_x_cal" in gzip.decompress((tmp_path / name).read_bytes()).decode().splitlines()[0]
+
+
+def test_apply_on_a_file_cut_while_it_is_read_says_so(tmp_path, session_files, monkeypatch, capsys):
+    import shutil
+
+    from imucalib.cli import main
+    from imucalib.io import csvparse
+
+    source = tmp_path / "r.csv"
+    shutil.copy(session_files / "s.csv", source)
+    planned = csvparse.plan
+
+    def plan_then_cut(layout, *a, **k):
+        out = planned(layout, *a, **k)
+        lines = source.read_text(encoding="utf-8").splitlines(True)
+        source.write_text("".join(lines[:len(lines) // 2]), encoding="utf-8")  # a copy still in progress
+        return out
+
+    monkeypatch.setattr(csvparse, "plan", plan_then_cut)
+    code = main(["apply", str(session_files / "c.json"), str(source), "-o", str(tmp_path / "out.csv")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "the file changed while it was read" in err and "broadcast" not in err, err
+    assert not (tmp_path / "out.csv").exists()

@@ -187,9 +187,28 @@ def _sql_errors(method):
         try:
             return method(self, *args, **kwargs)
         except sqlite3.Error as exc:
-            raise StoreError(f"{self.path}: {exc}") from None
+            raise StoreError(f"{self.path}: {_sql_cause(exc, self.path)}") from None
 
     return wrapped
+
+
+#: free space below which SQLite's "disk I/O error" is a full disk [bytes]: a write of a page, its journal and
+#: its shared-memory index
+_NEARLY_FULL = 1 << 20
+
+
+def _sql_cause(exc: sqlite3.Error, path: str | Path) -> str:
+    """SQLite's error in words: a full disk (SQLITE_FULL, or an I/O error with the disk out of space) said so."""
+    text = str(exc)
+    full = "full" in text
+    if not full and "disk I/O error" in text:
+        with contextlib.suppress(OSError):
+            fs = os.statvfs(os.path.dirname(os.path.abspath(path)))
+            full = fs.f_bavail * fs.f_frsize < _NEARLY_FULL
+    if full:
+        return (f"the disk holding it is full ({text}): nothing of this write was kept, the records before it are "
+                "intact; free space on that disk, then run again")
+    return text
 
 
 class Store:
@@ -250,7 +269,7 @@ class Store:
                 self._db.executescript(f"BEGIN; {_SCHEMA} PRAGMA user_version = {SCHEMA_VERSION}; COMMIT;")
         except sqlite3.Error as exc:
             self._db.close()
-            raise StoreError(f"{self.path}: cannot use the store ({exc})") from None
+            raise StoreError(f"{self.path}: cannot use the store ({_sql_cause(exc, self.path)})") from None
 
     def _connect_readonly(self) -> sqlite3.Connection:
         """A read-only connection (``mode=ro``), else an immutable one where the folder cannot be written."""

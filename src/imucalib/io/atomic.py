@@ -181,7 +181,7 @@ def move_into_place(tmp: Path, target: Path) -> None:
 
 @contextlib.contextmanager
 def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "utf-8",
-                 newline: str | None = None) -> Iterator[IO]:
+                 newline: str | None = None, gzip_by_name: bool = False) -> Iterator[IO]:
     """Open a temporary file next to ``path`` for writing; on success it replaces ``path``.
 
     Parameters
@@ -194,6 +194,9 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
         Text mode only (default UTF-8).
     newline : str, optional
         Text mode only, as for :func:`open`.
+    gzip_by_name : bool
+        When ``path`` ends in ``.gz``, what is written is gzip-compressed (RFC 1952), so that the name says
+        what the file is (a reader decompresses it by its first bytes).
 
     Yields
     ------
@@ -208,6 +211,10 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
     """
     if mode not in ("w", "wb"):
         raise ValueError(f"mode must be 'w' or 'wb'; got {mode!r}")
+    if gzip_by_name and str(path).lower().endswith(".gz"):
+        with atomic_write(path, "wb") as raw, _gzip_writer(raw, Path(path), mode, encoding, newline) as fh:
+            yield fh
+        return
     target, stream = _target(path)
     text = {"encoding": encoding, "newline": newline} if mode == "w" else {}
     if stream:  # a device or FIFO: written in the temporary folder, then into it as the shell's > writes
@@ -228,9 +235,24 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
             fh.flush()
             os.fsync(fh.fileno())
         move_into_place(tmp, target)
+    except OSError as exc:
+        _remove(tmp)
+        raise _full_disk(exc, target) from None
     except BaseException:
         _remove(tmp)
         raise
+
+
+@contextlib.contextmanager
+def _gzip_writer(raw: IO, path: Path, mode: str, encoding: str | None, newline: str | None) -> Iterator[IO]:
+    """A gzip stream into the open binary file ``raw`` (text or binary by ``mode``), finished on success."""
+    import gzip
+    import io
+
+    gz = gzip.GzipFile(filename=path.name[:-3], mode="wb", fileobj=raw, mtime=0)
+    fh = io.TextIOWrapper(gz, encoding=encoding, newline=newline) if mode == "w" else gz
+    yield fh
+    fh.close()  # writes the gzip trailer; raw stays open for atomic_write to sync and move into place
 
 
 @contextlib.contextmanager
@@ -269,9 +291,21 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         finally:
             os.close(fd)
         move_into_place(tmp, target)
+    except OSError as exc:
+        _remove(tmp)
+        raise _full_disk(exc, target) from None
     except BaseException:
         _remove(tmp)
         raise
+
+
+def _full_disk(exc: OSError, target: Path) -> OSError:
+    """``exc``, or for a full disk (ENOSPC, EDQUOT) an error naming the file and saying that nothing changed."""
+    if exc.errno not in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC)):
+        return exc
+    what = "the disk is full" if exc.errno == errno.ENOSPC else "your disk quota is used up"
+    return OSError(exc.errno, f"{target}: {what} ({exc.strerror}); nothing was written, what was there is as it "
+                              "was: free space there, or write elsewhere")
 
 
 @contextlib.contextmanager
