@@ -763,3 +763,21 @@ def test_apply_on_a_file_cut_while_it_is_read_says_so(tmp_path, session_files, m
     err = capsys.readouterr().err.strip()
     assert code == 2 and "the file changed while it was read" in err and "broadcast" not in err, err
     assert not (tmp_path / "out.csv").exists()
+
+
+def test_a_long_batch_does_not_start_by_announcing_hundreds_of_hours(monkeypatch):
+    from imucalib.progress import Progress
+
+    now = [0.0]
+    monkeypatch.setattr("imucalib.progress.time.perf_counter", lambda: now[0])
+    out = io.StringIO()
+    bar = Progress("batch", total=100_000, stream=out, interval=0.0, unit="row")
+    now[0] = 19.0  # starting the workers and the first row: 19 s
+    bar(1)
+    for k in range(2, 8):
+        now[0] += 0.01  # then a row every 10 ms
+        bar(k)
+    lines = out.getvalue().splitlines()
+    assert "left" not in lines[0], lines  # one row says nothing of the rate
+    # 99,993 rows left at 10 ms: 16 min 40 s (elapsed 19.06 s / 7 rows would say 75 h)
+    assert lines[-1] == "batch: 7/100000 rows, 19 s, about 16 min 40 s left", lines
