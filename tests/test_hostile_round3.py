@@ -781,3 +781,31 @@ def test_a_long_batch_does_not_start_by_announcing_hundreds_of_hours(monkeypatch
     assert "left" not in lines[0], lines  # one row says nothing of the rate
     # 99,993 rows left at 10 ms: 16 min 40 s (elapsed 19.06 s / 7 rows would say 75 h)
     assert lines[-1] == "batch: 7/100000 rows, 19 s, about 16 min 40 s left", lines
+
+
+# ------------------------------------------------------------------ Ferraris sections that overlap
+@pytest.fixture(scope="module")
+def ferraris_session(tmp_path_factory):
+    from imucalib.io import write_csv
+    from imucalib.scenarios import session
+
+    sim = session("handheld", rng=1, procedure="ferraris", tremor=0)
+    d = tmp_path_factory.mktemp("ferraris")
+    write_csv(d / "f.csv", sim.recording)
+    return d / "f.csv", {k: [int(a), int(b)] for k, (a, b) in sim.options["sections"].items()}
+
+
+@pytest.mark.parametrize("name, inside, words", [
+    ("x_p", "z_p", "overlap"), ("x_rot", "x_p", "overlap"), ("y_rot", "x_rot", "overlap"),
+    ("x_rot", None, "a turn needs the samples"),
+])
+def test_overlapping_or_empty_ferraris_sections_are_named(tmp_path, ferraris_session, name, inside, words):
+    path, sections = ferraris_session
+    bad = dict(sections)
+    bad[name] = [sections[inside][0] + 10, sections[inside][1] - 10] if inside else \
+        [sections[name][0], sections[name][0] + 1]
+    (tmp_path / "s.json").write_text(json.dumps(bad), encoding="utf-8")
+    code, out, err, _ = limited("calibrate", path, "--method", "ferraris", "--sections", tmp_path / "s.json",
+                                "-o", tmp_path / "c.json")
+    assert code == 2 and one_line(err) and words in err and f"'{name}'" in err, err
+    assert "stops[i]" not in err and not (tmp_path / "c.json").exists()
