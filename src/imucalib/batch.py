@@ -72,7 +72,6 @@ import hashlib
 import logging
 import math
 import os
-import re
 import signal
 import stat
 import tempfile
@@ -92,6 +91,7 @@ from .io.inputs import check_input_path, check_text, path_kind
 from .io.rosbag import is_rosbag
 from .methodinfo import DEFAULT_METHOD
 from .recording import STANDARD_GRAVITY
+from .rowerrors import EXCERPT_CHARS, heads_of, row_message
 from .store import Store, canonical_json, check_store_path, instant_key, parse_time
 
 __all__ = ["EXCERPT_CHARS", "MANIFEST_COLUMNS", "BatchError", "ManifestError", "Row", "dask_client", "execute",
@@ -104,8 +104,6 @@ _READERS = ("csv", "imutk", "mat", "phone", "rosbag", "session")
 _UNITS = {"acc_unit": ("counts", "g", "m/s^2"), "gyro_unit": ("counts", "deg/s", "rad/s"),
           "time_unit": ("s", "ms", "us", "ns")}
 _HASH_BLOCK = 1 << 20
-#: the most characters of a file's content a stored error quotes
-EXCERPT_CHARS = 16
 
 
 class ManifestError(ValueError):
@@ -193,7 +191,6 @@ def url_protocols(name: str) -> list[str]:
 def _check_url(name: str, schemes: frozenset[str] | None) -> None:
     """Every protocol of ``name``'s chain allowed (:func:`url_protocols`), else a ValueError naming the first not."""
     protocols = url_protocols(name)
-    scheme = protocols[0]
     if schemes is None or all(p in schemes for p in protocols):
         return
     if not schemes:
@@ -422,92 +419,6 @@ def _fetch(url: str, directory: Path) -> Path:
     return target
 
 
-#: a quoted excerpt in a message: '…' or "…" (Python's repr of a string), at least one character long
-_QUOTED = re.compile(r"'((?:[^'\\\n]|\\.)+)'" + r'|"((?:[^"\\\n]|\\.)+)"')
-
-
-def _short_quotes(text: str, limit: int = EXCERPT_CHARS) -> str:
-    """``text`` with every quoted excerpt longer than ``limit`` characters cut to its first ``limit``."""
-    def cut(m: re.Match) -> str:
-        inner = m.group(1) if m.group(1) is not None else m.group(2)
-        if len(inner) <= limit:
-            return m.group(0)
-        q = m.group(0)[0]
-        return f"{q}{inner[:limit]}…{q}"
-
-    return _QUOTED.sub(cut, text)
-
-
-#: the bytes at the start of each file whose text a row's error may not quote at length
-_CONTENT_BYTES = 1 << 16
-
-
-def _heads(paths: Sequence[Path | None]) -> list[str]:
-    """The first :data:`_CONTENT_BYTES` of each regular file of ``paths``, as text."""
-    out = []
-    for p in paths:
-        if p is None:
-            continue
-        with contextlib.suppress(OSError):
-            if p.is_file() and path_kind(p.stat().st_mode) is None:
-                with open(p, "rb") as fh:
-                    out.append(fh.read(_CONTENT_BYTES).decode("utf-8", errors="replace"))
-    return out
-
-
-#: the longest run of a file that is no recording that a stored error may hold [characters]
-_STRANGER_CHARS = 3
-_NUMBER = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
-
-
-def _looks_like_recording(head: str) -> bool:
-    """Whether the first bytes of a file hold a line of at least three numbers (a row of readings), cells
-    split at commas, semicolons, tabs or spaces."""
-    for line in head.splitlines()[:200]:
-        cells = [c for c in re.split(r"[,;\t ]+", line.strip()) if c]
-        if sum(bool(_NUMBER.match(c)) for c in cells) >= 3:
-            return True
-    return False
-
-
-def _cut_content(text: str, heads: Sequence[str], limit: int = EXCERPT_CHARS) -> str:
-    """``text`` with every run of more than ``limit`` characters that is found in one of ``heads`` cut to
-    its first ``limit`` characters."""
-    if not heads:
-        return text
-    out, i, n = [], 0, len(text)
-    while i < n:
-        j = i + limit + 1
-        if j <= n and any(text[i:j] in h for h in heads):
-            while j < n and any(text[i:j + 1] in h for h in heads):
-                j += 1
-            out.append("…")  # nothing of it: its first characters are what a secret's file starts with
-            i = j
-        else:
-            out.append(text[i])
-            i += 1
-    return "".join(out)
-
-
-def _message(exc: BaseException, replace: dict[str, str], paths: Sequence[str] = (),
-             heads: Sequence[str] = ()) -> str:
-    """An exception as the row's error: its message (with the type for unexpected kinds), local copies named
-    by their URLs, quoted file content and text found in ``heads`` (the start of the row's files) cut to
-    :data:`EXCERPT_CHARS` characters (the row's own paths kept)."""
-    text = str(exc) if isinstance(exc, ValueError | OSError) else f"{type(exc).__name__}: {exc}"
-    for local, original in replace.items():
-        text = text.replace(local, original)
-    keep = {f"\0{k}\0": p for k, p in enumerate(sorted({*paths, *replace.values()}, key=len, reverse=True))}
-    for key, p in keep.items():
-        text = text.replace(p, key)
-    # a file that is no recording (/etc/shadow): nothing of it longer than a few characters
-    strangers = [h for h in heads if not _looks_like_recording(h)]
-    text = _short_quotes(_cut_content(_cut_content(text, strangers, _STRANGER_CHARS), heads))
-    for key, p in keep.items():
-        text = text.replace(key, p)
-    return text or type(exc).__name__
-
-
 def run_row(task: dict) -> dict:
     """Hash, read and calibrate one manifest row; the result the batch stores. Never raises.
 
@@ -548,7 +459,7 @@ def run_row(task: dict) -> dict:
                 _check_content(p, row.reader)  # what the reader refuses from its first bytes, before hashing it all
                 sha, size = _hash_path(p)
             except Exception as exc:  # the row fails with this file's error; the batch goes on
-                problems.append(_message(exc, replace, row.files, _heads([p])))
+                problems.append(row_message(exc, replace, row.files, heads_of([p])))
                 local.append(None)
                 out["files"].append({"path": name, "sha256": None, "bytes": None})
                 digest.update(f"missing:{name}\n".encode())
@@ -567,8 +478,8 @@ def run_row(task: dict) -> dict:
                 warnings.simplefilter("always")
                 data = read_data([str(p) for p in local], **row.reader_options())
                 cal = calibrate(data, method=row.method, model=row.model, gravity=row.gravity)
-            heads = _heads(local)
-            out["notes"] = [_message(ValueError(str(w.message)), replace, row.files, heads) for w in caught
+            heads = heads_of(local)
+            out["notes"] = [row_message(ValueError(str(w.message)), replace, row.files, heads) for w in caught
                             if issubclass(w.category, ImucalibWarning)]
             cal = cal.with_(device=row.device)
             verdict = (cal.fit or {}).get("verdict")
@@ -580,7 +491,7 @@ def run_row(task: dict) -> dict:
             else:
                 out["status"] = "ok"
         except Exception as exc:  # a failing row is stored with its error, never stops the batch
-            out["error"] = _message(exc, replace, row.files, _heads(local))
+            out["error"] = row_message(exc, replace, row.files, heads_of(local))
     out["seconds"] = time.perf_counter() - t0
     return out
 

@@ -32,7 +32,7 @@ FLAT_DEG = 25.0
 
 
 def rest_force(calibration, recording, interval) -> np.ndarray:
-    """The calibrated specific force [m/s²] averaged over ``interval`` (``start``, ``stop`` samples) of ``recording``."""
+    """The calibrated specific force [m/s²] averaged over ``interval`` (``start``, ``stop``) of ``recording``."""
     start, stop = (interval.start, interval.stop) if hasattr(interval, "start") else interval[:2]
     raw = recording.acc[int(start):int(stop)]
     return np.mean(calibration.accelerometer_si(raw), axis=0)

@@ -26,8 +26,18 @@ import warnings
 from collections.abc import Sequence
 
 from .. import __version__
-from ._common import (EXIT_ERROR, EXIT_INTERRUPTED, EXIT_REJECTED, CliError, PrintableStream, check_paths,
-                      normalise_argv, report_error, show_warning, tolerant_encoding)
+from ._common import (
+    EXIT_ERROR,
+    EXIT_INTERRUPTED,
+    EXIT_REJECTED,
+    CliError,
+    PrintableStream,
+    check_paths,
+    normalise_argv,
+    report_error,
+    show_warning,
+    tolerant_encoding,
+)
 
 __all__ = ["EXIT_ERROR", "EXIT_REJECTED", "GROUPS", "CliError", "build_parser", "main"]
 
