@@ -72,7 +72,6 @@ import hashlib
 import logging
 import math
 import os
-import re
 import signal
 import stat
 import tempfile
@@ -88,14 +87,15 @@ from typing import Any
 
 from .io.atomic import refuse_overwriting_inputs
 from .io.errors import ReaderError
-from .io.inputs import check_input_path, path_kind
+from .io.inputs import check_input_path, check_text, path_kind
 from .io.rosbag import is_rosbag
 from .methodinfo import DEFAULT_METHOD
 from .recording import STANDARD_GRAVITY
-from .store import Store, canonical_json, check_store_path, parse_time
+from .rowerrors import EXCERPT_CHARS, heads_of, row_message
+from .store import Store, canonical_json, check_store_path, instant_key, parse_time
 
 __all__ = ["EXCERPT_CHARS", "MANIFEST_COLUMNS", "BatchError", "ManifestError", "Row", "dask_client", "execute",
-           "is_url", "read_manifest", "run_batch", "run_row", "url_schemes"]
+           "is_url", "read_manifest", "run_batch", "run_row", "url_protocols", "url_schemes"]
 
 #: the manifest's columns; ``device`` and ``files`` are required
 MANIFEST_COLUMNS = ("device", "files", "method", "model", "reader", "columns", "acc_unit", "gyro_unit",
@@ -104,8 +104,6 @@ _READERS = ("csv", "imutk", "mat", "phone", "rosbag", "session")
 _UNITS = {"acc_unit": ("counts", "g", "m/s^2"), "gyro_unit": ("counts", "deg/s", "rad/s"),
           "time_unit": ("s", "ms", "us", "ns")}
 _HASH_BLOCK = 1 << 20
-#: the most characters of a file's content a stored error quotes
-EXCERPT_CHARS = 16
 
 
 class ManifestError(ValueError):
@@ -178,15 +176,31 @@ def url_schemes(allow_urls: bool | str | Sequence[str] | None) -> frozenset[str]
     return schemes
 
 
+def url_protocols(name: str) -> list[str]:
+    """Every protocol an fsspec URL reads through, outermost first: ``zip://rec.csv::ftp://host/a.zip`` reads a
+    zip through FTP (``["zip", "ftp"]``). A chained part without ``://`` names a protocol (``simplecache::``),
+    or, last, a local file (``file``)."""
+    parts = name.split("::")
+    out = []
+    for i, part in enumerate(parts):
+        head, sep, _ = part.partition("://")
+        out.append(head.lower() if sep else "file" if i == len(parts) - 1 else part.strip().lower())
+    return out
+
+
 def _check_url(name: str, schemes: frozenset[str] | None) -> None:
-    scheme = name.partition("://")[0].lower()
-    if schemes is None or scheme in schemes:
+    """Every protocol of ``name``'s chain allowed (:func:`url_protocols`), else a ValueError naming the first not."""
+    protocols = url_protocols(name)
+    if schemes is None or all(p in schemes for p in protocols):
         return
     if not schemes:
         raise ValueError(f"{name}: a URL; a manifest's URLs are read only when allowed (imucalib batch "
-                         f"--allow-urls, or --allow-urls {scheme} for this scheme alone): allow them for "
-                         "manifests you trust, since the batch connects to the hosts they name")
-    raise ValueError(f"{name}: the URL scheme {scheme} is not among those allowed ({', '.join(sorted(schemes))})")
+                         f"--allow-urls, or --allow-urls {','.join(dict.fromkeys(protocols))} for this URL alone): "
+                         "allow them for manifests you trust, since the batch connects to the hosts they name")
+    refused = next(p for p in protocols if p not in schemes)
+    chain = f" (the URL reads through {'::'.join(protocols)}: each must be allowed)" if len(protocols) > 1 else ""
+    raise ValueError(f"{name}: the URL scheme {refused} is not among those allowed "
+                     f"({', '.join(sorted(schemes))}){chain}")
 
 
 def _local(base: Path, name: str) -> str:
@@ -348,6 +362,19 @@ def _check_local(path: Path) -> None:
                           "a simulated session session.json)")
 
 
+def _check_content(path: Path, reader: str | None) -> None:
+    """The checks a text reader makes of a regular file's first kilobytes (:func:`~.io.inputs.check_text`:
+    binary, sparse, UTF-16 or compressed in another way), before the whole file is hashed: a 100 GB sparse file
+    is refused in milliseconds, as ``imucalib calibrate`` refuses it."""
+    from .io.readers import guess_reader
+
+    if not path.is_file():
+        return
+    reader = reader or guess_reader([path])
+    if reader in ("csv", "imutk", "phone"):
+        check_text(path, gzip_ok=reader == "csv")
+
+
 def _hash_path(path: Path) -> tuple[str, int]:
     """SHA-256 of a file's contents, or of a folder's (names and contents of the files directly inside it)."""
     h = hashlib.sha256()
@@ -392,75 +419,6 @@ def _fetch(url: str, directory: Path) -> Path:
     return target
 
 
-#: a quoted excerpt in a message: '…' or "…" (Python's repr of a string), at least one character long
-_QUOTED = re.compile(r"'((?:[^'\\\n]|\\.)+)'" + r'|"((?:[^"\\\n]|\\.)+)"')
-
-
-def _short_quotes(text: str, limit: int = EXCERPT_CHARS) -> str:
-    """``text`` with every quoted excerpt longer than ``limit`` characters cut to its first ``limit``."""
-    def cut(m: re.Match) -> str:
-        inner = m.group(1) if m.group(1) is not None else m.group(2)
-        if len(inner) <= limit:
-            return m.group(0)
-        q = m.group(0)[0]
-        return f"{q}{inner[:limit]}…{q}"
-
-    return _QUOTED.sub(cut, text)
-
-
-#: the bytes at the start of each file whose text a row's error may not quote at length
-_CONTENT_BYTES = 1 << 16
-
-
-def _heads(paths: Sequence[Path | None]) -> list[str]:
-    """The first :data:`_CONTENT_BYTES` of each regular file of ``paths``, as text."""
-    out = []
-    for p in paths:
-        if p is None:
-            continue
-        with contextlib.suppress(OSError):
-            if p.is_file() and path_kind(p.stat().st_mode) is None:
-                with open(p, "rb") as fh:
-                    out.append(fh.read(_CONTENT_BYTES).decode("utf-8", errors="replace"))
-    return out
-
-
-def _cut_content(text: str, heads: Sequence[str], limit: int = EXCERPT_CHARS) -> str:
-    """``text`` with every run of more than ``limit`` characters that is found in one of ``heads`` cut to
-    its first ``limit`` characters."""
-    if not heads:
-        return text
-    out, i, n = [], 0, len(text)
-    while i < n:
-        j = i + limit + 1
-        if j <= n and any(text[i:j] in h for h in heads):
-            while j < n and any(text[i:j + 1] in h for h in heads):
-                j += 1
-            out.append(text[i:i + limit] + "…")
-            i = j
-        else:
-            out.append(text[i])
-            i += 1
-    return "".join(out)
-
-
-def _message(exc: BaseException, replace: dict[str, str], paths: Sequence[str] = (),
-             heads: Sequence[str] = ()) -> str:
-    """An exception as the row's error: its message (with the type for unexpected kinds), local copies named
-    by their URLs, quoted file content and text found in ``heads`` (the start of the row's files) cut to
-    :data:`EXCERPT_CHARS` characters (the row's own paths kept)."""
-    text = str(exc) if isinstance(exc, ValueError | OSError) else f"{type(exc).__name__}: {exc}"
-    for local, original in replace.items():
-        text = text.replace(local, original)
-    keep = {f"\0{k}\0": p for k, p in enumerate(sorted({*paths, *replace.values()}, key=len, reverse=True))}
-    for key, p in keep.items():
-        text = text.replace(p, key)
-    text = _cut_content(_short_quotes(text), heads)
-    for key, p in keep.items():
-        text = text.replace(key, p)
-    return text or type(exc).__name__
-
-
 def run_row(task: dict) -> dict:
     """Hash, read and calibrate one manifest row; the result the batch stores. Never raises.
 
@@ -498,9 +456,10 @@ def run_row(task: dict) -> dict:
                 if is_url(name):
                     replace[str(p)] = name
                 _check_local(p)
+                _check_content(p, row.reader)  # what the reader refuses from its first bytes, before hashing it all
                 sha, size = _hash_path(p)
             except Exception as exc:  # the row fails with this file's error; the batch goes on
-                problems.append(_message(exc, replace, row.files, _heads([p])))
+                problems.append(row_message(exc, replace, row.files, heads_of([p])))
                 local.append(None)
                 out["files"].append({"path": name, "sha256": None, "bytes": None})
                 digest.update(f"missing:{name}\n".encode())
@@ -519,8 +478,8 @@ def run_row(task: dict) -> dict:
                 warnings.simplefilter("always")
                 data = read_data([str(p) for p in local], **row.reader_options())
                 cal = calibrate(data, method=row.method, model=row.model, gravity=row.gravity)
-            heads = _heads(local)
-            out["notes"] = [_message(ValueError(str(w.message)), replace, row.files, heads) for w in caught
+            heads = heads_of(local)
+            out["notes"] = [row_message(ValueError(str(w.message)), replace, row.files, heads) for w in caught
                             if issubclass(w.category, ImucalibWarning)]
             cal = cal.with_(device=row.device)
             verdict = (cal.fit or {}).get("verdict")
@@ -532,7 +491,7 @@ def run_row(task: dict) -> dict:
             else:
                 out["status"] = "ok"
         except Exception as exc:  # a failing row is stored with its error, never stops the batch
-            out["error"] = _message(exc, replace, row.files, _heads(local))
+            out["error"] = row_message(exc, replace, row.files, heads_of(local))
     out["seconds"] = time.perf_counter() - t0
     return out
 
@@ -736,7 +695,8 @@ def run_batch(manifest: str | Path, store: str | Path, *, workers: int | None = 
         # the largest recordings first: the last ones to finish are then short, and the workers end together
         order = sorted(range(len(rows)), key=lambda k: -_size(rows[k]))
         tasks = [{"row": rows[k], "skip": sorted(stored.get(
-            (rows[k].device, rows[k].recorded_at or "", canonical_json(rows[k].settings())), ()))} for k in order]
+            (rows[k].device, instant_key(rows[k].recorded_at), canonical_json(rows[k].settings())), ()))}
+            for k in order]
         for i, res in execute(run_row, tasks, workers=workers, scheduler=scheduler, chunksize=chunksize,
                               progress=progress):
             row = rows[order[i]]

@@ -20,7 +20,13 @@ import sys
 import time
 from typing import TextIO
 
+from .printable import printable
+
 __all__ = ["Progress", "stage_printer"]
+
+
+#: steps after the first from which the time left is estimated
+RATE_STEPS = 2
 
 
 def _clock(seconds: float) -> str:
@@ -59,12 +65,13 @@ class Progress:
     def __init__(self, label: str, total: int | None = None, *, enabled: bool = True,
                  stream: TextIO | None = None, interval: float = 5.0, unit: str = "it",
                  bar: bool | None = None) -> None:
-        self.label, self.total, self.enabled = label, total, enabled
+        self.label, self.total, self.enabled = printable(label), total, enabled  # a file name's controls escaped
         self.stream = stream if stream is not None else sys.stderr
         self.interval, self.unit = interval, unit
         self.done = 0
         self.start = time.perf_counter()
         self._last_line = self.start
+        self._first: tuple[float, int] | None = None  # (when, count) of the first step done: the rate is from it
         self._closed = False
         self._bar = None
         if not enabled:
@@ -97,6 +104,8 @@ class Progress:
             self.done += n
             return
         self.done += n
+        if self._first is None and self.done > 0:
+            self._first = (time.perf_counter(), self.done)
         if self._bar is not None:
             self._bar.update(n)
             if self.total is not None and self.done >= self.total:
@@ -114,11 +123,24 @@ class Progress:
         elapsed = now - self.start
         if self.total:
             text = f"{self.label}: {self.done}/{self.total} {self.unit}s, {_clock(elapsed)}"
-            if 0 < self.done < self.total:
-                text += f", about {_clock(elapsed * (self.total - self.done) / self.done)} left"
+            left = self._left(now)
+            if left is not None:
+                text += f", about {_clock(left)} left"
         else:
             text = f"{self.label}: {self.done} {self.unit}s, {_clock(elapsed)}"
         print(text, file=self.stream, flush=True)
+
+    def _left(self, now: float) -> float | None:
+        """Seconds left at the rate since the first step was done, once :data:`RATE_STEPS` more have been: the
+        time to the first step (starting workers, importing, a first large file) is not a step's time, and
+        counting it made a 100,000-row batch start by announcing hundreds of hours."""
+        if self._first is None or not self.total or self.done >= self.total:
+            return None
+        t0, n0 = self._first
+        steps = self.done - n0
+        if steps < RATE_STEPS or now <= t0:
+            return None
+        return (now - t0) / steps * (self.total - self.done)
 
     def close(self) -> None:
         """End the display (idempotent); a bar is left on screen with its final count."""
@@ -143,6 +165,6 @@ def stage_printer(enabled: bool, stream: TextIO | None = None):
     start = time.perf_counter()
 
     def say(msg: str) -> None:
-        print(f"[{time.perf_counter() - start:6.2f} s] {msg}", file=out, flush=True)
+        print(f"[{time.perf_counter() - start:6.2f} s] {printable(msg)}", file=out, flush=True)
 
     return say

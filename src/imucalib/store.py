@@ -55,10 +55,10 @@ from typing import Any
 
 from .calibration import Calibration
 from .io.atomic import atomic_create, atomic_write
-from .io.jsontext import dumps, jsonable
+from .io.jsontext import dumps, jsonable, loads
 
 __all__ = ["SCHEMA_VERSION", "STATUSES", "SUMMARY_COLUMNS", "Store", "StoreError", "canonical_json",
-           "check_store_path", "parse_time", "record_key"]
+           "check_store_path", "instant_key", "parse_time", "record_key", "spreadsheet_text"]
 
 #: ``PRAGMA user_version`` of the store's schema
 SCHEMA_VERSION = 1
@@ -137,6 +137,17 @@ def parse_time(text: str | datetime | date | None, *, what: str = "time") -> tup
     return normalised, moment.timestamp()
 
 
+def instant_key(text: str | datetime | date | None) -> str:
+    """One text per instant, for a record's identity: ``2024-05-01``, ``2024-05-01T00:00`` and
+    ``2024-05-01T02:00+02:00`` are the same moment (a time without a zone is UTC) and give ``"2024-05-01"``;
+    another moment gives its UTC date-time without a zone (``2024-05-01T14:30:00``); None gives ``""``."""
+    _, ts = parse_time(text)
+    if ts is None:
+        return ""
+    moment = datetime.fromtimestamp(ts, UTC).replace(tzinfo=None)
+    return moment.date().isoformat() if moment.time() == datetime.min.time() else moment.isoformat()
+
+
 def canonical_json(obj: Any) -> str:
     """``obj`` as compact strict JSON with sorted keys: equal settings give equal text."""
     return json.dumps(jsonable(obj), sort_keys=True, separators=(",", ":"), allow_nan=False, ensure_ascii=False)
@@ -176,9 +187,28 @@ def _sql_errors(method):
         try:
             return method(self, *args, **kwargs)
         except sqlite3.Error as exc:
-            raise StoreError(f"{self.path}: {exc}") from None
+            raise StoreError(f"{self.path}: {_sql_cause(exc, self.path)}") from None
 
     return wrapped
+
+
+#: free space below which SQLite's "disk I/O error" is a full disk [bytes]: a write of a page, its journal and
+#: its shared-memory index
+_NEARLY_FULL = 1 << 20
+
+
+def _sql_cause(exc: sqlite3.Error, path: str | Path) -> str:
+    """SQLite's error in words: a full disk (SQLITE_FULL, or an I/O error with the disk out of space) said so."""
+    text = str(exc)
+    full = "full" in text
+    if not full and "disk I/O error" in text:
+        with contextlib.suppress(OSError):
+            fs = os.statvfs(os.path.dirname(os.path.abspath(path)))
+            full = fs.f_bavail * fs.f_frsize < _NEARLY_FULL
+    if full:
+        return (f"the disk holding it is full ({text}): nothing of this write was kept, the records before it are "
+                "intact; free space on that disk, then run again")
+    return text
 
 
 class Store:
@@ -239,7 +269,7 @@ class Store:
                 self._db.executescript(f"BEGIN; {_SCHEMA} PRAGMA user_version = {SCHEMA_VERSION}; COMMIT;")
         except sqlite3.Error as exc:
             self._db.close()
-            raise StoreError(f"{self.path}: cannot use the store ({exc})") from None
+            raise StoreError(f"{self.path}: cannot use the store ({_sql_cause(exc, self.path)})") from None
 
     def _connect_readonly(self) -> sqlite3.Connection:
         """A read-only connection (``mode=ro``), else an immutable one where the folder cannot be written."""
@@ -301,7 +331,7 @@ class Store:
             cal = dumps(cal, indent=2)
         created = record.get("created") or datetime.now(UTC).replace(microsecond=0).isoformat()
         values = {
-            "record_key": record_key(device, recorded_at, settings, record["source_sha256"]),
+            "record_key": record_key(device, instant_key(recorded_at), settings, record["source_sha256"]),
             "device": device, "recorded_at": recorded_at, "recorded_ts": ts,
             "temperature_c": record.get("temperature_c"), "method": record["method"],
             "model": record.get("model"), "status": record["status"], "verdict": record.get("verdict"),
@@ -338,11 +368,12 @@ class Store:
     # --------------------------------------------------------------- reading
     @_sql_errors
     def source_hashes(self) -> dict[tuple[str, str, str], set[str]]:
-        """``(device, recorded_at or "", settings JSON) → {source hashes}`` of every record (what a batch skips)."""
+        """``(device, instant_key(recorded_at), settings JSON) → {source hashes}`` of every record (what a batch
+        skips): one key per moment, however its time was written (:func:`instant_key`)."""
         out: dict[tuple[str, str, str], set[str]] = {}
         for device, at, settings, source in self._db.execute(
                 "SELECT device, recorded_at, settings, source_sha256 FROM calibrations"):
-            out.setdefault((device, at or "", settings), set()).add(source)
+            out.setdefault((device, instant_key(at), settings), set()).add(source)
         return out
 
     @_sql_errors
@@ -362,10 +393,14 @@ class Store:
         out = []
         for row in self._db.execute(sql, params):
             rec = dict(zip(cols, row, strict=True))
-            for k in _JSON_COLUMNS:
-                rec[k] = json.loads(rec[k]) if rec[k] is not None else None
-            if with_calibration and rec["calibration"] is not None:
-                rec["calibration"] = json.loads(rec["calibration"])
+            try:  # nested at most MAX_DEPTH levels: a crafted store cannot exhaust the stack
+                for k in _JSON_COLUMNS:
+                    rec[k] = loads(rec[k]) if rec[k] is not None else None
+                if with_calibration and rec["calibration"] is not None:
+                    rec["calibration"] = loads(rec["calibration"])
+            except ValueError as exc:
+                raise StoreError(f"{self.path}: record {rec.get('id')} is damaged ({exc}); delete it or restore the "
+                                 "store from a copy") from None
             out.append(rec)
         return out
 
@@ -530,4 +565,20 @@ def _write_csv(path: Path, records: list[dict]) -> None:
         for r, p in zip(records, params, strict=True):
             cells = [r[k] for k in head]
             cells[head.index("files")] = ";".join(f["path"] for f in r["files"])
-            w.writerow(["" if c is None else c for c in cells] + [repr(float(p[n])) if n in p else "" for n in names])
+            w.writerow([spreadsheet_text(c) for c in cells] + [repr(float(p[n])) if n in p else "" for n in names])
+
+
+#: what makes a spreadsheet read a cell as a formula (OWASP, CSV injection): = + - @, tab, carriage return,
+#: and their full-width forms
+_FORMULA_START = tuple("=+-@\t\r\uff1d\uff0b\uff0d\uff20")
+
+
+def spreadsheet_text(cell) -> str | int | float:
+    """A CSV cell a spreadsheet shows as text: text that starts like a formula gets a leading ``'`` (OWASP's
+    CSV-injection rule), numbers stay numbers, None is empty."""
+    if cell is None:
+        return ""
+    if isinstance(cell, int | float):
+        return cell
+    text = str(cell)
+    return "'" + text if text.lstrip(" ").startswith(_FORMULA_START) else text

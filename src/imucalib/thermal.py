@@ -38,6 +38,7 @@ unchanged. Nonlinear scale factors follow temperature only through the biases.
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass, field
 
@@ -45,8 +46,8 @@ import numpy as np
 
 from .recording import ImucalibWarning, Interval, Recording
 
-__all__ = ["REFERENCE_C", "SIGNIFICANCE", "ThermalModel", "calibrate_ramp", "combine", "compensate",
-           "decompensate", "evaluate", "thermal_parameters"]
+__all__ = ["POSSIBLE_C", "REFERENCE_C", "SIGNIFICANCE", "ThermalModel", "at_temperature", "calibrate_ramp",
+           "combine", "compensate", "decompensate", "evaluate", "thermal_parameters"]
 
 #: reference temperature ``T₀`` [°C] of a thermal model (datasheets quote their figures at 25 °C)
 REFERENCE_C = 25.0
@@ -135,6 +136,20 @@ class ThermalModel:
             raise ValueError(f"the thermal section is malformed: {exc}") from None
 
 
+def _fit_temperature(t, number: int) -> float:
+    """The temperature [°C] of a calibration's ``fit["temperature_c"]``: a number, or its recording's
+    ``[lowest, mean, highest]``; a ValueError naming calibration ``number`` for anything else."""
+    if t is None or t == []:
+        raise ValueError(f"calibration {number} has no temperature: it was made from a recording without a "
+                         "temperature column")
+    if isinstance(t, list | tuple) and len(t) == 3:
+        t = t[1]
+    if isinstance(t, bool) or not isinstance(t, int | float) or not math.isfinite(t):
+        raise ValueError(f"calibration {number}: fit.temperature_c must be a temperature [°C] or [lowest, mean, "
+                         f"highest]; got {str(t)[:40]}")
+    return float(t)
+
+
 def thermal_parameters(calibration) -> list[str]:
     """Names of ``calibration``'s parameters a thermal model may vary (biases, scales, misalignments)."""
     return [n for n in calibration.parameters() if n.split(".")[0] in ("accelerometer", "gyroscope")
@@ -148,7 +163,40 @@ def evaluate(calibration, temperature: float):
         return calibration
     values = calibration.parameters()
     deltas = model.deltas(float(temperature))
+    missing = sorted(set(deltas) - set(values))
+    if missing:
+        raise ValueError(f"the thermal model varies {', '.join(missing)}, which the calibration does not have "
+                         f"(its {calibration.model} model, {'no gyroscope, ' if calibration.gyroscope is None else ''}"
+                         "its misalignment shape): the file is damaged or was edited; combine the calibrations "
+                         "again (imucalib thermal)")
     return calibration.with_(thermal=None).with_parameters({k: values[k] + float(v) for k, v in deltas.items()})
+
+
+#: the temperatures a working IMU can be at [°C]: above absolute zero, and below the 260 °C peak of lead-free
+#: reflow soldering (IPC/JEDEC J-STD-020), past which no board-mounted sensor survives
+POSSIBLE_C = (-273.15, 260.0)
+
+
+def at_temperature(calibration, temperature: float):
+    """``(calibration at temperature, notes)``: :func:`evaluate` for a temperature a user gave.
+
+    A temperature no sensor can be at (not a number, below absolute zero, above :data:`POSSIBLE_C`) is a
+    ValueError; one outside the temperatures the model was made from (by more than 1 °C, as :func:`compensate`
+    allows) gets a note that it extrapolates there.
+    """
+    t = float(temperature)
+    lo_c, hi_c = POSSIBLE_C
+    if not (math.isfinite(t) and lo_c <= t <= hi_c):
+        raise ValueError(f"{temperature!r} °C is no temperature a working sensor is at (expected {lo_c:g} to "
+                         f"{hi_c:g} °C: above absolute zero and below soldering heat)")
+    notes = []
+    model = calibration.thermal
+    if model is not None:
+        lo, hi = model.range_c
+        if not lo - 1.0 <= t <= hi + 1.0:
+            notes.append(f"{t:g} °C is outside the {lo:.1f}–{hi:.1f} °C the thermal calibration was made from: it "
+                         "extrapolates there")
+    return evaluate(calibration, t), notes
 
 
 # ------------------------------------------------------------------ compensation (T2)
@@ -293,11 +341,7 @@ def combine(calibrations: list, *, reference_c: float = REFERENCE_C, max_order: 
         raise ValueError(f"a thermal model needs calibrations at two or more temperatures; got {len(calibrations)}")
     temps = []
     for i, cal in enumerate(calibrations):
-        t = (cal.fit or {}).get("temperature_c")
-        if not t:
-            raise ValueError(f"calibration {i + 1} has no temperature: it was made from a recording without a "
-                             "temperature column")
-        temps.append(float(t[1] if isinstance(t, list | tuple) else t))
+        temps.append(_fit_temperature((cal.fit or {}).get("temperature_c"), i + 1))
         if cal.thermal is not None:
             raise ValueError(f"calibration {i + 1} already follows temperature; combine calibrations made at one "
                              "temperature each")

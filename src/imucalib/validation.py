@@ -19,14 +19,17 @@ pose) holds too few poses for one.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from .calibration import Calibration
 from .metrics import fit_summary, gap_flags
 from .presets import MIN_INTERVAL, VALIDATE_MULTIPLIER, VARIANCE_WINDOW
-from .recording import Interval, Recording
+from .recording import ImucalibWarning, Interval, Recording
 from .segment import gyro_still, initial_rest, static_at, still_intervals
 from .thermal import compensate
+from .upright import inverted_rest_note
 from .verdict import assess
 
 __all__ = ["MIN_POSES", "RAW_KEYS", "THRESHOLD_MULTIPLIER", "VALIDATION_KEYS", "find_poses", "validate"]
@@ -139,6 +142,9 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
             f"it still for at least {MIN_INTERVAL:g} s (the initial rest sets the detector's threshold: if it is "
             "found too short, give its length with --init-static SECONDS)")
     fit = fit_summary(calibration, recording, poses, gravity)
+    note = inverted_rest_note(calibration, recording, poses[0])  # the sign convention (upright.py)
+    if note is not None:
+        warnings.warn(note, ImucalibWarning, stacklevel=2)
     # the checks apply to this recording: the calibration's own fit (its poses, turns, errors) is left behind
     verdict = assess(calibration.with_(gravity=gravity, fit=fit), recording, poses, purpose="validate")
     verdict["verdict_notes"] += gap_flags(recording, poses)  # their rotations' angle errors are unreliable

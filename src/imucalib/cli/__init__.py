@@ -26,7 +26,18 @@ import warnings
 from collections.abc import Sequence
 
 from .. import __version__
-from ._common import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_REJECTED, CliError, check_paths, normalise_argv, show_warning
+from ._common import (
+    EXIT_ERROR,
+    EXIT_INTERRUPTED,
+    EXIT_REJECTED,
+    CliError,
+    PrintableStream,
+    check_paths,
+    normalise_argv,
+    report_error,
+    show_warning,
+    tolerant_encoding,
+)
 
 __all__ = ["EXIT_ERROR", "EXIT_REJECTED", "GROUPS", "CliError", "build_parser", "main"]
 
@@ -100,6 +111,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser(_command_of(argv)).parse_args(argv)
     from ..recording import ImucalibWarning  # after parsing: --version and --help import no numpy
 
+    stdout = sys.stdout
+    tolerant_encoding()
+    if args.command != "record":  # the recorder's live view draws with control sequences of its own
+        sys.stdout = PrintableStream(stdout)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("always", ImucalibWarning)
@@ -110,8 +125,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.close()
         return 0
     except (ValueError, TypeError, OSError, CliError) as exc:
-        print(f"imucalib {args.command}: error: {exc}", file=sys.stderr)
-        return EXIT_ERROR
+        return report_error(args.command, exc)
+    except MemoryError:
+        return report_error(args.command, "out of memory: the input is larger than this computer's memory can "
+                            "hold as a recording; give a shorter recording (or cut it into parts)")
+    except RecursionError:
+        return report_error(args.command, "an input nested too deeply to read (a crafted or damaged file)")
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    finally:
+        sys.stdout = stdout

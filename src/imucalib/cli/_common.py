@@ -12,16 +12,18 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 from ..constants import GRAVITY_RANGE, STANDARD_GRAVITY
+from ..printable import printable
 from ..progress import Progress, stage_printer
 
 if TYPE_CHECKING:
     from ..recording import Recording
 
-__all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_REJECTED", "STANDARD_GRAVITY", "CliError", "Progress",
+__all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_REJECTED", "STANDARD_GRAVITY", "CliError", "PrintableStream",
+           "Progress",
            "add_force_option", "add_gravity_option", "add_init_static_option", "add_method_option",
            "add_poses_option", "add_reader_options", "check_paths", "check_verdict", "gravity_value",
            "load_calibration", "normalise_argv", "positive_float", "print_json", "print_verdict", "progress", "read",
-           "read_recording", "reading_progress", "show_warning"]
+           "read_recording", "reading_progress", "report_error", "show_warning", "tolerant_encoding"]
 
 #: exit code of a command that failed with a reported error
 EXIT_ERROR = 2
@@ -308,11 +310,45 @@ def check_verdict(calibration, path, force: bool) -> None:
 
 
 def show_warning(message, category=None, filename=None, lineno=None, file=None, line=None) -> None:
-    """``warnings.showwarning`` for the command line: one line on stderr (numpy's arithmetic warnings in words)."""
+    """``warnings.showwarning`` for the command line: one line on stderr (numpy's arithmetic warnings in words),
+    its control characters escaped (:func:`imucalib.printable.printable`)."""
     if category is not None and issubclass(category, RuntimeWarning):
         message = ("a computation went out of range (a number overflowed or was undefined), so the result may "
                    "not be reliable: check the input for extreme or constant readings")
-    print(f"imucalib: warning: {message}", file=sys.stderr)
+    print(f"imucalib: warning: {printable(message)}", file=sys.stderr)
+
+
+def report_error(command: str, error) -> int:
+    """Print ``error`` as the command's one-line error on stderr (control characters escaped); the exit code."""
+    print(f"imucalib {command}: error: {printable(error)}", file=sys.stderr)
+    return EXIT_ERROR
+
+
+class PrintableStream:
+    """A text stream (standard output) whose writes have their control characters escaped, but for tab, line
+    feed and carriage return (CSV's line end): what a file, a header or the store holds cannot reach the
+    terminal as a control sequence (:mod:`imucalib.printable`)."""
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        return self._stream.write(printable(text, keep="\t\n\r"))
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+def tolerant_encoding() -> None:
+    """Standard output and error write what their encoding cannot hold as escapes (``\\u00b0`` for °)
+    instead of failing: a terminal that is not UTF-8 gets the whole message, after the files are written."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None:
+            try:
+                reconfigure(errors="backslashreplace")
+            except (ValueError, OSError):  # a stream that cannot change (closed, detached)
+                pass
 
 
 def load_calibration(path: str, recording, gravity: float | None):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import warnings
 from pathlib import Path
@@ -25,6 +26,9 @@ def _raw_scale(text: str) -> tuple[float, float]:
         values = ()
     if len(values) != 2:
         raise argparse.ArgumentTypeError(f"expected two numbers ACC,GYRO (e.g. 0.000598,0.000133); got {text!r}")
+    if not all(math.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"expected two positive numbers ACC,GYRO (m/s^2 and rad/s per count); got "
+                                         f"{text!r}")
     return values  # type: ignore[return-value]
 
 
@@ -74,9 +78,12 @@ def cmd_export(args: argparse.Namespace) -> int:
         if cal.thermal is None:
             raise CliError(f"--temperature applies to a calibration that follows temperature; {args.calibration} "
                            "is for one temperature")
-        from ..thermal import evaluate
+        from ..thermal import at_temperature
 
-        cal = evaluate(cal, args.temperature)
+        try:
+            cal, notes = at_temperature(cal, args.temperature)
+        except ValueError as exc:
+            raise CliError(f"--temperature {args.temperature}: {exc}") from None
     elif cal.thermal is not None and fmt != "c":
         raise CliError(f"{args.calibration} follows temperature, which --format {fmt} has no place for: pass "
                        "--temperature C to write it at one temperature (the C header follows it)")

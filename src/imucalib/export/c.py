@@ -33,10 +33,13 @@ import numpy as np
 
 from ..calibration import Calibration
 from ..recording import ImucalibWarning
-from .linear import gyroscope_part
+from .linear import ExportError, gyroscope_part
 from .text import c_comment
 
 __all__ = ["to_c"]
+
+#: single precision's range: a constant beyond it does not compile (-Werror), one below it is zero
+_FLOAT = np.finfo(np.float32)
 
 
 def _array(values, fmt) -> str:
@@ -58,7 +61,16 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
         raise ValueError(f"ctype must be 'double' or 'float'; got {ctype!r}")
     suffix = "f" if ctype == "float" else ""
 
+    tiny: list[float] = []
+
     def num(x: float) -> str:
+        if ctype == "float":  # what float holds: past its largest, refused; below its smallest, the zero it is
+            if abs(x) > _FLOAT.max:
+                raise ExportError(f"the constant {x:g} is beyond float's range (±{_FLOAT.max:.4g}); export it "
+                                  "without --float (double)")
+            if x != 0 and np.float32(x) == 0:
+                tiny.append(x)
+                x = 0.0
         text = f"{x:.17g}"
         if not re.search(r"[.eEn]", text):
             text += ".0"
@@ -131,6 +143,10 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
             "",
         ]
     lines += [f"#endif /* {up}_CALIBRATION_H */", ""]
+    if tiny:
+        warnings.warn(f"{len(tiny)} constant(s) below float's range (e.g. {tiny[0]:.3g}, under "
+                      f"{float(_FLOAT.smallest_subnormal):.3g}) are written as 0, the value float holds; export "
+                      "without --float (double) to keep them", ImucalibWarning, stacklevel=2)
     return "\n".join(lines)
 
 

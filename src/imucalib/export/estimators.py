@@ -79,6 +79,9 @@ def _num(x: float) -> str:
 
     PyYAML (Kalibr's reader) takes ``4e-05`` for a string: the mantissa gets a point (``4.0e-05``).
     """
+    if not np.isfinite(x):  # an overflow (--raw-scale 1e308,1e308) or an undefined value: never written
+        raise ExportError(f"a value to write is {float(x)!r}, not a finite number: the calibration or the options "
+                          "(--raw-scale, the --noise file) hold numbers too large or undefined; check them")
     text = repr(float(x) + 0.0)  # + 0.0: no "-0.0"
     mantissa, e, exponent = text.partition("e")
     return f"{mantissa}.0e{exponent}" if e and "." not in mantissa else text
@@ -152,8 +155,18 @@ def _noise_from_json(path: Path, text: str) -> tuple[dict, list[str]]:
     if units != ("m/s^2", "rad/s"):
         raise ExportError(f"--noise {path}: the noise is in {units[0]} and {units[1]}; the file needs m/s^2 and "
                           "rad/s: run imucalib noise with --calibration CALIBRATION.json")
-    values, notes = kalibr_noise(acc, gyro)
-    return {**values, "update_rate": float(rate)}, notes
+    try:
+        values, notes = kalibr_noise(acc, gyro)
+        rate = float(rate)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:  # entries missing or of the wrong kind
+        what = f"no {exc.args[0]!r} entry" if isinstance(exc, KeyError) else str(exc)
+        raise ExportError(f"--noise {path}: {what}; the file needs the accelerometer's and gyroscope's "
+                          "white_noise_density and random_walk (per axis) and rate_hz, as imucalib noise --json "
+                          "writes them") from None
+    for key, value in (*values.items(), ("rate_hz", rate)):
+        if key != "bounded" and not (np.isfinite(value) and value > 0):
+            raise ExportError(f"--noise {path}: {key} must be a positive number; got {value!r}")
+    return {**values, "update_rate": rate}, notes
 
 
 def _noise_lines(noise: dict | None, rostopic: str | None, indent: str, notes: list[str],

@@ -141,8 +141,20 @@ def linear_form(calibration: Calibration, target: str, *, physical: bool = False
         bias = m.bias - m.output_bias / m.scale  # T (K (u − b) + d) = T K (u − (b − K⁻¹ d))
         out.append((matrix, bias))
     (a, ba), (w, bg) = out
-    return LinearForm(acc_matrix=a / s_a, acc_bias=ba * s_a, gyro_matrix=w / s_g, gyro_bias=bg * s_g,
-                      g_sensitivity=calibration.gyroscope.g_sensitivity * s_g, acc_scale=s_a, gyro_scale=s_g)
+    with np.errstate(over="ignore", under="ignore", invalid="ignore", divide="ignore"):
+        form = LinearForm(acc_matrix=a / s_a, acc_bias=ba * s_a, gyro_matrix=w / s_g, gyro_bias=bg * s_g,
+                          g_sensitivity=calibration.gyroscope.g_sensitivity * s_g, acc_scale=s_a, gyro_scale=s_g)
+        # what the formats write: the matrices, their inverses and the biases, all finite
+        usable = all(np.all(np.isfinite(v)) for v in (form.acc_matrix, form.acc_bias, form.gyro_matrix,
+                                                      form.gyro_bias, form.g_sensitivity)) and all(
+            np.isfinite(np.linalg.cond(m)) and np.all(np.isfinite(np.linalg.inv(m)))
+            for m in (form.acc_matrix, form.gyro_matrix) if np.all(np.isfinite(m)) and np.linalg.det(m) != 0)
+        usable = usable and np.linalg.det(form.acc_matrix) != 0 and np.linalg.det(form.gyro_matrix) != 0
+    if not usable:
+        raise ExportError(f"{target}: with --raw-scale {s_a:g},{s_g:g} the calibration's matrices overflow or "
+                          "vanish in double precision; give the factors the driver applies (m/s^2 and rad/s per "
+                          "count, e.g. 0.000598,0.000133; 1,1 when it publishes the counts)")
+    return form
 
 
 def _fix_signs(q: np.ndarray, t: np.ndarray, diag_index: int) -> tuple[np.ndarray, np.ndarray]:

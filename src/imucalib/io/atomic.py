@@ -10,7 +10,9 @@ its temporary file and leaves the target as it was. A process killed outright
 half-written target, and such a leftover never blocks a later run.
 
 What is at the target is never destroyed: a symbolic link is followed (the
-file it names is replaced, the link stays, as the shell's ``>`` does); a
+file it names is replaced, the link stays, as the shell's ``>`` does), except
+one of another user in a sticky world-writable folder such as ``/tmp``, which
+is refused as the kernel's protected-symlinks rule refuses it; a
 character device or FIFO (``/dev/null``, a named pipe) is written into as a
 stream, never replaced by a regular file; a block device, a socket, ``-`` and
 an existing file the user may not write (read-only for a non-root user) are
@@ -77,6 +79,7 @@ def _target(path: str | Path) -> tuple[Path, bool]:
     if not path.name:
         raise ValueError(f"{str(path)!r}: not a file name")
     if path.is_symlink():
+        _check_protected_symlink(path)
         real = Path(os.path.realpath(path))
         if real.is_symlink():  # realpath stops at a loop
             raise OSError(errno.ELOOP, f"{path}: a loop of symbolic links; give a file name")
@@ -108,6 +111,23 @@ def output_target(path: str | Path) -> tuple[Path, bool]:
     (``ValueError``, ``OSError``).
     """
     return _target(path)
+
+
+def _check_protected_symlink(link: Path) -> None:
+    """Refuse to follow ``link`` where the kernel's protected-symlinks rule would (Linux ``fs.protected_symlinks``):
+    a symbolic link in a sticky, world-writable folder (``/tmp``) owned by neither the user nor the folder's
+    owner. Following it by name and renaming onto its target would let anyone who can write in ``/tmp`` choose
+    which of the user's files is replaced."""
+    try:
+        folder = os.stat(link.parent)
+        owner = os.lstat(link).st_uid
+    except OSError:
+        return
+    shared = folder.st_mode & stat.S_ISVTX and folder.st_mode & stat.S_IWOTH
+    if shared and owner not in (os.geteuid(), folder.st_uid):
+        raise PermissionError(errno.EACCES, f"{link}: a symbolic link of another user (uid {owner}) in the shared "
+                                            f"folder {link.parent}; it is not followed (another user may have put "
+                                            "it there to make you overwrite a file): give another name")
 
 
 def _stream(target: Path, mode: str, text: dict) -> IO:
@@ -172,7 +192,7 @@ def move_into_place(tmp: Path, target: Path) -> None:
 
 @contextlib.contextmanager
 def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "utf-8",
-                 newline: str | None = None) -> Iterator[IO]:
+                 newline: str | None = None, gzip_by_name: bool = False) -> Iterator[IO]:
     """Open a temporary file next to ``path`` for writing; on success it replaces ``path``.
 
     Parameters
@@ -185,6 +205,9 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
         Text mode only (default UTF-8).
     newline : str, optional
         Text mode only, as for :func:`open`.
+    gzip_by_name : bool
+        When ``path`` ends in ``.gz``, what is written is gzip-compressed (RFC 1952), so that the name says
+        what the file is (a reader decompresses it by its first bytes).
 
     Yields
     ------
@@ -199,6 +222,10 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
     """
     if mode not in ("w", "wb"):
         raise ValueError(f"mode must be 'w' or 'wb'; got {mode!r}")
+    if gzip_by_name and str(path).lower().endswith(".gz"):
+        with atomic_write(path, "wb") as raw, _gzip_writer(raw, Path(path), mode, encoding, newline) as fh:
+            yield fh
+        return
     target, stream = _target(path)
     text = {"encoding": encoding, "newline": newline} if mode == "w" else {}
     if stream:  # a device or FIFO: written in the temporary folder, then into it as the shell's > writes
@@ -219,9 +246,24 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
             fh.flush()
             os.fsync(fh.fileno())
         move_into_place(tmp, target)
+    except OSError as exc:
+        _remove(tmp)
+        raise _full_disk(exc, target) from None
     except BaseException:
         _remove(tmp)
         raise
+
+
+@contextlib.contextmanager
+def _gzip_writer(raw: IO, path: Path, mode: str, encoding: str | None, newline: str | None) -> Iterator[IO]:
+    """A gzip stream into the open binary file ``raw`` (text or binary by ``mode``), finished on success."""
+    import gzip
+    import io
+
+    gz = gzip.GzipFile(filename=path.name[:-3], mode="wb", fileobj=raw, mtime=0)
+    fh = io.TextIOWrapper(gz, encoding=encoding, newline=newline) if mode == "w" else gz
+    yield fh
+    fh.close()  # writes the gzip trailer; raw stays open for atomic_write to sync and move into place
 
 
 @contextlib.contextmanager
@@ -260,9 +302,21 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         finally:
             os.close(fd)
         move_into_place(tmp, target)
+    except OSError as exc:
+        _remove(tmp)
+        raise _full_disk(exc, target) from None
     except BaseException:
         _remove(tmp)
         raise
+
+
+def _full_disk(exc: OSError, target: Path) -> OSError:
+    """``exc``, or for a full disk (ENOSPC, EDQUOT) an error naming the file and saying that nothing changed."""
+    if exc.errno not in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC)):
+        return exc
+    what = "the disk is full" if exc.errno == errno.ENOSPC else "your disk quota is used up"
+    return OSError(exc.errno, f"{target}: {what} ({exc.strerror}); nothing was written, what was there is as it "
+                              "was: free space there, or write elsewhere")
 
 
 @contextlib.contextmanager

@@ -32,7 +32,6 @@ is the reference (the tests check both paths agree to the bit).
 
 from __future__ import annotations
 
-import bz2
 import contextlib
 import sqlite3
 import struct
@@ -41,6 +40,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from .expansion import Budget, decompress_chunk
 
 __all__ = ["IMU_FIELDS_BYTES", "Block", "ImuBlock", "BagConnection", "Ros1Index", "decode_imu", "joined",
            "mcap_blocks", "ros1_blocks", "ros1_index", "rosbag2_sqlite", "sqlite_blocks"]
@@ -244,27 +245,15 @@ def _ros1_record(f, pos: int) -> tuple[dict[str, bytes], int, int]:
     return _ros1_fields(header), pos + 8 + hlen, dlen
 
 
-def _decompressor(name: str):
-    if name in ("", "none"):
-        return lambda b, size: b
-    if name == "bz2":
-        return lambda b, size: bz2.decompress(b)
-    if name == "lz4":
-        try:
-            from lz4.frame import decompress
-        except ImportError:
-            return None
-        return lambda b, size: decompress(b)
-    if name == "zstd":  # what rosbags itself decompresses with (standard library from Python 3.14)
-        try:
-            from compression import zstd
-        except ImportError:
-            try:
-                from backports import zstd
-            except ImportError:
-                return None
-        return lambda b, size: zstd.decompress(b)
-    return None
+def _chunk(codec: str, data: bytes, size: int, budget: Budget, where: int) -> np.ndarray:
+    """A chunk's bytes, decompressed to at most the ``size`` it declares within the file's ``budget``
+    (:mod:`.expansion`: a decompression bomb is a ReaderError); a ValueError for an unknown codec."""
+    if codec in ("", "none"):
+        return np.frombuffer(data, np.uint8)
+    out = decompress_chunk(codec, data, size, budget, where)  # zstd: what rosbags itself decompresses with
+    if out is None:
+        raise ValueError(f"chunk compression {codec!r}")
+    return np.frombuffer(out, np.uint8)
 
 
 @dataclass
@@ -334,9 +323,11 @@ def ros1_index(path: Path) -> Ros1Index | None:
 def ros1_blocks(path: Path, index: Ros1Index, topic: str) -> Iterator[Block]:
     """Blocks (one a chunk) of the messages of ``topic`` in a ROS 1 bag, located through its ``index``.
 
-    Raises ValueError (or OSError) where the bag does not match its index.
+    Raises ValueError (or OSError) where the bag does not match its index, a ReaderError where its chunks
+    expand past their budget (:mod:`.expansion`).
     """
     ids = {c.id for c in index.connections if c.topic == topic}
+    budget = Budget(path, path.stat().st_size, "bag's compressed chunks", "rosbag decompress")
     with path.open("rb") as f:
         for chunk_pos, nconn in index.chunks:
             fields, data_at, dlen = _ros1_record(f, chunk_pos)
@@ -356,11 +347,8 @@ def ros1_blocks(path: Path, index: Ros1Index, topic: str) -> Iterator[Block]:
             if not entries:
                 continue
             entry = np.concatenate(entries)
-            decompress = _decompressor(compression)
-            if decompress is None:
-                raise ValueError(f"chunk compression {compression!r}")
             f.seek(data_at)
-            content = np.frombuffer(decompress(f.read(dlen), size), np.uint8)
+            content = _chunk(compression, f.read(dlen), size, budget, chunk_pos)
             if content.size != size:
                 raise ValueError(f"chunk at byte {chunk_pos} has {content.size} bytes, not {size}")
             offset = entry["offset"].astype(np.int64)
@@ -426,6 +414,7 @@ def mcap_blocks(path: Path, topic: str) -> Iterator[Block] | None:
         return None
 
     def blocks():
+        budget = Budget(path, end, "MCAP file's compressed chunks", "mcap recover, uncompressed")
         with f:
             for start, _length, offsets, compression, compressed, uncompressed in sorted(indexes):
                 wanted = [at for cid, at in offsets.items() if cid in channels]
@@ -440,9 +429,6 @@ def mcap_blocks(path: Path, topic: str) -> Iterator[Block] | None:
                     (nbytes,) = struct.unpack_from("<I", head, 11)
                     entries.append(np.frombuffer(f.read(nbytes), _MCAP_INDEX))
                 index = np.concatenate(entries)
-                decompress = _decompressor(compression)
-                if decompress is None:
-                    raise ValueError(f"chunk compression {compression!r}")
                 f.seek(start)
                 head = f.read(9 + 28)
                 if head[0] != 0x06:
@@ -450,7 +436,7 @@ def mcap_blocks(path: Path, topic: str) -> Iterator[Block] | None:
                 f.seek(start + 9 + 28)
                 (clen,) = struct.unpack("<I", f.read(4))
                 f.seek(start + 9 + 28 + 4 + clen + 8)
-                content = np.frombuffer(decompress(f.read(compressed), uncompressed), np.uint8)
+                content = _chunk(compression, f.read(compressed), uncompressed, budget, start)
                 if content.size != uncompressed:
                     raise ValueError(f"chunk at byte {start} has {content.size} bytes, not {uncompressed}")
                 offset = index["offset"].astype(np.int64)

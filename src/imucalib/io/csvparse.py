@@ -126,8 +126,10 @@ def open_binary(path: Path) -> Iterator[io.BufferedIOBase]:
         return
     import gzip
 
+    from .expansion import open_gzip  # its decompressed text bounded (a decompression bomb is refused)
+
     try:
-        with gzip.open(path, "rb") as f:
+        with open_gzip(path) as f:
             yield f
     except EOFError:
         raise ReaderError(f"{path}: the gzip-compressed file is cut short (its stream ends before its end "
@@ -469,8 +471,10 @@ def parse(layout: Layout, kinds: Sequence[str | None], names: Sequence[str], *, 
             for ch in chunks(layout, chunk_bytes, plan, taken):
                 n = ch.lines - ch.comments
                 if done + n > rows:
-                    raise ReaderError(f"{layout.path}: the file changed while it was read")
+                    raise ReaderError(_CHANGED.format(path=layout.path))
                 part = _parse_chunk(layout, ch, kinds, names, required, engine)
+                if any(len(arr) != n for arr in part.values()):  # the planned chunk is no longer what is there
+                    raise ReaderError(_CHANGED.format(path=layout.path))
                 for j, arr in part.items():
                     if cols[j].dtype.kind == "U" and arr.dtype.itemsize > cols[j].dtype.itemsize:
                         wider = np.empty(rows, dtype=arr.dtype)  # a longer text than seen so far
@@ -480,12 +484,17 @@ def parse(layout: Layout, kinds: Sequence[str | None], names: Sequence[str], *, 
                 done += n
                 comments += ch.comments
             if done != rows:
-                raise ReaderError(f"{layout.path}: the file changed while it was read")
+                raise ReaderError(_CHANGED.format(path=layout.path))
         except _Demote as d:
             kinds[d.col] = d.to
             continue
         return cols, {"rows": rows, "comment_lines": comments, "engine": engine, "kinds": kinds,
                       "digest": taken.hexdigest() if taken is not None else None}
+
+
+#: a file whose rows changed between the passes over it (a logger still writing it, a copy in progress)
+_CHANGED = ("{path}: the file changed while it was read (is it still being written or copied?); read it again "
+            "once it is complete, or read a copy of it")
 
 
 def _allocate(kind: str, rows: int, given: np.ndarray | None) -> np.ndarray:

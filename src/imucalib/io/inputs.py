@@ -3,8 +3,8 @@
 * :func:`check_input_path`: an input that is missing, a symbolic link loop,
   a FIFO, a socket or a device is an error naming what it is (a FIFO would
   block the reader forever);
-* :func:`check_text`: a text input that is UTF-16, compressed or binary (NUL
-  bytes) is an error saying so (the text readers read UTF-8 and ASCII; the
+* :func:`check_text`: a text input that is UTF-16, UTF-32, compressed or binary
+  (NUL bytes) is an error saying so (the text readers read UTF-8 and ASCII; the
   CSV reader also gzip-compressed text);
 * :func:`check_distinct_columns`: one column named for two fields is an error;
 * :func:`check_against_header`: a unit option that contradicts the unit the
@@ -111,6 +111,16 @@ def check_text(path: Path, *, gzip_ok: bool = False) -> None:
     if len(head) >= 8 and head.count(0) == len(head):
         raise ReaderError(f"{path}: binary data (its first {len(head)} bytes are all NUL bytes: a sparse or "
                           "zero-filled file, not text); check that the recording was written out completely")
+    # UTF-32 text: a byte-order mark, or ASCII's three NUL bytes in every four (checked before UTF-16, whose
+    # little-endian mark starts UTF-32's)
+    quarter = len(head) // 4
+    nul = [head[k::4].count(0) for k in range(4)]
+    utf32 = head.startswith((b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff")) or (
+        len(head) >= 16 and sorted(nul)[1] > 0.9 * quarter and min(nul) < 0.1 * quarter)
+    if utf32:
+        raise ReaderError(f"{path}: the text is UTF-32 encoded; imucalib reads UTF-8 text: save it as UTF-8 "
+                          f"(in an editor: Save As, encoding UTF-8; or iconv -f UTF-32 -t UTF-8 '{path}' > "
+                          f"'{path.with_name(path.stem + '-utf8' + path.suffix)}')")
     # UTF-16 text: a byte-order mark, or NUL bytes at one parity of the positions (the high byte of ASCII)
     # and hardly any at the other
     half = len(head) // 2

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..recording import ACC_UNITS, GYRO_UNITS, ImucalibWarning, Recording
-from . import csvparse, inputs, packets
+from . import csvparse, expansion, inputs, packets
 from .columns import FIELDS
 from .columns import PATTERNS as _PATTERNS
 from .columns import TEMP as _TEMP
@@ -1055,6 +1055,7 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
         raise ReaderError(f"{path}: a MATLAB v7.3 file (HDF5 inside), which imucalib does not read; in MATLAB "
                           f"save the matrix again with save('{path.name}', 'VARIABLE', '-v7'), or write it "
                           "as CSV with writematrix")
+    expansion.check_mat(path)  # compressed variables that expand past their budget: refused before scipy
     try:
         content = loadmat(str(path))
     except Exception as exc:  # scipy raises several types for non-MAT input

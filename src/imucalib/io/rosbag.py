@@ -94,6 +94,9 @@ def _open(path: Path):
     except ImportError:
         raise _reader_error(f"{path}: reading ROS bags needs the 'rosbags' package: "
                             'pip install "imucalib[ros]"') from None
+    from .expansion import check_ros1_chunks
+
+    check_ros1_chunks(path)  # the library decompresses a chunk whole: a decompression bomb is refused first
     try:
         reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()

@@ -76,6 +76,8 @@ def write_csv(
     calibrated magnetometer; without the space in a whitespace-separated
     file), with 12 significant digits (:data:`ADDED_FORMAT`).
 
+    A ``path`` ending in ``.gz`` is written gzip-compressed (as the readers read ``.csv.gz``).
+
     The rows go to a temporary file next to ``path``, moved onto ``path`` only
     when all are written (:func:`imucalib.io.atomic.atomic_write`): a failed
     or interrupted write leaves an existing ``path`` as it was. The source's
@@ -203,7 +205,7 @@ def _copy_source(path: str | Path, rec: Recording, layout: csvparse.Layout, adde
     with src:
         checked = _Checked(src, layout)
         try:
-            with atomic_write(path, "wb") as dst:
+            with atomic_write(path, "wb", gzip_by_name=True) as dst:
                 _copy_rows(checked, dst, rec, layout, names, columns, row_format, bsep, spaced)
                 if not checked.as_read(expected):  # not the bytes parsed: the copy is discarded, path kept
                     raise _SourceChanged
@@ -330,7 +332,7 @@ def _write_values(path: str | Path, rec: Recording, added: dict[str, np.ndarray]
         arrays.append(v)
     row_format = ",".join(formats)
     text_cols = [j for j, f in enumerate(formats) if f == "%s"]
-    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
+    with atomic_write(path, "w", encoding="utf-8", newline="\n", gzip_by_name=True) as fh:
         fh.write(",".join(_quote(k) for k in cols) + "\n")
         for start in range(0, n, _ROWS):
             parts = [_block(a[start:start + _ROWS], f) for a, f in zip(arrays, formats, strict=True)]

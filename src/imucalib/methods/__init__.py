@@ -126,6 +126,7 @@ def calibrate(
     """
     cal = _calibrate(data, method=method or DEFAULT_METHOD, model=model, gravity=gravity, **options)
     recording = _recording_or_none(data)
+    _note_inverted_rest(cal, recording)
     if (method is None and model is None and cal.fit.get("verdict") == "rejected" and recording is not None
             and recording.gyro is not None and six_faces_only(recording, cal.fit.get("intervals") or [])):
         try:
@@ -139,6 +140,16 @@ def calibrate(
                           "directions as known; pass --method to choose", ImucalibWarning, stacklevel=2)
             return faces
     return cal
+
+
+def _note_inverted_rest(cal: Calibration, recording: Recording | None) -> None:
+    """A warning when the calibrated initial rest reads −g on z (:mod:`imucalib.upright`: the sign convention)."""
+    from ..upright import inverted_rest_note
+
+    intervals = (cal.fit or {}).get("intervals") or []
+    note = inverted_rest_note(cal, recording, intervals[0]) if recording is not None and intervals else None
+    if note is not None:
+        warnings.warn(note, ImucalibWarning, stacklevel=3)
 
 
 def _recording_or_none(data) -> Recording | None:

@@ -124,7 +124,15 @@ def sections_from_ranges(recording: Recording, ranges: dict, bias: np.ndarray | 
             raise ValueError(f"section {name!r} must be [start, stop) sample indices; got {ranges[name]!r}") from None
         if not 0 <= s0 < s1 <= n:
             raise ValueError(f"section {name!r} [{s0}, {s1}) is outside the recording's {n} samples")
+        if name in SECTION_NAMES[6:] and s1 - s0 < 3:
+            raise ValueError(f"section {name!r} [{s0}, {s1}) holds {s1 - s0} sample(s): a turn needs the samples "
+                             "from the rest before it to the rest after it")
         bounds[name] = (s0, s1)
+    ordered = sorted(bounds.items(), key=lambda kv: kv[1])
+    for (a, (a0, a1)), (b, (b0, b1)) in zip(ordered, ordered[1:], strict=False):
+        if b0 < a1:  # sorted by start: a section overlaps the one before it
+            raise ValueError(f"sections {a!r} [{a0}, {a1}) and {b!r} [{b0}, {b1}) overlap: each sample is on one "
+                             "face or in one turn; give each face and turn its own samples")
     faces = [Interval(*bounds[name], "static") for name in SECTION_NAMES[:6]]
     b = interval_means(recording.gyro, faces).mean(axis=0) if bias is None else bias
     turns: dict[int, list[Turn]] = {}
