@@ -318,7 +318,9 @@ def wobbly(tmp_path_factory):
 
 def test_the_gate_drops_wobbly_poses(wobbly):
     """What the calibration has to cope with: the gyroscope's gate alone leaves too few poses."""
-    from imucalib.segment import _detector, _scan, detect_intervals, gyro_still
+    from imucalib.segment import detect_intervals, gyro_still
+    from imucalib.segment.detect import make_detector as _detector
+    from imucalib.segment.detect import scan_thresholds as _scan
 
     _, sim = wobbly
     rec = sim.recording
