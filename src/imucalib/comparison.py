@@ -36,6 +36,7 @@ import numpy as np
 
 from .crossval import leave_one_pose_out
 from .methods import calibrate, method_names
+from .presets import MIN_HOLD
 from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 
 __all__ = ["DEFAULT_MODELS", "RANKED_BY", "compare", "even_folds", "rank", "tied_best"]
@@ -118,6 +119,7 @@ def compare(
     folds: int | None = 12,
     progress: Callable[[str], None] | None = None,
     init_static: float | None = None,
+    min_hold: float = MIN_HOLD,
 ) -> dict:
     """Calibrate with each method and cross-validate it.
 
@@ -138,6 +140,8 @@ def compare(
     init_static : float, optional
         Length of the initial rest [s] (found automatically by default,
         :func:`imucalib.segment.initial_rest`).
+    min_hold : float
+        The shortest hold that is a pose [s] (:func:`imucalib.presets.hold_settings`).
 
     Returns
     -------
@@ -152,7 +156,7 @@ def compare(
 
     say = progress or (lambda msg: None)
     if intervals is None:
-        intervals = detect_intervals(recording, gravity, init_static=init_static)[0]
+        intervals = detect_intervals(recording, gravity, init_static=init_static, min_hold=min_hold)[0]
     intervals = list(intervals)
     chosen = list(methods) if methods is not None else method_names()
     if recording.gyro is None and methods is None:  # an accelerometer-only recording: the methods that take it

@@ -20,6 +20,7 @@ from ..models import TriadModel
 from ..presets import (
     GYRO_MULTIPLIER,
     GYRO_VARIANCE_WINDOW,
+    MIN_HOLD,
     MIN_INTERVAL,
     MIN_INTERVALS,
     MULTIPLIERS,
@@ -28,6 +29,7 @@ from ..presets import (
     STILL_RATE,
     STILL_WINDOW,
     VARIANCE_WINDOW,
+    hold_settings,
 )
 from ..recording import Interval, Recording
 from .poses import pose_scatter
@@ -134,9 +136,10 @@ def detect_intervals(
     gravity: float,
     *,
     init_static: float | None = None,
+    min_hold: float = MIN_HOLD,
     multipliers: Iterable[float] = MULTIPLIERS,
-    window: float = VARIANCE_WINDOW,
-    min_interval: float = MIN_INTERVAL,
+    window: float | None = None,
+    min_interval: float | None = None,
     gyro_gate: bool = True,
 ) -> tuple[list[Interval], float, Interval, TriadModel]:
     """Static intervals by the Tedaldi 2014 detector with the multiplier scan, still for the gyroscope too.
@@ -161,9 +164,14 @@ def detect_intervals(
     that gives the most for which an accelerometer model is determined
     (:func:`imucalib.fit.accelerometer.fit_determined`).
 
+    ``min_hold`` [s] is the shortest hold that is a pose: the detector's
+    window and shortest run follow from it (:func:`imucalib.presets.hold_settings`)
+    unless ``window`` or ``min_interval`` [s] are given.
+
     Returns the intervals, the chosen multiplier, the initial rest and the
     accelerometer model calibrated on those intervals.
     """
+    window, min_interval = _hold_window(min_hold, window, min_interval)
     blocks = pose_blocks(recording) if init_static is None else None
     if blocks:
         return blocks, float("nan"), blocks[0], fit_determined(interval_means(recording.acc, blocks), gravity)[0]
@@ -175,7 +183,7 @@ def detect_intervals(
         rest = initial_rest(recording, init_static)
     multipliers = list(multipliers)
     detector = make_detector(recording, rest, window, min_interval, statistic=stat)
-    intervals, mult, model = scan_thresholds(detector, gravity, recording, multipliers, min_interval, None)
+    intervals, mult, model = scan_thresholds(detector, gravity, recording, multipliers, window + min_interval, None)
     if gyro_gate and recording.gyro is not None:  # an accelerometer-only recording has no gate
         from ..fit.gyroscope import axes_disagreement, rough_scale
 
@@ -198,7 +206,8 @@ def detect_intervals(
         if not still_inside(gyro, settings, widest, still, STILL_OFFSET):  # else the scan would find the same again
             still_outside(gyro, settings, widest, still)
             try:
-                gated = scan_thresholds(detector, gravity, recording, multipliers, min_interval, still, reduce=False)
+                gated = scan_thresholds(detector, gravity, recording, multipliers, window + min_interval, still,
+                                        reduce=False)
             except ValueError:
                 hint = axes_disagreement(recording, intervals, model, bias)
                 if hint is not None:
@@ -210,6 +219,13 @@ def detect_intervals(
             else:
                 intervals, mult, model = gated
     return intervals, mult, rest, model
+
+
+def _hold_window(min_hold: float, window: float | None, min_interval: float | None) -> tuple[float, float]:
+    """The detector's window and shortest run [s]: those given, else those of ``min_hold`` (``hold_settings``)."""
+    hold_window, hold_run = hold_settings(min_hold)
+    return (hold_window if window is None else float(window)), (hold_run if min_interval is None
+                                                               else float(min_interval))
 
 
 def static_at(recording: Recording, rest: Interval, multiplier: float, *, window: float = VARIANCE_WINDOW,
@@ -352,7 +368,7 @@ def static_runs(stat: np.ndarray, thresholds: list[float], min_length: int) -> l
 
 
 def scan_thresholds(detector: tuple, gravity: float, recording: Recording, multipliers: Iterable[float],
-                    min_interval: float, still: np.ndarray | None, *,
+                    hold: float, still: np.ndarray | None, *,
                     reduce: bool = True) -> tuple[list[Interval], float, TriadModel]:
     """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded);
     with ``reduce``, fewer than :data:`MIN_INTERVALS` intervals at every threshold give the most that determine
@@ -396,16 +412,16 @@ def scan_thresholds(detector: tuple, gravity: float, recording: Recording, multi
         raise ValueError(
             "too few static intervals for a calibration at every detector threshold "
             f"({counts}; at least 4 in spread directions determine a model, {MIN_INTERVALS} the full one): hold "
-            f"the sensor still for at least {min_interval} s in each of many poses"
+            f"the sensor still for at least {hold:g} s in each of many poses"
         )
     _, mult, intervals, model = best
     return intervals, float(mult), model
 
 
 def static_poses(recording: Recording, gravity: float, intervals: list[Interval] | None = None, *,
-                 init_static: float | None = None) -> list[Interval]:
+                 init_static: float | None = None, min_hold: float = MIN_HOLD) -> list[Interval]:
     """The static intervals given, or those :func:`detect_intervals` finds (a recording's blocks,
     :func:`pose_blocks`); the first is the initial rest."""
     if intervals is None:
-        intervals = detect_intervals(recording, gravity, init_static=init_static)[0]
+        intervals = detect_intervals(recording, gravity, init_static=init_static, min_hold=min_hold)[0]
     return [iv for iv in intervals if iv.kind == "static"]
