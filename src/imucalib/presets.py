@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["FALL_MIN_LENGTH", "FALL_THRESHOLD", "GYRO_MULTIPLIER", "GYRO_VARIANCE_WINDOW", "MIN_HOLD",
-           "MIN_INTERVAL", "MIN_INTERVALS", "MULTIPLIERS", "REST_FACTOR", "REST_MIN_SECONDS", "REST_SHORTEST_SECONDS",
-           "REST_WINDOW", "STILL_N_SIGMA", "STILL_RATE", "STILL_WINDOW", "VALIDATE_MULTIPLIER", "VARIANCE_WINDOW",
-           "hold_settings"]
+__all__ = ["BLOCK_MULTIPLIER", "FALL_MIN_LENGTH", "FALL_THRESHOLD", "GYRO_MULTIPLIER", "GYRO_VARIANCE_WINDOW",
+           "MIN_HOLD", "MIN_INTERVAL", "MIN_INTERVALS", "MULTIPLIERS", "REST_FACTOR", "REST_MIN_SECONDS",
+           "REST_SHORTEST_SECONDS", "REST_WINDOW", "STILL_N_SIGMA", "STILL_RATE", "STILL_WINDOW",
+           "VALIDATE_MULTIPLIER", "VARIANCE_WINDOW", "hold_settings"]
 
 # ----------------------------------------------- the accelerometer variance detector (Tedaldi 2014)
 #: the shortest hold that is a pose [s]: imu_tk's users hold each pose 1–4 s, Tedaldi 2014's procedure 1–2 s
@@ -29,6 +29,9 @@ MULTIPLIERS = tuple(range(2, 11))
 MIN_INTERVALS = 10
 #: the fixed multiplier of a validation recording, too short for a scan (:mod:`imucalib.validation`)
 VALIDATE_MULTIPLIER = 6.0
+#: the fixed multiplier of the still part of a block (a recording made of blocks has no rotations to scan
+#: against): the validation's, × the blocks' median level (:func:`imucalib.segment.blocks.still_blocks`)
+BLOCK_MULTIPLIER = VALIDATE_MULTIPLIER
 
 
 

@@ -1,8 +1,9 @@
 """Poses and motions: every segmentation stage the methods share.
 
 * :mod:`.windows` — the windowed statistics (moving variance and its norm, moving mean, runs of a mask);
-* :mod:`.rest` — :func:`find_initial_rest`, the rest that starts a session, and :func:`pose_blocks`, the blocks
-  of a recording made of blocks;
+* :mod:`.rest` — :func:`find_initial_rest`, the rest that starts a session;
+* :mod:`.blocks` — :func:`pose_blocks`, the blocks of a recording made of blocks, and :func:`still_blocks`, the
+  still part of each;
 * :mod:`.detect` — :func:`detect_static` and :func:`detect_intervals`, the accelerometer variance detector of
   Tedaldi 2014 with its threshold-multiplier scan; :class:`StillDetector`, the same detector sample by sample
   for a live recording (:mod:`imucalib.record`); :func:`detect_static_gyro`, the gyroscope-norm detector
@@ -16,6 +17,7 @@
 from __future__ import annotations
 
 from ..presets import MIN_INTERVALS
+from .blocks import BlockPoses, pose_blocks, still_blocks
 from .detect import (
     StillDetector,
     detect_intervals,
@@ -38,7 +40,7 @@ from .poses import (
     unreliable_transitions,
     unsteady_poses,
 )
-from .rest import find_initial_rest, initial_rest, pose_blocks
+from .rest import find_initial_rest, initial_rest
 from .still import gyro_still, still_intervals
 from .windows import BLOCK, VarianceNormStream, moving_mean, moving_variance, runs, variance_norm
 
@@ -73,4 +75,6 @@ __all__ = [
     "FACE_NAMES",
     "MIN_INTERVALS",
     "BLOCK",
+    "BlockPoses",
+    "still_blocks",
 ]

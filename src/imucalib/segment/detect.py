@@ -32,8 +32,9 @@ from ..presets import (
     hold_settings,
 )
 from ..recording import Interval, Recording
+from .blocks import still_blocks
 from .poses import pose_scatter
-from .rest import find_initial_rest, initial_rest, pose_blocks
+from .rest import find_initial_rest, initial_rest
 from .still import STILL_OFFSET, still_inside, still_outside, still_settings
 from .windows import (
     TRANSPOSE_BYTES,
@@ -158,8 +159,10 @@ def detect_intervals(
     rotations into and out of the poses the gyroscope finds unsteady out of the
     gyroscope's fit.
 
-    A recording in blocks (:func:`pose_blocks`) needs no detecting: its blocks
-    are the intervals, the first one the rest, and the multiplier NaN. When no
+    A recording in blocks (:func:`pose_blocks`) has no rotations to scan
+    against: the still part of each block is its pose
+    (:func:`imucalib.segment.blocks.still_blocks`), the first one the rest,
+    and the multiplier NaN; a block never still is left out with a warning. When no
     threshold gives :data:`MIN_INTERVALS` intervals, the scan takes the one
     that gives the most for which an accelerometer model is determined
     (:func:`imucalib.fit.accelerometer.fit_determined`).
@@ -172,9 +175,13 @@ def detect_intervals(
     accelerometer model calibrated on those intervals.
     """
     window, min_interval = _hold_window(min_hold, window, min_interval)
-    blocks = pose_blocks(recording) if init_static is None else None
-    if blocks:
-        return blocks, float("nan"), blocks[0], fit_determined(interval_means(recording.acc, blocks), gravity)[0]
+    blocks = still_blocks(recording, min_hold=min_hold) if init_static is None else None
+    if blocks is not None:
+        if not blocks.poses:
+            raise ValueError(f"no block of the recording is still for {min_hold:g} s: each pose must be held "
+                             "still (or give a shorter hold with --min-hold SECONDS)")
+        poses = blocks.poses
+        return poses, float("nan"), poses[0], fit_determined(interval_means(recording.acc, poses), gravity)[0]
     win = odd_window(window, recording.rate)
     stat = variance_norm(recording.acc, win)  # formed once: the initial rest's search reads it too
     if init_static is None and win == odd_window(REST_WINDOW, recording.rate):

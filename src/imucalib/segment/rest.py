@@ -10,11 +10,12 @@ import warnings
 
 import numpy as np
 
-from ..presets import REST_FACTOR, REST_MIN_SECONDS, REST_SHORTEST_SECONDS, REST_WINDOW
+from ..presets import MIN_HOLD, REST_FACTOR, REST_MIN_SECONDS, REST_SHORTEST_SECONDS, REST_WINDOW
 from ..recording import ImucalibWarning, Interval, Recording
+from .blocks import still_blocks
 from .windows import column_means, odd_window, variance_norm_rows
 
-__all__ = ["PREFERRED_REST", "SHORTEST_REST", "find_initial_rest", "first_motion", "initial_rest", "pose_blocks"]
+__all__ = ["PREFERRED_REST", "SHORTEST_REST", "find_initial_rest", "first_motion", "initial_rest"]
 
 
 #: the initial rest the detector would like [s]: its noise level is the median statistic over this much rest
@@ -147,28 +148,14 @@ def _no_rest(moves: float, seconds: float) -> str:
             f"at least {seconds:g} s at rest (or pass --init-static SECONDS)")
 
 
-def pose_blocks(recording: Recording) -> list[Interval] | None:
-    """The blocks of a recording whose poses were recorded apart (``metadata["blocks"]``), one pose each; else None.
-
-    A logger that pauses between poses writes its rows in blocks separated by prompt lines, or one file per
-    pose (:func:`imucalib.io.read`): no motion was recorded between the blocks, so each block is a static pose
-    and nothing needs detecting.
-    """
-    blocks = recording.metadata.get("blocks")
-    if not blocks:
-        return None
-    out = [Interval(int(a), int(b), "static") for a, b in blocks if int(b) - int(a) >= 2]
-    if not out or out[-1].stop > len(recording):
-        return None
-    return out
-
-
-def initial_rest(recording: Recording, init_static: float | None = None) -> Interval:
-    """The initial rest: ``init_static`` seconds when given, else the first block of a recording in blocks
-    (:func:`pose_blocks`), else found by :func:`find_initial_rest`."""
-    blocks = pose_blocks(recording) if init_static is None else None
-    if blocks:
-        return blocks[0]
+def initial_rest(recording: Recording, init_static: float | None = None, *, min_hold: float = MIN_HOLD
+                 ) -> Interval:
+    """The initial rest: ``init_static`` seconds when given, else the still part of the first block of a
+    recording in blocks that has one (:func:`imucalib.segment.blocks.still_blocks`), else found by
+    :func:`find_initial_rest`."""
+    blocks = still_blocks(recording, min_hold=min_hold, warn=False) if init_static is None else None
+    if blocks and blocks.poses:
+        return blocks.poses[0]
     if init_static is None:
         return find_initial_rest(recording)
     n = int(round(init_static * recording.rate))
