@@ -11,8 +11,8 @@ import math
 
 __all__ = ["BLOCK_MULTIPLIER", "FALL_MIN_LENGTH", "FALL_THRESHOLD", "GYRO_MULTIPLIER", "GYRO_VARIANCE_WINDOW",
            "MIN_HOLD", "MIN_INTERVAL", "MIN_INTERVALS", "MULTIPLIERS", "REST_FACTOR", "REST_MIN_SECONDS",
-           "REST_SHORTEST_SECONDS", "REST_WINDOW", "STILL_N_SIGMA", "STILL_RATE", "STILL_WINDOW",
-           "VALIDATE_MULTIPLIER", "VARIANCE_WINDOW", "hold_settings"]
+           "REST_SHORTEST_SECONDS", "REST_TAP_DEG", "REST_TAP_HORIZON", "REST_TAP_SECONDS", "REST_WINDOW",
+           "STILL_N_SIGMA", "STILL_RATE", "STILL_WINDOW", "VALIDATE_MULTIPLIER", "VARIANCE_WINDOW", "hold_settings"]
 
 # ----------------------------------------------- the accelerometer variance detector (Tedaldi 2014)
 #: the shortest hold that is a pose [s]: imu_tk's users hold each pose 1–4 s, Tedaldi 2014's procedure 1–2 s
@@ -59,6 +59,13 @@ REST_FACTOR = 30.0
 REST_MIN_SECONDS = 2.0
 #: the shortest initial rest found automatically [s]; one shorter than :data:`REST_MIN_SECONDS` gets a note
 REST_SHORTEST_SECONDS = 1.0
+#: a movement of the initial rest at most this long [s], after which the sensor lies as before, is a tap (a knock
+#: on the table, a finger on the board): the rest goes on after it
+REST_TAP_SECONDS = 0.5
+#: … "as before": the mean accelerometer direction before and after it differ by less than this [deg]
+REST_TAP_DEG = 1.0
+#: how far into a recording a rest cut by taps is looked for [s]
+REST_TAP_HORIZON = 120.0
 
 # ----------------------------------------------------- the gyroscope detector (Zhang 2021, eq. 22)
 #: the variance window t_w of eq. (22) [s] (Zhang 2021, §IV-A: T_w = 2 s for RD1)
