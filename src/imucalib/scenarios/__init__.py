@@ -33,8 +33,8 @@ from .qureshi2017 import qureshi_orientations, qureshi_session, qureshi_truth, q
 from .zhang2021 import random_truth, table1_truth
 
 __all__ = ["DEFAULT_NOISE", "SCENARIOS", "Session", "TossSequence", "attitude_with_up", "ferraris_session",
-           "in_blocks", "pose_session", "qureshi_orientations", "qureshi_session", "qureshi_truth", "qureshi_validation",
-           "random_truth", "read_session", "session", "table1_truth", "turns_between", "with_tap",
+           "in_blocks", "pose_session", "qureshi_orientations", "qureshi_session", "qureshi_truth",
+           "qureshi_validation", "random_truth", "read_session", "session", "table1_truth", "turns_between", "with_tap",
            "write_session"]
 
 #: scenario name → generator(rng, *, truth, noise, **options) → dict of Session fields

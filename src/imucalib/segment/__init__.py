@@ -1,7 +1,8 @@
 """Poses and motions: every segmentation stage the methods share.
 
 * :mod:`.windows` — the windowed statistics (moving variance and its norm, moving mean, runs of a mask);
-* :mod:`.rest` — :func:`find_initial_rest`, the rest that starts a session;
+* :mod:`.rest` — :func:`find_initial_rest`, the rest that starts a session (past taps, :func:`rest_after_taps`),
+  and :func:`moves_within`, the check of a rest given by its length;
 * :mod:`.blocks` — :func:`pose_blocks`, the blocks of a recording made of blocks, and :func:`still_blocks`, the
   still part of each;
 * :mod:`.detect` — :func:`detect_static` and :func:`detect_intervals`, the accelerometer variance detector of
@@ -40,7 +41,7 @@ from .poses import (
     unreliable_transitions,
     unsteady_poses,
 )
-from .rest import find_initial_rest, initial_rest
+from .rest import TapRest, find_initial_rest, initial_rest, moves_within, rest_after_taps
 from .still import gyro_still, still_intervals
 from .windows import BLOCK, VarianceNormStream, moving_mean, moving_variance, runs, variance_norm
 
@@ -77,4 +78,7 @@ __all__ = [
     "BLOCK",
     "BlockPoses",
     "still_blocks",
+    "TapRest",
+    "moves_within",
+    "rest_after_taps",
 ]

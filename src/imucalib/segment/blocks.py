@@ -57,6 +57,16 @@ def _block_name(recording: Recording, k: int, n: int) -> str:
     return f"block {k + 1}"
 
 
+def _quantum_level(signal: np.ndarray) -> float:
+    """The statistic of readings that only flip by their resolution: ``√3 q²/12``, three axes of the variance of
+    rounding to a step ``q`` (the smallest step between successive readings). A sensor quantised so coarsely
+    that its readings stand still for whole windows would otherwise give a zero level, and its first flip by
+    one step would look like motion."""
+    steps = np.abs(np.diff(np.asarray(signal, dtype=np.float64), axis=0))
+    steps = steps[steps > 0]
+    return float(np.sqrt(3.0) * steps.min() ** 2 / 12.0) if steps.size else np.finfo(float).tiny
+
+
 def still_blocks(recording: Recording, *, min_hold: float = MIN_HOLD, multiplier: float = BLOCK_MULTIPLIER,
                  warn: bool = True) -> BlockPoses | None:
     """The still part of each block of a recording made of blocks (:func:`pose_blocks`); None without blocks.
@@ -66,7 +76,8 @@ def still_blocks(recording: Recording, *, min_hold: float = MIN_HOLD, multiplier
     a join, with the window of :func:`imucalib.presets.hold_settings`. No block is known to be at rest, so its
     level is robust instead: the median over the blocks of each block's median statistic (a block held still
     for most of its length has the sensor's noise as its median; one moving throughout cannot move the
-    median of the blocks). A sample is still where every sensor's statistic is below ``multiplier`` × its
+    median of the blocks), at least the level of rounding to the readings' resolution
+    (:func:`_quantum_level`). A sample is still where every sensor's statistic is below ``multiplier`` × its
     level; the pose of a block is its longest still run, at least the shortest run of ``min_hold``. A block
     without one is left out, and named in an :class:`~imucalib.recording.ImucalibWarning` when ``warn``.
     """
@@ -82,10 +93,7 @@ def still_blocks(recording: Recording, *, min_hold: float = MIN_HOLD, multiplier
         if signal is None:
             continue
         stats = [variance_norm(signal[b.slice], min(win, max(len(b) | 1, 3))) for b in blocks]
-        medians = np.array([float(np.median(s)) for s in stats])
-        level = float(np.median(medians))
-        if level <= 0:  # quantised readings that do not vary in most windows: the quietest varying level
-            level = float(medians[medians > 0].min()) if np.any(medians > 0) else np.finfo(float).tiny
+        level = max(float(np.median([np.median(s) for s in stats])), _quantum_level(signal))
         for mask, s in zip(still, stats, strict=True):
             mask &= s < multiplier * level
     poses, kept, left_out = [], [], {}

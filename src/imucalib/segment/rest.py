@@ -119,7 +119,8 @@ def find_initial_rest(
 
 @dataclass(frozen=True)
 class TapRest:
-    """An initial rest cut by taps (:func:`rest_after_taps`): the longest still stretch, and the taps [samples]."""
+    """An initial rest cut by taps (:func:`rest_after_taps`): the longest still stretch, and the taps [samples]
+    (where the statistic saw them, less half its window either side)."""
 
     rest: Interval
     taps: list[Interval]
@@ -175,8 +176,10 @@ def rest_after_taps(recording: Recording, *, factor: float = REST_FACTOR, shorte
         if np.degrees(np.arccos(min(max(cos, -1.0), 1.0))) > tilt:
             break
         pieces.append(run)
-    taps = ([Interval(0, pieces[0].start, "motion")] if pieces[0].start else []) + [
-        Interval(x.stop, y.start, "motion") for x, y in zip(pieces[:-1], pieces[1:], strict=True)]
+    half = win // 2  # a still stretch ends half a window before the movement, and starts half a window after it
+    taps = ([Interval(0, max(pieces[0].start - half, 1), "motion")] if pieces[0].start else []) + [
+        Interval(x.stop + half, max(y.start - half, x.stop + half + 1), "motion")
+        for x, y in zip(pieces[:-1], pieces[1:], strict=True)]
     best = max(pieces, key=len)
     if not taps or len(best) < shortest * rate:
         return None
