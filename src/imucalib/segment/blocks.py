@@ -78,8 +78,10 @@ def still_blocks(recording: Recording, *, min_hold: float = MIN_HOLD, multiplier
     for most of its length has the sensor's noise as its median; one moving throughout cannot move the
     median of the blocks), at least the level of rounding to the readings' resolution
     (:func:`_quantum_level`). A sample is still where every sensor's statistic is below ``multiplier`` × its
-    level; the pose of a block is its longest still run, at least the shortest run of ``min_hold``. A block
-    without one is left out, and named in an :class:`~imucalib.recording.ImucalibWarning` when ``warn``.
+    level; the pose of a block is its longest still run, at least the shortest run of ``min_hold`` (a block
+    shorter than ``min_hold`` is judged with a window of half its length, and its run may be what that window
+    leaves of it). A block without one is left out, and named in an
+    :class:`~imucalib.recording.ImucalibWarning` when ``warn``.
     """
     blocks = pose_blocks(recording)
     if blocks is None:
@@ -88,17 +90,21 @@ def still_blocks(recording: Recording, *, min_hold: float = MIN_HOLD, multiplier
     rate = recording.rate
     win = odd_window(window, rate)
     min_len = max(int(round(run * rate)), 2)
+    # a block shorter than the hold is judged with a window of half its length, and its run is what that
+    # window leaves of it: the logger's block is all the hold there is
+    wins = [min(win, max((len(b) // 2) | 1, 3)) for b in blocks]
+    min_lens = [min(min_len, max(len(b) - w + 1, 2)) for b, w in zip(blocks, wins, strict=True)]
     still = [np.ones(len(b), dtype=bool) for b in blocks]
     for signal in (recording.acc, recording.gyro):
         if signal is None:
             continue
-        stats = [variance_norm(signal[b.slice], min(win, max(len(b) | 1, 3))) for b in blocks]
+        stats = [variance_norm(signal[b.slice], w) for b, w in zip(blocks, wins, strict=True)]
         level = max(float(np.median([np.median(s) for s in stats])), _quantum_level(signal))
         for mask, s in zip(still, stats, strict=True):
             mask &= s < multiplier * level
     poses, kept, left_out = [], [], {}
     for k, (b, mask) in enumerate(zip(blocks, still, strict=True)):
-        found = runs(mask, min_len)
+        found = runs(mask, min_lens[k])
         if not found:
             left_out[k] = (f"{_block_name(recording, k, len(blocks))} is never still for {min_hold:g} s (the sensor "
                            f"moves in all of its {len(b) / rate:.3g} s): left out")
