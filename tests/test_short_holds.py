@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -20,11 +21,12 @@ from imucalib.segment import detect_intervals
 PUBLIC = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "public"
 
 
+@contextmanager
 def _quiet():
-    ctx = warnings.catch_warnings()
-    ctx.__enter__()
-    warnings.simplefilter("ignore", ImucalibWarning)
-    return ctx
+    """The run's notes (ImucalibWarning) kept quiet."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        yield
 
 
 def _holds_hit(found, truth) -> int:
@@ -62,11 +64,8 @@ def one_second():
 def test_one_second_holds_are_found_without_motion(one_second) -> None:
     for sim in one_second:
         truth = [iv for iv in sim.segments if iv.kind == "static"]
-        ctx = _quiet()
-        try:
+        with _quiet():
             found, _, _, model = detect_intervals(sim.recording, sim.truth.gravity)
-        finally:
-            ctx.__exit__(None, None, None)
         assert len(found) >= 29 and _holds_hit(found, truth) == len(found) >= 29  # of 31: the rest and 30 holds
         # what a detected pose holds of the motions' slow starts and ends turns the sensor by less than a tenth
         # of the tilt that makes a pose unsteady (segment.poses.EDGE_TILT_DEG = 0.5°); the former detector, on
@@ -78,27 +77,21 @@ def test_one_second_holds_are_found_without_motion(one_second) -> None:
 def test_the_former_two_second_detector_loses_them(one_second) -> None:
     """``min_hold=2`` is the former detector (1 s window, 1 s shortest run): 1 s holds are lost."""
     sim = one_second[0]
-    ctx = _quiet()
-    try:
+    with _quiet():
         with pytest.raises(ValueError, match="too few static intervals"):
             detect_intervals(sim.recording, sim.truth.gravity, min_hold=2.0)
-    finally:
-        ctx.__exit__(None, None, None)
 
 
 def test_min_hold_reaches_the_methods(one_second) -> None:
     sim = one_second[0]
     rec = sim.recording
-    ctx = _quiet()
-    try:
+    with _quiet():
         cal = imucalib.calibrate(rec, method="tedaldi2014", gravity=sim.truth.gravity)
         assert cal.fit["static_intervals"] >= 29
         np.testing.assert_allclose(cal.accelerometer.scale, sim.truth.accelerometer.scale, rtol=1e-3)
         for method in ("tedaldi2014", "ellipsoid"):
             with pytest.raises(ValueError, match="too few static intervals"):
                 imucalib.calibrate(rec, method=method, gravity=sim.truth.gravity, min_hold=2.0)
-    finally:
-        ctx.__exit__(None, None, None)
 
 
 def test_cli_min_hold(capsys, tmp_path, one_second) -> None:
@@ -126,13 +119,22 @@ def test_imutk_sessions_keep_every_pose(name) -> None:
         pytest.skip(f"{folder} not present (fresh clone): real-data test skipped")
     from imucalib.io import read
 
-    ctx = _quiet()
-    try:
+    with _quiet():
         rec = read([folder / "acc_data.txt", folder / "gyro_data.txt"], acc_unit="m/s^2", gyro_unit="rad/s")
         old = detect_intervals(rec, 9.81744, min_hold=2.0)[0]
         new = detect_intervals(rec, 9.81744)[0]
-    finally:
-        ctx.__exit__(None, None, None)
     assert all(any(j.start < iv.stop and iv.start < j.stop for j in new) for iv in old)
     # the new poses either match one old pose or join old ones that lay in one rest (no two poses merged)
     assert len(new) >= len(old) - 1
+
+
+def test_validate_finds_one_second_holds(one_second) -> None:
+    """validate's detector (one threshold, no scan) takes the minimum hold too: the truth is accepted on them."""
+    from imucalib.validation import find_poses, validate
+
+    sim = one_second[0]
+    with _quiet():
+        assert len(find_poses(sim.truth, sim.recording)) >= 29
+        assert len(find_poses(sim.truth, sim.recording, min_hold=2.0)) <= 5
+        result = validate(sim.truth, sim.recording)
+    assert result["verdict"] == "accepted" and result["static_intervals"] >= 29
