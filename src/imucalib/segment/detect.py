@@ -35,7 +35,7 @@ from ..recording import Interval, Recording
 from .blocks import still_blocks
 from .poses import pose_scatter
 from .rest import find_initial_rest, initial_rest
-from .still import STILL_OFFSET, still_inside, still_outside, still_settings
+from .still import STILL_OFFSET, join_blips, still_inside, still_outside, still_settings
 from .windows import (
     TRANSPOSE_BYTES,
     VarianceNormStream,
@@ -212,6 +212,7 @@ def detect_intervals(
         still = np.empty(gyro.shape[0], dtype=bool)
         if not still_inside(gyro, settings, widest, still, STILL_OFFSET):  # else the scan would find the same again
             still_outside(gyro, settings, widest, still)
+            join_blips(recording, still, bias, scale)  # a moment of tremor does not cut a hold in two
             try:
                 gated = scan_thresholds(detector, gravity, recording, multipliers, window + min_interval, still,
                                         reduce=False)
