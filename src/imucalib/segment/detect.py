@@ -212,7 +212,7 @@ def detect_intervals(
         still = np.empty(gyro.shape[0], dtype=bool)
         if not still_inside(gyro, settings, widest, still, STILL_OFFSET):  # else the scan would find the same again
             still_outside(gyro, settings, widest, still)
-            join_blips(recording, still, bias, scale)  # a moment of tremor does not cut a hold in two
+            join_blips(recording, still, settings)  # a moment of tremor does not cut a hold in two
             try:
                 gated = scan_thresholds(detector, gravity, recording, multipliers, window + min_interval, still,
                                         reduce=False)
@@ -225,6 +225,10 @@ def detect_intervals(
                 weights = 1.0 / pose_scatter(recording.acc, intervals)
                 model = fit_determined(interval_means(recording.acc, intervals), gravity, weights=weights)[0]
             else:
+                if len(gated[0]) < len(intervals):  # the gate took poses out: a gyroscope whose axes are not the
+                    hint = axes_disagreement(recording, intervals, model, bias)  # accelerometer's is not still
+                    if hint is not None:
+                        raise ValueError(hint)
                 intervals, mult, model = gated
     return intervals, mult, rest, model
 

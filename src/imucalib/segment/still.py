@@ -10,15 +10,15 @@ from ..presets import STILL_N_SIGMA, STILL_RATE, STILL_WINDOW
 from ..recording import Interval, Recording
 from .windows import BLOCK, SCREEN_MARGIN, TRANSPOSE_BYTES, column_means, medians, moving_mean_rows, runs
 
-__all__ = ["BLIP_DEG", "BLIP_SECONDS", "STILL_OFFSET", "STILL_ROWS", "gyro_still", "join_blips", "still_inside",
+__all__ = ["BLIP_FACTOR", "BLIP_SECONDS", "STILL_OFFSET", "STILL_ROWS", "gyro_still", "join_blips", "still_inside",
            "still_intervals", "still_outside", "still_settings"]
 
 
 #: the longest moment of tremor inside a hold that :func:`join_blips` joins [s]: two of gyro_still's windows
 BLIP_SECONDS = 2 * STILL_WINDOW
-#: … when the sensor turns by less than this over it [deg]: the verdict's acceptable gravity-direction error of
-#: the gyroscope (0.25°); a hand's tremor turns it by hundredths of a degree
-BLIP_DEG = 0.25
+#: … when the mean rate over it stays below this many times the gate's limit (over 0.5 s at the 0.7 °/s limit:
+#: 0.7°, where a hand's turn about the vertical turns by tens of degrees)
+BLIP_FACTOR = 2.0
 #: a pose's moving mean rate may stay this many times :func:`gyro_still`'s limit from zero (bias drift, g-sensitivity)
 STILL_OFFSET = 4.0
 
@@ -144,18 +144,20 @@ def _still_group(gyro: np.ndarray, shifted: np.ndarray | None, settings: tuple, 
     return bool(ok.all())
 
 
-def join_blips(recording: Recording, still: np.ndarray, bias: np.ndarray, scale: float, *,
-               longest: float = BLIP_SECONDS, angle: float = BLIP_DEG) -> int:
-    """Mark still the short stretches between still samples where the gyroscope turned by almost nothing.
+def join_blips(recording: Recording, still: np.ndarray, settings: tuple, *, longest: float = BLIP_SECONDS,
+               factor: float = BLIP_FACTOR) -> int:
+    """Mark still the short stretches between still samples where the gyroscope barely turned.
 
     A hand's tremor lifts :func:`gyro_still`'s moving mean over its limit for a moment inside a hold; with a
     shortest run well under a second, the two sides of that moment would be taken for two poses with a
     "rotation" of nothing between them. A stretch of not-still samples at most ``longest`` seconds long,
-    with still samples on both sides, whose integrated raw rate ``|∫(u − b) dt|`` times the rough scale
-    ``scale`` [rad/s per raw unit] turns the sensor by less than ``angle`` degrees, is marked still in
-    ``still`` (in place); a turn about the vertical, however quick, turns it by far more. Returns how many
-    stretches were joined.
+    with still samples on both sides, whose mean raw rate over it, ``|∫(u − b) dt| / T`` from the last
+    still sample before it to the first one after it, stays below ``factor`` × the gate's limit
+    (``settings``: :func:`still_settings`, bias and limit in raw units) is marked still in ``still`` (in
+    place): over at most half a second that turns the sensor by a fraction of a degree, where a turn about
+    the vertical, however quick, turns it by tens. Returns how many stretches were joined.
     """
+    _, bias, limit = settings
     gyro = np.asarray(recording.gyro, dtype=np.float64)
     n = gyro.shape[0]
     gaps = [r for r in runs(~still) if 0 < r.start and r.stop < n and len(r) <= longest * recording.rate]
@@ -165,9 +167,9 @@ def join_blips(recording: Recording, still: np.ndarray, bias: np.ndarray, scale:
     step = rowwise(np.subtract, 0.5 * (gyro[1:] + gyro[:-1]), bias) * dt[:, None]  # trapezoidal rule
     c = np.concatenate([np.zeros((1, gyro.shape[1])), np.cumsum(step, axis=0)])
     joined = 0
-    for r in gaps:  # from the last still sample before the stretch to the first one after it
-        turned = abs(scale) * float(np.linalg.norm(c[r.stop] - c[r.start - 1]))
-        if np.degrees(turned) < angle:
+    for r in gaps:
+        span = float(recording.t[r.stop] - recording.t[r.start - 1])
+        if float(np.linalg.norm(c[r.stop] - c[r.start - 1])) < factor * limit * span:
             still[r.slice] = True
             joined += 1
     return joined
