@@ -212,7 +212,6 @@ def detect_intervals(
         still = np.empty(gyro.shape[0], dtype=bool)
         if not still_inside(gyro, settings, widest, still, STILL_OFFSET):  # else the scan would find the same again
             still_outside(gyro, settings, widest, still)
-            join_blips(recording, still, settings)  # a moment of tremor does not cut a hold in two
             try:
                 gated = scan_thresholds(detector, gravity, recording, multipliers, window + min_interval, still,
                                         reduce=False)
@@ -230,6 +229,12 @@ def detect_intervals(
                     if hint is not None:
                         raise ValueError(hint)
                 intervals, mult, model = gated
+                joined = join_blips(recording, intervals, settings)  # a moment of tremor does not part a hold
+                if len(joined) < len(intervals):
+                    means = interval_means(recording.acc, joined)
+                    model = (fit_gravity_norm(means, gravity)[0] if len(joined) >= MIN_INTERVALS
+                             else fit_determined(means, gravity)[0])
+                    intervals = joined
     return intervals, mult, rest, model
 
 

@@ -144,35 +144,36 @@ def _still_group(gyro: np.ndarray, shifted: np.ndarray | None, settings: tuple, 
     return bool(ok.all())
 
 
-def join_blips(recording: Recording, still: np.ndarray, settings: tuple, *, longest: float = BLIP_SECONDS,
-               factor: float = BLIP_FACTOR) -> int:
-    """Mark still the short stretches between still samples where the gyroscope barely turned.
+def join_blips(recording: Recording, intervals: list[Interval], settings: tuple, *,
+               longest: float = BLIP_SECONDS, factor: float = BLIP_FACTOR) -> list[Interval]:
+    """Consecutive poses joined into one where only a moment of tremor parted them.
 
     A hand's tremor lifts :func:`gyro_still`'s moving mean over its limit for a moment inside a hold; with a
-    shortest run well under a second, the two sides of that moment would be taken for two poses with a
-    "rotation" of nothing between them. A stretch of not-still samples at most ``longest`` seconds long,
-    with still samples on both sides, whose mean raw rate over it, ``|∫(u − b) dt| / T`` from the last
-    still sample before it to the first one after it, stays below ``factor`` × the gate's limit
-    (``settings``: :func:`still_settings`, bias and limit in raw units) is marked still in ``still`` (in
-    place): over at most half a second that turns the sensor by a fraction of a degree, where a turn about
-    the vertical, however quick, turns it by tens. Returns how many stretches were joined.
+    shortest run well under a second, the two sides of that moment are found as two poses with a "rotation"
+    of nothing between them. Two consecutive ``intervals`` at most ``longest`` seconds apart are one pose
+    when the mean raw rate between them, ``|∫(u − b) dt| / T`` from the last sample of the first to the
+    first sample of the second, stays below ``factor`` × the gate's limit (``settings``:
+    :func:`still_settings`, bias and limit in raw units): over at most half a second that turns the sensor by
+    a fraction of a degree, where a turn about the vertical, however quick, turns it by tens. The joined
+    pose spans both and the moment between them.
     """
+    if len(intervals) < 2:
+        return list(intervals)
     _, bias, limit = settings
-    gyro = np.asarray(recording.gyro, dtype=np.float64)
-    n = gyro.shape[0]
-    gaps = [r for r in runs(~still) if 0 < r.start and r.stop < n and len(r) <= longest * recording.rate]
-    if not gaps:
-        return 0
-    dt = np.diff(recording.t)
-    step = rowwise(np.subtract, 0.5 * (gyro[1:] + gyro[:-1]), bias) * dt[:, None]  # trapezoidal rule
-    c = np.concatenate([np.zeros((1, gyro.shape[1])), np.cumsum(step, axis=0)])
-    joined = 0
-    for r in gaps:
-        span = float(recording.t[r.stop] - recording.t[r.start - 1])
-        if float(np.linalg.norm(c[r.stop] - c[r.start - 1])) < factor * limit * span:
-            still[r.slice] = True
-            joined += 1
-    return joined
+    gyro, t = recording.gyro, recording.t
+    out = [intervals[0]]
+    for iv in intervals[1:]:
+        last = out[-1]
+        a, b = last.stop - 1, iv.start
+        span = float(t[b] - t[a])
+        if span <= longest and b > a:
+            u = np.asarray(gyro[a:b + 1], dtype=np.float64) - bias
+            turned = np.linalg.norm(0.5 * (u[1:] + u[:-1]).T @ np.diff(t[a:b + 1]))  # trapezoidal rule
+            if turned < factor * limit * span:
+                out[-1] = Interval(last.start, iv.stop, last.kind)
+                continue
+        out.append(iv)
+    return out
 
 
 def still_intervals(intervals: list[Interval], still: np.ndarray, min_length: int) -> list[Interval]:
