@@ -150,7 +150,11 @@ def detect_intervals(
     ``gyro_gate``, its intervals give a rough gyroscope scale, the samples where
     the gyroscope is not still (:func:`gyro_still`) are taken out of the
     detector statistic and the scan runs again, so a turn about the vertical or
-    a slow settle after a flip is never averaged into a pose.
+    a slow settle after a flip is never averaged into a pose. Two poses parted
+    only by a moment of tremor are then joined
+    (:func:`imucalib.segment.still.join_blips`); when the gate took poses out,
+    the gyroscope's axes are checked against the accelerometer's
+    (:func:`imucalib.fit.gyroscope.axes_disagreement`).
 
     When the gate leaves fewer than :data:`MIN_INTERVALS` poses at every
     threshold (hand-held poses that wobble), the intervals before the gate are
