@@ -55,8 +55,9 @@ def test_detectors_and_their_callers_default_to_the_presets():
 
     for fn in (segment.detect_intervals, tedaldi2014.calibrate):
         assert tuple(_default(fn, "multipliers")) == presets.MULTIPLIERS == tuple(range(2, 11))
-        assert _default(fn, "window") == presets.VARIANCE_WINDOW
-        assert _default(fn, "min_interval") == presets.MIN_INTERVAL
+        # the window and shortest run follow from the minimum hold (presets.hold_settings) unless given
+        assert _default(fn, "min_hold") == presets.MIN_HOLD
+        assert _default(fn, "window") is None and _default(fn, "min_interval") is None
     assert _default(segment.static_at, "window") == presets.VARIANCE_WINDOW
     assert (_default(segment.detect_static_gyro, "window"), _default(segment.detect_static_gyro, "multiplier")) \
         == (presets.GYRO_VARIANCE_WINDOW, presets.GYRO_MULTIPLIER) == (2.0, 6.0)  # Zhang 2021 §IV-A, RD1

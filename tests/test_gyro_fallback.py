@@ -26,10 +26,11 @@ FAST = {"max_rate": None, "move": (0.15, 0.25), "n_poses": 20, "rest": 10.0, "he
 
 @pytest.fixture(scope="module")
 def fast():
-    """Seed 1: all 20 rotations saturate; seed 2: 19 of them."""
+    """Seed 1: all 20 rotations saturate; seed 15: 19 of them. (Seed 2's one rotation left was a moment of
+    tremor that cut one hold in two, which the gate now joins: all its 20 rotations saturate.)"""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ImucalibWarning)  # the clipped readings, said by the simulator
-        return {seed: handheld.generate(np.random.default_rng(seed), **FAST) for seed in (1, 2)}
+        return {seed: handheld.generate(np.random.default_rng(seed), **FAST) for seed in (1, 2, 15)}
 
 
 def _calibrate(rec, method):
@@ -65,9 +66,17 @@ def test_rotations_all_too_fast_give_the_accelerometer_alone(fast, method):
 
 
 @pytest.mark.parametrize("method", ["tedaldi2014", "ellipsoid"])
+def test_a_tremor_inside_a_hold_is_no_rotation(fast, method):
+    """Seed 2: one hold shaken for a moment is one pose, not two with a rotation of nothing between them."""
+    cal = _calibrate(fast[2]["recording"], method)
+    assert cal.gyroscope is None and len(cal.fit["rotations_left_out"]) == 20
+    assert cal.fit["static_intervals"] == 21
+
+
+@pytest.mark.parametrize("method", ["tedaldi2014", "ellipsoid"])
 def test_one_rotation_left_is_fitted_and_rejected(fast, method):
     """19 of 20 rotations saturated: the fit runs on the one left, and the verdict says it cannot determine it."""
-    cal = _calibrate(fast[2]["recording"], method)
+    cal = _calibrate(fast[15]["recording"], method)
     assert cal.gyroscope is not None and "gyroscope_not_calibrated" not in cal.fit
     assert len(cal.fit["rotations_left_out"]) == 19
     assert cal.fit["verdict"] == "rejected"

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from imucalib import segment
+from imucalib import presets, segment
 from imucalib.recording import Recording
+from imucalib.segment import rest, windows
 
 
 def _first_motion_whole(recording: Recording, win: int, n_level: int, factor: float) -> int:
@@ -32,7 +33,7 @@ def test_variance_norm_in_any_spans_is_the_whole_pass(n: int, window: int) -> No
     cuts = sorted({0, n, *rng.integers(0, n, size=6).tolist()})
     parts = np.empty(n)
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):
-        segment._variance_norm_rows(x, x.mean(axis=0), max(window // 2, 1), a, b, parts[a:b])
+        windows.variance_norm_rows(x, x.mean(axis=0), max(window // 2, 1), a, b, parts[a:b])
     assert np.array_equal(parts, whole)
     # the moving variance's windows inside the record come from slices, those at its ends are gathered: both
     # are E[x²] − E[x]² over the truncated window
@@ -55,19 +56,19 @@ def test_first_motion_reads_the_statistic_only_as_far_as_it_needs(acc_moves, gyr
         gyro[gyro_moves:] *= 50
     rec = Recording(np.arange(n) * 1e-3, acc, gyro)
     for win, n_level, factor in [(101, 1000, 3.0), (11, 7, 2.0), (2001, 5000, 10.0)]:
-        assert segment._first_motion(rec, win, n_level, factor) == _first_motion_whole(rec, win, n_level, factor)
+        assert rest.first_motion(rec, win, n_level, factor) == _first_motion_whole(rec, win, n_level, factor)
     alone = Recording(np.arange(n) * 1e-3, acc, None)
-    assert segment._first_motion(alone, 101, 1000, 3.0) == _first_motion_whole(alone, 101, 1000, 3.0)
+    assert rest.first_motion(alone, 101, 1000, 3.0) == _first_motion_whole(alone, 101, 1000, 3.0)
 
 
 @pytest.mark.parametrize("n, half", [(5, 2), (700, 12), (140_001, 12), (70_000, 1500)])
 def test_moving_mean_of_chosen_rows_is_the_whole_pass(n: int, half: int) -> None:
     rng = np.random.default_rng(n + half)
     x = rng.normal(size=(n, 3)) * 100 + 3e4
-    whole = segment._moving_mean_rows(x, half, 0, n)
+    whole = windows.moving_mean_rows(x, half, 0, n)
     keep = rng.random(n) < 0.3
     keep[:3] = keep[-3:] = True  # windows truncated at both ends
-    assert np.array_equal(segment._moving_mean_rows(x, half, 0, n, keep=keep), whole[keep])
+    assert np.array_equal(windows.moving_mean_rows(x, half, 0, n, keep=keep), whole[keep])
     # the definition, inside the record and at its ends
     for i in {0, 1, n // 2, n - 1}:
         np.testing.assert_allclose(whole[i], x[max(i - half, 0): i + half + 1].mean(axis=0), rtol=1e-12)
@@ -82,9 +83,9 @@ def test_gyro_still_outside_the_poses_is_the_plain_moving_mean_test() -> None:
     intervals, _, rest, _ = segment.detect_intervals(rec, sim.truth.gravity, gyro_gate=False)
     scale = 1e-3
     still = segment.gyro_still(rec, rest, scale, intervals)
-    n = max(int(round(segment.STILL_WINDOW * rec.rate)), 1)
+    n = max(int(round(presets.STILL_WINDOW * rec.rate)), 1)
     raw = rec.gyro[rest.slice]
-    limit = max(segment.STILL_RATE / scale, segment.STILL_N_SIGMA * float(np.linalg.norm(raw.std(axis=0))) / np.sqrt(n))
+    limit = max(presets.STILL_RATE / scale, presets.STILL_N_SIGMA * float(np.linalg.norm(raw.std(axis=0))) / np.sqrt(n))
     m = segment.moving_mean(rec.gyro, n) - raw.mean(axis=0)
     outside = np.ones(len(rec), dtype=bool)
     for iv in intervals:

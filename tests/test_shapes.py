@@ -225,7 +225,9 @@ def faces(tmp_path_factory):
     from imucalib.recording import Interval
 
     d = tmp_path_factory.mktemp("faces")
-    sim = session("handheld", rng=4, procedure="ferraris")
+    # no hold creeps: each face's file is then still throughout and its pose is the whole file (a block whose
+    # start holds the hand's settle is cut to its still part: tests/test_blocks_motion.py)
+    sim = session("handheld", rng=4, procedure="ferraris", creep=0)
     rec = sim.recording
     ivs = [Interval(*sim.options["sections"][k]) for k in FACES]
     with warnings.catch_warnings():
@@ -318,7 +320,9 @@ def wobbly(tmp_path_factory):
 
 def test_the_gate_drops_wobbly_poses(wobbly):
     """What the calibration has to cope with: the gyroscope's gate alone leaves too few poses."""
-    from imucalib.segment import _detector, _scan, detect_intervals, gyro_still
+    from imucalib.segment import detect_intervals, gyro_still
+    from imucalib.segment.detect import make_detector as _detector
+    from imucalib.segment.detect import scan_thresholds as _scan
 
     _, sim = wobbly
     rec = sim.recording

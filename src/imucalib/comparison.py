@@ -42,6 +42,7 @@ import numpy as np
 
 from .crossval import leave_one_pose_out
 from .methods import calibrate, method_names
+from .presets import MIN_HOLD
 from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 
 __all__ = ["DEFAULT_MODELS", "RANKED_BY", "compare", "even_folds", "rank", "tied_best"]
@@ -126,6 +127,7 @@ def compare(
     init_static: float | None = None,
     peers: Mapping[str, object] | None = None,
     magnetometer: bool = True,
+    min_hold: float = MIN_HOLD,
 ) -> dict:
     """Calibrate with each method and cross-validate it.
 
@@ -153,6 +155,8 @@ def compare(
         Calibrate the recording's magnetometer (if it has one) in each method's calibration on all poses
         (its figures then enter the row's ``fit`` and its verdict); False leaves it out. The folds never
         calibrate it: the cross-validated figures judge the accelerometer and the gyroscope only.
+    min_hold : float
+        The shortest hold that is a pose [s] (:func:`imucalib.presets.hold_settings`).
 
     Returns
     -------
@@ -169,7 +173,7 @@ def compare(
 
     say = progress or (lambda msg: None)
     if intervals is None:
-        intervals = detect_intervals(recording, gravity, init_static=init_static)[0]
+        intervals = detect_intervals(recording, gravity, init_static=init_static, min_hold=min_hold)[0]
     intervals = list(intervals)
     chosen = list(methods) if methods is not None else method_names()
     if recording.gyro is None and methods is None:  # an accelerometer-only recording: the methods that take it

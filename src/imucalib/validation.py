@@ -25,7 +25,7 @@ import numpy as np
 
 from .calibration import Calibration
 from .metrics import fit_summary, gap_flags
-from .presets import MIN_INTERVAL, VALIDATE_MULTIPLIER, VARIANCE_WINDOW
+from .presets import MIN_HOLD, VALIDATE_MULTIPLIER, hold_settings
 from .recording import ImucalibWarning, Interval, Recording
 from .segment import gyro_still, initial_rest, static_at, still_intervals
 from .thermal import compensate
@@ -49,8 +49,8 @@ THRESHOLD_MULTIPLIER = VALIDATE_MULTIPLIER
 MIN_POSES = 2
 
 
-def find_poses(calibration: Calibration, recording: Recording, *, init_static: float | None = None
-               ) -> list[Interval]:
+def find_poses(calibration: Calibration, recording: Recording, *, init_static: float | None = None,
+               min_hold: float = MIN_HOLD) -> list[Interval]:
     """The static poses of ``recording``, found without fitting anything; the first is the initial rest.
 
     Parameters
@@ -62,6 +62,9 @@ def find_poses(calibration: Calibration, recording: Recording, *, init_static: f
         Starts with a rest.
     init_static : float, optional
         Length of the initial rest [s] (default: found automatically).
+    min_hold : float
+        The shortest hold that is a pose [s]: the detector's window and
+        shortest run follow from it (:func:`imucalib.presets.hold_settings`).
 
     Raises
     ------
@@ -70,12 +73,13 @@ def find_poses(calibration: Calibration, recording: Recording, *, init_static: f
     """
     rest = initial_rest(recording, init_static)
     # the detector at one threshold, without the scan's fits
-    candidates = static_at(recording, rest, THRESHOLD_MULTIPLIER, window=VARIANCE_WINDOW, min_interval=MIN_INTERVAL)
+    window, run = hold_settings(min_hold)
+    candidates = static_at(recording, rest, THRESHOLD_MULTIPLIER, window=window, min_interval=run)
     if recording.gyro is None or calibration.gyroscope is None:  # accelerometer-only: the detector's poses
         return candidates
     scale = float(np.mean(np.abs(calibration.gyroscope.scale)))
     still = gyro_still(recording, rest, scale, candidates)
-    return still_intervals(candidates, still, max(int(round(MIN_INTERVAL * recording.rate)), 2))
+    return still_intervals(candidates, still, max(int(round(run * recording.rate)), 2))
 
 
 def _ratio(now, then) -> float | None:
@@ -85,7 +89,7 @@ def _ratio(now, then) -> float | None:
 
 
 def validate(calibration: Calibration, recording: Recording, gravity: float | None = None, *,
-             init_static: float | None = None) -> dict:
+             init_static: float | None = None, min_hold: float = MIN_HOLD) -> dict:
     """A calibration's fit figures and verdict on a new recording, beside the figures it had at calibration.
 
     Parameters
@@ -99,6 +103,8 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
         Local gravity [m/s²] (default: the calibration's).
     init_static : float, optional
         Length of the initial rest [s] (default: found automatically).
+    min_hold : float
+        The shortest hold that is a pose [s] (:func:`find_poses`).
 
     Returns
     -------
@@ -134,12 +140,12 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
     # a calibration that follows temperature: the recording compensated to its reference temperature, then
     # judged with the calibration there (thermal.py, T2)
     calibration, recording = compensate(calibration, recording)
-    poses = find_poses(calibration, recording, init_static=init_static)
+    poses = find_poses(calibration, recording, init_static=init_static, min_hold=min_hold)
     if len(poses) < MIN_POSES:
         raise ValueError(
             f"{len(poses)} static pose(s) found in the {recording.duration:.3g} s recording; validate needs "
             f"the initial rest and at least {MIN_POSES - 1} more pose: after the rest, turn the sensor and hold "
-            f"it still for at least {MIN_INTERVAL:g} s (the initial rest sets the detector's threshold: if it is "
+            f"it still for at least {min_hold:g} s (the initial rest sets the detector's threshold: if it is "
             "found too short, give its length with --init-static SECONDS)")
     fit = fit_summary(calibration, recording, poses, gravity)
     note = inverted_rest_note(calibration, recording, poses[0])  # the sign convention (upright.py)

@@ -12,6 +12,7 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 from ..constants import GRAVITY_RANGE, STANDARD_GRAVITY
+from ..presets import MIN_HOLD
 from ..printable import printable
 from ..progress import Progress, stage_printer
 
@@ -21,9 +22,10 @@ if TYPE_CHECKING:
 __all__ = ["EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_REJECTED", "STANDARD_GRAVITY", "CliError", "PrintableStream",
            "Progress",
            "add_force_option", "add_gravity_option", "add_init_static_option", "add_method_option",
-           "add_poses_option", "add_reader_options", "check_paths", "check_verdict", "gravity_value",
-           "load_calibration", "normalise_argv", "positive_float", "print_json", "print_verdict", "progress", "read",
-           "read_recording", "reading_progress", "report_error", "show_warning", "tolerant_encoding"]
+           "add_min_hold_option", "add_poses_option", "add_reader_options", "check_paths", "check_verdict",
+           "gravity_value", "load_calibration", "normalise_argv", "positive_float", "print_json", "print_verdict",
+           "progress", "read", "read_recording", "reading_progress", "report_error", "show_warning",
+           "tolerant_encoding"]
 
 #: exit code of a command that failed with a reported error
 EXIT_ERROR = 2
@@ -141,6 +143,13 @@ def add_init_static_option(p: argparse.ArgumentParser) -> None:
     """``--init-static``: the length of the initial rest, found automatically by default."""
     p.add_argument("--init-static", type=positive_float, metavar="SECONDS",
                    help="length of the initial rest (default: found automatically)")
+
+
+def add_min_hold_option(p: argparse.ArgumentParser) -> None:
+    """``--min-hold``: the shortest hold that is a pose."""
+    p.add_argument("--min-hold", type=positive_float, metavar="SECONDS",
+                   help=f"shortest hold that is a pose (default {MIN_HOLD:g} s; poses held longer are found, "
+                   "the static detector's window is half of it, at most 1 s)")
 
 
 def add_force_option(p: argparse.ArgumentParser) -> None:

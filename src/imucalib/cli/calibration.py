@@ -21,6 +21,7 @@ from ._common import (
     add_gravity_option,
     add_init_static_option,
     add_method_option,
+    add_min_hold_option,
     add_poses_option,
     add_reader_options,
     load_calibration,
@@ -150,7 +151,8 @@ def _method_options(args: argparse.Namespace) -> dict:
                                  ("mag_hemisphere", args.mag_hemisphere)) if v is not None}
     if args.no_magnetometer:
         sensors["magnetometer"] = False
-    return {**{k: v for k, v in (("init_static", args.init_static), ("detector", args.detector)) if v is not None},
+    return {**{k: v for k, v in (("init_static", args.init_static), ("min_hold", args.min_hold),
+                                 ("detector", args.detector)) if v is not None},
             **ferraris, **dict(zhang.values()), **sensors}
 
 
@@ -222,7 +224,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     peers = {path: load_calibration(path, rec, args.gravity) for path in args.peer or []}
     result = compare(rec, gravity=args.gravity, methods=args.methods.split(",") if args.methods else None,
                      folds=None if args.folds == 0 else args.folds, progress=say, init_static=args.init_static,
-                     peers=peers, magnetometer=not args.no_magnetometer)
+                     peers=peers, magnetometer=not args.no_magnetometer,
+                     **({} if args.min_hold is None else {"min_hold": args.min_hold}))
     if args.json:
         return print_json(result)
     print(f"{result['static_intervals']} static intervals; leave-one-pose-out over "
@@ -297,6 +300,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--model", help="model variant, e.g. linear, quadratic, cubic, all")
     add_gravity_option(p)
     add_init_static_option(p)
+    add_min_hold_option(p)
     p.add_argument("--detector", choices=("accelerometer", "gyroscope"),
                    help="zhang2021: static detector, Tedaldi's accelerometer variance (default) or "
                    "the gyroscope norm of Zhang 2021 eq. (22)")
@@ -337,6 +341,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
     add_gravity_option(p)
     add_init_static_option(p)
+    add_min_hold_option(p)
     p.add_argument("--methods", help="comma-separated methods (default: all)")
     p.add_argument("--folds", type=int, default=12,
                    help="held-out poses, spread evenly (0: every pose; default 12)")

@@ -14,6 +14,7 @@ from ..io.atomic import refuse_overwriting_inputs
 from ._common import (
     EXIT_REJECTED,
     add_init_static_option,
+    add_min_hold_option,
     add_reader_options,
     gravity_value,
     load_calibration,
@@ -44,7 +45,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
         cal = Calibration.load(args.calibration)
         rec = read_recording(args, args.data)
     result = {"calibration": str(args.calibration),
-              **validate(cal, rec, args.gravity, init_static=args.init_static)}
+              **validate(cal, rec, args.gravity, init_static=args.init_static,
+                       **({} if args.min_hold is None else {"min_hold": args.min_hold}))}
     intervals = [Interval(a, b) for a, b in result.pop("intervals")]
     if args.plot:
         from ..report import plot_fit
@@ -99,6 +101,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("data", nargs="+", help="data file(s), as for calibrate")
     p.add_argument("--gravity", type=gravity_value, help="local gravity [m/s^2] (default: the calibration's)")
     add_init_static_option(p)
+    add_min_hold_option(p)
     p.add_argument("--plot", metavar="FILE", help="also draw the fit figure (PNG/SVG/PDF; plot extra)")
     p.add_argument("--json", action="store_true", help="print the verdict and the figures as JSON")
     add_reader_options(p)

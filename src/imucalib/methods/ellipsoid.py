@@ -21,6 +21,7 @@ from ..fit.accelerometer import (
 from ..fit.gyroscope import fit_gyroscope
 from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
+from ..presets import MIN_HOLD
 from ..segment import no_usable_rotations, pose_blocks, static_poses, unreliable_transitions
 
 METHOD = MethodInfo(
@@ -33,6 +34,7 @@ METHOD = MethodInfo(
         Option("intervals", None, "samples", "static intervals given instead of found"),
         Option("refine", False, "", "refine the closed form by Levenberg–Marquardt on the gravity norms"),
         Option("init_static", None, "s", "length of the initial rest (found automatically)"),
+        Option("min_hold", 1.0, "s", "shortest hold that is a pose (sets the static detector's window)"),
     ),
     paper="ru2022_mems_calibration_review.md (Ru 2022), §3.2",
     accelerometer_only=True,
@@ -42,7 +44,7 @@ __all__ = ["calibrate"]
 
 
 def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False,
-              init_static: float | None = None) -> Calibration:
+              init_static: float | None = None, min_hold: float = MIN_HOLD) -> Calibration:
     """Accelerometer by the ellipsoid fit (Ru 2022, §3.2), gyroscope from the rotations between poses.
 
     The static means of ≥ 9 poses give ``T_a``, ``k1`` and ``b_a`` in closed
@@ -56,7 +58,7 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     leaves the gyroscope uncalibrated and says why in
     ``fit["gyroscope_not_calibrated"]``.
     """
-    intervals = static_poses(recording, gravity, intervals, init_static=init_static)
+    intervals = static_poses(recording, gravity, intervals, init_static=init_static, min_hold=min_hold)
     means = interval_means(recording.acc, intervals)
     which = None
     if len(means) >= 9:

@@ -41,6 +41,7 @@ from ..fit.accelerometer import faces_full, full_from_sensitivity, mean_variance
 from ..fit.gyroscope import fit_known_turns, rough_scale
 from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
+from ..presets import MIN_HOLD, hold_settings
 from ..recording import Interval, Recording
 from ..segment import (
     FACE_NAMES,
@@ -64,6 +65,7 @@ METHOD = MethodInfo(
         Option("angle", 360.0, "deg", "the known angle of each turn"),
         Option("max_tilt", 15.0, "deg", "largest tilt of a face from its axis"),
         Option("init_static", None, "s", "length of the initial rest (found automatically)"),
+        Option("min_hold", 1.0, "s", "shortest hold that is a pose (sets the static detector's window)"),
         Option("sections", None, "samples", "named sample ranges of the faces and turns, instead of finding "
                "them"),
     ),
@@ -354,7 +356,7 @@ def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[
 
 
 def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0,
-              max_tilt: float = 15.0, init_static: float | None = None,
+              max_tilt: float = 15.0, init_static: float | None = None, min_hold: float = MIN_HOLD,
               sections: dict | None = None) -> Calibration:
     """Ferraris calibration in closed form.
 
@@ -376,7 +378,8 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
             # gyroscope-norm detector of Zhang 2021 eq. 22 sets its threshold on a tremor-free table rest and
             # then finds no hand-held face still); turns about the vertical, which leave the accelerometer
             # still, are cut out below by the gyroscope gate
-            intervals = static_at(recording, rest, 10.0)
+            window, run = hold_settings(min_hold)
+            intervals = static_at(recording, rest, 10.0, window=window, min_interval=run)
         intervals = [iv for iv in intervals if iv.kind == "static"]
         idx = find_faces(interval_means(recording.acc, intervals), gravity, max_tilt=max_tilt)
         rough_acc = faces_full(interval_means(recording.acc, [intervals[j] for j in idx]), gravity)

@@ -46,6 +46,7 @@ from ..fit.gyroscope import fit_measured_rotations, rotation_angles
 from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
 from ..models import TriadModel
+from ..presets import MIN_HOLD
 from ..segment import find_faces, static_poses
 
 METHOD = MethodInfo(
@@ -58,6 +59,7 @@ METHOD = MethodInfo(
         Option("intervals", None, "samples", "static intervals given instead of found"),
         Option("gyroscope", "static", "", "how the gyroscope's rotations are measured (§III-B)"),
         Option("init_static", None, "s", "length of the initial rest (found automatically)"),
+        Option("min_hold", 1.0, "s", "shortest hold that is a pose (sets the static detector's window)"),
     ),
     paper="qureshi2017_infield_calibration.md (Qureshi & Golnaraghi, IEEE Sensors J. 2017), §III",
 )
@@ -79,7 +81,7 @@ def calibrate_accelerometer(means: np.ndarray, gravity: float) -> tuple[TriadMod
 
 
 def calibrate(recording, *, gravity: float, intervals=None, gyroscope: str = "static",
-              init_static: float | None = None) -> Calibration:
+              init_static: float | None = None, min_hold: float = MIN_HOLD) -> Calibration:
     """Qureshi 2017: Newton accelerometer fit, then gyroscope scales from accelerometer-measured turns.
 
     Parameters
@@ -89,7 +91,7 @@ def calibrate(recording, *, gravity: float, intervals=None, gyroscope: str = "st
     """
     if gyroscope not in ("static", "dynamic"):
         raise ValueError(f"gyroscope must be 'static' or 'dynamic'; got {gyroscope!r}")
-    intervals = static_poses(recording, gravity, intervals, init_static=init_static)
+    intervals = static_poses(recording, gravity, intervals, init_static=init_static, min_hold=min_hold)
     means = interval_means(recording.acc, intervals)
     acc, info = calibrate_accelerometer(means, gravity)
     rest_bias = recording.gyro[intervals[0].slice].mean(axis=0)

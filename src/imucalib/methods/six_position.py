@@ -47,6 +47,7 @@ from ..fit.accelerometer import fit_determined, mean_variance, six_position
 from ..fit.gyroscope import accelerometer_joint_step, fit_gyroscope, joint_errors_at
 from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
+from ..presets import MIN_HOLD
 from ..segment import FACE_NAMES, find_faces, pose_blocks, static_poses, unreliable_transitions
 
 METHOD = MethodInfo(
@@ -59,6 +60,7 @@ METHOD = MethodInfo(
         Option("intervals", None, "samples", "static intervals given instead of found"),
         Option("max_tilt", 15.0, "deg", "largest tilt of a face from its axis"),
         Option("init_static", None, "s", "length of the initial rest (found automatically)"),
+        Option("min_hold", 1.0, "s", "shortest hold that is a pose (sets the static detector's window)"),
     ),
     paper="ru2022_mems_calibration_review.md (Ru 2022), §3.1, eqs. 8–9",
     accelerometer_only=True,
@@ -181,13 +183,13 @@ def _with_misalignment(recording, intervals, acc, exclude, up, down, means, face
 
 
 def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15.0,
-              init_static: float | None = None) -> Calibration:
+              init_static: float | None = None, min_hold: float = MIN_HOLD) -> Calibration:
     """Six-position accelerometer calibration (eqs. 8–9) with the gravity-direction gyroscope fit.
 
     Where the rotations were recorded, the accelerometer's misalignment is estimated with the gyroscope
     (module docstring) and its 1σ is reported with the gyroscope's.
     """
-    intervals = static_poses(recording, gravity, intervals, init_static=init_static)
+    intervals = static_poses(recording, gravity, intervals, init_static=init_static, min_hold=min_hold)
     means = interval_means(recording.acc, intervals)
     faces = find_faces(means, gravity, max_tilt=max_tilt)
     up, down = means[faces[:3], np.arange(3)], means[faces[3:], np.arange(3)]

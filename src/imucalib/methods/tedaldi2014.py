@@ -44,7 +44,7 @@ from ..fit.accelerometer import (
 from ..fit.gyroscope import errors_at, fit_gyroscope, joint_errors_at, static_gyro
 from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means
-from ..presets import MIN_INTERVAL, MULTIPLIERS, VARIANCE_WINDOW
+from ..presets import MIN_HOLD, MULTIPLIERS
 from ..recording import STANDARD_GRAVITY, Interval, Recording
 from ..segment import detect_intervals, no_usable_rotations, pose_blocks, unreliable_transitions
 
@@ -56,10 +56,13 @@ METHOD = MethodInfo(
     models=("linear",),
     options=(
         Option("init_static", None, "s", "length of the initial rest (found automatically)"),
+        Option("min_hold", 1.0, "s", "shortest hold that is a pose (sets the static detector's window)"),
         Option("multipliers", (2, 3, 4, 5, 6, 7, 8, 9, 10), "", "static-detector thresholds tried, in multiples "
                "of the rest's accelerometer variance"),
-        Option("window", 1.0, "s", "the static detector's variance window"),
-        Option("min_interval", 1.0, "s", "shortest static interval kept"),
+        Option("window", None, "s", "the static detector's variance window (from min_hold: half of it, at most "
+               "1 s)"),
+        Option("min_interval", None, "s", "shortest static interval kept (from min_hold: min_hold less the "
+               "window)"),
         Option("estimate_gyro_bias", "auto", "", "fit the gyroscope bias with the rotations (auto: when the "
                "rests do not give it)"),
         Option("gyro_g_sensitivity", "auto", "", "fit the gyroscope's g-sensitivity (auto: when the poses "
@@ -106,10 +109,10 @@ def calibrate(
     recording: Recording,
     *,
     gravity: float = STANDARD_GRAVITY,
-    init_static: float | None = None,
+    init_static: float | None = None, min_hold: float = MIN_HOLD,
     multipliers: Iterable[float] = MULTIPLIERS,
-    window: float = VARIANCE_WINDOW,
-    min_interval: float = MIN_INTERVAL,
+    window: float | None = None,
+    min_interval: float | None = None,
     estimate_gyro_bias: bool | str = "auto",
     gyro_g_sensitivity: bool | str = "auto",
     intervals: list[Interval] | None = None,
@@ -126,10 +129,13 @@ def calibrate(
         Local gravity [m/s²].
     init_static : float, optional
         Length of the initial rest [s]; found automatically by default.
+    min_hold : float
+        The shortest hold that is a pose [s]; it sets the detector's window
+        and shortest static interval (:func:`imucalib.presets.hold_settings`).
     multipliers : iterable of float
         Detector thresholds to scan, in units of the initial rest's variance norm.
-    window, min_interval : float
-        Detector window and shortest static interval [s].
+    window, min_interval : float, optional
+        Detector window and shortest static interval [s] (default: from ``min_hold``).
     estimate_gyro_bias : bool or "auto"
         ``"auto"``: the bias from the static poses' means and the rotations in
         one cost (:func:`imucalib.fit.gyroscope.fit_gyroscope`); False: from
@@ -159,7 +165,7 @@ def calibrate(
     say("detecting static intervals")
     if intervals is None:
         intervals, mult, rest, acc_model = detect_intervals(
-            recording, gravity, init_static=init_static, multipliers=multipliers,
+            recording, gravity, init_static=init_static, min_hold=min_hold, multipliers=multipliers,
             window=window, min_interval=min_interval,
         )
     else:

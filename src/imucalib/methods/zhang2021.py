@@ -67,6 +67,7 @@ from ..kinematics import IntervalIntegrator, five_point_derivative, quat_to_matr
 from ..methodinfo import MethodInfo, Option
 from ..metrics import fit_summary, interval_means, transition_bounds
 from ..models import AXES, TriadModel, misalignment_entries
+from ..presets import MIN_HOLD
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 from ..segment import (
     detect_intervals,
@@ -89,6 +90,7 @@ METHOD = MethodInfo(
         Option("weightless", None, "", "spinning weightless tosses (recordings) for the lever arm"),
         Option("intervals", None, "samples", "static intervals given instead of found"),
         Option("init_static", None, "s", "length of the initial rest (found automatically)"),
+        Option("min_hold", 1.0, "s", "shortest hold that is a pose (sets the static detector's window)"),
         Option("initial", "step1", "", "the starting point of the joint fit (step1: the two-step estimate)"),
         Option("noise_weights", True, "", "weigh each residual by its noise (False: for noise-free data)"),
         Option("max_iter", 200, "", "Levenberg–Marquardt iterations at most"),
@@ -755,7 +757,8 @@ def _criterion(st: _Stages, recording: Recording, static: list[Interval], gravit
     return float(total)
 
 
-def _poses(recording: Recording, gravity: float, intervals, init_static, detector) -> tuple[list[Interval], Interval]:
+def _poses(recording: Recording, gravity: float, intervals, init_static, detector,
+           min_hold: float = MIN_HOLD) -> tuple[list[Interval], Interval]:
     """The static poses (the initial rest first): given, or by the shared detector, or by eq. (22)."""
     if intervals is not None:
         static = [iv for iv in intervals if iv.kind == "static"]
@@ -769,7 +772,7 @@ def _poses(recording: Recording, gravity: float, intervals, init_static, detecto
                              f"at least {MIN_INTERVALS} are needed")
         rest = static[0]
     elif detector == "accelerometer":
-        static, _, rest, _ = detect_intervals(recording, gravity, init_static=init_static)
+        static, _, rest, _ = detect_intervals(recording, gravity, init_static=init_static, min_hold=min_hold)
     else:
         raise ValueError(f"detector must be 'accelerometer' or 'gyroscope'; got {detector!r}")
     if len(static) < MIN_INTERVALS:
@@ -784,7 +787,7 @@ def calibrate(
     model: str = "all",
     gravity: float = STANDARD_GRAVITY,
     intervals: Sequence[Interval] | None = None,
-    init_static: float | None = None,
+    init_static: float | None = None, min_hold: float = MIN_HOLD,
     initial: str = "step1",
     noise_weights: bool = True,
     max_iter: int = 200,
@@ -823,6 +826,9 @@ def calibrate(
         detected by default with ``detector``.
     init_static : float, optional
         Length of the initial rest [s] for the detector.
+    min_hold : float
+        The shortest hold that is a pose [s], for the accelerometer detector
+        (:func:`imucalib.presets.hold_settings`).
     initial : {"step1", "identity"}
         Start the joint fit with tosses from the Step-1 estimates (the paper)
         or from the identity model (unit scales, zero biases) — for robustness
@@ -859,7 +865,7 @@ def calibrate(
     if initial not in ("step1", "identity"):
         raise ValueError(f"initial must be 'step1' or 'identity'; got {initial!r}")
     say("detecting static intervals")
-    static, rest = _poses(recording, gravity, intervals, init_static, detector)
+    static, rest = _poses(recording, gravity, intervals, init_static, detector, min_hold)
     exclude = unreliable_transitions(recording, static)
     static_acc = interval_means(recording.acc, static)
     linear = gravity_norm_fit(static_acc, gravity, max_iter=max_iter)

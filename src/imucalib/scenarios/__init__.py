@@ -27,13 +27,15 @@ from .base import (
     turns_between,
     write_session,
 )
+from .disturb import in_blocks, with_tap
 from .ferraris import ferraris_session
 from .qureshi2017 import qureshi_orientations, qureshi_session, qureshi_truth, qureshi_validation
 from .zhang2021 import random_truth, table1_truth
 
 __all__ = ["DEFAULT_NOISE", "SCENARIOS", "Session", "TossSequence", "attitude_with_up", "ferraris_session",
-           "pose_session", "qureshi_orientations", "qureshi_session", "qureshi_truth", "qureshi_validation",
-           "random_truth", "read_session", "session", "table1_truth", "turns_between", "write_session"]
+           "in_blocks", "pose_session", "qureshi_orientations", "qureshi_session", "qureshi_truth",
+           "qureshi_validation", "random_truth", "read_session", "session", "table1_truth", "turns_between", "with_tap",
+           "write_session"]
 
 #: scenario name → generator(rng, *, truth, noise, **options) → dict of Session fields
 SCENARIOS: dict[str, Callable[..., dict]] = {"zhang2021": zhang2021.generate, "handheld": handheld.generate}
