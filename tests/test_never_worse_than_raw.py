@@ -266,8 +266,8 @@ def test_calibrate_and_validate_judge_the_same_rotations_and_residual_alike():
         warnings.simplefilter("ignore", ImucalibWarning)
         exact = calibrate(sim, method="six_position")
     iv = [Interval(int(a), int(b)) for a, b in exact.fit["intervals"]]
-    # the z scale 1 % off: the residual over the faces tens of times the noise floor
-    off = exact.with_(accelerometer=exact.accelerometer.with_(scale=exact.accelerometer.scale * [1, 1, 1.01]))
+    # the z scale 2 % off: the residual over the faces tens of times the noise floor
+    off = exact.with_(accelerometer=exact.accelerometer.with_(scale=exact.accelerometer.scale * [1, 1, 1.02]))
     fit = fit_summary(off, sim.recording, iv) | {"uncertainty_unavailable": exact.fit.get("uncertainty_unavailable")}
     assert fit["accelerometer_residual_to_noise"] > 40
     made = assess(off.with_(fit=fit), sim.recording, iv)

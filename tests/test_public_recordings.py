@@ -41,15 +41,20 @@ def _run(argv: list[str], capsys) -> tuple[int, dict | None, str]:
 MIKOV = ("--rate", "100", "--acc-unit", "m/s^2", "--gyro-unit", "rad/s")
 
 
-@pytest.mark.parametrize("session", range(5))
-def test_mikov_sessions_calibrate_as_accepted_with_mikovs_in_sample_figures(session, capsys):
+def test_mikov_sessions_calibrate_as_accepted_with_mikovs_in_sample_figures(capsys):
     """Mikov's own fit: in-sample gyroscope error 0.097° and |a|-g RMS 0.00242 m/s² (its README)."""
-    code, cal, _ = _run(["calibrate", _data("mpu9150_mikov", f"imu{session}.log"), *MIKOV], capsys)
-    assert code == 0 and cal["fit"]["verdict"] == "accepted"
-    fit = cal["fit"]
-    assert fit["static_intervals"] >= 20
-    assert fit["accelerometer_residual_rms"] < 0.00242  # 0.00105-0.00239 over the five sessions
-    assert fit["gyroscope_angle_error_mean_deg"] < 0.11  # 0.084-0.101 (Mikov: 0.097 on his poses)
+    figures = []
+    for session in range(5):
+        code, cal, _ = _run(["calibrate", _data("mpu9150_mikov", f"imu{session}.log"), *MIKOV], capsys)
+        assert code == 0 and cal["fit"]["verdict"] == "accepted", session
+        fit = cal["fit"]
+        assert fit["static_intervals"] >= 20
+        figures.append((fit["accelerometer_residual_rms"], fit["gyroscope_angle_error_mean_deg"]))
+    figures = np.array(figures)
+    # over the five sessions below Mikov's figures (0.0016 m/s^2, 0.093°); session by session within 15 % of
+    # them (0.0011-0.0024 m/s^2, 0.086-0.109°: the sessions differ as much as that)
+    assert figures[:, 0].mean() < 0.00242 and figures[:, 1].mean() < 0.097, figures
+    assert np.all(figures[:, 0] < 1.15 * 0.00242) and np.all(figures[:, 1] < 1.15 * 0.097), figures
 
 
 def test_mikov_held_out_poses_beat_mikovs_held_out_figures(capsys):
@@ -95,16 +100,25 @@ def test_mpu9250_gesture_gyroscope_beats_imutk_on_held_out_poses(capsys):
     assert row["cv_accelerometer_residual_rms"] < 0.005
 
 
-def test_imutk_data1_is_refused_with_what_is_missing_and_how_to_record_it(capsys):
-    """GetOverMassif's data1 is almost continuous motion: no calibration, and the message says why and what to do."""
+def test_imutk_data1_short_holds_give_a_suspect_calibration_that_beats_imutks_elsewhere(tmp_path, capsys):
+    """GetOverMassif's data1 is almost continuous motion: 11 holds of 1-2 s. They are poses (the minimum hold is
+    1 s), too few for the full model to be trusted: SUSPECT, asking for more poses. Scored on the three other
+    sessions of the same IMU, which it was not fitted to, it is far better than the raw readings and than imu_tk's
+    own calibration of data1."""
     d = _data("imutk_sessions", "data1")
-    code, out, err = _run(["calibrate", f"{d}/acc_data.txt", f"{d}/gyro_data.txt", "--gravity", "9.81744",
-                           "--acc-unit", "m/s^2", "--gyro-unit", "rad/s"], capsys)
-    assert code == 2 and out is None
-    assert "static" in err and "hold the sensor still" in err, err
-    # the numbers it gives are this recording's: far fewer poses than a calibration needs
-    counts = [int(c) for c in re.findall(r"×\d+: (\d+)", err)]
-    assert counts and max(counts) < 4, err
+    units = ["--gravity", "9.81744", "--acc-unit", "m/s^2", "--gyro-unit", "rad/s"]
+    code, cal, _ = _run(["calibrate", f"{d}/acc_data.txt", f"{d}/gyro_data.txt", *units, "-o",
+                         str(tmp_path / "d1.json")], capsys)
+    assert code == 0 and cal["fit"]["verdict"] == "suspect"
+    assert 10 <= cal["fit"]["static_intervals"] <= 13
+    assert any("record more poses" in r for r in cal["fit"]["verdict_reasons"])
+    for other in ("data2", "data3", "data4"):
+        files = [_data("imutk_sessions", other, "acc_data.txt"), _data("imutk_sessions", other, "gyro_data.txt")]
+        _, mine, _ = _run(["validate", str(tmp_path / "d1.json"), *files, *units], capsys)
+        _, peer, _ = _run(["validate", f"{d}/test_imu_acc.calib", *files, *units], capsys)
+        assert mine["verdict"] != "rejected" and peer["verdict"] == "rejected", other
+        assert mine["gyroscope_angle_error_mean_deg"] < 0.2 * peer["gyroscope_angle_error_mean_deg"], other
+        assert mine["accelerometer_residual_rms"] < 0.3 * mine["accelerometer_residual_rms_raw"], other
 
 
 #: imucal 2.6.0's Ferraris calibration of its example from the sections its users marked

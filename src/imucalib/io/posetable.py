@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..constants import STANDARD_GRAVITY
 from .atomic import atomic_write
 from .errors import ReaderError
 from .jsontext import SmallFileError, read_small_text
@@ -47,7 +48,7 @@ GYRO_UNITS = ("counts", "deg/s", "rad/s")
 #: a median pose norm within these bounds is read as g, or as m/s² (±20 %: a bias of a tenth of g and more
 #: still falls inside, and no unit's nominal norm lies within another's bounds)
 _G_NORM = (0.8, 1.2)
-_SI_NORM = (0.8 * 9.80665, 1.2 * 9.80665)
+_SI_NORM = (0.8 * STANDARD_GRAVITY, 1.2 * STANDARD_GRAVITY)
 
 _FIELDS = ("ax", "ay", "az", "gx", "gy", "gz", "n", "sigma", "sigma_x", "sigma_y", "sigma_z")
 

@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..constants import STANDARD_GRAVITY
+
 __all__ = ["MAX_LINE", "LineFormat", "LineSplitter", "RowCheck", "TooLong", "clean_head_line", "garbled"]
 
 #: the longest line kept [bytes]; a longer one is left out whole
@@ -31,7 +33,7 @@ MAX_LINE = 65536
 
 #: the largest magnitude a reading can have in each unit (beyond any MEMS sensor's range: ±2000 g,
 #: ±100 000 °/s; raw counts within a 32-bit integer); larger is a corrupted line
-PLAUSIBLE = {"g": 2000.0, "m/s^2": 2000.0 * 9.80665, "counts": 2.0**31, "deg/s": 1e5, "rad/s": np.radians(1e5)}
+PLAUSIBLE = {"g": 2000.0, "m/s^2": 2000.0 * STANDARD_GRAVITY, "counts": 2.0**31, "deg/s": 1e5, "rad/s": np.radians(1e5)}
 
 
 @dataclass(frozen=True)

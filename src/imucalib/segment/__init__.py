@@ -41,11 +41,12 @@ from .poses import (
     unreliable_transitions,
     unsteady_poses,
 )
-from .rest import TapRest, find_initial_rest, initial_rest, moves_within, rest_after_taps
+from .rest import SHORTEST_REST, TapRest, find_initial_rest, initial_rest, moves_within, rest_after_taps
 from .still import gyro_still, still_intervals
 from .windows import BLOCK, VarianceNormStream, moving_mean, moving_variance, runs, variance_norm
 
 __all__ = [
+    "SHORTEST_REST",
     "moving_variance",
     "runs",
     "variance_norm",

@@ -186,7 +186,8 @@ def detect_intervals(
                              "still (or give a shorter hold with --min-hold SECONDS)")
         poses = blocks.poses
         return poses, float("nan"), poses[0], fit_determined(interval_means(recording.acc, poses), gravity)[0]
-    win = odd_window(window, recording.rate)
+    long_window = max(window, VARIANCE_WINDOW)
+    win = odd_window(long_window, recording.rate)
     stat = variance_norm(recording.acc, win)  # formed once: the initial rest's search reads it too
     if init_static is None and win == odd_window(REST_WINDOW, recording.rate):
         rest = find_initial_rest(recording, statistic=stat)
@@ -208,8 +209,7 @@ def detect_intervals(
             if hint is not None:
                 raise ValueError(hint) from None
             raise
-        base, win, min_len, stat = detector
-        widest = detect_static(None, max(multipliers) * base, window=win, min_length=min_len, statistic=stat)
+        widest = detector_runs(detector, [max(multipliers) * detector[0]])[0]
         # gyro_still(recording, rest, scale, widest), its samples outside the intervals judged only when needed
         gyro = np.asarray(recording.gyro, dtype=np.float64)
         settings = still_settings(recording, rest, scale, STILL_RATE, STILL_WINDOW, STILL_N_SIGMA)
@@ -257,15 +257,52 @@ def static_at(recording: Recording, rest: Interval, multiplier: float, *, window
     of the per-axis variance over ``window`` seconds stays below the threshold
     for at least ``min_interval`` seconds.
     """
-    base, win, min_len, stat = make_detector(recording, rest, window, min_interval)
-    return detect_static(None, multiplier * base, window=win, min_length=min_len, statistic=stat)
+    detector = make_detector(recording, rest, window, min_interval)
+    return detector_runs(detector, [multiplier * detector[0]])[0]
 
 
 def make_detector(recording: Recording, rest: Interval, window: float, min_interval: float,
-              statistic: np.ndarray | None = None):
-    """The detector's settings (:func:`detector_settings`) and its statistic (``statistic`` when formed already)."""
-    base, win, min_len = detector_settings(recording.acc[rest.slice], recording.rate, window, min_interval)
-    return base, win, min_len, variance_norm(recording.acc, win) if statistic is None else statistic
+                  statistic: np.ndarray | None = None) -> tuple:
+    """The detector: its settings (:func:`detector_settings`) and statistic at the window of Tedaldi 2014
+    (:data:`VARIANCE_WINDOW`, or ``window`` when longer; ``statistic`` when formed already), and, for a
+    ``window`` shorter than that (one that finds short holds, :func:`imucalib.presets.hold_settings`), the same
+    for ``window`` and ``min_interval`` (:func:`detector_runs`)."""
+    long_window = max(window, VARIANCE_WINDOW)
+    long_run = min_interval if window >= VARIANCE_WINDOW else max(min_interval, MIN_INTERVAL)
+    base, win, min_len = detector_settings(recording.acc[rest.slice], recording.rate, long_window, long_run)
+    stat = variance_norm(recording.acc, win) if statistic is None else statistic
+    short = None
+    if window < VARIANCE_WINDOW:
+        _, short_win, short_len = detector_settings(recording.acc[rest.slice], recording.rate, window, min_interval)
+        short = (short_win, short_len, variance_norm(recording.acc, short_win))
+    return base, win, min_len, stat, short
+
+
+def detector_runs(detector: tuple, thresholds: list[float], still: np.ndarray | None = None) -> list[list[Interval]]:
+    """The static intervals of ``detector`` (:func:`make_detector`) at each threshold (samples outside ``still``
+    excluded).
+
+    The runs of Tedaldi 2014's window first; with a shorter window for short holds, its runs that overlap none of
+    those are added: the holds too short for the long window. A hold long enough for both keeps the long
+    window's run, which stops as far from the motions around it as Tedaldi's detector does (a shorter window's
+    run reaches closer to them, into the settling of the hand).
+    """
+    _, _, min_len, stat, short = detector
+    if still is not None:
+        stat = np.where(still, stat, np.inf)
+    found = static_runs(stat, thresholds, min_len)
+    if short is None:
+        return found
+    _, short_len, short_stat = short
+    if still is not None:
+        short_stat = np.where(still, short_stat, np.inf)
+    out = []
+    for long_runs, short_runs in zip(found, static_runs(short_stat, thresholds, short_len), strict=True):
+        starts = np.array([iv.start for iv in long_runs], dtype=np.int64)
+        stops = np.array([iv.stop for iv in long_runs], dtype=np.int64)
+        extra = [iv for iv in short_runs if not np.any((starts < iv.stop) & (stops > iv.start))]
+        out.append(sorted(long_runs + extra, key=lambda iv: iv.start) if extra else long_runs)
+    return out
 
 
 def detector_settings(rest_acc: np.ndarray, rate: float, window: float, min_interval: float):
@@ -394,15 +431,13 @@ def scan_thresholds(detector: tuple, gravity: float, recording: Recording, multi
     """The Tedaldi 2014 multiplier scan over the accelerometer variance (samples outside ``still`` excluded);
     with ``reduce``, fewer than :data:`MIN_INTERVALS` intervals at every threshold give the most that determine
     a model (:func:`imucalib.fit.accelerometer.fit_determined`), else an error."""
-    base, win, min_len, stat = detector
-    if still is not None:
-        stat = np.where(still, stat, np.inf)
+    base = detector[0]
     best = None
     tried = []
     means = IntervalMeans(recording.acc)
     fits: dict[tuple, tuple | None] = {}  # thresholds that give the same intervals give the same fit
     multipliers = list(multipliers)
-    found = static_runs(stat, [mult * base for mult in multipliers], min_len)
+    found = detector_runs(detector, [mult * base for mult in multipliers], still)
     for mult, intervals in zip(multipliers, found, strict=True):
         tried.append((mult, len(intervals)))
         if len(intervals) < MIN_INTERVALS:
@@ -422,8 +457,9 @@ def scan_thresholds(detector: tuple, gravity: float, recording: Recording, multi
             best = (score, mult, intervals, model)
     if best is None:
         # fewer intervals than the full model wants at every threshold: the most that determine a model
+        by_mult = dict(zip(multipliers, found, strict=True))
         for mult, _ in sorted(tried, key=lambda mc: -mc[1]) if reduce else []:
-            intervals = detect_static(None, mult * base, window=win, min_length=min_len, statistic=stat)
+            intervals = by_mult[mult]
             try:
                 model = fit_determined(means(intervals), gravity)[0]
             except ValueError:
