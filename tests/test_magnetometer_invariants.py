@@ -54,6 +54,7 @@ def _z(cal, truth, dip_deg):
     return np.array(z)
 
 
+@pytest.mark.slow
 def test_a_disturbed_field_is_told_and_the_truth_is_recovered_within_its_1_sigma():
     """20 sessions with a pose-to-pose field error of 1 %: the fit says the field is not uniform, estimates that
     error, and recovers the 13 parameters with z-scores whose RMS is near 1 (the 1σ are honest) and none beyond

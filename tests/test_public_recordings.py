@@ -82,6 +82,7 @@ def test_mikov_held_out_poses_beat_mikovs_held_out_figures(capsys):
             assert second["gyroscope_angle_error_mean_deg"] < 0.35 * 0.675, k  # 0.13-0.21°
 
 
+@pytest.mark.slow
 def test_mpu9250_gesture_gyroscope_beats_imutk_on_held_out_poses(capsys):
     """imu_tk on the same session: gravity-direction error between poses 0.1465° (mean), fitted on them all."""
     path = _data("mpu9250_gesture", "caldata.mat")
