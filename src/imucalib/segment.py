@@ -395,9 +395,8 @@ def find_initial_rest(
     n0 = int(round(min_seconds * rate))
     if n0 >= len(recording):
         raise ValueError(
-            f"the recording is {recording.duration:.3g} s long: too short for an initial "
-            f"rest of {min_seconds} s"
-        )
+            f"the recording is {recording.duration:.3g} s long: too short for an initial rest of {min_seconds} s (a "
+            "session is a rest, then poses held a few seconds each; `imucalib simulate -o session` writes one)")
     short_win = max(int(round(0.5 * shortest * rate)) | 1, 3)
     head = recording[: min(n0 + win + short_win, len(recording))]  # the short look reads the start only
     short_end = _first_motion(head, short_win, short_win // 2 + 1, factor)
