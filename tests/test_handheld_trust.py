@@ -295,6 +295,7 @@ def test_mpu9150_like_sessions_have_the_logs_features():
     assert sum(len(_sim(s, **MPU9150).options["vertical_turns"]) for s in range(6)) >= 6
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:zhang2021 model 'all'")
 @pytest.mark.parametrize("method", ["tedaldi2014", "zhang2021"])
 def test_mpu9150_like_gyro_error_within_1_2_of_the_truth(method):
