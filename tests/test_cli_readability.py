@@ -48,3 +48,12 @@ def test_calibrate_prints_g_sensitivity_with_units_and_next_poses_rounded(capsys
     assert "g-sensitivity G [counts per m/s^2]:" in out
     line = next(x for x in out.splitlines() if "next_poses" in x)
     assert "[+0.71 +0.00 -0.71]" in line and not re.search(r"\d{5}", line)
+
+
+def test_a_format_sample_too_short_to_calibrate_points_to_a_session_to_try(capsys):
+    from pathlib import Path
+
+    sample = Path(__file__).resolve().parents[1] / "docs" / "examples" / "session.csv"
+    code, out, err = _run(capsys, "calibrate", sample)
+    assert code == 2 and "s long: too short for an initial rest" in err
+    assert "`imucalib simulate -o session` writes one" in err
