@@ -314,8 +314,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="calibrate a simulated IMU and check it against its truth",
                        description="Simulate a hand-held session of an MPU-6050-like IMU (raw counts), calibrate "
                        "it with the default method, apply the calibration, and compare the readings before and "
-                       "after with the true sensor. Writes OUTPUT/session/ (the recording and its truth), "
-                       "OUTPUT/calib.json, OUTPUT/calibrated.csv and OUTPUT/report.html.")
+                       "after with the true sensor. Writes FOLDER/session/ (the recording and its truth), "
+                       "FOLDER/calib.json, FOLDER/calibrated.csv and FOLDER/report.html (-o, default imucalib-demo).")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated sensor and session (default 0)")
     p.add_argument("-o", "--output", default="imucalib-demo", metavar="FOLDER",
                    help="folder for the session, calib.json, calibrated.csv and report.html (default: "
