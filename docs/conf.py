@@ -24,6 +24,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    "sphinx-mathjax-offline",  # MathJax served from _static/mathjax: the formulas render offline
     "numpydoc",
     "figures",
 ]
@@ -32,12 +33,13 @@ exclude_patterns = ["_build", "_generated/*.py", "examples"]
 templates_path = []
 autosummary_generate = False
 autodoc_default_options = {"members": False}
-autodoc_typehints = "none"
+autodoc_typehints = "description"  # the signatures' types, under Parameters and Returns
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
 default_role = "literal"
 nitpicky = False
+toc_object_entries_show_parents = "all"  # the page menu tells imucalib.calibrate from imucalib.methods.calibrate
 
 html_theme = "pydata_sphinx_theme"
 html_title = f"imucalib {release}"
@@ -45,4 +47,7 @@ html_theme_options = {
     "navigation_with_keys": False,
     "show_toc_level": 2,
 }
-html_sidebars = {"index": []}
+# no primary sidebar: the pages are reached from the top bar, and a page's own sections are in the right-hand menu
+html_sidebars = {"**": []}
+html_static_path = ["_static"]
+html_css_files = ["imucalib.css"]

@@ -122,6 +122,9 @@ def coverage_sphere(plt, cache: dict) -> None:
         ax.set_xlabel("x")
         ax.set_ylabel("y")
         ax.set_zlabel("z")
+        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):  # three ticks a unit apart: the labels cannot overlap
+            axis.set_ticks([-1, 0, 1])
+        ax.tick_params(labelsize=8, pad=0)
         ax.set_box_aspect((1, 1, 1))
         ax.view_init(elev=18, azim=-60)
 

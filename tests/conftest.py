@@ -1,13 +1,27 @@
-"""Test-wide settings: property tests are reproducible by default.
+"""Test-wide settings: property tests are reproducible by default; the suite runs on every core.
 
 The hypothesis suites draw the same examples on every run (``derandomize``), so a test run on
 a clean clone passes or fails the same way each time; ``IMUCALIB_EXPLORE=1`` draws new
 examples (and keeps the failing ones in ``.hypothesis/``) to look for new faults.
+
+With pytest-xdist installed (the ``test`` extra) the suite runs in one process per core
+(``-n auto``) unless the command line gives ``-n`` itself (``-n 0``: one process) or names test
+files. Each process
+keeps numpy's BLAS to one thread, as the fits' matrices are small and two processes on two
+cores each starting BLAS threads would only contend.
+
+The studies marked ``slow`` (Monte Carlo studies, long comparisons on real recordings, the
+documentation pages' examples) are left out by ``python -m pytest -q`` (``addopts`` in
+``pyproject.toml``); ``python -m pytest -q -m slow`` runs them, as ``.ci/run`` does after the rest.
 """
 
+import importlib.util
 import os
 
-import pytest
+for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")  # before numpy is imported, here and in the worker processes
+
+import pytest  # noqa: E402
 
 try:
     from hypothesis import settings
@@ -18,6 +32,21 @@ if settings is not None:
     settings.register_profile("reproducible", derandomize=True, deadline=None, database=None)
     settings.register_profile("explore", deadline=None)
     settings.load_profile("explore" if os.environ.get("IMUCALIB_EXPLORE") else "reproducible")
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_cmdline_main(config):
+    """``-n auto`` for a run of the suite or of a folder of it, when pytest-xdist is installed and the command line
+    gives no ``-n`` (or ``-p no:xdist``); a run of named test files stays in one process (starting the workers
+    would take longer than the tests)."""
+    if importlib.util.find_spec("xdist") is None or not config.pluginmanager.hasplugin("xdist"):
+        return
+    if os.environ.get("PYTEST_XDIST_WORKER") or config.option.collectonly:
+        return
+    if any("::" in arg or not os.path.isdir(arg) for arg in config.args):
+        return
+    if getattr(config.option, "numprocesses", None) is None and getattr(config.option, "dist", "no") == "no":
+        config.option.numprocesses = "auto"
 
 
 @pytest.fixture

@@ -91,8 +91,8 @@ def test_issue_command_on_xsens_matches_imu_tk(capsys):
         atol=2e-3)
 
 
-def test_demo_simulate_detect_fall(capsys, tmp_path):
-    code, out, err = run(capsys, "demo", "--json")
+def test_reproduce_zhang2021_simulate_detect_fall(capsys, tmp_path):
+    code, out, err = run(capsys, "reproduce", "zhang2021", "--json")
     assert code == 0, err
     demo = json.loads(out)
     k = {r["name"]: r for r in demo["parameters"]}["accelerometer.scale.x"]

@@ -45,6 +45,7 @@ def test_compare_on_xsens(xsens):
     assert not rows["wang2019"]["ok"] and "turntable data" in rows["wang2019"]["reason"]
 
 
+@pytest.mark.slow
 def test_cubic_without_tosses_does_not_overfit(xsens):
     rec, iv = xsens
     folds = even_folds(len(iv), 4)
@@ -119,6 +120,7 @@ def test_identical_scores_are_a_tie_not_an_arbitrary_best(tmp_path, capsys, monk
                                     "nothing here prefers one)")
 
 
+@pytest.mark.slow
 def test_compare_ranks_a_cubic_sensor_known_to_need_the_cubic_model(tmp_path, capsys):
     """A simulated sensor with ten times Zhang 2021 Table I's nonlinearity: the cubic zhang2021 must rank
     before the linear tedaldi2014 (its held-out |a|-g is ~10x smaller), and wang2019, which needs turntable

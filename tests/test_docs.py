@@ -105,6 +105,7 @@ def test_there_are_pages_with_examples():
     assert sum(len(code_blocks(p)) for p in PAGES) >= 20
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("page", [p for p in PAGES if code_blocks(p)], ids=lambda p: p.relative_to(DOCS).as_posix())
 def test_page_examples_run(page, tmp_path, monkeypatch):
     blocks = [b for b in code_blocks(page) if b[0] in ("python", "console")]

@@ -75,6 +75,7 @@ def _groups(method: str, procedure: str, seeds=SEEDS) -> dict[str, np.ndarray]:
     return {g: np.asarray(v) for g, v in groups.items()}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("method", "procedure", "expected"), [
     ("tedaldi2014", "poses", {"accelerometer.bias", "accelerometer.scale", "accelerometer.misalignment",
                               "gyroscope.bias", "gyroscope.scale", "gyroscope.misalignment",
@@ -141,6 +142,7 @@ def test_g_sensitivity_jacobian_matches_finite_differences():
     assert np.abs(analytic - numeric).max() < 1e-5 * np.abs(numeric).max()
 
 
+@pytest.mark.slow
 def test_six_position_measures_the_accelerometer_misalignment():
     """The rotations measure what the six faces cannot: the misalignment's error is a fraction of holding it at 0."""
     est, held = [], []

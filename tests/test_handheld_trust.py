@@ -121,6 +121,7 @@ def acceptance() -> dict[int, tuple[Session, Session, Calibration]]:
     return out
 
 
+@pytest.mark.slow
 def test_default_handheld_sessions_are_all_accepted(acceptance):
     """The acceptance criterion: 30 default hand-held sessions calibrated by tedaldi2014, all accepted."""
     assert len(acceptance) == 30
@@ -134,6 +135,7 @@ def test_default_handheld_sessions_are_all_accepted(acceptance):
         assert cal.fit["gyroscope_angle_error_mean_deg"] <= 1.2 * true_err
 
 
+@pytest.mark.slow
 def test_tedaldi_sigmas_are_honest(acceptance):
     """RMS of ``(estimate − truth)/σ`` within 0.6-1.6 per sensor over the 30 sessions.
 
@@ -161,6 +163,7 @@ def _bias_at_fit_time(sim: Session, twin: Session, cal: Calibration) -> Calibrat
     return sim.truth.with_(gyroscope=gyro.with_(bias=gyro.bias + drift))
 
 
+@pytest.mark.slow
 def test_tedaldi_gyroscope_sigmas_against_the_bias_at_the_fits_time(acceptance):
     # the fitted bias is the bias at the poses' mean time, and its 1σ the error of that; against the truth's bias
     # at the start (before the drift) the z-score RMS of gyroscope.bias was 6.6, and with one pose's scatter
@@ -292,6 +295,7 @@ def test_mpu9150_like_sessions_have_the_logs_features():
     assert sum(len(_sim(s, **MPU9150).options["vertical_turns"]) for s in range(6)) >= 6
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:zhang2021 model 'all'")
 @pytest.mark.parametrize("method", ["tedaldi2014", "zhang2021"])
 def test_mpu9150_like_gyro_error_within_1_2_of_the_truth(method):

@@ -146,6 +146,7 @@ def test_utf16_is_refused_in_plain_words(tmp_path):
         read(tmp_path / "u.csv")
 
 
+@pytest.mark.slow
 def test_reading_streams_into_the_recording_arrays(tmp_path, monkeypatch):
     """Peak memory while reading ≈ the recording's own arrays, not copies of the table or of its text."""
     monkeypatch.setattr(csvparse, "ENGINE", "numpy")
@@ -227,6 +228,7 @@ def test_gzip_copy_of_a_simulated_session_is_the_same_recording(tmp_path, engine
     assert set(tmp_path.iterdir()) - before == {tmp_path / n for n in ("s.csv.gz", "s.txt", "s.txt.gz")}
 
 
+@pytest.mark.slow
 def test_gzip_streams_in_bounded_memory(tmp_path, monkeypatch):
     """A .csv.gz of 200 000 rows (26 MB of text, beyond the 1 MB head: its length and last line are found by
     decompressing it through once) peaks at the plain file's bound: the arrays and a chunk, never the text."""

@@ -57,6 +57,7 @@ def test_a_session_with_a_magnetometer_is_the_same_session_plus_it():
     assert calibrate(a["recording"], method="tedaldi2014").magnetometer is None
 
 
+@pytest.mark.slow
 def test_monte_carlo_recovers_the_truth_within_3_sigma_and_the_spreads_of_the_true_parameters():
     """20 hand-held sessions (MPU-9250 axes): every parameter within 3σ, spreads within 1.2× of the truth's."""
     z_all, ratios = [], []

@@ -54,6 +54,7 @@ def _z(cal, truth, dip_deg):
     return np.array(z)
 
 
+@pytest.mark.slow
 def test_a_disturbed_field_is_told_and_the_truth_is_recovered_within_its_1_sigma():
     """20 sessions with a pose-to-pose field error of 1 %: the fit says the field is not uniform, estimates that
     error, and recovers the 13 parameters with z-scores whose RMS is near 1 (the 1σ are honest) and none beyond
@@ -75,6 +76,7 @@ def test_a_disturbed_field_is_told_and_the_truth_is_recovered_within_its_1_sigma
     assert 0.8 * DISTURBANCE < np.median(errors) < 1.2 * DISTURBANCE, errors
 
 
+@pytest.mark.slow
 def test_the_uniform_fit_on_a_disturbed_field_claims_errors_far_too_small(monkeypatch):
     """Held on the uniform path (its rotation and motion-sample equations as independent evidence), the same
     sessions' parameters lie several of their claimed 1σ from the truth: why the invariants take over."""

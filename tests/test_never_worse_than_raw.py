@@ -77,6 +77,7 @@ def _raw_reason(cal: Calibration) -> str | None:
     return next((r for r in cal.fit["verdict_reasons"] if "worse than the raw readings" in r), None)
 
 
+@pytest.mark.slow
 def test_accepted_or_suspect_is_never_worse_than_raw():
     """The promise, over simulated thin sessions with spikes: usable calibrations beat the raw readings."""
     verdicts, rejected_for_raw = [], 0

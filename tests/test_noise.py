@@ -285,6 +285,7 @@ def test_chi2_limits_match_allantools_confidence_interval():
     assert upper[0] > 1 + 2 / np.sqrt(2 * 8.0) + 0.3 and lower[0] > 1 - 2 / np.sqrt(2 * 8.0)
 
 
+@pytest.mark.slow
 def test_random_walk_read_only_where_the_clusters_read_it_within_a_fifth():
     """3000 s rests of both sensors (white noise crossing the random walk at 12 and 17 s): where the +½ slope
     shows only at the longest cluster times (ten to forty clusters) a reading 30 % low is no rarity, so it is

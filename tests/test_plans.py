@@ -61,3 +61,23 @@ def test_plan_command(capsys):
     assert main(["plan", "--method", "tedaldi2014", "--poses", "nine", "--noise-acc", "0.001"]) == 0
     out = capsys.readouterr().out
     assert "NOT determined" not in out and "0.001 m/s^2" in out
+
+
+def test_plan_says_when_observable_poses_are_too_few_for_an_accepted_verdict(capsys):
+    import json
+    import math
+
+    from imucalib.cli import main
+    from imucalib.verdict import THRESHOLDS
+
+    need = math.ceil(THRESHOLDS["poses_per_parameter"][0] * 9)  # 9 parameters of the linear accelerometer model
+    assert main(["plan", "--method", "tedaldi2014", "--poses", "nine"]) == 0
+    out = capsys.readouterr().out
+    assert "NOT determined" not in out and f"hold {need} or more poses (--poses {need}" in out
+    assert main(["plan", "--method", "tedaldi2014", "--poses", str(need), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["poses"] == need == rep["poses_for_accepted"]
+    assert main(["plan", "--method", "tedaldi2014", "--poses", str(need)]) == 0
+    assert "not enough" not in capsys.readouterr().out
+    assert main(["plan", "--method", "six_position"]) == 0  # six faces: an exact method, no redundancy wanted
+    assert "not enough" not in capsys.readouterr().out

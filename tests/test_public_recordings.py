@@ -10,7 +10,6 @@ how to record it. imu_tk's four sessions are scored against imu_tk's own files i
 from __future__ import annotations
 
 import json
-import re
 import warnings
 from pathlib import Path
 
@@ -57,6 +56,7 @@ def test_mikov_sessions_calibrate_as_accepted_with_mikovs_in_sample_figures(caps
     assert np.all(figures[:, 0] < 1.15 * 0.00242) and np.all(figures[:, 1] < 1.15 * 0.097), figures
 
 
+@pytest.mark.slow
 def test_mikov_held_out_poses_beat_mikovs_held_out_figures(capsys):
     """Mikov fitted on the first half and scored on the second: 0.675° and 0.101 m/s² (its README).
 
@@ -87,6 +87,7 @@ def test_mikov_held_out_poses_beat_mikovs_held_out_figures(capsys):
             assert second["gyroscope_angle_error_mean_deg"] < 0.35 * 0.675, k  # 0.13-0.21°
 
 
+@pytest.mark.slow
 def test_mpu9250_gesture_gyroscope_beats_imutk_on_held_out_poses(capsys):
     """imu_tk on the same session: gravity-direction error between poses 0.1465° (mean), fitted on them all."""
     path = _data("mpu9250_gesture", "caldata.mat")

@@ -37,6 +37,7 @@ def test_undetermined_parameters_are_nan_not_small():
     assert np.all(np.isnan(standard_errors(x[:4], r[:4])))  # no degrees of freedom left
 
 
+@pytest.mark.slow
 def test_tedaldi_errors_match_the_monte_carlo_spread():
     z = {"accelerometer": [], "gyroscope": []}
     for seed in range(20):
@@ -57,6 +58,7 @@ def test_tedaldi_errors_match_the_monte_carlo_spread():
         assert 0.75 < rms < 1.3, (sensor, rms)  # 180 z-scores each: ~5 % sampling error
 
 
+@pytest.mark.slow
 def test_zhang_errors_match_the_monte_carlo_spread():
     from imucalib.scenarios import session
 

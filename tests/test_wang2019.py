@@ -64,6 +64,7 @@ def test_small_montecarlo_within_the_papers_tables():
     assert paper["gyro_k1_1e-7_deg_s_pulse"] == [1.73e-8, 4.50e-8, 1.90e-8]
 
 
+@pytest.mark.slow
 def test_montecarlo_spread_equals_the_cramer_rao_bound():
     """The estimator is efficient: for one truth, the spread over noise draws is the CRLB of plan_report."""
     truth = session(0).truth

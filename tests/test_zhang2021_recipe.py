@@ -72,6 +72,7 @@ def test_unreliable_rotations_are_left_out_as_the_shared_stage_finds_them(spiky_
     assert cal.fit["verdict"] == "accepted"
 
 
+@pytest.mark.slow
 def test_handheld_linear_gyroscope_at_the_noise_floor():
     """The linear variant (and the default) leave at most 1.2× the truth's gravity-direction error, accepted.
 
@@ -86,6 +87,7 @@ def test_handheld_linear_gyroscope_at_the_noise_floor():
             assert cal.fit["verdict"] == "accepted", (seed, model, cal.fit["verdict_reasons"])
 
 
+@pytest.mark.slow
 def test_xsens_no_worse_than_tedaldi_in_sample_and_held_out(xsens):
     """In-sample, leave-one-pose-out and half-session |a|−g and gyroscope error within 1.2× of tedaldi2014."""
     fits = {m: _quiet(xsens, method=m, gravity=G_XSENS) for m in ("tedaldi2014", "zhang2021")}

@@ -161,13 +161,18 @@ def compare(
     Returns
     -------
     dict
-        ``{"static_intervals": M, "folds": K, "best": method or None, "tied": methods tied for
-        the best place (then ``best`` is None), "ranked_by": text,
-        "methods": [{"rank", "method", "model", "ok", "reason", "verdict", "score",
-        "cv_accelerometer_residual_rms", "cv_gyroscope_angle_error_mean_deg", "fit"}, …],
-        "peers": [{"name", "ok", "reason", "cv_accelerometer_residual_rms",
-        "cv_gyroscope_angle_error_mean_deg"}, …]}``, the methods in the order of :func:`rank`,
-        the peers in the order given (an empty list without them).
+        With the keys:
+
+        * ``static_intervals`` (int), ``folds`` (int): the poses found and the folds they were cut into;
+        * ``best`` (str or None): the best method, None when two or more are tied for the best place;
+        * ``tied`` (list of str): the methods tied for the best place;
+        * ``ranked_by`` (str): how the methods are ranked, in words;
+        * ``methods`` (list of dict): one per method, in the order of :func:`rank`, with ``rank``,
+          ``method``, ``model``, ``ok``, ``reason``, ``verdict``, ``score``,
+          ``cv_accelerometer_residual_rms``, ``cv_gyroscope_angle_error_mean_deg`` and ``fit``;
+        * ``peers`` (list of dict): one per peer calibration, in the order given (empty without them),
+          with ``name``, ``ok``, ``reason``, ``cv_accelerometer_residual_rms`` and
+          ``cv_gyroscope_angle_error_mean_deg``.
     """
     from .segment import detect_intervals
 

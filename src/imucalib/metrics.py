@@ -224,9 +224,27 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
     """The ``fit`` entries of the calibration file (``docs/architecture.rst``).
 
     The poses' calibrated means (:func:`pose_specific_force`) are computed
-    once and serve every figure that reads them. ``integrator``: the
-    :class:`~imucalib.kinematics.IntervalIntegrator` of the motions between
-    these intervals, when the caller has one (the gyroscope's fit).
+    once and serve every figure that reads them.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        The calibration whose figures are computed.
+    recording : Recording
+        The recording it was made from.
+    intervals : sequence of Interval
+        Its static poses.
+    gravity : float, optional
+        Local gravity [m/s²]; by default the calibration's.
+    integrator : IntervalIntegrator, optional
+        The :class:`~imucalib.kinematics.IntervalIntegrator` of the motions between these intervals, when the
+        caller has one (the gyroscope's fit).
+
+    Returns
+    -------
+    dict
+        The ``fit`` entries: static poses, the residual and its noise floor, the gyroscope's angle errors, the
+        pose coverage and the next poses to record (``docs/architecture.rst`` names each).
     """
     up = pose_specific_force(calibration, recording, intervals)
     res = gravity_residuals(calibration, recording, intervals, gravity, up=up)
@@ -274,6 +292,20 @@ def gravity_noise_floor(calibration, recording: Recording, intervals: Sequence[I
     of ``n`` rows then holds only its ``n_k`` updates' worth of noise, and ``n_k`` (the rows that differ
     from the row before, plus one) takes the place of ``n`` where over :data:`HELD_FRACTION` of the
     pose's rows repeat the row before exactly.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        The calibration whose accelerometer model converts the samples.
+    recording : Recording
+        The recording.
+    intervals : sequence of Interval
+        Its static poses.
+
+    Returns
+    -------
+    float
+        The floor [m/s²].
     """
     var = []
     model = calibration.accelerometer
@@ -356,6 +388,28 @@ def pose_coverage(acc_means: np.ndarray, *, cone_deg: float = COVERAGE_CONE_DEG)
     factor to be told apart by the other side alone (Ru 2022, §3.1: each
     axis is calibrated from both orientations), so it gets a flag naming the
     missing orientation.
+
+    Parameters
+    ----------
+    acc_means : numpy.ndarray
+        The poses' mean accelerometer readings, shape ``(n, 3)`` (any unit: only their directions count).
+    cone_deg : float
+        How close to straight up (or down) [deg] an axis must come to count as visited.
+
+    Returns
+    -------
+    coverage : dict
+        ``{"x": [min, max], "y": …, "z": …}``: the range of each axis's gravity component.
+    flags : list of str
+        One sentence per orientation never visited.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucalib.metrics import pose_coverage
+    >>> cover, flags = pose_coverage(np.array([[0, 0, 9.8], [0, 0, -9.8], [9.8, 0, 0], [0, 9.8, 0]]))
+    >>> cover["z"], len(flags)
+    ([-1.0, 1.0], 2)
     """
     u = acc_means / np.linalg.norm(acc_means, axis=1, keepdims=True)
     lo, hi = u.min(axis=0), u.max(axis=0)

@@ -69,11 +69,35 @@ def accelerometer_plan(plan: str | int | np.ndarray, *, noise: float = 0.002,
                        gravity: float = STANDARD_GRAVITY) -> dict:
     """Cramér–Rao bounds of the linear accelerometer model's 9 parameters for a pose plan.
 
-    ``noise`` is the standard deviation of one pose's mean [m/s²] (the
-    sample noise divided by the square root of the samples held). Returns
-    the directions and, per parameter, ``crlb_std`` (NaN where the plan
-    cannot determine it) and ``observable``; scales are relative (the
-    nominal scale is 1), misalignments in rad, biases in m/s².
+    Parameters
+    ----------
+    plan : str, int or numpy.ndarray
+        ``"six"`` (the faces), ``"nine"`` (Ru 2022 Table 3), a number of evenly spread poses, or the up
+        directions themselves, shape ``(n, 3)``.
+    noise : float
+        The standard deviation of one pose's mean [m/s²] (the sample noise divided by the square root of the
+        samples held).
+    gravity : float
+        Local gravity [m/s²].
+
+    Returns
+    -------
+    dict
+        ``{"directions", "noise", "poses", "parameters": [{"parameter", "crlb_std", "observable"}, …]}``:
+        ``crlb_std`` is NaN where the plan cannot determine the parameter; scales are relative (the nominal scale
+        is 1), misalignments in rad, biases in m/s².
+
+    Raises
+    ------
+    ValueError
+        For a noise that is not a positive number, or an unknown plan.
+
+    Examples
+    --------
+    >>> from imucalib.plans import accelerometer_plan
+    >>> six = accelerometer_plan("six")
+    >>> [p["parameter"] for p in six["parameters"] if not p["observable"]]
+    ['accelerometer.misalignment.xy', 'accelerometer.misalignment.xz', 'accelerometer.misalignment.yz']
     """
     d = plan_directions(plan) if not isinstance(plan, np.ndarray) else np.asarray(plan, dtype=float)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
@@ -247,5 +271,22 @@ def _join(words: list[str]) -> str:
 
 
 def describe_poses(directions) -> str:
-    """Several up-directions in words, in order: ``"z up, then z down"``."""
+    """Several up-directions in words, in order: ``"z up, then z down"``.
+
+    Parameters
+    ----------
+    directions : array_like
+        Up directions in the body frame, shape ``(n, 3)`` (normalised here).
+
+    Returns
+    -------
+    str
+        Each direction in words (:func:`describe_direction`), joined by ``", then "``.
+
+    Examples
+    --------
+    >>> from imucalib.plans import describe_poses
+    >>> describe_poses([[0, 0, 1], [0, 0, -1]])
+    'z up, then z down'
+    """
     return ", then ".join(describe_direction(u) for u in np.asarray(directions, dtype=float).reshape(-1, 3))

@@ -7,7 +7,10 @@
    with ± the white-noise floor (``fit.accelerometer_noise_floor``);
 3. the angle between measured and gyro-predicted gravity per transition [deg]
    (the ``fit.gyroscope_angle_error_*`` terms), with the verdict's acceptable and
-   rejecting angles (:data:`imucalib.verdict.THRESHOLDS`) and what the noise alone predicts.
+   rejecting angles (:data:`imucalib.verdict.THRESHOLDS`) and what the noise alone predicts; drawn only
+   where there are rotations to score (none for an accelerometer-only session).
+
+Time gaps (between the blocks of a recording, or a pause) break the plotted lines rather than being crossed.
 
 :func:`plot_allan` draws the Allan deviation of both sensors at rest (log–log, one
 curve per axis) with the noise terms read from it (Ru 2022, §2.2; IEEE Std 952).
@@ -66,8 +69,21 @@ def reference_levels(calibration: Calibration) -> dict:
             "angle_rejected_deg": rejected, "angle_predicted_deg": fit.get("gyroscope_angle_error_predicted_deg")}
 
 
+def _broken_at_gaps(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``t, y`` with a NaN where time jumps by more than 5 sample periods or goes back (between the blocks of a
+    recording, or across a pause), so that a plotted line stops there rather than crossing the gap."""
+    dt = np.diff(t)
+    if dt.size == 0:
+        return t, y
+    cut = np.flatnonzero((dt > 5 * np.median(dt)) | (dt <= 0)) + 1
+    return np.insert(t.astype(float), cut, np.nan), np.insert(y.astype(float), cut, np.nan)
+
+
 def fit_figure(calibration: Calibration, recording: Recording, intervals: Sequence[Interval]):
     """The fit figure as a matplotlib Figure (three panels, module docstring), with reference lines.
+
+    The gyroscope's panel is drawn only when there are rotations to score (a calibrated gyroscope, its
+    readings and two poses or more): an accelerometer-only session gets the two accelerometer panels.
 
     The residual panel shows ± the white-noise floor, the angle panel the
     verdict's acceptable and rejecting angles (:func:`reference_levels`) and
@@ -84,9 +100,11 @@ def fit_figure(calibration: Calibration, recording: Recording, intervals: Sequen
     ang = np.degrees(gravity_direction_errors(calibration, recording, intervals)) \
         if len(intervals) > 1 and calibration.gyroscope is not None and recording.gyro is not None \
         else np.array([])
-    fig, axes = plt.subplots(3, 1, figsize=(10, 8.5), constrained_layout=True)
+    gyro_panel = bool(ang.size)  # no empty panel for an accelerometer-only recording or calibration
+    fig, axes = plt.subplots(3 if gyro_panel else 2, 1, figsize=(10, 8.5 if gyro_panel else 5.8),
+                             constrained_layout=True)
     ax = axes[0]
-    ax.plot(t, np.linalg.norm(out.acc, axis=1), lw=0.6, color="tab:blue", label="‖a‖ calibrated")
+    ax.plot(*_broken_at_gaps(t, np.linalg.norm(out.acc, axis=1)), lw=0.6, color="tab:blue", label="‖a‖ calibrated")
     ax.axhline(g, color="k", lw=0.8, ls="--", label=f"g = {g:.5g} m/s²")
     for k, iv in enumerate(intervals):
         ax.axvspan(t[iv.start], t[iv.stop - 1], color="tab:green", alpha=0.15,
@@ -106,6 +124,8 @@ def fit_figure(calibration: Calibration, recording: Recording, intervals: Sequen
     ax.set_ylabel("‖a‖ − g [mm/s²]")
     ax.set_xlabel("static pose")
     ax.set_title(f"gravity-norm residual per pose (RMS {rms:.3g} m/s²)")
+    if not gyro_panel:
+        return fig
     ax = axes[2]
     ok, bad = ref["angle_acceptable_deg"], ref["angle_rejected_deg"]
     if ang.size:

@@ -228,6 +228,20 @@ def _per_sample(base, model: ThermalModel, prefix: str, temperature: np.ndarray)
 def compensate(calibration, recording: Recording) -> tuple:
     """``(calibration at T₀, recording compensated by (T2))``: the same calibrated values as the thermal model.
 
+    Parameters
+    ----------
+    calibration : Calibration
+        A calibration, with or without a thermal model (without one, both are returned as they are).
+    recording : Recording
+        The recording to compensate; it needs a temperature column when the calibration follows temperature.
+
+    Returns
+    -------
+    calibration : Calibration
+        The calibration at its reference temperature T₀, without the thermal model.
+    recording : Recording
+        The recording's readings moved to T₀ by (T2).
+
     Raises
     ------
     ValueError
@@ -509,6 +523,28 @@ def calibrate_ramp(run, recording: Recording, *, reference_c: float = REFERENCE_
     out a term costs its square, keeping it costs its variance — and the rest are fitted again
     without the others. On the hand-held scenario a warm-up of 60 poses gets within 1.1–1.2× of
     the true parameters' figures; 40 poses only to 1.2–1.4×.
+
+    Parameters
+    ----------
+    run : callable
+        ``run(recording) -> Calibration``: the method with its options.
+    recording : Recording
+        The session, with a temperature column.
+    reference_c : float
+        The reference temperature T₀ [°C] the parameters are given at.
+    iterations : int
+        The most rounds of compensate → calibrate → fit the slopes.
+
+    Returns
+    -------
+    Calibration
+        The calibration at ``reference_c`` with its thermal model (``calibration.thermal``: the slopes kept and
+        their 1σ), made from the ramp (``thermal.source`` ``"ramp"``).
+
+    Raises
+    ------
+    ValueError
+        The recording has no temperature column.
     """
     from .metrics import interval_means
 

@@ -115,7 +115,7 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
         "temperature_c", "accelerometer_noise_floor", "accelerometer_residual_to_noise",
         "gyroscope_angle_error_predicted_deg", "gyroscope_error_to_noise",
         "accelerometer_residual_rms_raw", "gyroscope_angle_error_mean_deg_raw",
-        "at_calibration": {...}, "ratios": {...}, "intervals"}``: the verdict of the
+        "at_calibration": {...}, "ratios": {...}, "own_recording", "intervals"}``: the verdict of the
         calibration on this recording (``accepted``, ``suspect`` or ``rejected``,
         with the reasons, worst first), the figures on this recording (``None``
         where one cannot be computed, e.g. the temperature of a recording
@@ -126,7 +126,10 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
         ranges. The ``…_raw`` figures are the raw readings' on this recording (the
         identity calibration, :mod:`imucalib.verdict.raw`; ``None`` for readings in
         counts): a calibration worse than them is rejected, as ``calibrate`` rejects it.
-        Rotations with sampling gaps are named in ``verdict_notes``.
+        Rotations with sampling gaps are named in ``verdict_notes``. ``own_recording`` is True when the
+        recording is the one the calibration was made from, or a part of it
+        (:meth:`~imucalib.calibration.Calibration.is_own_session`: known for a calibration that stored its
+        session, i.e. one with a drifting gyroscope bias): then the check is no check of new data.
 
     Raises
     ------
@@ -137,6 +140,7 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
     gravity = gravity or calibration.gravity
     calibration.check_units(recording)
     then = calibration.fit or {}
+    own = calibration.is_own_session(recording)
     # a calibration that follows temperature: the recording compensated to its reference temperature, then
     # judged with the calibration there (thermal.py, T2)
     calibration, recording = compensate(calibration, recording)
@@ -163,4 +167,4 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
                                                         *RAW_KEYS)},
             "ratios": {k: _ratio(figures[k], then.get(k))
                        for k in (*VALIDATION_KEYS[:3], "accelerometer_residual_to_noise")},
-            "intervals": fit["intervals"]}
+            "own_recording": own, "intervals": fit["intervals"]}

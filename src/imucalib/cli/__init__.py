@@ -46,7 +46,7 @@ GROUPS = {
     "calibrate": "calibration", "apply": "calibration", "compare": "calibration", "detect-fall": "calibration",
     "export": "export",
     "validate": "validation",
-    "simulate": "simulation", "montecarlo": "simulation", "demo": "simulation",
+    "simulate": "simulation", "montecarlo": "simulation", "demo": "simulation", "reproduce": "simulation",
     "noise": "analysis", "plan": "analysis",
     "thermal": "thermal",
     "batch": "fleet", "store": "fleet",

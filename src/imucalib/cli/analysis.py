@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 from ..io.atomic import atomic_write, refuse_overwriting_inputs
 from ._common import (
@@ -132,6 +133,18 @@ def _plan_accelerometer(args: argparse.Namespace) -> int:
 
     poses = args.poses or ("six" if args.method in needing("six faces") else "nine")
     rep = accelerometer_plan(poses, noise=args.noise_acc)
+    short = None
+    if args.method not in needing("six faces"):  # a fitted model: the verdict wants redundant poses
+        from ..verdict import THRESHOLDS
+
+        want, floor = THRESHOLDS["poses_per_parameter"]
+        n_par = len(rep["parameters"])
+        rep["poses_for_accepted"] = need = max(math.ceil(want * n_par), math.floor(floor * n_par) + 1)
+        if rep["poses"] < need:
+            level = "rejected" if rep["poses"] <= floor * n_par else "suspect"
+            short = (f"observable is not enough for an accepted calibration: its verdict wants {want:g} poses per "
+                     f"parameter ({need} for these {n_par}); a fit of {rep['poses']} poses can follow the noise and "
+                     f"is {level}: hold {need} or more poses (--poses {need} prints such a plan)")
     if args.json:
         return print_json(rep)
     print(f"{rep['poses']} static poses (up direction in the body frame), for the linear accelerometer "
@@ -144,6 +157,8 @@ def _plan_accelerometer(args: argparse.Namespace) -> int:
         bound = f"{p['crlb_std']:.3g}" if p["observable"] else "-"
         verdict = "observable" if p["observable"] else "NOT determined by these poses"
         print(f"  {p['parameter']:<34}{bound:>12}  {verdict}")
+    if short:
+        print(short)
     return 0
 
 

@@ -84,7 +84,7 @@ def print_calibration(cal: Calibration) -> None:
         if np.any(t.output_bias):
             print(f"  output bias d [{cal_unit}]: {vec(prefix, 'output_bias', t.output_bias)}")
         if np.any(t.g_sensitivity):
-            print(f"  g-sensitivity G:\n{matrix(prefix, 'g_sensitivity', t.g_sensitivity)}")
+            print(f"  g-sensitivity G [{unit} per m/s^2]:\n{matrix(prefix, 'g_sensitivity', t.g_sensitivity)}")
     if cal.lever_arm is not None:
         print("lever arm r [m]: " + "  ".join(pm(f"lever_arm.{ax}", v, ".6g")
                                                for ax, v in zip("xyz", cal.lever_arm, strict=True)))
@@ -102,6 +102,9 @@ def print_calibration(cal: Calibration) -> None:
             elif k == "pose_coverage":
                 print("  pose_coverage (gravity component, min..max): "
                       + "  ".join(f"{a} {lo:+.2f}..{hi:+.2f}" for a, (lo, hi) in v.items()))
+            elif k == "next_poses":
+                print("  next_poses (up directions in the body frame): "
+                      + "  ".join("[" + " ".join(f"{c:+.2f}" for c in u) + "]" for u in v))
             elif k == "quality_flags":
                 for flag in v:
                     print(f"  quality flag: {flag}")

@@ -57,6 +57,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
         print_json(result)
         return code
     print_verdict(result, HEADLINES[result["verdict"]])
+    if result["own_recording"]:
+        print("note: this is the recording the calibration was made from (or a part of it), so these are its own "
+              "figures again; validate it on a recording it was not made from")
     then = result["at_calibration"]
     print(f"{cal.method} calibration on {len(intervals)} static poses of this recording (not refitted):")
     if result["temperature_c"] and cal.thermal is not None:

@@ -25,7 +25,20 @@ __all__ = ["montecarlo", "parameter_errors"]
 
 
 def parameter_errors(estimate: Calibration, truth: Calibration) -> dict[str, float]:
-    """``estimate − truth`` for every parameter the truth has (names as in :meth:`Calibration.parameters`)."""
+    """``estimate − truth`` for every parameter the truth has (names as in :meth:`Calibration.parameters`).
+
+    Parameters
+    ----------
+    estimate : Calibration
+        The calibration to score.
+    truth : Calibration
+        The true parameters (a simulated session's ``truth``).
+
+    Returns
+    -------
+    dict of str to float
+        The error of each parameter, NaN where the estimate lacks it.
+    """
     est = estimate.parameters()
     return {k: est.get(k, 0.0) - v for k, v in truth.parameters().items()}
 
@@ -79,12 +92,39 @@ def montecarlo(
     where the runs run: ``workers`` local processes (a pool that lives for
     the whole study), or with ``scheduler`` one Dask task per run on a
     ``"local"`` LocalCluster of ``workers`` processes (None: one per core) or
-    the cluster at an address (:func:`imucalib.batch.execute`). Returns
-    ``{"scenario", "method", "model", "runs",
-    "parameters": [{"name", "truth", "mean", "std", "rms_error"}, …],
-    "metrics": {…}, "verdicts": {"accepted": n, "suspect": n, "rejected": n},
-    "failures": [{"seed", "message"}, …]}``; ``verdicts`` counts the runs that
-    produced a calibration by its verdict (:mod:`imucalib.verdict`).
+    the cluster at an address (:func:`imucalib.batch.execute`).
+
+    Parameters
+    ----------
+    scenario : str
+        A scenario of :data:`imucalib.scenarios.SCENARIOS`.
+    method : str
+        The method (:func:`imucalib.methods.method_names`).
+    model : str, optional
+        The method's model variant.
+    runs : int
+        Number of runs.
+    workers : int, optional
+        Local processes (or the LocalCluster's, with ``scheduler="local"``).
+    scheduler : str, optional
+        ``"local"`` or a Dask scheduler's address; by default local processes.
+    seed : int
+        Seed of the first run.
+    baseline : str, optional
+        Also run this method and report the Zhang 2021 §IV-B reductions against it.
+    progress : callable, optional
+        Called with ``(done, total)`` as runs finish.
+    sim_options, method_options : dict, optional
+        Options passed to :func:`imucalib.scenarios.session` and to the method.
+
+    Returns
+    -------
+    dict
+        ``{"scenario", "method", "model", "runs",
+        "parameters": [{"name", "truth", "mean", "std", "rms_error"}, …],
+        "metrics": {…}, "verdicts": {"accepted": n, "suspect": n, "rejected": n},
+        "failures": [{"seed", "message"}, …]}``; ``verdicts`` counts the runs that
+        produced a calibration by its verdict (:mod:`imucalib.verdict`).
     """
     from ..scenarios import session
 

@@ -199,6 +199,12 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
     motion_samples : int
         Readings taken while moving (decimated to at most this many) also enter the norm equations (M2).
 
+    Returns
+    -------
+    MagnetometerFit
+        The magnetometer model (hard and soft iron, the alignment into the accelerometer's frame, the field)
+        and its fit figures (``magnetometer_…`` entries of a calibration's ``fit``).
+
     Raises
     ------
     ValueError

@@ -58,7 +58,19 @@ ACCELEROMETER_ONLY = accelerometer_only()
 
 
 def method_names() -> list[str]:
-    """Names accepted by :func:`calibrate`."""
+    """Names accepted by :func:`calibrate`.
+
+    Returns
+    -------
+    list of str
+        The methods' names, as ``--method`` takes them.
+
+    Examples
+    --------
+    >>> from imucalib.methods import method_names
+    >>> "tedaldi2014" in method_names() and "zhang2021" in method_names()
+    True
+    """
     return sorted(METHODS)
 
 
@@ -251,6 +263,27 @@ def with_magnetometer(calibration: Calibration, recording: Recording, *, field: 
     calibrated (too few poses, readings that do not determine an ellipsoid),
     the calibration is returned without it and ``fit["magnetometer_error"]``
     says why (the verdict then makes it suspect); a bad option is an error.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        The accelerometer (and gyroscope) calibration of ``recording``.
+    recording : Recording
+        The recording it was made from, with magnetometer readings (``recording.mag``).
+    field : float, optional
+        The local field's magnitude [µT], for readings in counts; by default the field is normalised to 1.
+    hemisphere : {"north", "south"}
+        Where the recording was made (the sign of the field's dip).
+
+    Returns
+    -------
+    Calibration
+        ``calibration`` with its ``magnetometer`` and the ``magnetometer_…`` fit figures.
+
+    Raises
+    ------
+    ValueError
+        For a bad option (``hemisphere``, ``field``).
     """
     from ..fit.magnetometer import fit_magnetometer
     from ..recording import Interval

@@ -92,6 +92,18 @@ def norm_sigma(model, means: np.ndarray, mean_sigma: np.ndarray) -> np.ndarray:
 def calibrate_pose_table(table: PoseTable, *, gravity: float) -> Calibration:
     """The accelerometer's calibration from ``table`` with its 1σ errors and verdict (module docstring).
 
+    Parameters
+    ----------
+    table : PoseTable
+        Averaged static poses (:func:`imucalib.io.read_pose_table`).
+    gravity : float
+        Local gravity [m/s²].
+
+    Returns
+    -------
+    Calibration
+        An accelerometer-only calibration (no gyroscope), with its fit figures and verdict in ``fit``.
+
     Raises
     ------
     ValueError
@@ -195,6 +207,18 @@ class CalibratedTable:
 
 def apply_to_table(calibration: Calibration, table: PoseTable) -> CalibratedTable:
     """``calibration`` applied to the means of ``table`` (:meth:`Calibration.accelerometer_si`, ``gyroscope_si``).
+
+    Parameters
+    ----------
+    calibration : Calibration
+        The calibration to apply.
+    table : PoseTable
+        Averaged static poses in the raw units the calibration maps.
+
+    Returns
+    -------
+    CalibratedTable
+        The calibrated means of each pose and ``|a| − g``.
 
     Raises
     ------

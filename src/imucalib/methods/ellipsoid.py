@@ -57,6 +57,24 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     rotations are all unreliable (:func:`imucalib.segment.no_usable_rotations`),
     leaves the gyroscope uncalibrated and says why in
     ``fit["gyroscope_not_calibrated"]``.
+
+    Parameters
+    ----------
+    recording : Recording or Session
+        The recording: an initial rest, then static poses with rotations between them.
+    gravity : float
+        Local gravity [m/s²].
+    intervals : list of Interval, optional
+        The static poses as sample ranges; by default found by the method's detector.
+    refine : bool
+        Refine the closed-form accelerometer by Levenberg–Marquardt on the gravity-norm residuals.
+    init_static : float, optional
+        Length of the initial rest [s]; by default found automatically.
+
+    Returns
+    -------
+    Calibration
+        The calibration, with its fit figures, 1σ errors and verdict in ``fit``.
     """
     intervals = static_poses(recording, gravity, intervals, init_static=init_static, min_hold=min_hold)
     means = interval_means(recording.acc, intervals)

@@ -362,11 +362,27 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
 
     Parameters
     ----------
+    recording : Recording or Session
+        The recording: an initial rest, then static poses with rotations between them.
+        It holds the six faces and a turn about each axis by ``angle``.
+    gravity : float
+        Local gravity [m/s²].
+    intervals : list of Interval, optional
+        The static poses as sample ranges; by default found by the method's detector.
     angle : float
         The known turn angle [deg] (360 by default).
+    max_tilt : float
+        The largest tilt [deg] of a pose from its face for it to count as that face.
+    init_static : float, optional
+        Length of the initial rest [s]; by default found automatically.
     sections : dict, optional
         Named sample ranges ``{"x_p": [start, stop), …}`` (:data:`SECTION_NAMES`)
         instead of finding the faces and turns.
+
+    Returns
+    -------
+    Calibration
+        The calibration, with its fit figures, 1σ errors and verdict in ``fit``.
     """
     if not np.isfinite(angle) or angle <= 0:
         raise ValueError(f"the turn angle must be a positive number of degrees; got {angle!r}")

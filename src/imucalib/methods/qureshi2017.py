@@ -86,8 +86,21 @@ def calibrate(recording, *, gravity: float, intervals=None, gyroscope: str = "st
 
     Parameters
     ----------
+    recording : Recording or Session
+        The recording: an initial rest, then static poses with rotations between them.
+    gravity : float
+        Local gravity [m/s²].
+    intervals : list of Interval, optional
+        The static poses as sample ranges; by default found by the method's detector.
     gyroscope : {"static", "dynamic"}
         The static-bias approach (eq. 18) or the dynamic approach (eqs. 19–21).
+    init_static : float, optional
+        Length of the initial rest [s]; by default found automatically.
+
+    Returns
+    -------
+    Calibration
+        The calibration, with its fit figures, 1σ errors and verdict in ``fit``.
     """
     if gyroscope not in ("static", "dynamic"):
         raise ValueError(f"gyroscope must be 'static' or 'dynamic'; got {gyroscope!r}")

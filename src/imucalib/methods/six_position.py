@@ -188,6 +188,25 @@ def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15
 
     Where the rotations were recorded, the accelerometer's misalignment is estimated with the gyroscope
     (module docstring) and its 1σ is reported with the gyroscope's.
+
+    Parameters
+    ----------
+    recording : Recording or Session
+        The recording: an initial rest, then static poses with rotations between them.
+        Six of the poses must be the faces: each axis up and down.
+    gravity : float
+        Local gravity [m/s²].
+    intervals : list of Interval, optional
+        The static poses as sample ranges; by default found by the method's detector.
+    max_tilt : float
+        The largest tilt [deg] of a pose from its face for it to count as that face.
+    init_static : float, optional
+        Length of the initial rest [s]; by default found automatically.
+
+    Returns
+    -------
+    Calibration
+        The calibration, with its fit figures, 1σ errors and verdict in ``fit``.
     """
     intervals = static_poses(recording, gravity, intervals, init_static=init_static, min_hold=min_hold)
     means = interval_means(recording.acc, intervals)

@@ -104,6 +104,20 @@ def calibrate(session, *, gravity: float | None = None, initial: str = "estimate
     It needs ``positions_acc``, ``positions_gyro`` (static means, pulses/s),
     ``turn_sum``, ``turn_sum2`` and ``turn_angle`` (CW/CCW turn integrals) and
     ``latitude_deg`` (only through ``‖ω_ie‖``, which is latitude-free).
+
+    Parameters
+    ----------
+    session : WangSession
+        The turntable session's aggregates (``imucalib simulate --scenario wang2019`` writes one).
+    gravity : float, optional
+        Local gravity [m/s²]; by default the session's.
+    initial : {"estimate", "nominal"}
+        Initial values from eqs. (41)–(42), or the nominal ones.
+
+    Returns
+    -------
+    Calibration
+        The ``wang2019`` model (nonlinear scale factors), with its fit figures and verdict in ``fit``.
     """
     if initial not in ("estimate", "nominal"):
         raise ValueError(f"initial must be 'estimate' or 'nominal'; got {initial!r}")

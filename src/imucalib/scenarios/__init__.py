@@ -59,6 +59,19 @@ def session(scenario: str = "zhang2021", *, rng=None, truth: Calibration | None 
     **options
         Scenario options (counts, durations, ``rate``, ``full_scale`` and
         ``lsb`` dicts in raw units for saturation and quantisation).
+
+    Returns
+    -------
+    Session
+        The recording, its segments (static, rotation, weightless), the truth, and the test tosses where the
+        scenario has them.
+
+    Examples
+    --------
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1)
+    >>> sim.recording.acc_unit, sim.truth.gravity > 9.7
+    ('counts', True)
     """
     try:
         gen = SCENARIOS[scenario]

@@ -98,9 +98,8 @@ def find_initial_rest(
     n0 = int(round(min_seconds * rate))
     if n0 >= len(recording):
         raise ValueError(
-            f"the recording is {recording.duration:.3g} s long: too short for an initial "
-            f"rest of {min_seconds} s"
-        )
+            f"the recording is {recording.duration:.3g} s long: too short for an initial rest of {min_seconds} s (a "
+            "session is a rest, then poses held a few seconds each; `imucalib simulate -o session` writes one)")
     try:
         rest, note = _rest_at_start(recording, window_seconds, factor, min_seconds, shortest, statistic)
     except ValueError as error:

@@ -100,7 +100,22 @@ __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibilit
 
 
 def check_rate(recording: Recording) -> None:
-    """Raise ValueError at a sampling rate no IMU records at: the time base is wrong and nothing can be fitted."""
+    """Raise ValueError at a sampling rate no IMU records at: the time base is wrong and nothing can be fitted.
+
+    Parameters
+    ----------
+    recording : Recording
+        The recording whose sampling rate is checked.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    ValueError
+        At a sampling rate no IMU records at (the time base is in the wrong unit, or broken).
+    """
     rate = recording.rate
     lo, hi = THRESHOLDS["rate_hz"]
     if not lo <= rate <= hi:
@@ -136,6 +151,20 @@ def turn_speed(calibration, recording: Recording, intervals: list[Interval]) -> 
 
     The angle between the calibrated gravity directions of consecutive poses
     over the time between them: independent of the gyroscope and its unit.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        Its accelerometer gives the gravity directions.
+    recording : Recording
+        The recording.
+    intervals : list of Interval
+        Its static poses, in time order.
+
+    Returns
+    -------
+    float
+        The median angular speed [deg/s], NaN without a turn above 10°.
     """
     return _turn_speed(Poses(calibration, recording, intervals))
 
@@ -196,7 +225,18 @@ def _gravity(calibration, found: Poses | None) -> list[Check]:
 
 
 def plausible(calibration) -> bool:
-    """Whether nothing in :func:`plausibility` rejects ``calibration`` (converged, sane scales and axes)."""
+    """Whether nothing in :func:`plausibility` rejects ``calibration`` (converged, sane scales and axes).
+
+    Parameters
+    ----------
+    calibration : Calibration
+        The calibration to check.
+
+    Returns
+    -------
+    bool
+        True when no check of :func:`plausibility` rejects it.
+    """
     return all(c.level < 2 for c in plausibility(calibration))
 
 
@@ -214,7 +254,19 @@ def _swapped_axes(sensor: str, model, deg: float) -> str:
 
 
 def plausibility(calibration) -> list[Check]:
-    """Convergence, scales against the declared units' nominal factors, cross-axis terms."""
+    """Convergence, scales against the declared units' nominal factors, cross-axis terms.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        The calibration to check; no recording is needed.
+
+    Returns
+    -------
+    list of Check
+        One check per finding, each with its level (1 suspect, 2 rejected) and its sentence; empty when all is
+        plausible.
+    """
     out = []
     fit = calibration.fit or {}
     if fit.get("converged") is False:
@@ -577,10 +629,6 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
            purpose: str = "calibrate", poses=None) -> dict:
     """Every check on ``calibration`` (with the recording it was made from, when there is one).
 
-    Returns ``{"verdict": …, "verdict_reasons": [...], "verdict_notes": [...], **figures}``:
-    the verdict is the worst level among the checks; reasons are the
-    sentences of the suspect and rejecting ones, notes the rest.
-
     ``purpose="validate"`` judges a calibration on a recording it was not
     fitted to (:func:`imucalib.validation.validate`, with ``fit`` holding the
     figures on that recording): the checks of the fit itself — poses per
@@ -588,6 +636,26 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     residual against the noise floor, the gyroscope against its noise, the
     time base, gravity and plausibility remain. ``poses``: the poses' figures (``means``, ``up``, ``floor``,
     ``intervals``) of data that are no recording, a table of averaged poses (:mod:`imucalib.methods._pose_table`).
+
+    Parameters
+    ----------
+    calibration : Calibration
+        The calibration to judge, its fit figures in ``fit``.
+    recording : Recording, optional
+        The recording it was made from (or, for ``purpose="validate"``, the one it is checked on).
+    intervals : list of Interval, optional
+        The static poses of ``recording``; by default ``calibration.fit["intervals"]``.
+    purpose : {"calibrate", "validate"}
+        What the verdict is for (above).
+    poses : Poses, optional
+        The poses' figures of data that are no recording (above).
+
+    Returns
+    -------
+    dict
+        ``{"verdict": …, "verdict_reasons": [...], "verdict_notes": [...], **figures}``: the verdict is the worst
+        level among the checks (``accepted``, ``suspect`` or ``rejected``); reasons are the sentences of the suspect
+        and rejecting ones, notes the rest; the figures are those the checks rest on.
     """
     if purpose not in ("calibrate", "validate"):
         raise ValueError(f"purpose must be 'calibrate' or 'validate'; got {purpose!r}")
@@ -642,5 +710,20 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
 
 
 def with_verdict(calibration, recording: Recording | None = None, intervals: list[Interval] | None = None):
-    """``calibration`` with ``fit`` holding its verdict, reasons, notes and the figures they rest on."""
+    """``calibration`` with ``fit`` holding its verdict, reasons, notes and the figures they rest on.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        The calibration to judge.
+    recording : Recording, optional
+        The recording it was made from.
+    intervals : list of Interval, optional
+        Its static poses; by default ``calibration.fit["intervals"]``.
+
+    Returns
+    -------
+    Calibration
+        A copy whose ``fit`` holds what :func:`assess` returns.
+    """
     return calibration.with_(fit={**(calibration.fit or {}), **assess(calibration, recording, intervals)})

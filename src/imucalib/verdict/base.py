@@ -180,6 +180,22 @@ def predicted_direction_error(calibration, recording: Recording, intervals: list
     error), ``Δt`` the sampling interval and ``σ_b² = σ_g²/n_rest`` the noise
     of the rest's mean; a 2-D Gaussian error of that variance has the mean
     norm ``√(π v / 2)``.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        The calibration whose gyroscope and accelerometer give the noise in SI units.
+    recording : Recording
+        The recording.
+    intervals : list of Interval
+        Its static poses, in time order.
+    rest : Interval, optional
+        The initial rest the noise is measured on; by default the first pose.
+
+    Returns
+    -------
+    numpy.ndarray
+        One mean error [rad] per rotation (``len(intervals) - 1``).
     """
     return predicted_error_of(Poses(calibration, recording, intervals), rest)
 

@@ -73,7 +73,18 @@ class RawComparison:
 
 
 def compare_with_raw(found: Poses) -> RawComparison:
-    """The calibration of ``found`` and the identity calibration, on ``found``'s poses and rotations."""
+    """The calibration of ``found`` and the identity calibration, on ``found``'s poses and rotations.
+
+    Parameters
+    ----------
+    found : Poses
+        The poses, the rotations between them and the calibration, as the verdict found them.
+
+    Returns
+    -------
+    RawComparison
+        The calibration's figures beside the raw readings' (None where the readings are counts).
+    """
     calibration, recording, intervals = found.calibration, found.recording, found.intervals
     g = calibration.gravity
     k_acc = raw_scale(calibration, "accelerometer")
