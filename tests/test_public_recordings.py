@@ -141,3 +141,57 @@ def test_imucal_ferraris_example_calibrates_as_the_faces_method_at_least_as_well
     # its gyroscope scales are imucal's (1/K_g: 0.9729, 1.0179, 1.0017 of the deg/s nominal) to 0.1 %
     k = np.array(cal["gyroscope"]["scale"]) / (np.pi / 180)
     np.testing.assert_allclose(k, 1 / np.array([1.027924, 0.982428, 0.99831]), rtol=1e-3)
+
+
+def test_fxos8700_serial_dump_reads_as_blocks_and_matches_the_authors_fit(capsys):
+    """A PlatformIO monitor's dump: banner lines, 20 blocks of 10 s between prompts, accelerometer only, each
+    reading held for about 4 rows. The author's ellipsoid fit: bias [0.227, -0.327, 0.562] m/s², scale diagonal
+    about [1.002, 1.011, 1.004] (its README; the rest of its matrix is not given)."""
+    path = _data("fxos8700_blocks", "data_sample2.csv")
+    code, cal, err = _run(["calibrate", path, "--rate", "400", "--acc-unit", "m/s^2"], capsys)
+    assert code == 0 and cal["gyroscope"] is None and cal["fit"]["static_intervals"] == 20
+    assert "20 blocks" in err and "held for about 4 rows" in err
+    np.testing.assert_allclose(cal["accelerometer"]["bias"], [0.227, -0.327, 0.562], atol=0.045)
+    np.testing.assert_allclose(cal["accelerometer"]["scale"], [1.002, 1.011, 1.004], atol=0.006)
+    # the residual is 13x the white-noise floor (the held readings counted once): suspect, and said why
+    assert cal["fit"]["verdict"] == "suspect"
+    assert any("white-noise floor" in r for r in cal["fit"]["verdict_reasons"])
+    # the poses' |a| spread: imucalib's 0.006 m/s^2; the author's bias and scale diagonal leave 0.033
+    assert cal["fit"]["accelerometer_residual_rms"] < 0.2 * 0.033
+
+
+def test_mpu6050_face_files_give_the_authors_bias(capsys):
+    """Six files, one face each, millis() stamps restarting, a header that says g over m/s² values. The author's
+    accelerometer bias [0.384, -0.131, 0.437] m/s² (its README)."""
+    files = [_data("mpu6050_faces", f"{axis}_axis_{side}.csv") for axis in "xyz" for side in ("pos", "neg")]
+    code, cal, err = _run(["calibrate", *files, "--acc-unit", "m/s^2", "--gyro-unit", "rad/s"], capsys)
+    assert code == 0 and cal["fit"]["static_intervals"] == 6
+    assert "milliseconds" in err and "overrides the header" in err
+    np.testing.assert_allclose(cal["accelerometer"]["bias"], [0.384, -0.131, 0.437], atol=0.003)
+    # six poses determine six parameters exactly: scale and bias per axis, suspect, asking for more poses
+    assert cal["fit"]["verdict"] == "suspect"
+    assert any("record more poses" in r for r in cal["fit"]["verdict_reasons"])
+    assert cal["gyroscope"] is None  # no rotation was recorded between the faces
+
+
+def test_suarez_thin_session_is_rejected_naming_what_to_record(capsys):
+    """Ten poses, rotations that saturate the gyroscope (±250 °/s): neither sensor can be calibrated to be
+    trusted; the rejection says what is missing and how to record it."""
+    path = _data("mpu6050_suarez", "example_data_calibration.csv")
+    code, cal, err = _run(["calibrate", path, "--rate", "100"], capsys)
+    assert code == 3 and cal["fit"]["verdict"] == "rejected"
+    reasons = " ".join(cal["fit"]["verdict_reasons"])
+    assert "record more poses" in reasons and "with more rotations" in reasons
+    notes = " ".join(cal["fit"]["verdict_notes"])
+    assert "saturated" in notes
+    assert "skipped 4 lines before the header (they give a sampling rate of 100 Hz)" in err
+
+
+def test_mpu9250_magnetometer_dip_spread_within_a_degree(capsys):
+    """The MPU-9250's magnetometer (its axes not the accelerometer's), scored on the static poses."""
+    code, cal, _ = _run(["calibrate", _data("mpu9250_gesture", "caldata.mat")], capsys)
+    fit = cal["fit"]
+    assert code == 0 and fit["magnetometer_poses"] >= 38
+    assert fit["magnetometer_dip_spread_deg"] <= 1.0  # 0.935° (1.065° by the uniform-field fit)
+    # the field differs from pose to pose (its norms scatter 20x their noise): 1.52 % (the goal of 1.5 % is not met)
+    assert fit["magnetometer_field_uniform"] is False and fit["magnetometer_norm_spread"] < 0.016

@@ -274,10 +274,6 @@ def test_a_boot_message_among_the_first_lines_is_left_out_not_fatal(tmp_path, sh
     assert events[-1]["samples"] == len(data) - 1
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "flaky, 1 run in 10 on a quiet machine, 3 in 10 under load: which warnings the recorder gives depends on how "
-    "the reader batches the file's "
-    "lines (a timing), so a run may miss one; kept running, reported as XPASS when it passes"))
 def test_fast_turns_and_wobbling_poses_are_warned(tmp_path):
     with pytest.warns(UserWarning, match="clipped"):  # the simulated gyroscope saturates, as intended
         s = generate(np.random.default_rng(11), n_poses=12, rest=8.0, max_rate=None, move=(0.3, 0.5), tremor=2.0)
