@@ -59,7 +59,8 @@ def test_a_session_with_a_magnetometer_is_the_same_session_plus_it():
 
 @pytest.mark.slow
 def test_monte_carlo_recovers_the_truth_within_3_sigma_and_the_spreads_of_the_true_parameters():
-    """20 hand-held sessions (MPU-9250 axes): every parameter within 3σ, spreads within 1.2× of the truth's."""
+    """20 hand-held sessions (MPU-9250 axes): the parameters' z-scores as a normal distribution has them, spreads
+    within 1.2× of the truth's."""
     z_all, ratios = [], []
     for seed in range(20):
         d = _session(1000 + seed)
@@ -73,7 +74,9 @@ def test_monte_carlo_recovers_the_truth_within_3_sigma_and_the_spreads_of_the_tr
         ratios.append((cal.fit["magnetometer_norm_spread"] / true_fig["norm_spread"],
                        cal.fit["magnetometer_dip_spread_deg"] / true_fig["dip_spread_deg"]))
     z = np.array(z_all)
-    assert np.abs(z).max() <= 3.0, np.round(np.abs(z).max(axis=0), 2)
+    # 260 z-scores: a standard normal puts 0.7 of them beyond 3 on average, 4 or more with probability 0.6 %,
+    # any beyond 4 with 1.6 %
+    assert np.count_nonzero(np.abs(z) > 3.0) <= 3 and np.abs(z).max() <= 4.0, np.round(np.abs(z).max(axis=0), 2)
     rms = np.sqrt(np.mean(z**2, axis=0))
     assert np.all(rms < 1.6) and np.mean(rms) > 0.6, np.round(rms, 2)  # the 1σ are neither too small nor huge
     assert np.max(ratios) <= 1.2, np.round(np.max(ratios, axis=0), 3)

@@ -229,9 +229,11 @@ def test_real_sessions_beat_their_raw_readings_and_validate_agrees():
     assert again["gyroscope_error_to_noise"] == pytest.approx(fit["gyroscope_error_to_noise"], rel=1e-12)
 
 
-def test_the_ferraris_session_fitted_as_poses_is_worse_than_raw():
-    """imucal's Ferraris session calibrated by tedaldi2014: five of its twelve rotations left out, 18.9° over all
-    of them against 3.8° raw."""
+def test_the_ferraris_session_fitted_as_poses_is_never_usable():
+    """imucal's Ferraris session calibrated by tedaldi2014: six orientations for nine accelerometer parameters.
+    With the full model its gyroscope left 18.9° over all rotations against 3.8° raw (rejected, worse than raw);
+    with the misalignment the faces do not determine held at none it leaves less than raw, and is rejected for
+    what the poses do not determine. Either way not usable; the raw figure is the identity's, computed here."""
     from imucalib.io import read
 
     rec = read(_real("ferraris_imucal", "example_ferraris_session.csv"), rate=102.4, acc_unit="m/s^2",
@@ -243,8 +245,11 @@ def test_the_ferraris_session_fitted_as_poses_is_worse_than_raw():
     _, angle_raw, _ = _figures(cal.with_(accelerometer=TriadModel(shape="upper"),
                                          gyroscope=TriadModel(shape="full", scale=np.full(3, np.pi / 180))), rec)
     assert fit["gyroscope_angle_error_mean_deg_raw"] == pytest.approx(angle_raw, rel=1e-9)
-    assert fit["gyroscope_angle_error_mean_deg"] > 3 * angle_raw
-    assert fit["verdict"] == "rejected" and _raw_reason(cal) is not None
+    assert fit["verdict"] == "rejected"
+    worse = (fit["gyroscope_angle_error_mean_deg"] > angle_raw
+             or fit["accelerometer_residual_rms"] > fit["accelerometer_residual_rms_raw"])
+    assert (_raw_reason(cal) is not None) == worse
+    assert any("do not determine" in r for r in fit["verdict_reasons"])
 
 
 def test_calibrate_and_validate_judge_the_same_rotations_and_residual_alike():

@@ -146,7 +146,8 @@ def test_session_without_the_z_faces_is_rejected():
     assert len(weak) >= 8 and np.max(np.abs(uz)) > 0.9
     cal = calibrate(sim, method="tedaldi2014", intervals=weak)
     assert cal.fit["verdict"] == "rejected"
-    assert any(r.startswith("accelerometer.scale.z: its 1σ") for r in cal.fit["verdict_reasons"])
+    assert any(r.startswith(("accelerometer.scale.z: its 1σ", "accelerometer.scale.z has a 1σ")) or "±z" in r
+               for r in cal.fit["verdict_reasons"])
     sigma = cal.fit["uncertainty"]["accelerometer.scale.z"] / cal.accelerometer.scale[2]
     error = cal.accelerometer.scale[2] / sim.truth.accelerometer.scale[2] - 1
     assert sigma > 0.05 and abs(error) > 0.02  # the fit is a few per cent off and knows it is not determined

@@ -209,9 +209,11 @@ REDUCED_MODELS = (
 DETERMINED = 1e-6
 
 
-def fit_determined(raw_means: np.ndarray, gravity: float, *, weights: np.ndarray | None = None
-                   ) -> tuple[TriadModel, np.ndarray, tuple[str, int, str]]:
+def fit_determined(raw_means: np.ndarray, gravity: float, *, weights: np.ndarray | None = None,
+                   richest: str | None = None) -> tuple[TriadModel, np.ndarray, tuple[str, int, str]]:
     """The richest linear model of :data:`REDUCED_MODELS` the poses determine, fitted to ``‖a_k‖ = g``.
+
+    ``richest`` names the richest model tried (default the first, the full linear model).
 
     The gravity-norm residuals ``r_k = ‖T_a K (u_k − b)‖ − g`` (Tedaldi 2014;
     Zhang 2021, eq. 10), each multiplied by ``weights[k]`` (``1/σ_k``, the
@@ -246,7 +248,8 @@ def fit_determined(raw_means: np.ndarray, gravity: float, *, weights: np.ndarray
         start = None
     layout = AccelLayout("upper", 1)  # θ = (T_xy, T_xz, T_yz, k, b); a reduced model is θ = E·φ
     problem = GravityNorm(layout, raw_means, gravity)
-    for row in REDUCED_MODELS:
+    first = 0 if richest is None else [row[0] for row in REDUCED_MODELS].index(richest)
+    for row in REDUCED_MODELS[first:]:
         name, shape, p, _ = row
         if m < p or start is None:
             continue

@@ -174,15 +174,20 @@ def calibrate(
         if len(intervals) >= MIN_INTERVALS:
             acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
     means = interval_means(recording.acc, intervals)
-    which = None
+    which = reduced = None
     if len(intervals) < MIN_INTERVALS:  # few poses: the model they determine (the full one from 9 spread poses)
         acc_model, _, which = fit_determined(means, gravity)
+    else:
+        reduced = undetermined_misalignment(acc_model, means, gravity, recording)
+        if reduced:  # a misalignment the poses do not determine is held at none rather than guessed
+            acc_model, _, which = fit_determined(means, gravity, richest="scale and bias per axis")
     if recording.gyro is None or pose_blocks(recording) is not None:  # no gyroscope, or no rotations recorded
-        return _accelerometer_alone(recording, intervals, acc_model, which, gravity, mult, rest)
+        return _accelerometer_alone(recording, intervals, acc_model, which, gravity, mult, rest, reduced=reduced)
     exclude = unreliable_transitions(recording, intervals)
     why = no_usable_rotations(intervals, exclude)
     if why:  # nothing to fit the gyroscope to: the accelerometer's calibration, and why
-        return _accelerometer_alone(recording, intervals, acc_model, which, gravity, mult, rest, why, exclude)
+        return _accelerometer_alone(recording, intervals, acc_model, which, gravity, mult, rest, why, exclude,
+                                    reduced=reduced)
     say("calibrating the gyroscope")
     acc_cov = accelerometer_covariance(acc_model, means, gravity, which=which)
     gyro = fit_gyroscope(recording, intervals, acc_model, estimate_bias=estimate_gyro_bias,
@@ -201,13 +206,38 @@ def calibrate(
     fit |= gyro.summary()
     fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
     fit |= accelerometer_figures(acc_model, means, gravity, which)
+    if reduced:
+        fit["accelerometer_model_reduced"] = reduced
     fit["uncertainty"] = fit["uncertainty"] | gyro_errors
     return cal.with_(fit=fit)
 
 
+def undetermined_misalignment(acc_model, means: np.ndarray, gravity: float, recording: Recording) -> str | None:
+    """Why the full linear model's misalignment is not determined by these poses, or None when it is.
+
+    A misalignment term whose 1σ moves the calibrated output by more than holding it at none would, and by more
+    than the verdict tolerates (:func:`imucalib.verdict.worse_than_nominal`: poses that never visit the
+    directions that determine it, e.g. an axis never held down), makes the calibration worse than none: the
+    accelerometer is then fitted with a scale and a bias per axis (:func:`fit_determined`), and the verdict
+    asks for the poses that would determine the full model.
+    """
+    from ..verdict import worse_than_nominal
+
+    figures = accelerometer_figures(acc_model, means, gravity, None)
+    cal = Calibration(accelerometer=acc_model, gyroscope=None, gravity=gravity, units=units_of(recording))
+    terms = [c.text.split(":")[0].split(".")[-1] for c in worse_than_nominal(cal, figures.get("uncertainty", {}),
+                                                                             cal.parameters())
+             if ".misalignment." in c.text.split(":")[0]]
+    if not terms:
+        return None
+    return (f"the poses do not determine the accelerometer's misalignment {', '.join(terms)} (its 1σ would move "
+            "the output more than holding it at none): the model is reduced to scale and bias per axis, leaving "
+            "out the misalignment (taken as none)")
+
+
 def _accelerometer_alone(recording: Recording, intervals: list[Interval], acc_model, which, gravity: float,
                          mult: float, rest: Interval, why: str | None = None,
-                         left_out: dict[int, str] | None = None) -> Calibration:
+                         left_out: dict[int, str] | None = None, reduced: str | None = None) -> Calibration:
     """The accelerometer part of the method: a calibration with no gyroscope, for an accelerometer-only
     recording, one whose poses were recorded as separate blocks (no rotations between them), or one whose
     rotations were all left out as unreliable (``why``; ``left_out``: the rotations, and why)."""
@@ -225,4 +255,6 @@ def _accelerometer_alone(recording: Recording, intervals: list[Interval], acc_mo
         fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
                                            "the rotations that calibrate the gyroscope were not recorded")
     fit |= accelerometer_figures(acc_model, means, gravity, which)
+    if reduced:
+        fit["accelerometer_model_reduced"] = reduced
     return cal.with_(fit=fit)

@@ -96,7 +96,7 @@ from .raw import raw_checks
 
 __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibility", "plausible",
            "predicted_direction_error", "rest_noise", "rest_rates", "time_unit_hint", "turn_speed",
-           "unvisited_sigma", "white_noise_variance", "with_verdict"]
+           "unvisited_sigma", "white_noise_variance", "with_verdict", "worse_than_nominal"]
 
 
 def check_rate(recording: Recording) -> None:
@@ -490,10 +490,10 @@ def _usefulness(calibration) -> list[Check]:
         elif ".misalignment." in name and np.degrees(s) > THRESHOLDS["misalignment_sigma_deg"]:
             out.append(Check(1, f"{name} has a 1σ of {np.degrees(s):.2g}° (limit "
                                 f"{THRESHOLDS['misalignment_sigma_deg']:g}°): too uncertain to be of use"))
-    return _worse_than_nominal(calibration, unc, params) + out
+    return worse_than_nominal(calibration, unc, params) + out
 
 
-def _worse_than_nominal(calibration, unc: dict, params: dict) -> list[Check]:
+def worse_than_nominal(calibration, unc: dict, params: dict) -> list[Check]:
     """Accelerometer parameters whose 1σ costs more than holding them at their nominal value would: reject.
 
     Each parameter's effect on the calibrated output at 1 g on its axis
