@@ -460,3 +460,47 @@ def test_a_symlink_of_another_user_in_a_sticky_world_writable_folder_is_not_foll
     os.lchown(link, os.geteuid(), os.getegid())  # the user's own link is followed, as the shell's > does
     code, out, err, _ = limited("calibrate", session_files / "s.csv", "-o", link)
     assert code == 0 and victim.read_text(encoding="utf-8").startswith("{"), err
+
+
+# ------------------------------------------------------------------------ old messages, round 3's last
+@pytest.mark.parametrize(("query", "says"), [
+    ("baud=99999999999999999999", "not one a serial port runs at"),
+    ("baud=0", "not one a serial port runs at"),
+    ("baud=9600&parity=E", "unknown setting parity"),
+    ("bauds=9600", "unknown setting bauds"),
+    ("baud=fast", "whole number"),
+])
+def test_a_serial_spec_out_of_range_or_unknown_is_one_line(query, says):
+    pytest.importorskip("serial")
+    from imucalib.record.sources import open_source
+
+    with pytest.raises(ValueError, match=says), open_source(f"serial:/dev/nonexistent-port?{query}"):
+        pass
+
+
+def test_lines_ending_in_a_carriage_return_alone_are_named(tmp_path):
+    from imucalib.io import ReaderError, read
+
+    text = "\r".join(["t,ax,ay,az,gx,gy,gz"] + [f"{k * 0.01:.2f},0,0,1000,1,2,3" for k in range(300)]) + "\r"
+    (tmp_path / "cr.csv").write_bytes(text.encode())
+    with pytest.raises(ReaderError, match="carriage return alone"):
+        read(str(tmp_path / "cr.csv"))
+
+
+def test_a_column_named_twice_is_not_silently_the_first(tmp_path):
+    from imucalib.io import ReaderError, read
+
+    text = "\n".join(["t,ax,ay,az,gx,gy,gz,ax"] + [f"{k * 0.01:.2f},0,0,1000,1,2,3,9" for k in range(300)]) + "\n"
+    (tmp_path / "dup.csv").write_text(text)
+    with pytest.raises(ReaderError, match=r"names 'ax' 2 times \(columns 1, 7"):
+        read(str(tmp_path / "dup.csv"))
+    rec = read(str(tmp_path / "dup.csv"), columns=["t=0", "ax=7", "ay=2", "az=3", "gx=4", "gy=5", "gz=6"])
+    assert np.all(rec.acc[:, 0] == 9)
+
+
+def test_microsecond_stamps_at_25_hz_declared_as_ms_name_the_unit_that_fixes_them(tmp_path):
+    text = "\n".join(["t,ax,ay,az,gx,gy,gz"] + [f"{k * 40000},0,0,{1000 + k % 3},1,2,3" for k in range(300)]) + "\n"
+    (tmp_path / "us.csv").write_text(text)
+    code, _, err, _ = limited("calibrate", tmp_path / "us.csv", "--time-unit", "ms")
+    last = err.strip().splitlines()[-1]
+    assert code == 2 and "Traceback" not in err and "--time-unit us" in last and "25 Hz" in last

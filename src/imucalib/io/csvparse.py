@@ -206,6 +206,9 @@ def read_head(path: Path, max_bytes: int = _HEAD_BYTES) -> Head:
         last = _decode(stripped[cut + 1:])
         if not complete and cut < 0:
             raise ReaderError(f"{path}: the last line is longer than 64 kB; is this a text table?")
+    if b"\n" not in head[:max_bytes] and head.count(b"\r") > 1:
+        raise ReaderError(f"{path}: its lines end with a carriage return alone (CR, as classic Mac OS wrote them), "
+                          "not a line feed: convert them first, e.g. tr '\\r' '\\n' < IN > OUT")
     if not complete and b"\n" not in head:
         cells = max(head.count(b","), head.count(b";"), head.count(b"\t")) + 1
         raise ReaderError(f"{path}: the first line is longer than {max_bytes >> 20} MB (more than {cells} cells); "

@@ -25,6 +25,9 @@ import numpy as np
 __all__ = ["Source", "SourceGone", "FdSource", "SocketSource", "SerialSource", "ReadlineSource", "PhyphoxStream",
            "as_source", "open_source", "MAX_JSON_DEPTH", "MAX_JSON_BYTES"]
 
+#: the fastest baud rate accepted (USB serial adapters reach 12 Mbit/s)
+MAX_BAUD = 12_000_000
+
 #: the deepest nesting of arrays and objects taken from a phyphox answer (its buffers are 3 deep)
 MAX_JSON_DEPTH = 8
 #: the largest phyphox answer read [bytes]
@@ -138,11 +141,18 @@ def open_source(spec: str, *, stdin=None) -> Iterator[Source]:
             raise ValueError("a serial port needs pyserial: pip install 'imucalib[serial]'") from None
         rest = spec[len("serial:"):]
         port, _, query = rest.partition("?")
-        opts = parse_qs(query)
+        opts = parse_qs(query, keep_blank_values=True)
+        unknown = sorted(set(opts) - {"baud"})
+        if unknown:
+            raise ValueError(f"{spec}: unknown setting {', '.join(unknown)} of a serial port; the one setting is baud, "
+                             "e.g. serial:/dev/ttyUSB0?baud=115200")
         try:
-            baud = int(opts.get("baud", ["115200"])[0])
+            baud = int(opts.get("baud", ["115200"])[-1])
         except ValueError:
             raise ValueError(f"{spec}: baud must be a whole number of bits per second") from None
+        if not 50 <= baud <= MAX_BAUD:
+            raise ValueError(f"{spec}: a baud rate of {baud} bits per second is not one a serial port runs at "
+                             f"(50 to {MAX_BAUD:,}; 115200 is common)")
         if not port:
             raise ValueError(f"{spec}: name the port, e.g. serial:/dev/ttyUSB0?baud=115200")
         try:
