@@ -25,6 +25,7 @@ from imucalib import segment as sg
 from imucalib.io import read, write_csv
 from imucalib.record import Recorder, record
 from imucalib.scenarios.handheld import generate
+from test_record_stream import has_open
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")])}
@@ -425,9 +426,8 @@ def test_a_serial_port_recorded_until_ctrl_c(tmp_path, short_session):
                             stderr=subprocess.PIPE, env=ENV)
     partial = tmp_path / "s.csv.partial"
     deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and proc.poll() is None and not any(  # until the recorder has opened the port
-            os.path.realpath(f"/proc/{proc.pid}/fd/{fd}") == port for fd in os.listdir(f"/proc/{proc.pid}/fd")):
-        time.sleep(0.02)
+    while time.monotonic() < deadline and proc.poll() is None and not has_open(proc.pid, port):
+        time.sleep(0.02)  # until the recorder has opened the port
     os.set_blocking(master, False)  # a recorder that stopped reading fails the test instead of hanging it
     buf, sent = b"".join(data), 0
     while sent < len(buf) and time.monotonic() < deadline and proc.poll() is None:

@@ -359,6 +359,21 @@ def test_sigterm_on_a_silent_tcp_peer_and_a_peer_that_goes_away(tmp_path, short_
         assert (tmp_path / f"{ending}.json").exists()
 
 
+def has_open(pid: int, name: str) -> bool:
+    """Whether process ``pid`` has the file ``name`` open (its descriptors come and go while it starts)."""
+    try:
+        fds = os.listdir(f"/proc/{pid}/fd")
+    except OSError:
+        return False
+    for fd in fds:
+        try:
+            if os.path.realpath(f"/proc/{pid}/fd/{fd}", strict=True) == name:
+                return True
+        except OSError:  # closed since it was listed
+            continue
+    return False
+
+
 def test_a_serial_port_silent_then_gone(tmp_path, short_session):
     pytest.importorskip("serial")
     pty = pytest.importorskip("pty")
@@ -376,8 +391,7 @@ def test_a_serial_port_silent_then_gone(tmp_path, short_session):
                                 stderr=subprocess.PIPE, env=ENV)
         name = os.ttyname(slave)
         deadline = time.monotonic() + 60  # until the recorder has opened the port
-        while time.monotonic() < deadline and proc.poll() is None and not any(
-                os.path.realpath(f"/proc/{proc.pid}/fd/{fd}") == name for fd in os.listdir(f"/proc/{proc.pid}/fd")):
+        while time.monotonic() < deadline and proc.poll() is None and not has_open(proc.pid, name):
             time.sleep(0.02)
         os.set_blocking(master, False)
         sent, deadline = 0, time.monotonic() + 120

@@ -161,9 +161,9 @@ def map_columns(path: Path, names: list[str], columns, has_header: bool) -> dict
     for key, j in out.items():
         twice = [k for k, name in enumerate(names) if j is not None and name.strip() == names[j].strip()]
         if len(twice) > 1:
-            raise ReaderError(f"{path}: the header names {names[j].strip()!r} {len(twice)} times (columns "
-                              f"{', '.join(str(k) for k in twice)}, 0-based): say which is {key} with --columns "
-                              f"(by index, e.g. {key}={twice[0]})")
+            warnings.warn(f"{path}: the header names {names[j].strip()!r} {len(twice)} times (columns "
+                          f"{', '.join(str(k) for k in twice)}, 0-based): the first is taken as {key}; say which "
+                          f"with --columns (by index, e.g. {key}={twice[-1]})", ImucalibWarning, stacklevel=4)
     missing = [f for f in FIELDS[1:] if f not in out]
     if missing == ["gx", "gy", "gz"]:
         warnings.warn(f"{path}: no gyroscope columns (found {', '.join(names)}): read as an accelerometer-only log",
