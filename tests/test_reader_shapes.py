@@ -339,3 +339,30 @@ def test_date_time_stamps_without_a_header_say_what_to_pass(tmp_path):
     (tmp_path / "d.csv").write_text("".join(f"2024-05-01 12:00:00.{k:02d}0,0,0,1,0,0,0\n" for k in range(50)))
     with pytest.raises(ReaderError, match="no header naming the columns.*--rate"):
         read(str(tmp_path / "d.csv"))
+
+
+def test_a_pair_of_tables_with_headers_is_read_as_imutks_pair(tmp_path):
+    """An accelerometer file and a gyroscope file written as tables (a header, commas; a phone's or a camera
+    module's export), at different rates, in either order: the same recording as imu_tk's headerless pair."""
+    from imucalib.scenarios import session
+
+    rec = session("handheld", rng=2).recording
+    ta, acc = rec.t[::2], rec.acc[::2]
+    np.savetxt(tmp_path / "a.txt", np.column_stack([ta, acc]))
+    np.savetxt(tmp_path / "g.txt", np.column_stack([rec.t, rec.gyro]))
+    np.savetxt(tmp_path / "accel.csv", np.column_stack([ta, acc]), delimiter=",", header="timestamp,x,y,z",
+               comments="")
+    np.savetxt(tmp_path / "gyro.csv", np.column_stack([rec.t, rec.gyro]), delimiter=",",
+               header="time,gyro_x (counts),gyro_y (counts),gyro_z (counts)", comments="")
+    np.savetxt(tmp_path / "acc_named.csv", np.column_stack([ta, acc]), delimiter=",", header="t,acc_x,acc_y,acc_z",
+               comments="")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        plain = read([str(tmp_path / "a.txt"), str(tmp_path / "g.txt")])
+        tables = read([str(tmp_path / "accel.csv"), str(tmp_path / "gyro.csv")])
+    with pytest.warns(ImucalibWarning, match="names the gyroscope's axes"):
+        swapped = read([str(tmp_path / "gyro.csv"), str(tmp_path / "acc_named.csv")])
+    for got in (tables, swapped):
+        np.testing.assert_allclose(got.t, plain.t, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got.acc, plain.acc, rtol=1e-15)
+        np.testing.assert_allclose(got.gyro, plain.gyro, rtol=1e-12)

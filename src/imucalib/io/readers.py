@@ -153,6 +153,10 @@ def read(
                               f"{', '.join(ignored)} cannot be set")
         rec = _read_phone(paths, acc_unit, gyro_unit, time_unit)
     elif reader == "imutk":
+        if [_sensors_named(_head_names(p) or []) for p in paths] == [{"gyro"}, {"acc"}]:
+            warnings.warn(f"{paths[0]} names the gyroscope's axes and {paths[1]} the accelerometer's: read as the "
+                          "accelerometer's file, then the gyroscope's", ImucalibWarning, stacklevel=2)
+            paths = [paths[1], paths[0]]
         rec = _read_imutk(paths[0], paths[1], acc_unit, gyro_unit, time_unit)
     elif reader == "mat":
         rec = _read_mat(paths[0], columns, acc_unit, gyro_unit, rate, variable, time_unit)
@@ -248,6 +252,9 @@ def guess_reader(paths: Sequence[Path]) -> str:
         return "phone"
     if len(paths) == 2 and not all(_names_sensor_columns(_head_names(p) or []) for p in paths):
         return "imutk"  # two files without headers naming the sensors: imu_tk's accelerometer and gyroscope
+    if len(paths) == 2 and [_sensors_named(_head_names(p) or []) for p in paths] in ([{"acc"}, {"gyro"}],
+                                                                                  [{"gyro"}, {"acc"}]):
+        return "imutk"  # a table of the accelerometer's axes and one of the gyroscope's: the same pair
     return "csv"
 
 
@@ -410,6 +417,8 @@ def _imutk_table(path: Path) -> tuple[np.ndarray, np.ndarray]:
             if stripped:
                 break
     first = head[start:].split(b"\n", 1)[0].split()
+    if _headed(head[start:]):  # a header, or cells parted by commas: the table reader's header logic
+        return _headed_pair_table(path)
     if end > start and len(first) == 4:
         layout = csvparse.Layout(path, None, (start, end), 1, None, False, 4, st.st_size, st.st_mtime_ns)
         try:
@@ -424,6 +433,53 @@ def _imutk_table(path: Path) -> tuple[np.ndarray, np.ndarray]:
             pass
     data = _numeric_table(path, path.read_bytes().decode("utf-8-sig", errors="replace"), 4, names)
     return data[:, 0].copy(), np.ascontiguousarray(data[:, 1:])
+
+
+def _headed(head: bytes) -> bool:
+    """Whether a file of a pair starts with a header or parts its cells with a separator other than blanks."""
+    line = head.split(b"\n", 1)[0].decode("utf-8", errors="replace").strip()
+    return bool(line) and (any(_not_number(c) for c in line.replace(",", " ").replace(";", " ").split())
+                           or "," in line or ";" in line)
+
+
+#: a column of one sensor's three axes, by the axis its name ends with (``x``, ``acc_x``, ``GyroX (rad/s)``)
+_AXIS = re.compile(r"^(?:.*?[\s_.-]?)([xyz])(?:\s*[\[\(].*)?$", re.I)
+
+
+def _headed_pair_table(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """One file of a pair written as a table (a header, commas): its time column and its x, y, z columns.
+
+    The header's time column (:data:`.columns.TIME`) and the columns named by their axis (``x``, ``acc_x``,
+    ``GyroZ (rad/s)``) are taken; a table of four columns without a header is ``time x y z``.
+    """
+    table = _split_table(path)
+    names = table.names
+    if table.header is None:
+        if table.ncols != 4:
+            raise ReaderError(f"{path}: a file of an accelerometer/gyroscope pair holds time x y z; this one has "
+                              f"{table.ncols} columns and no header naming them")
+        picked = [0, 1, 2, 3]
+    else:
+        if _sensors_named(names) == {"acc", "gyro"}:
+            raise ReaderError(f"{path}: its header names the accelerometer's and the gyroscope's columns: it is a "
+                              "recording of its own, not one file of an accelerometer/gyroscope pair (give it alone)")
+        t = next((j for j, n in enumerate(names) if _TIME.match(n.strip())), None)
+        axes = {}
+        for j, n in enumerate(names):
+            m = _AXIS.match(n.strip())
+            if m and j != t:
+                axes.setdefault(m.group(1).lower(), j)
+        if t is None or len(axes) < 3:
+            raise ReaderError(f"{path}: a file of an accelerometer/gyroscope pair needs a time column and x, y, z "
+                              f"columns; its header names {', '.join(names)}")
+        picked = [t, axes["x"], axes["y"], axes["z"]]
+    cols = _parse_table(path, table, picked, others=False)
+    t = np.asarray(cols[picked[0]], dtype=np.float64)
+    xyz = np.column_stack([np.asarray(cols[j], dtype=np.float64) for j in picked[1:]])
+    if t.size < 2:
+        raise ReaderError(f"{path}: {t.size} row(s): a file of an accelerometer/gyroscope pair holds many")
+    _check_time(path, t, table.first_line)
+    return t, xyz
 
 
 def _numeric_table(path: Path, text: str, ncols: int, names: Sequence[str]) -> np.ndarray:
@@ -512,6 +568,11 @@ def _preamble_rate(lines: Sequence[str]) -> float | None:
             if np.isfinite(value) and value > 0:
                 return value
     return None
+
+
+def _sensors_named(cells: Sequence[str]) -> set[str]:
+    """The sensors (``acc``, ``gyro``) whose three axes a header names."""
+    return {kind for kind, pat in _PATTERNS.items() if sum(bool(pat.match(c.strip())) for c in cells) >= 3}
 
 
 def _names_sensor_columns(cells: Sequence[str]) -> bool:
