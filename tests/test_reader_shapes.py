@@ -366,3 +366,29 @@ def test_a_pair_of_tables_with_headers_is_read_as_imutks_pair(tmp_path):
         np.testing.assert_allclose(got.t, plain.t, rtol=0, atol=1e-12)
         np.testing.assert_allclose(got.acc, plain.acc, rtol=1e-15)
         np.testing.assert_allclose(got.gyro, plain.gyro, rtol=1e-12)
+
+
+def test_a_line_of_units_under_the_header_gives_the_units(tmp_path):
+    """A vendor's export: names, then a line of units, then the rows: the units are read (not a prompt line
+    cutting the file into one block), and apply writes a coherent file anew."""
+    from imucalib.cli import main
+    from imucalib.scenarios import session
+
+    sim = session("handheld", rng=2)
+    rec = sim.truth.apply(sim.recording)  # readings of a perfect sensor, in m/s^2 and rad/s
+    rows = [",".join(f"{v:.9g}" for v in (t, *a, *g)) for t, a, g in zip(rec.t, rec.acc, rec.gyro, strict=True)]
+    head = ["Time,AccX,AccY,AccZ,GyroX,GyroY,GyroZ", "s,m/s^2,m/s^2,m/s^2,rad/s,rad/s,rad/s"]
+    (tmp_path / "units.csv").write_text("\n".join(head + rows) + "\n")
+    (tmp_path / "plain.csv").write_text("\n".join(head[:1] + rows) + "\n")
+    with pytest.warns(ImucalibWarning, match=r"line 2 gives the columns' units \(s, m/s\^2"):
+        got = read(str(tmp_path / "units.csv"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImucalibWarning)
+        plain = read(str(tmp_path / "plain.csv"), acc_unit="m/s^2", gyro_unit="rad/s")
+        assert (got.acc_unit, got.gyro_unit) == ("m/s^2", "rad/s") and len(got) == len(plain)
+        np.testing.assert_array_equal(got.acc, plain.acc)
+        assert main(["calibrate", str(tmp_path / "units.csv"), "-o", str(tmp_path / "c.json")]) == 0
+        assert main(["apply", str(tmp_path / "c.json"), str(tmp_path / "units.csv"), "-o",
+                     str(tmp_path / "out.csv")]) == 0
+    out = read(str(tmp_path / "out.csv"))
+    assert len(out) == len(plain)

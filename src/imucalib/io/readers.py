@@ -618,6 +618,7 @@ class _Table:
     prompts: bool = False  # lines with no number inside the rows (a logger's prompts): block boundaries
     sample: list[str] = dataclasses.field(default_factory=list)  # the first rows, as text
     trailing: bool = False  # a separator ends every line: the last column is the empty cell after it
+    units_row: bool = False  # a line of units under the header (read into the names; the file is written anew)
 
     @property
     def names(self) -> list[str]:
@@ -650,6 +651,10 @@ def _split_table(path: Path, columns: Sequence[str] | None = None) -> _Table:
     if header and re.match(r"#\s", header[0]):  # numpy.savetxt's header="…" writes "# " before the names
         header[0] = header[0][1:].strip()
     row0 = start + 1 if has_header else start
+    units = _units_row(head.lines, row0, sep, header) if header else None
+    if units is not None:  # a line of units under the names (a vendor's export): read as the names' units
+        header = [f"{h} [{u}]" if u else h for h, u in zip(header, units, strict=True)]
+        row0 += 1
     first_line = row0 + 1
     if row0 >= len(head.lines):
         raise ReaderError(f"{path}: no data rows after the header" if head.complete
@@ -669,14 +674,35 @@ def _split_table(path: Path, columns: Sequence[str] | None = None) -> _Table:
                              head.size, head.mtime_ns)
     trailing = first_row[-1:] == [""] and (header is None or header[-1] == "") and sep not in (None, " ")
     table = _Table(header, first_line, sep, ncols, layout, first_row, skipped=start, rate=_preamble_rate(preamble),
+                   units_row=units is not None,
                    sample=head.lines[row0:row0 + 1000], trailing=trailing,
                    prompts=any(_is_prompt(ln, sep) for ln in head.lines[row0:] + ([] if head.complete else
                                                                                   [head.last])))
+    if units is not None:
+        warnings.warn(f"{path}: line {first_line - 1} gives the columns' units ({', '.join(u for u in units if u)}): "
+                      "read as the units of the names above it", ImucalibWarning, stacklevel=4)
     if start:
         what = "" if table.rate is None else f" (they give a sampling rate of {table.rate:g} Hz)"
         warnings.warn(f"{path}: skipped {start} line{'s' if start > 1 else ''} before the "
                       f"{'header' if has_header else 'data'}{what}", ImucalibWarning, stacklevel=4)
     return table
+
+
+#: a cell of a units line: a short unit (``s``, ``ms``, ``g``, ``m/s^2``, ``m/s²``, ``deg/s``, ``°/s``, ``[counts]``)
+_UNIT_CELL = re.compile(r"^[\[\(]?[A-Za-zµ°/^²0-9.\- ]{1,12}[\]\)]?$")
+
+
+def _units_row(lines: Sequence[str], row: int, sep: str | None, header: list[str]) -> list[str] | None:
+    """The cells of ``lines[row]`` when it is a line of units under the header (every cell a short unit or empty,
+    as many as the names, rows of numbers after it), else None."""
+    if row + 1 >= len(lines):
+        return None
+    cells = [c.strip('"\'').strip() for c in _cells(lines[row], sep)]
+    after = [c for c in _cells(lines[row + 1], sep) if c.strip()]
+    if (len(cells) != len(header) or not any(cells) or not after or any(_not_number(c) for c in after)
+            or not all(_not_number(c) and _UNIT_CELL.match(c) for c in cells if c)):
+        return None
+    return [c.strip("[]()") for c in cells]
 
 
 _DECIMAL_COMMA = re.compile(r'^"?[+-]?\d*,\d+(?:[eE][+-]?\d+)?"?$')
@@ -929,7 +955,8 @@ def _read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=N
         extra[name if name not in extra else f"{name} (column {j + 1})"] = col
     rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
                     extra=extra, metadata=meta)
-    if parsed.get("digest") and not csvparse.is_gzip(path):  # what apply needs to copy the file's own text (io.writers)
+    if parsed.get("digest") and not csvparse.is_gzip(path) and not table.units_row:  # what apply needs to copy the
+        # file's own text (io.writers); a units line under the header: the file is written anew
         meta["source_layout"] = {**source.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec),
                                  "digest": parsed["digest"]}
     return rec
