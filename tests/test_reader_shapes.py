@@ -392,3 +392,30 @@ def test_a_line_of_units_under_the_header_gives_the_units(tmp_path):
                      str(tmp_path / "out.csv")]) == 0
     out = read(str(tmp_path / "out.csv"))
     assert len(out) == len(plain)
+
+
+@pytest.mark.parametrize("layout", ["struct", "variables", "time_first", "rates", "no_time"])
+def test_a_mat_file_with_each_sensor_in_a_variable_of_its_own(tmp_path, layout):
+    """MATLAB lab scripts' layouts: ``imu.time/acc/gyro`` (a struct), ``t, acc, gyro``, ``Acc``/``Gyr`` with the
+    time first (at one rate or two), ``acc, gyro`` without a time (with --rate): the same samples as one matrix."""
+    from imucalib.scenarios import session
+
+    rec = session("handheld", rng=2).recording
+    t, acc, gyro = rec.t, rec.acc, rec.gyro
+    content = {"struct": {"imu": {"time": t, "acc": acc, "gyro": gyro}},
+               "variables": {"t": t[:, None], "acc": acc, "gyro": gyro, "note": np.array([1.0])},
+               "time_first": {"Acc": np.column_stack([t, acc]), "Gyr": np.column_stack([t, gyro])},
+               "rates": {"Acc": np.column_stack([t, acc]), "Gyr": np.column_stack([t[::2], gyro[::2]])},
+               "no_time": {"acc": acc.T, "gyro": gyro.T}}[layout]
+    savemat(tmp_path / "s.mat", content)
+    with pytest.warns(ImucalibWarning, match="no matrix of every column"):
+        got = read(str(tmp_path / "s.mat"), rate=100.0 if layout == "no_time" else None)
+    if layout == "rates":  # the gyroscope interpolated onto the accelerometer's stamps, within its own span
+        assert len(got) == len(rec) - 1
+        np.testing.assert_array_equal(got.acc, acc[:-1])
+        np.testing.assert_allclose(got.gyro[::2], gyro[::2][:len(got.gyro[::2])], rtol=1e-12)
+    else:
+        np.testing.assert_array_equal(got.acc, acc)
+        np.testing.assert_array_equal(got.gyro, gyro)
+    if layout not in ("no_time", "rates"):
+        np.testing.assert_allclose(got.t, t - t[0] if got.t[0] == 0 else t, atol=1e-12)

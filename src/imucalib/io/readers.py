@@ -28,6 +28,7 @@ from .columns import TIME as _TIME
 from .columns import map_columns as _map_columns
 from .columns import not_number as _not_number
 from .errors import ReaderError
+from .matvars import assemble as assemble_mat
 from .stamps import TIME_UNITS, datetime_cells, note_held_samples, read_dated, repair_coarse, to_seconds
 from .stamps import check_increasing as _check_time
 from .stamps import guess_unit as _infer_time_unit
@@ -1158,10 +1159,17 @@ def _read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_uni
             cands = [k for k, v in found.items()
                      if isinstance(v, np.ndarray) and v.ndim == 2 and v.dtype.kind in "fiu"
                      and min(v.shape) in (3, 4) and max(v.shape) > 4 and not _MAT_MAG.match(k)]
-        if len(cands) != 1:
+        assembled = assemble_mat(path, found) if len(cands) != 1 else None
+        if assembled is not None:  # each sensor a variable (or a struct's field) of its own
+            variable, matrix, taken = assembled
+            found = {**{k: v for k, v in found.items() if k not in taken}, variable: matrix}
+            if matrix.shape[1] == 6 and columns is None:
+                columns = ["-", *map(str, range(6))]
+        elif len(cands) != 1:
             raise ReaderError(f"{path}: pass --variable NAME; variables present: "
                               f"{', '.join(found) or 'none'}")
-        variable = cands[0]
+        else:
+            variable = cands[0]
     if variable not in found:
         raise ReaderError(f"{path}: no variable {variable!r}; variables present: "
                           f"{', '.join(found) or 'none'}")
