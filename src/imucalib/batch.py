@@ -590,6 +590,7 @@ def execute(fn: Callable[[Any], Any], tasks: Sequence[Any], *, workers: int | No
     ------
     BatchError
         A worker process died (the results yielded so far stand), or the scheduler cannot be reached.
+
     Examples
     --------
     >>> from imucalib.batch import execute
