@@ -1,9 +1,8 @@
 """The API page's functions are documented as numpydoc has it, and their Examples run.
 
 Every ``autofunction``/``automethod`` of ``docs/api.rst`` has a Parameters section (unless it takes none) and a
-Returns (or Yields) section, but for the functions of :data:`UNDOCUMENTED`, whose modules are being reworked
-(the readers, the pose detector, the exports, the recorder, the batch runner) or are over the 800-line bound;
-that list may only shrink. Every Examples section on the page runs as a doctest.
+Returns (or Yields) section; :data:`UNDOCUMENTED` (empty: every one has them) may only shrink. Every Examples
+section on the page runs as a doctest.
 """
 
 from __future__ import annotations
@@ -18,17 +17,8 @@ import pytest
 
 API = Path(__file__).resolve().parents[1] / "docs" / "api.rst"
 
-#: functions on the API page still without a Parameters or a Returns section
-UNDOCUMENTED = {
-    "imucalib.read", "imucalib.io.read", "imucalib.io.guess_reader", "imucalib.io.write_csv",
-    "imucalib.io.read_pose_table", "imucalib.io.write_pose_table", "imucalib.methods.zhang2021.calibrate",
-    "imucalib.calibration.with_bias_session", "imucalib.calibration.check_document",
-    "imucalib.segment.detect_intervals", "imucalib.segment.detect_static_gyro", "imucalib.segment.find_faces",
-    "imucalib.export.to_c", "imucalib.export.to_openvins", "imucalib.export.to_kalibr", "imucalib.export.to_imutk",
-    "imucalib.export.imutk_paths", "imucalib.export.read_noise", "imucalib.batch.read_manifest",
-    "imucalib.batch.execute", "imucalib.record.record", "imucalib.record.open_source",
-    "imucalib.io.session.read_session",
-}
+#: functions on the API page still without a Parameters or a Returns section (none left)
+UNDOCUMENTED: set[str] = set()
 
 
 def api_functions() -> list[tuple[str, object]]:

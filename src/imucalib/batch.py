@@ -286,6 +286,11 @@ def read_manifest(path: str | Path, *, allow_urls: bool | str | Sequence[str] = 
         URLs in the ``files`` column: refused (default), any (True), or those of the schemes listed
         (``["s3", "gcs"]`` or ``"s3,gcs"``).
 
+    Returns
+    -------
+    list of Row
+        One per line of the manifest, in order, each entry parsed and checked.
+
     Raises
     ------
     ManifestError
@@ -574,10 +579,23 @@ def execute(fn: Callable[[Any], Any], tasks: Sequence[Any], *, workers: int | No
     progress : callable, optional
         ``progress(done, total)`` after each result.
 
+    Yields
+    ------
+    index : int
+        The task's position in ``tasks``.
+    result : object
+        ``fn(tasks[index])``, in the order the results complete.
+
     Raises
     ------
     BatchError
         A worker process died (the results yielded so far stand), or the scheduler cannot be reached.
+
+    Examples
+    --------
+    >>> from imucalib.batch import execute
+    >>> sorted(execute(abs, [-3, 2, -1]))  # one process: this one
+    [(0, 3), (1, 2), (2, 1)]
     """
     tasks = list(tasks)
     n = len(tasks)

@@ -557,13 +557,36 @@ def check_device(name: str) -> None:
 def check_document(d) -> None:
     """Check a calibration document (the parsed JSON of the file) entry by entry.
 
-    Raises :class:`CalibrationFileError` naming the first entry that is
-    missing, of the wrong kind or shape, or not a finite number, and the
-    first text outside what it may hold: names (method, model, created,
-    units, thermal.source) 1 to 64 letters, digits and ``_ . : + - >``
-    (16 of ``_ . ^ /`` for units), so that no comment, YAML scalar or HTML
+    Names (method, model, created, units, thermal.source) must be 1 to 64 letters, digits and
+    ``_ . : + - >`` (16 of ``_ . ^ /`` for units), so that no comment, YAML scalar or HTML
     element can be left (the exports escape them again, :mod:`imucalib.export.text`);
     the device and the verdict's reasons and notes one line of printable text.
+
+    Parameters
+    ----------
+    d : object
+        The parsed JSON of a calibration file (:meth:`Calibration.to_dict` gives one).
+
+    Returns
+    -------
+    None
+        The document is one :meth:`Calibration.from_dict` can take.
+
+    Raises
+    ------
+    CalibrationFileError
+        Naming the first entry that is missing, of the wrong kind or shape, or not a finite number, or the
+        first text outside what it may hold (a :class:`ValueError`).
+
+    Examples
+    --------
+    >>> from imucalib.calibration import check_document
+    >>> from imucalib.scenarios import session
+    >>> check_document(session("handheld", rng=1).truth.to_dict())
+    >>> check_document({"format": "something else"})
+    Traceback (most recent call last):
+        ...
+    imucalib.calibration.CalibrationFileError: not an imucalib calibration: 'format' is "something else", not ...
     """
     if not isinstance(d, dict):
         raise CalibrationFileError(f"expected a JSON object (an imucalib calibration); got {_kind(d)}")
@@ -783,7 +806,20 @@ def with_bias_session(calibration: Calibration, recording: Recording) -> Calibra
     calibrated rate at rest the drift adds to the stored bias's at the
     recording's start and at its end (two rows of three axes, °/s): how far a
     constant bias is off at either end, and what a new recording's bias may
-    differ by. Other calibrations are returned as they are.
+    differ by.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        A calibration fitted on ``recording``.
+    recording : Recording
+        The recording it was fitted on, in raw units.
+
+    Returns
+    -------
+    Calibration
+        A copy with those three fit fields added; a calibration without a bias drift (or without a
+        gyroscope) is returned as it is.
     """
     rate = calibration.drift_rate()
     if rate is None or recording.gyro is None or len(recording) == 0:

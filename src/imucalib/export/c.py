@@ -54,6 +54,41 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
 
     An accelerometer-only calibration gets the identity as its gyroscope part
     (:func:`.linear.gyroscope_part`), with an :class:`~imucalib.recording.ImucalibWarning` saying so.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        The calibration (any model: the polynomial scales, g-sensitivity and a thermal model are written too).
+    prefix : str
+        The C identifier the header's names start with (``<PREFIX>_ACC_T``, ``<prefix>_apply`` …).
+    ctype : {"double", "float"}
+        The constants' C type; ``"float"`` writes single-precision literals.
+
+    Returns
+    -------
+    str
+        The header's text, with an include guard; ``<prefix>_apply`` takes the raw readings (and the
+        temperature [°C] for a thermal calibration) and writes m/s² and rad/s.
+
+    Raises
+    ------
+    ValueError
+        ``prefix`` not a C identifier, or ``ctype`` neither ``"double"`` nor ``"float"``.
+    ExportError
+        With ``ctype="float"``, a constant beyond single precision's range.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucalib.scenarios import session
+    >>> truth = session("handheld", rng=1).truth
+    >>> cal = truth.with_(gyroscope=truth.gyroscope.with_(g_sensitivity=np.zeros((3, 3))))
+    >>> from imucalib.export import to_c
+    >>> header = to_c(truth, prefix="imu")
+    >>> header.splitlines()[4:6]
+    ['#ifndef IMU_CALIBRATION_H', '#define IMU_CALIBRATION_H']
+    >>> "void imu_apply(" in header
+    True
     """
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", prefix):
         raise ValueError(f"prefix must be a C identifier; got {prefix!r}")

@@ -99,10 +99,39 @@ def _vector(v) -> str:
 def read_noise(path: str | Path) -> tuple[dict, list[str]]:
     """The noise entries (and ``rostopic``, ``update_rate`` where given) of an IMU noise file.
 
-    Reads Kalibr's/OpenVINS's ``imu.yaml`` (flat, or one ``imu0`` entry) or
-    the JSON of ``imucalib noise --json`` made in SI units (``--calibration``).
-    Returns the entries (``bounded`` lists those the file marks as upper
-    bounds rather than measured values) and notes.
+    Parameters
+    ----------
+    path : str or Path
+        Kalibr's/OpenVINS's ``imu.yaml`` (flat, or one ``imu0`` entry) or the JSON of ``imucalib noise --json``
+        made in SI units (``--calibration``).
+
+    Returns
+    -------
+    entries : dict
+        ``accelerometer_noise_density`` [m/s²/√Hz], ``accelerometer_random_walk`` [m/s³/√Hz],
+        ``gyroscope_noise_density`` [rad/s/√Hz], ``gyroscope_random_walk`` [rad/s²/√Hz], and where given
+        ``update_rate`` [Hz] and ``rostopic``; ``bounded`` lists those the file marks as upper bounds rather
+        than measured values.
+    notes : list of str
+        What the reader should know about the file.
+
+    Raises
+    ------
+    ExportError
+        A file that is too large or not text, an entry missing, given twice (a file of several IMUs), not a
+        number or not positive, or a JSON not in m/s² and rad/s.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.export import read_noise
+    >>> path = Path(tempfile.mkdtemp()) / "imu.yaml"
+    >>> _ = path.write_text(chr(10).join(["accelerometer_noise_density: 2.0e-3", "accelerometer_random_walk: 3.0e-3",
+    ...     "gyroscope_noise_density: 1.7e-4", "gyroscope_random_walk: 2.0e-5", "rostopic: /imu0", "update_rate: 200"]))
+    >>> entries, notes = read_noise(path)
+    >>> entries["gyroscope_noise_density"], entries["update_rate"], entries["rostopic"]
+    (0.00017, 200.0, '/imu0')
     """
     path = Path(path)
     try:
@@ -240,6 +269,35 @@ def to_openvins(calibration: Calibration, *, model: str = "kalibr", raw_scale: t
 
     An accelerometer-only calibration gets the identity as its gyroscope part
     (:func:`.linear.gyroscope_part`), and a note saying so.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        A linear calibration (no ``k2``, ``k3`` scale terms).
+    model : {"kalibr", "rpng"}
+        OpenVINS's IMU model: ``D = T⁻¹`` lower (kalibr) or upper (rpng) triangular.
+    raw_scale : (float, float), optional
+        For a calibration of raw counts: the factors [m/s² and rad/s per count] the driver multiplies the
+        counts by before publishing them (``1, 1`` when it publishes the counts).
+    noise : dict, optional
+        The noise entries (and ``rostopic``, ``update_rate``) :func:`read_noise` reads; without them the
+        entries are left out, with a note.
+    rostopic : str, optional
+        The IMU's ROS topic (overrides the one in ``noise``).
+
+    Returns
+    -------
+    text : str
+        The YAML text.
+    notes : list of str
+        What the reader should know: what was left out, the biases OpenVINS estimates online, the scales.
+
+    Raises
+    ------
+    ExportError
+        An unknown ``model``; a calibration with nonlinear scale terms; raw counts without ``raw_scale`` (or
+        ``raw_scale`` for readings in physical units); matrices that overflow or vanish; a topic that is not a
+        ROS name.
     """
     if model not in OPENVINS_MODELS:
         raise ExportError(f"OpenVINS's IMU model must be one of {', '.join(OPENVINS_MODELS)}; got {model!r}")
@@ -271,6 +329,33 @@ def to_kalibr(calibration: Calibration, *, raw_scale: tuple[float, float] | None
 
     An accelerometer-only calibration gets the identity as its gyroscope part
     (:func:`.linear.gyroscope_part`), and a note saying so.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        A linear calibration (no ``k2``, ``k3`` scale terms).
+    raw_scale : (float, float), optional
+        For a calibration of raw counts: the factors [m/s² and rad/s per count] the driver multiplies the
+        counts by before publishing them (``1, 1`` when it publishes the counts).
+    noise : dict, optional
+        The noise entries (and ``rostopic``, ``update_rate``) :func:`read_noise` reads; without them the
+        entries are left out, with a note.
+    rostopic : str, optional
+        The IMU's ROS topic (overrides the one in ``noise``).
+
+    Returns
+    -------
+    text : str
+        The YAML text (``M``, ``A``, ``C_gyro_i``; the rotation between Kalibr's IMU frame and imucalib's
+        in a comment).
+    notes : list of str
+        What the reader should know: that rotation's angle, what was left out, the biases.
+
+    Raises
+    ------
+    ExportError
+        A calibration with nonlinear scale terms; raw counts without ``raw_scale`` (or ``raw_scale`` for
+        readings in physical units); matrices that overflow or vanish; a topic that is not a ROS name.
     """
     calibration, note = gyroscope_part(calibration, "Kalibr imu0 entry (scale-misalignment)")
     form = linear_form(calibration, "Kalibr", physical=True, raw_scale=raw_scale)

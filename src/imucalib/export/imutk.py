@@ -48,6 +48,40 @@ def to_imutk(calibration: Calibration) -> tuple[str, str]:
 
     An accelerometer-only calibration gets the identity as its gyroscope file
     (:func:`.linear.gyroscope_part`), with an :class:`~imucalib.recording.ImucalibWarning` saying so.
+
+    Parameters
+    ----------
+    calibration : Calibration
+        A linear calibration without gyroscope g-sensitivity, in the raw units imu_tk reads.
+
+    Returns
+    -------
+    acc : str
+        The accelerometer file's text: misalignment (unit diagonal), scale matrix and bias, blank-line separated.
+    gyro : str
+        The gyroscope file's text, in the same layout.
+
+    Raises
+    ------
+    ExportError
+        A gyroscope g-sensitivity (imu_tk has none) or nonlinear scale terms.
+
+    Examples
+    --------
+    A simulated calibration's truth, without its g-sensitivity:
+
+    >>> import numpy as np
+    >>> from imucalib.scenarios import session
+    >>> truth = session("handheld", rng=1).truth
+    >>> cal = truth.with_(gyroscope=truth.gyroscope.with_(g_sensitivity=np.zeros((3, 3))))
+    >>> from imucalib.export import to_imutk
+    >>> acc, gyro = to_imutk(cal)
+    >>> [len(block.splitlines()) for block in acc.split(chr(10) * 2)[:3]]  # misalignment, scale, bias
+    [3, 3, 3]
+    >>> to_imutk(truth)
+    Traceback (most recent call last):
+        ...
+    imucalib.export.linear.ExportError: imu_tk has no gyroscope g-sensitivity, and this calibration has one ...
     """
     calibration, note = gyroscope_part(calibration, "imu_tk parameter files")
     if note:
@@ -65,7 +99,31 @@ def to_imutk(calibration: Calibration) -> tuple[str, str]:
 
 
 def imutk_paths(output: str) -> tuple[str, str]:
-    """``NAME_acc.calib``, ``NAME_gyro.calib`` from ``-o NAME`` (a trailing ``.calib``, ``_acc``/``_gyro`` dropped)."""
+    """``NAME_acc.calib``, ``NAME_gyro.calib`` from ``-o NAME`` (a trailing ``.calib``, ``_acc``/``_gyro`` dropped).
+
+    Parameters
+    ----------
+    output : str
+        The name given: ``NAME``, ``NAME.calib``, ``NAME_acc.calib`` or ``NAME_gyro.calib`` (a folder may lead).
+
+    Returns
+    -------
+    acc, gyro : str
+        The two files' names.
+
+    Raises
+    ------
+    ExportError
+        No name left (``-o _acc.calib``, or a folder alone).
+
+    Examples
+    --------
+    >>> from imucalib.export import imutk_paths
+    >>> imutk_paths("xsens")
+    ('xsens_acc.calib', 'xsens_gyro.calib')
+    >>> imutk_paths("out/xsens_gyro.calib")
+    ('out/xsens_acc.calib', 'out/xsens_gyro.calib')
+    """
     stem = output[:-len(".calib")] if output.endswith(".calib") else output
     for end in ("_acc", "_gyro"):
         if stem.endswith(end):

@@ -47,21 +47,60 @@ def read_data(
     """The data in ``paths``: a :class:`~imucalib.recording.Recording`, or a simulated session.
 
     This is :func:`imucalib.read`, the one reading the command line, batch runs and a program share.
-    ``paths`` is one file, several (two imu_tk files; CSV or MAT files read as blocks of one recording),
-    a ROS bag, a pandas DataFrame (read as a CSV file) or a simulated session directory. The other
-    parameters are those of :func:`imucalib.io.read`, and ``reader="session"`` for a directory
-    written by :func:`imucalib.io.session.write_session` (read by
-    :func:`imucalib.io.session.read_session`; found without ``reader`` too). A recording's
-    magnetometer columns become its ``mag`` (:func:`imucalib.io.magnetometer.attach_magnetometer`,
-    ``mag_unit``), or for a ROS bag the ``sensor_msgs/MagneticField`` topic ``mag_topic``.
+    A recording's magnetometer columns become its ``mag``
+    (:func:`imucalib.io.magnetometer.attach_magnetometer`, ``mag_unit``), or for a ROS bag the
+    ``sensor_msgs/MagneticField`` topic ``mag_topic``.
 
-    ``poses=True``: ``paths`` is one table of averaged poses, one row per orientation
-    (:func:`imucalib.io.posetable.read_pose_table`, with ``acc_unit`` and ``gyro_unit``).
+    Parameters
+    ----------
+    paths : str, Path, sequence of them, or pandas.DataFrame
+        One file, several (two imu_tk files; CSV or MAT files read as blocks of one recording), a ROS bag,
+        a pandas DataFrame (read as a CSV file) or a simulated session directory (written by
+        :func:`imucalib.io.session.write_session`, read by :func:`imucalib.io.session.read_session`; found
+        without ``reader`` too).
+    reader : {"csv", "imutk", "mat", "phone", "rosbag", "session"}, optional
+        The format; guessed from the file(s) when omitted (:func:`imucalib.io.guess_reader`).
+    columns, acc_unit, gyro_unit, rate, variable, time_unit, topic, progress
+        As for :func:`imucalib.io.read`: the columns in the order ``t, ax, ay, az, gx, gy, gz``, the
+        accelerometer's unit (counts, g, m/s^2) and the gyroscope's (counts, deg/s, rad/s), the sampling
+        rate [Hz] of a file without a time column, a MATLAB matrix's name, the time column's unit, a ROS
+        bag's ``sensor_msgs/Imu`` topic, and ``progress(done, total)``.
+    mag_unit : str, optional
+        The magnetometer columns' unit (``"uT"``, ``"counts"`` …), when the header does not write it; an error
+        when it contradicts the header or there are no magnetometer columns.
+    mag_topic : str, optional
+        ROS bags only: the ``sensor_msgs/MagneticField`` topic.
+    poses : bool
+        ``paths`` is one table of averaged poses, one row per orientation
+        (:func:`imucalib.io.posetable.read_pose_table`, with ``acc_unit`` and ``gyro_unit``).
 
     Returns
     -------
     Recording or Session or WangSession or PoseTable
         What :func:`imucalib.methods.calibrate` takes.
+
+    Raises
+    ------
+    ReaderError
+        A file that cannot be read as the reader has it, saying what is wrong and which option fixes it.
+    SessionFileError
+        A session directory whose ``session.json`` or tables are faulty.
+    ValueError
+        Options that do not go together (``mag_topic`` for a file that is not a ROS bag, ``poses=True``
+        with several files or a reader other than CSV, ``mag_unit`` without magnetometer columns).
+
+    Examples
+    --------
+    A simulated session directory reads as the session, with its truth:
+
+    >>> import tempfile, imucalib
+    >>> from imucalib.io.session import write_session
+    >>> from imucalib.scenarios import session
+    >>> folder = tempfile.mkdtemp()
+    >>> _ = write_session(session("handheld", rng=1), folder)
+    >>> data = imucalib.read(folder)
+    >>> data.recording.acc.shape[1], data.truth.method
+    (3, 'truth')
     """
     if poses:
         return _pose_table(paths, reader, acc_unit, gyro_unit)

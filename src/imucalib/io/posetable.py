@@ -231,6 +231,12 @@ def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit:
         The unit where neither ``acc_unit`` (``gyro_unit``) nor the header gives one, instead of recognising it
         from the norms (taking counts): ``imucalib apply`` gives the calibration's.
 
+    Returns
+    -------
+    PoseTable
+        One row per pose: the mean accelerometer (and gyroscope) reading, its σ and sample count where
+        the table gives them, in the units taken.
+
     Raises
     ------
     ReaderError
@@ -405,6 +411,29 @@ def write_pose_table(path: str | Path, table: PoseTable, calibrated_acc: np.ndar
     table read from a file keeps its lines as they were (comments, the separator, the header, each cell's
     text) with the calibrated cells appended to each pose's line, and a header line of its own where it had
     none; a table made in a program is written comma-separated from its values.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write (never the table's own file: the command line refuses an output that names an input).
+    table : PoseTable
+        The averaged poses, as :func:`read_pose_table` read them.
+    calibrated_acc : ndarray of shape (M, 3)
+        The calibrated accelerometer means [m/s²], one row per pose.
+    calibrated_gyro : ndarray of shape (M, 3), optional
+        The calibrated gyroscope means [rad/s]; None when the table has no gyroscope columns.
+
+    Returns
+    -------
+    None
+        The file is written.
+
+    Raises
+    ------
+    ValueError
+        A calibrated column with another number of rows than the table has poses.
+    OSError
+        The file cannot be written (an existing ``path`` is then left as it was).
     """
     from .writers import ADDED_FORMAT, calibrated_columns
 

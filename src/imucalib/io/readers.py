@@ -90,6 +90,18 @@ def read(
     progress : callable, optional
         ``progress(done, total)`` while a long input is read (ROS bags: messages).
 
+    Returns
+    -------
+    Recording
+        Times [s], the accelerometer and gyroscope readings in the units taken, the temperature and any
+        other columns (``extra``), and ``metadata`` (reader, units, source file).
+
+    Raises
+    ------
+    ReaderError
+        A file that cannot be read as this reader has it (no such file, no table, a column missing, a
+        unit or option that does not apply), saying what is wrong and which option fixes it.
+
     Notes
     -----
     Xsens MT Manager text exports (``//`` comment lines, then ``PacketCounter
@@ -236,12 +248,28 @@ def _is_rosbag(path: Path) -> bool:
 
 
 def guess_reader(paths: Sequence[Path]) -> str:
-    """The reader for ``paths``, from their content.
+    r"""The reader for ``paths``, from their content.
 
     ``"rosbag"`` for ROS bags, ``"mat"`` for MATLAB files; for two files,
     ``"phone"`` when both headers are a phone app's (phyphox, Sensor Logger:
     :mod:`.phone`), ``"imutk"`` unless both have headers naming sensor
     columns; else ``"csv"`` (several files are then blocks of one recording).
+
+    Parameters
+    ----------
+    paths : sequence of Path
+        The input files (the first one's first 128 bytes tell a MATLAB file; the headers of two tell a
+        phone app's pair or imu_tk's).
+
+    Returns
+    -------
+    str
+        One of :data:`READERS`: ``"csv"``, ``"imutk"``, ``"mat"``, ``"phone"`` or ``"rosbag"``.
+
+    Raises
+    ------
+    OSError
+        The first file cannot be opened.
     """
     if _is_rosbag(paths[0]):
         return "rosbag"

@@ -317,8 +317,32 @@ def _write_turntable_session(sim: WangSession, d: Path) -> None:
 def read_session(directory: str | Path) -> Session | WangSession:
     """Read a directory written by :func:`write_session`: a :class:`Session`, or a ``WangSession``.
 
-    A fault in ``session.json`` or a table is a ValueError naming the file and the entry or line
-    (:class:`SessionFileError`).
+    Parameters
+    ----------
+    directory : str or Path
+        The session directory (``session.json``, ``recording.csv``, ``truth.json`` …).
+
+    Returns
+    -------
+    Session or WangSession
+        The recording with its segments, weightless and test segments and truth; for the ``wang2019``
+        scenario, the turntable's position and turn aggregates.
+
+    Raises
+    ------
+    SessionFileError
+        A fault in ``session.json`` or a table, naming the file and the entry or line (a :class:`ValueError`).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from imucalib.io.session import read_session, write_session
+    >>> from imucalib.scenarios import session
+    >>> folder = tempfile.mkdtemp()
+    >>> _ = write_session(session("handheld", rng=1), folder)
+    >>> sim = read_session(folder)
+    >>> sim.scenario, sim.truth.method
+    ('handheld', 'truth')
     """
     d = Path(directory)
     meta = load_meta(d)

@@ -76,8 +76,6 @@ def write_csv(
     calibrated magnetometer; without the space in a whitespace-separated
     file), with 12 significant digits (:data:`ADDED_FORMAT`).
 
-    A ``path`` ending in ``.gz`` is written gzip-compressed (as the readers read ``.csv.gz``).
-
     The rows go to a temporary file next to ``path``, moved onto ``path`` only
     when all are written (:func:`imucalib.io.atomic.atomic_write`): a failed
     or interrupted write leaves an existing ``path`` as it was. The source's
@@ -86,6 +84,47 @@ def write_csv(
     source appended to since is copied up to that end; one rewritten (even
     with its size and modification time put back) or cut short is not, and
     the rows are written from the values, which are the samples that were read.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file to write; one ending in ``.gz`` is written gzip-compressed (as the readers read
+        ``.csv.gz``).
+    recording : Recording
+        The recording whose rows are written.
+    calibrated_acc, calibrated_gyro : ndarray of shape (N, 3), optional
+        The calibrated accelerometer [m/s²] and gyroscope [rad/s] readings, one row per sample of
+        ``recording`` (:meth:`imucalib.Calibration.apply`); None leaves their columns out.
+    calibrated_mag : ndarray of shape (N, 3), optional
+        The calibrated magnetometer, in ``mag_unit``.
+    mag_unit : str
+        The calibrated magnetometer's unit in its columns' names: ``"uT"`` or ``"normalised"``.
+
+    Returns
+    -------
+    None
+        The file is written.
+
+    Raises
+    ------
+    ValueError
+        A calibrated column with another number of rows than ``recording``.
+    OSError
+        The file cannot be written (the one at ``path`` is then left as it was).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.io import write_csv
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1)
+    >>> calibrated = sim.truth.apply(sim.recording)
+    >>> out = Path(tempfile.mkdtemp()) / "calibrated.csv"
+    >>> write_csv(out, sim.recording, calibrated.acc, calibrated.gyro)
+    >>> out.read_text().splitlines()[0].split(",")[-6:]
+    ['acc_x_cal [m/s^2]', 'acc_y_cal [m/s^2]', 'acc_z_cal [m/s^2]',
+     'gyro_x_cal [rad/s]', 'gyro_y_cal [rad/s]', 'gyro_z_cal [rad/s]']
     """
     rec = recording
     n = len(rec)

@@ -854,6 +854,19 @@ def calibrate(
         (True), or as the data decide (:func:`imucalib.fit.gyroscope.fit_gyroscope`).
     progress : callable, optional
         Called with a message at each stage.
+
+    Returns
+    -------
+    Calibration
+        Accelerometer and gyroscope models (with polynomial scales and g-sensitivity as ``model`` has
+        them, and the lever arm with tosses) in the recording's raw units, with the fit's figures, 1σ
+        errors and verdict in ``fit``.
+
+    Raises
+    ------
+    ValueError
+        An accelerometer-only recording, an unknown ``model``, ``detector`` or ``initial``, fewer static
+        intervals than the fit needs, or an initial rest with zero noise.
     """
     if recording.gyro is None:
         from ..methodinfo import accelerometer_only

@@ -199,18 +199,37 @@ def record(stream, output: str | Path | SessionWriter, recorder: Recorder, *, po
            force: bool = False, silence: float = 5.0) -> RecordResult:
     """Record ``stream`` into ``output`` while ``recorder`` follows it.
 
-    ``stream``: a :class:`~imucalib.record.sources.Source`, or any binary
-    stream with ``read1`` or ``readline``. The lines the recorder keeps are
-    written to ``output + ".partial"`` as each block is analysed (flushed);
-    at the end of the stream, when the device or peer goes away, on Ctrl-C
-    or SIGTERM (looked at every ``poll`` seconds, data flowing or not), the
-    session is finished, renamed to ``output`` and calibrated by the
-    recorder (its ``end`` event). A process killed meanwhile leaves the
-    ``.partial`` file with every line kept up to then. ``silence``: after
-    this many seconds without a line, a ``silence`` event (then every as many).
+    The lines the recorder keeps are written to ``output + ".partial"`` as each block is analysed (flushed);
+    at the end of the stream, when the device or peer goes away, on Ctrl-C or SIGTERM, the session is
+    finished, renamed to ``output`` and calibrated by the recorder (its ``end`` event). A process killed
+    meanwhile leaves the ``.partial`` file with every line kept up to then.
+
+    Parameters
+    ----------
+    stream : Source or binary stream
+        A :class:`~imucalib.record.sources.Source` (:func:`open_source`), or any binary stream with ``read1``
+        or ``readline``.
+    output : str, Path or SessionWriter
+        The session file to write (a :class:`SessionWriter` to resume an unfinished one).
+    recorder : Recorder
+        What follows the stream: poses found, prompts, the calibration at the end.
+    poll : float
+        How often [s] the end of the stream and Ctrl-C/SIGTERM are looked at, data flowing or not.
+    force : bool
+        Replace an existing session at ``output`` at the end.
+    silence : float
+        After this many seconds [s] without a line, a ``silence`` event (then every as many).
+
+    Returns
+    -------
+    RecordResult
+        The file written, the lines read and left out, the poses held, whether the session is complete,
+        whether it was interrupted, and how the source ended.
 
     Raises
     ------
+    FileExistsError
+        A session at ``output`` (without ``force``), or an unfinished ``output.partial`` of an earlier run.
     ValueError
         The stream is not a table that can be followed (its lines so far are in the ``.partial`` file).
     RecordError

@@ -125,7 +125,38 @@ def as_source(stream) -> Source:
 
 @contextlib.contextmanager
 def open_source(spec: str, *, stdin=None) -> Iterator[Source]:
-    """A :class:`Source` for ``spec``: ``-``, ``serial:PORT?baud=N``, ``tcp://HOST:PORT``, ``phyphox://HOST:PORT``."""
+    """A :class:`Source` for ``spec``: ``-``, ``serial:PORT?baud=N``, ``tcp://HOST:PORT``, ``phyphox://HOST:PORT``.
+
+    A context manager: the port or connection is closed on leaving it.
+
+    Parameters
+    ----------
+    spec : str
+        ``-`` (standard input), ``serial:PORT?baud=N`` (a serial port; baud 115200 when not given; needs
+        the ``serial`` extra), ``tcp://HOST:PORT`` (lines from a TCP server) or ``phyphox://HOST:PORT``
+        (phyphox's remote access on a phone).
+    stdin : binary stream, optional
+        What ``-`` reads instead of the process's standard input.
+
+    Yields
+    ------
+    Source
+        The lines of the device, connection or stream.
+
+    Raises
+    ------
+    ValueError
+        A spec that is none of these, a serial port without pyserial, an unknown setting, a baud rate out of
+        range, or a port or host that cannot be opened; the message gives a spec that works.
+
+    Examples
+    --------
+    >>> import io
+    >>> from imucalib.record import open_source
+    >>> with open_source("-", stdin=io.BytesIO(b"t,ax,ay,az" + bytes([10]))) as source:
+    ...     type(source).__name__
+    'ReadlineSource'
+    """
     if spec == "-":
         import sys
 

@@ -123,6 +123,29 @@ def detect_static_gyro(
     shorter than ``min_interval`` seconds are dropped. Like the paper's, this
     detector would take a perfectly steady turn for rest; the accelerometer
     detector (:func:`detect_static`) would not.
+
+    Parameters
+    ----------
+    recording : Recording
+        The recording, with a gyroscope (raw units).
+    rest : Interval
+        Its initial rest: the gyroscope bias ``b`` is its mean and ``ζ_init`` its variance.
+    window : float
+        ``t_w``, the variance window [s].
+    multiplier : float
+        ``n``, the threshold as a multiple of ``ζ_init``.
+    min_interval : float
+        The shortest static run kept [s].
+
+    Returns
+    -------
+    list of Interval
+        The static runs, in time order.
+
+    Raises
+    ------
+    ValueError
+        The initial rest has zero gyroscope noise (no threshold can be set from it).
     """
     rate = recording.rate
     norm, zeta = gyro_norm_variance(recording, rest, window)  # eq. (22)
@@ -171,12 +194,41 @@ def detect_intervals(
     that gives the most for which an accelerometer model is determined
     (:func:`imucalib.fit.accelerometer.fit_determined`).
 
-    ``min_hold`` [s] is the shortest hold that is a pose: the detector's
-    window and shortest run follow from it (:func:`imucalib.presets.hold_settings`)
-    unless ``window`` or ``min_interval`` [s] are given.
+    Parameters
+    ----------
+    recording : Recording
+        An initial rest, then static poses with rotations between them (raw units), or poses in blocks.
+    gravity : float
+        Local gravity [m/s²], the norm the accelerometer model is fitted to.
+    init_static : float, optional
+        Length of the initial rest [s]; found from the data when omitted.
+    min_hold : float
+        The shortest hold that is a pose [s]: the detector's window and shortest run follow from it
+        (:func:`imucalib.presets.hold_settings`).
+    multipliers : iterable of float
+        The thresholds scanned, as multiples of the initial rest's variance (Tedaldi 2014: 2 to 10).
+    window, min_interval : float, optional
+        The detector's window and the shortest static run [s], instead of those ``min_hold`` gives.
+    gyro_gate : bool
+        Take the samples where the gyroscope turns out of the poses.
 
-    Returns the intervals, the chosen multiplier, the initial rest and the
-    accelerometer model calibrated on those intervals.
+    Returns
+    -------
+    intervals : list of Interval
+        The static intervals, the initial rest first.
+    multiplier : float
+        The threshold multiplier chosen (NaN for a recording in blocks).
+    rest : Interval
+        The initial rest.
+    model : TriadModel
+        The accelerometer model calibrated on ``intervals``.
+
+    Raises
+    ------
+    ValueError
+        No threshold gives poses from which an accelerometer model is determined, an initial rest in which
+        the sensor moves, or blocks none of which is still for ``min_hold`` seconds; the message says what
+        to record or which option to give.
     """
     window, min_interval = _hold_window(min_hold, window, min_interval)
     blocks = still_blocks(recording, min_hold=min_hold) if init_static is None else None

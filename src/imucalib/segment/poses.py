@@ -23,7 +23,39 @@ FACE_NAMES = ("+x", "+y", "+z", "-x", "-y", "-z")
 
 
 def find_faces(raw_means: np.ndarray, gravity: float, *, max_tilt: float = 15.0) -> np.ndarray:
-    """Indices of the poses nearest to +x, +y, +z, −x, −y, −z (raises if one is missing)."""
+    """Indices of the poses nearest to +x, +y, +z, −x, −y, −z.
+
+    Each pose's direction is taken from the centre of the raw means (the sphere fitted through them, or
+    their mean for fewer than four) and matched to the six axis directions.
+
+    Parameters
+    ----------
+    raw_means : ndarray of shape (M, 3)
+        The static poses' mean accelerometer readings (raw units), M ≥ 6.
+    gravity : float
+        Local gravity, in the units the sphere's radius is fitted in (:func:`imucalib.fit.accelerometer.fit_sphere`).
+    max_tilt : float
+        The largest angle [°] between a pose and the face it stands for.
+
+    Returns
+    -------
+    ndarray of int, shape (6,)
+        The rows of ``raw_means`` for +x, +y, +z, −x, −y, −z.
+
+    Raises
+    ------
+    ValueError
+        Fewer than six poses, or a face with no pose within ``max_tilt`` of it (named, with how far the
+        nearest is).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from imucalib.segment import find_faces
+    >>> means = 9.81 * np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1.0]])
+    >>> find_faces(means, 9.81)
+    array([1, 3, 5, 0, 2, 4])
+    """
     if raw_means.shape[0] < 6:
         raise ValueError(f"this method needs the six faces as static poses; got {raw_means.shape[0]} poses")
     centre = fit_sphere(raw_means, gravity).bias if raw_means.shape[0] >= 4 else raw_means.mean(axis=0)
