@@ -16,6 +16,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 SHELLS = ("sh", "bash", "shell")
@@ -68,15 +70,34 @@ def _environment(tmp: Path) -> dict:
     return env
 
 
-def test_readme_blocks_run_as_written_in_a_fresh_folder(tmp_path):
-    folder = tmp_path / "reader"
-    folder.mkdir()
-    env = _environment(tmp_path)
-    for lang, line, code in RUN:
+#: the line of the README's "Every input, every command" section: the blocks before it are the first session
+EVERY_INPUT = next(k + 1 for k, text in enumerate(README.read_text(encoding="utf-8").splitlines())
+                   if text.startswith("### Every input"))
+
+
+def _run_blocks(blocks, folder: Path, env: dict) -> None:
+    for lang, line, code in blocks:
         command = [sys.executable, "-c", code] if lang == "python" else ["bash", "-e", "-o", "pipefail", "-c", code]
         proc = subprocess.run(command, cwd=folder, env=env, capture_output=True, text=True, timeout=600)
         assert proc.returncode == 0, (f"README.md:{line} ({lang}) exit {proc.returncode}\n{code}\n--- stdout\n"
                                       f"{proc.stdout[-3000:]}\n--- stderr\n{proc.stderr[-3000:]}")
+
+
+def test_readme_first_session_runs_as_written_in_a_fresh_folder(tmp_path):
+    """The first session's blocks, as a newcomer runs them first (the whole README: the slow test below)."""
+    folder = tmp_path / "reader"
+    folder.mkdir()
+    first = [b for b in RUN if b[1] < EVERY_INPUT]
+    assert first and "imucalib simulate" in first[0][2]
+    _run_blocks(first, folder, _environment(tmp_path))
+    assert {"session", "calib.json", "calibration.html", "calibrated.csv"} <= {p.name for p in folder.iterdir()}
+
+
+@pytest.mark.slow
+def test_readme_blocks_run_as_written_in_a_fresh_folder(tmp_path):
+    folder = tmp_path / "reader"
+    folder.mkdir()
+    _run_blocks(RUN, folder, _environment(tmp_path))
     made = {p.name for p in folder.iterdir()}
     assert {"session", "calib.json", "calibration.html", "calibrated.csv", "calib_py.json"} <= made, made
     # the section on every input and command continues the session: its exports, checks and simulations
