@@ -77,6 +77,7 @@ def test_monte_carlo_recovers_the_truth_within_3_sigma_and_the_spreads_of_the_tr
     # 260 z-scores: a standard normal puts 0.7 of them beyond 3 on average, 4 or more with probability 0.6 %,
     # any beyond 4 with 1.6 %
     assert np.count_nonzero(np.abs(z) > 3.0) <= 3 and np.abs(z).max() <= 4.0, np.round(np.abs(z).max(axis=0), 2)
+    assert 0.8 <= np.sqrt(np.mean(z**2)) <= 1.25, np.sqrt(np.mean(z**2))  # the error bars hold up as a whole (1.18)
     rms = np.sqrt(np.mean(z**2, axis=0))
     assert np.all(rms < 1.6) and np.mean(rms) > 0.6, np.round(rms, 2)  # the 1σ are neither too small nor huge
     assert np.max(ratios) <= 1.2, np.round(np.max(ratios, axis=0), 3)
