@@ -1,6 +1,15 @@
-"""Sensor error models: the canonical model family of imucalib.
+r"""Sensor error models: the canonical model family of imucalib.
 
-For one sensor triad with raw readings ``u`` (any unit, e.g. counts)::
+For one sensor triad with raw readings ``u`` (any unit, e.g. counts) — Zhang
+2021, eqs. (1), (2), (5) and (7), with the bias subtracted:
+
+.. math::
+
+    \mathbf a = \mathbf T_a\, \mathbf f_a(\mathbf u_a - \mathbf b_a), \qquad
+    \boldsymbol\omega = \mathbf T_g\, \mathbf f_g(\mathbf u_g - \mathbf b_g - \mathbf G\, \mathbf a), \qquad
+    f(\mathbf x)_i = k_{1,i} x_i + k_{2,i} x_i^2 + k_{3,i} x_i^3
+
+or, as plain text::
 
     accelerometer:  a = T_a · f_a(u_a − b_a)
     gyroscope:      ω = T_g · f_g(u_g − b_g − G · a)
@@ -25,9 +34,11 @@ components ``x``/``y``/``z`` for vectors and row-then-column (``xz``) for
 matrices; the lever arm is ``lever_arm.x`` etc.
 
 The magnetometer has its own model (:class:`MagnetometerModel`), expressed in
-the accelerometer's frame::
+the accelerometer's frame:
 
-    m = F · O · S · (u_m − b_m)
+.. math::
+
+    \mathbf m = F\, \mathbf O\, \mathbf S\, (\mathbf u_m - \mathbf b_m)
 
 with ``b_m`` the hard-iron bias (raw units), ``S`` the symmetric positive
 definite soft-iron matrix that maps the raw readings onto the unit sphere,

@@ -106,11 +106,18 @@ def gravity_norm_residuals(
     squared: bool = False,
     jacobian: bool = False,
 ):
-    """Gravity-norm residuals of static poses.
+    r"""Gravity-norm residuals of static poses.
 
     ``r_k = ‖h(u_k, θ)‖ − g`` (Tedaldi 2014), or with ``squared=True``
     ``r_k = ‖h(u_k, θ)‖² − g²`` (Zhang 2021, eq. 10), where
-    ``h(u, θ) = T · f(u − b)`` (Zhang 2021, eq. 9, with our bias sign).
+    ``h(u, θ) = T · f(u − b)`` (Zhang 2021, eq. 9, with our bias sign):
+
+    .. math::
+
+        \mathbf h(\mathbf u_k, \boldsymbol\theta) = \mathbf T\, \mathbf f(\mathbf u_k - \mathbf b), \qquad
+        r_k = \lVert \mathbf h(\mathbf u_k, \boldsymbol\theta) \rVert - g
+        \quad\text{or}\quad
+        r_k = \lVert \mathbf h(\mathbf u_k, \boldsymbol\theta) \rVert^2 - g^2
 
     Parameters
     ----------
@@ -145,12 +152,12 @@ def _gravity_norm_terms(theta, layout: AccelLayout, raw_means, gravity: float, s
     powers = [x]
     for _ in range(1, layout.order):
         powers.append(powers[-1] * x)
-    f = 0 + k[0] * x  # f = Σₙ kₙ xⁿ summed from 0 (which turns a −0.0 into +0.0)
+    f = 0 + k[0] * x  # eq. (2): f = Σₙ kₙ xⁿ, summed from 0 (which turns a −0.0 into +0.0)
     for kk, p in zip(k[1:], powers[1:], strict=True):
         f = f + kk * p
-    a = f @ t.T
+    a = f @ t.T  # eq. (9): h = T f(u − b)
     norm = np.sqrt(np.add.reduce(a * a, axis=1))  # np.linalg.norm(a, axis=1), as numpy forms it
-    r = norm**2 - gravity**2 if squared else norm - gravity
+    r = norm**2 - gravity**2 if squared else norm - gravity  # eq. (10) squared, else Tedaldi's ‖h‖ − g
     return r, a, f, t, k, powers, norm
 
 

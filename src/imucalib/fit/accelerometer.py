@@ -153,7 +153,12 @@ class GravityNormFit:
 
 def gravity_norm_fit(raw_means: np.ndarray, gravity: float, *, order: int = 1, initial: TriadModel | None = None,
                      max_iter: int = 200) -> GravityNormFit:
-    """Fit ``a = T_a f(u − b)`` to ``‖a_k‖ = g`` on static means (Tedaldi 2014; Zhang 2021, eq. 10).
+    r"""Fit ``a = T_a f(u − b)`` to ``‖a_k‖ = g`` on static means (Tedaldi 2014; Zhang 2021, eq. 10).
+
+    .. math::
+
+        \hat{\boldsymbol\theta} = \arg\min_{\boldsymbol\theta} \sum_{k=1}^{M}
+        \bigl(\lVert \mathbf T_a\, \mathbf f(\mathbf u_k - \mathbf b) \rVert - g\bigr)^2
 
     Levenberg–Marquardt with the analytic Jacobian from ``initial`` (default:
     the algebraic ellipsoid fit, or the sphere fit where the poses do not
@@ -442,7 +447,12 @@ def mean_variance(x: np.ndarray) -> np.ndarray:
 
 def six_position(up: np.ndarray, down: np.ndarray, gravity: float, *, cos_up: np.ndarray | float = 1.0,
                  cos_down: np.ndarray | float = 1.0) -> TriadModel:
-    """Bias and scale from each axis's raw reading up and down (Ru 2022, eqs. 8–9).
+    r"""Bias and scale from each axis's raw reading up and down (Ru 2022, eqs. 8–9).
+
+    .. math::
+
+        b = \frac{u_\mathrm{up} + u_\mathrm{down}}{2} \quad (8), \qquad
+        s = \frac{u_\mathrm{up} - u_\mathrm{down}}{2 g} \quad (9)
 
     ``b = (u_up + u_down)/2`` (eq. 8), ``s = (u_up − u_down)/(2g)`` raw per m/s²
     (eq. 9), so ``k1 = 1/s``; ``T_a = I``. A face held ``δ`` off its axis reads

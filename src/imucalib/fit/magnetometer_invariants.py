@@ -1,4 +1,4 @@
-"""The magnetometer where the field is not the same at every pose: its two invariants, with the accelerometer.
+r"""The magnetometer where the field is not the same at every pose: its two invariants, with the accelerometer.
 
 :func:`~imucalib.fit.magnetometer.fit_magnetometer` holds the field to three
 sets of equations (M2)–(M4): its norm, its dip and its rotation with the
@@ -34,32 +34,50 @@ with ``h = (cos δ, 0, −sin δ)`` in a level frame whose x axis is magnetic
 north, and ``R_i`` is known but for the heading ``ψ_i``. With an isotropic
 error ``m_i = h_i + e_i``, ``e_i ~ N(0, σ² I)``, the heading that fits ``m_i``
 best points ``h_i``'s horizontal part along ``m_i``'s, and what remains are two
-residuals, each with variance ``σ²``::
+residuals, each with variance ``σ²`` — the vertical component (I1) and the
+horizontal magnitude (I2):
 
-    r_z,i = d_iᵀ m_i + sin δ                      (vertical component)     (I1)
-    r_h,i = ‖m_i − (d_iᵀ m_i) d_i‖ − cos δ        (horizontal magnitude)   (I2)
+.. math::
+
+    r_{z,i} = \mathbf d_i^\top \mathbf m_i + \sin\delta \qquad \text{(I1)}
+
+    r_{h,i} = \lVert \mathbf m_i - (\mathbf d_i^\top \mathbf m_i)\, \mathbf d_i \rVert - \cos\delta
+    \qquad \text{(I2)}
 
 (the third, along the horizontal perpendicular to ``m_i``, is taken up by
 ``ψ_i``). The accelerometer's parameters ``a`` enter through ``d_i``; they
 are fitted jointly, with the accelerometer's own estimate ``â`` and its 1σ
 ``σ_a`` (``fit["uncertainty"]``) as their prior — the accelerometer's
 equations, linearised, summarised by their solution and spread (their
-correlations are not kept in the calibration and are left out)::
+correlations are not kept in the calibration and are left out):
 
-    r_a,j = (a_j − â_j) / σ_a,j                                            (I3)
+.. math::
+
+    r_{a,j} = (a_j - \hat a_j) / \sigma_{a,j} \qquad \text{(I3)}
 
 Minimising ``Σ (r_z² + r_h²) / σ² + Σ r_a²`` over ``b``, ``S``, ``O``, ``δ``
 (and the hard iron's drift, (M5)) and ``a``; ``σ`` is the residuals' own
 spread, re-estimated twice with the degrees of freedom the magnetometer's
-parameters take::
+parameters take:
 
-    σ² = Σ (r_z² + r_h²) / (2 M − p)                                       (I4)
+.. math::
+
+    \sigma^2 = \sum_i \bigl(r_{z,i}^2 + r_{h,i}^2\bigr) / (2 M - p) \qquad \text{(I4)}
 
 The covariance of all parameters is ``(JᵀJ)⁻¹`` at the solution (``J`` the
 Jacobian of the weighted residuals): it holds the accelerometer's uncertainty
 as it reaches the magnetometer through ``d_i``. The calibration keeps the
 accelerometer the method fitted: the joint fit moves it by a small fraction of
 its 1σ (reported), well inside its own errors.
+
+The two invariants get one weight, as the isotropic error has it. Where the
+field differs from pose to pose the fit leaves both scattering by about the
+same amount (the norm's relative spread and the dip's spread in radians): a
+larger weight on either trades the other's scatter for its own rather than
+lowering both (on the MPU-9250 session of 40 poses, 1.15 × on the norm takes
+its spread from 1.52 % to 1.47 % and the dip's from 0.935° to 0.965°; left
+out in turn, each pose is predicted to 1.8 % and 1.16°, the size of the
+field's own differences).
 
 Which case a session is in is read from the poses' field norms under the first
 fit: the norm of each pose's mean against the noise of that mean (its samples'
@@ -163,7 +181,9 @@ def fit_invariants(mag_means: np.ndarray, acc_means: np.ndarray, accelerometer, 
         field = (mag_means - b - np.outer(min_pose, drift)) @ s @ o.T
         z = np.einsum("ij,ij->i", up, field)
         h = np.sqrt(np.maximum(np.einsum("ij,ij->i", field, field) - z**2, 0.0))
-        return np.concatenate([(z + np.sin(dip)) / sigma, (h - np.cos(dip)) / sigma, (a - a_hat) / a_sd])
+        return np.concatenate([(z + np.sin(dip)) / sigma,  # (I1)
+                               (h - np.cos(dip)) / sigma,  # (I2)
+                               (a - a_hat) / a_sd])  # (I3)
 
     def solve(theta: np.ndarray, step: np.ndarray, n_mag: int) -> tuple[np.ndarray, float]:
         sigma = 1e-2
@@ -172,7 +192,7 @@ def fit_invariants(mag_means: np.ndarray, acc_means: np.ndarray, accelerometer, 
                                 xtol=1e-14, ftol=1e-14, max_nfev=4000)
             theta = sol.x
             r = sol.fun[:2 * m] * sigma
-            sigma = max(float(np.sqrt(np.sum(r**2) / max(2 * m - n_mag, 1))), 1e-12)
+            sigma = max(float(np.sqrt(np.sum(r**2) / max(2 * m - n_mag, 1))), 1e-12)  # (I4)
         return theta, sigma
 
     def covariance(theta: np.ndarray, step: np.ndarray, n_mag: int, sigma: float) -> np.ndarray:
