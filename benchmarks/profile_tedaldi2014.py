@@ -31,10 +31,10 @@ STAGES = [
     ("fit/gyroscope.py", "joint_errors"),
     ("metrics.py", "fit_summary"),
     ("verdict/__init__.py", "assess"),
-    ("kinematics.py", "step_factors"),
-    ("kinematics.py", "from_samples"),
-    ("kinematics.py", "sensitivity"),
-    ("kinematics.py", "weighted_sum"),
+    ("kinematics/integrator.py", "step_factors"),
+    ("kinematics/integrator.py", "from_samples"),
+    ("kinematics/integrator.py", "sensitivity"),
+    ("kinematics/integrator.py", "weighted_sum"),
     ("solve.py", "levenberg_marquardt"),
 ]
 
