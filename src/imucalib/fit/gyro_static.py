@@ -19,7 +19,7 @@ class StaticGyro:
     ``variances`` (M, 3) are each pose mean's variance as the fit weights it:
     the white noise of its samples over their number plus the scatter
     between poses the noise does not explain (tremor, a random walk of the
-    bias), ``scatter`` per axis.
+    bias).
     """
 
     bias: np.ndarray
@@ -33,7 +33,6 @@ class StaticGyro:
     means: np.ndarray | None = None  # (M, 3) each pose's mean reading [raw]
     accel: np.ndarray | None = None  # (M, 3) each pose's calibrated specific force [m/s²]
     variances: np.ndarray | None = None  # (M, 3) each pose mean's variance [raw²], scatter included
-    scatter: np.ndarray | None = None  # (3,) the scatter between poses beyond the white noise [raw]
     drift_se: np.ndarray | None = None  # (3,) 1σ of ``drift``
     g_cov: np.ndarray | None = None  # (3, 3, 3) per gyroscope axis, the covariance of its row of ``g_sensitivity``
 
@@ -224,5 +223,4 @@ def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: 
         g_cov = np.array([c[first_g:, first_g:] for c in covs])
         se = np.sqrt(np.array([np.diag(c) for c in g_cov]))
         errors = {f"gyroscope.g_sensitivity.{AXES[i]}{AXES[j]}": float(se[i, j]) for i in range(3) for j in range(3)}
-    return StaticGyro(bias, bias_cov, g, errors, spread, d, t_ref, times, u, a, v + tau2[None, :],
-                      np.sqrt(tau2), d_se, g_cov)
+    return StaticGyro(bias, bias_cov, g, errors, spread, d, t_ref, times, u, a, v + tau2[None, :], d_se, g_cov)

@@ -434,15 +434,6 @@ class StillDetector:
         self.stream.close()
         return self._update(open_end=True)
 
-    def current(self) -> Interval | None:
-        """The static run the final statistic is in at its last sample (None when moving)."""
-        stat = self.stream.statistic
-        if stat.size == 0 or stat[-1] >= self.threshold:
-            return None
-        below = np.nonzero(stat >= self.threshold)[0]
-        start = int(below[-1]) + 1 if below.size else 0
-        return Interval(start, stat.size, "static")
-
     def _update(self, open_end: bool) -> list[Interval]:
         stat = self.stream.statistic
         start = self.intervals[-1].stop if self.intervals else 0
