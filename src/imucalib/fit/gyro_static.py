@@ -41,28 +41,14 @@ def _regression_solve(x: np.ndarray, u: np.ndarray, v: np.ndarray, tau2: float):
     """One axis's weighted least squares of ``u ≈ x c`` with weights ``1/(v + τ²)``: ``c``, its covariance, χ², the
     residuals.
 
-    The covariance is the pseudo-inverse of ``xᵀ W x`` (``np.linalg.pinv``'s operations, relative cut-off
-    1e-15, without its per-call overhead: the same numbers).
+    The covariance is the pseudo-inverse of ``xᵀ W x`` (``np.linalg.pinv``, relative cut-off 1e-15).
     """
     w = 1.0 / (v + tau2)
     xw = x * w[:, None]
-    cov = _pinv(x.T @ xw)
+    cov = np.linalg.pinv(x.T @ xw)
     c = cov @ (xw.T @ u)
     r = u - x @ c
     return c, cov, float(np.add.reduce(w * r * r)), r
-
-
-def _pinv(a: np.ndarray) -> np.ndarray:
-    """``np.linalg.pinv(a)`` of a real (…, p, p) array by its own operations: the same numbers, bit for bit.
-
-    From the thin SVD ``a = U S Vᵀ``, ``a⁺ = V S⁺ Uᵀ`` with ``1/s`` for the singular values above 1e-15 times
-    the largest, 0 for the others.
-    """
-    u, s, vt = np.linalg.svd(a, full_matrices=False)
-    large = s > 1e-15 * s.max(axis=-1, keepdims=True)
-    s = np.divide(1, s, where=large, out=s)
-    s[~large] = 0
-    return np.matmul(np.swapaxes(vt, -1, -2), np.multiply(s[..., None], np.swapaxes(u, -1, -2)))
 
 
 def _weighted_regressions(problems: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> list[tuple]:
@@ -98,7 +84,7 @@ def _weighted_regressions(problems: list[tuple[np.ndarray, np.ndarray, np.ndarra
             mid = 0.5 * (lo + hi)
             w = 1.0 / (v + mid[:, None])
             xw = x * w[:, :, None]
-            c = _pinv(xt @ xw) @ (np.swapaxes(xw, 1, 2) @ uc)
+            c = np.linalg.pinv(xt @ xw) @ (np.swapaxes(xw, 1, 2) @ uc)
             r = u - (x @ c)[:, :, 0]
             above = np.add.reduce(w * r * r, axis=1) > dof
             lo = np.where(active & above, mid, lo)

@@ -39,7 +39,6 @@ from .still import STILL_OFFSET, join_blips, still_inside, still_outside, still_
 from .windows import (
     TRANSPOSE_BYTES,
     VarianceNormStream,
-    column_means,
     moving_variance,
     odd_window,
     pose_means,
@@ -275,7 +274,7 @@ def _gyro_gated(recording: Recording, gravity: float, rest: Interval, detector, 
     from ..fit.gyroscope import axes_disagreement, rough_scale
 
     intervals, mult, model = ungated
-    bias = column_means(recording.gyro[rest.slice])  # recording.gyro[rest.slice].mean(axis=0), bit for bit
+    bias = recording.gyro[rest.slice].mean(axis=0)
     try:
         scale = rough_scale(recording, intervals, model, bias)
     except ValueError:
