@@ -122,15 +122,10 @@ def _pose_statistics(recording: Recording, intervals: list[Interval], accelerome
     ``t_ref``, and the variance ``σ_k²/n_k`` of each pose's mean rate (M, 3), for :func:`static_gyro`."""
     u = interval_means(recording.gyro, intervals)
     a = accelerometer.forward(interval_means(recording.acc, intervals))
-    add = np.add.reduce  # the sums of np.mean and np.var, without their per-call overhead: the same numbers
-    times = np.array([float(add(recording.t[iv.slice]) / len(iv)) for iv in intervals])
+    times = np.array([float(np.mean(recording.t[iv.slice])) for iv in intervals])
     t_ref = float(np.mean(times))
-    v = np.empty((len(u), 3))
-    for k, iv in enumerate(intervals):  # np.var(gyro, axis=0) of each pose, over its samples' count less one
-        seg = recording.gyro[iv.slice]
-        d = seg - add(seg, axis=0, keepdims=True) / len(iv)
-        np.multiply(d, d, out=d)
-        v[k] = add(d, axis=0) / len(iv) / max(len(iv) - 1, 1)
+    # each pose's variance over its samples' count less one
+    v = np.array([np.var(recording.gyro[iv.slice], axis=0) / max(len(iv) - 1, 1) for iv in intervals])
     v = np.maximum(v, 1e-300)  # a quantised constant reading: no noise at all
     return u, a, times, t_ref, v
 
