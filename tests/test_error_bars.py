@@ -116,6 +116,7 @@ def test_g_sensitivity_jacobian_matches_finite_differences():
     """The joint fit's ∂r/∂G, which carries the g-sensitivity's error into the bias's, against central differences."""
     from dataclasses import replace
 
+    from imucalib.fit import gyro_joint
     from imucalib.fit import gyroscope as gy
     from imucalib.recording import Interval
 
@@ -129,7 +130,7 @@ def test_g_sensitivity_jacobian_matches_finite_differences():
     static = gy.static_gyro(rec, ivs, cal.accelerometer, g_sensitivity=True, drift=drift is not None)
     weights, sigma = np.ones(len(ivs) - 1), fit["gyroscope_rotation_sigma_rad"]
     theta = np.concatenate([gy.GyroLayout(True).pack(cal.gyroscope), np.asarray(drift or [])])
-    analytic = gy._g_sensitivity_jacobian(rec, ivs, cal.accelerometer, static, weights, sigma, theta)
+    analytic = gyro_joint._g_sensitivity_jacobian(rec, ivs, cal.accelerometer, static, weights, sigma, theta)
     g0 = static.g_sensitivity
     h = 1e-3 * np.abs(g0).max()
     numeric = np.empty_like(analytic)

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from imucalib.fit import gyro_joint
 from imucalib.fit import gyroscope as G
 from imucalib.io import read
 from imucalib.methods import calibrate
@@ -52,6 +53,6 @@ def test_g_sensitivity_jacobian_memory_follows_the_parameters_jacobian() -> None
     samples = int(np.sum(stops - starts + 1))
     assert samples > 100_000
     base = _peak(lambda: jac(theta))
-    peak = _peak(lambda: G._g_sensitivity_jacobian(dense, intervals, cal.accelerometer, static, weights, 1e-3,
+    peak = _peak(lambda: gyro_joint._g_sensitivity_jacobian(dense, intervals, cal.accelerometer, static, weights, 1e-3,
                                                    theta))
     assert peak < base + 150 * samples, f"{peak / 1e6:.1f} MB against {base / 1e6:.1f} MB for {samples} samples"

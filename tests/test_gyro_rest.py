@@ -213,7 +213,7 @@ def test_single_rotation_costs_match_rotation_matrices():
     """The scale search's closed form (Rodrigues) against scipy's rotation matrices, term by term."""
     from scipy.spatial.transform import Rotation
 
-    from imucalib.fit.gyroscope import _single_rotation_costs
+    from imucalib.fit.gyro_direction import _single_rotation_costs
 
     rng = np.random.default_rng(7)
     phi = rng.normal(size=(25, 3)) * 1.7
@@ -228,30 +228,15 @@ def test_single_rotation_costs_match_rotation_matrices():
     np.testing.assert_allclose(_single_rotation_costs(phi, dirs, ks), expected, rtol=1e-12)
 
 
-def test_pinv_is_numpys_bit_for_bit():
-    from imucalib.fit.gyroscope import _pinv
-
-    rng = np.random.default_rng(7)
-    x = rng.normal(size=(12, 38, 5)) * 10 ** rng.uniform(-6, 6, size=(12, 1, 5))
-    x[:4, :, 2:] = 0.0  # padded with zero columns: singular values cut to 0
-    x[5, :, 4] = x[5, :, 3] * 3.0  # collinear columns
-    a = np.swapaxes(x, 1, 2) @ (x / rng.uniform(0.5, 2.0, size=(12, 38, 1)))
-    for stack in (a, a[3], a[5], a[7]):
-        want = np.linalg.pinv(stack)
-        assert np.array_equal(_pinv(stack), want)  # bit for bit
-    s = np.linalg.svd(a[0], compute_uv=False)
-    assert s.min() <= 1e-15 * s.max()  # the cut-off is exercised
-
-
 def test_static_gyro_pose_variances_are_numpys(monkeypatch):
-    from imucalib.fit import gyroscope
+    from imucalib.fit import gyro_static
 
     rec = _handheld(3).recording
     cal = _calibrate(rec)
     intervals = _intervals(cal)
     seen = []
-    solve = gyroscope._weighted_regressions
-    monkeypatch.setattr(gyroscope, "_weighted_regressions", lambda problems: seen.extend(problems) or solve(problems))
+    solve = gyro_static._weighted_regressions
+    monkeypatch.setattr(gyro_static, "_weighted_regressions", lambda problems: seen.extend(problems) or solve(problems))
     static = static_gyro(rec, intervals, cal.accelerometer)
     want = np.array([np.var(rec.gyro[iv.slice], axis=0) / max(len(iv) - 1, 1) for iv in intervals])
     assert len(seen) % 3 == 0 and seen

@@ -1,7 +1,7 @@
 """Calibrations whose short rotations are integrated a part at a time are those of one part, bit for bit.
 
 A recording of hours of short turns has its short intervals integrated in
-several parts (:data:`imucalib.kinematics.PART_STEPS` padded steps each), so
+several parts (:data:`imucalib.kinematics.integrator.PART_STEPS` padded steps each), so
 that the temporaries do not follow how many turns it holds; a smaller part
 size here puts the Xsens session's and a simulated Zhang 2021 session's
 rotations in many parts, through every fit that integrates them.
@@ -47,7 +47,7 @@ def _parts_used(monkeypatch) -> list[int]:
 def test_xsens_tedaldi2014_in_parts_is_the_same(monkeypatch) -> None:
     rec = read([str(XSENS / "xsens_acc.mat"), str(XSENS / "xsens_gyro.mat")], reader="imutk")
     one = _numbers(calibrate(rec, method="tedaldi2014", gravity=9.81744))
-    monkeypatch.setattr(kin, "PART_STEPS", 1024)
+    monkeypatch.setattr(kin.integrator, "PART_STEPS", 1024)
     counts = _parts_used(monkeypatch)
     parts = _numbers(calibrate(rec, method="tedaldi2014", gravity=9.81744))
     assert max(counts) > 10
@@ -59,7 +59,7 @@ def test_zhang2021_in_parts_is_the_same(monkeypatch) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         one = _numbers(calibrate(sim, method="zhang2021", model="all", gravity=sim.truth.gravity))
-        monkeypatch.setattr(kin, "PART_STEPS", 512)
+        monkeypatch.setattr(kin.integrator, "PART_STEPS", 512)
         counts = _parts_used(monkeypatch)
         parts = _numbers(calibrate(sim, method="zhang2021", model="all", gravity=sim.truth.gravity))
     assert max(counts) > 3

@@ -34,7 +34,7 @@ def test_weighted_rotations_are_the_matrices_times_the_weights() -> None:
     rng = np.random.default_rng(12)
     q = rng.normal(size=(4, 3, 9))
     w = rng.uniform(0.1, 2.0, size=(3, 9))
-    got = kin._weighted_rotations_soa(q, w)
+    got = kin.products.weighted_rotations_soa(q, w)
     ref = kin.quat_to_matrix(np.moveaxis(q, 0, -1)) * w[..., None, None]
     assert got.shape == ref.shape == (3, 9, 3, 3)
     assert np.array_equal(got, ref)
@@ -47,19 +47,19 @@ def test_bit_reversed_products_are_the_interleaved_ones() -> None:
     rng = np.random.default_rng(13)
     widths, rows = [16, 16, 4, 1], [3, 2, 5, 2]
     natural = [rng.normal(size=(4, m, w)) for m, w in zip(rows, widths, strict=True)]
-    stored = [np.ascontiguousarray(f[:, :, kin._bit_reversal(w)].transpose(0, 2, 1))
+    stored = [np.ascontiguousarray(f[:, :, kin.products.bit_reversal(w)].transpose(0, 2, 1))
               for f, w in zip(natural, widths, strict=True)]
-    trees = kin._tree_products_halves(stored)
-    assert np.array_equal(trees, np.concatenate([kin._tree_product_soa(f) for f in natural], axis=1))
-    prefixes = kin._prefix_products_halves(stored)
+    trees = kin.products.tree_products_halves(stored)
+    assert np.array_equal(trees, np.concatenate([kin.products.tree_product_soa(f) for f in natural], axis=1))
+    prefixes = kin.products.prefix_products_halves(stored)
     for f, w, got in zip(natural, widths, prefixes, strict=True):
-        back = got[:, kin._bit_reversal(w)].transpose(0, 2, 1)  # the involution undoes the storage order
-        assert np.array_equal(back, kin._prefix_product_soa(f))
+        back = got[:, kin.products.bit_reversal(w)].transpose(0, 2, 1)  # the involution undoes the storage order
+        assert np.array_equal(back, kin.products.prefix_product_soa(f))
         sequential = f[:, :, 0]
         for i in range(1, w):  # left to right, one factor at a time: equal to rounding
-            sequential = kin._qmul_soa(sequential, f[:, :, i])
+            sequential = kin.products._qmul_soa(sequential, f[:, :, i])
             np.testing.assert_allclose(back[:, :, i], sequential, rtol=1e-12, atol=1e-12)
-    assert list(kin._bit_reversal(8)) == [0, 4, 2, 6, 1, 5, 3, 7]
+    assert list(kin.products.bit_reversal(8)) == [0, 4, 2, 6, 1, 5, 3, 7]
 
 
 def test_sensitivity_after_the_cost_of_the_same_factors_is_the_same() -> None:
@@ -117,7 +117,7 @@ def test_many_short_intervals_in_parts_are_the_same_as_in_one(monkeypatch) -> No
     stops = starts + lengths
     rates = rng.normal(size=(n, 3)) * 2.0
     one = kin.IntervalIntegrator(t, starts, stops)
-    monkeypatch.setattr(kin, "PART_STEPS", 2048)
+    monkeypatch.setattr(kin.integrator, "PART_STEPS", 2048)
     parts = kin.IntervalIntegrator(t, starts, stops)
     assert len(one._parts) == 1 and len(parts._parts) > 5  # the paths under test are the ones taken
     assert np.array_equal(one.samples, parts.samples)

@@ -160,8 +160,8 @@ def test_long_intervals_integrate_in_blocks_to_the_same_bits(monkeypatch):
     q_sens, weights = whole.sensitivity(ws)
     values = rng.normal(size=(len(whole.samples), 3, 4))
     summed = whole.weighted_sum(weights, values)
-    monkeypatch.setattr(kin, "BLOCK", 16)
-    monkeypatch.setattr(kin, "CHUNK", 64)  # a few blocks at a time
+    monkeypatch.setattr(kin.integrator, "BLOCK", 16)
+    monkeypatch.setattr(kin.integrator, "CHUNK", 64)  # a few blocks at a time
     blocked = kin.IntervalIntegrator(t, starts, stops)
     assert blocked._long.size == 7 and np.array_equal(blocked.samples, whole.samples)
     assert np.array_equal(blocked.from_samples(ws), q_whole)
@@ -178,7 +178,7 @@ def test_long_intervals_integrate_in_blocks_to_the_same_bits(monkeypatch):
         np.testing.assert_allclose(np.abs(np.sum(q_b[i] * kin.integrate(t[a : b + 1], w[a : b + 1])[-1])), 1.0,
                                    atol=1e-12)
     # a sum over more samples than SUM_BLOCK is formed block by block: the same to rounding
-    monkeypatch.setattr(kin, "SUM_BLOCK", 100)
+    monkeypatch.setattr(kin.integrator, "SUM_BLOCK", 100)
     np.testing.assert_allclose(blocked.weighted_sum(weights_b, values), summed, rtol=1e-12, atol=1e-12)
     with pytest.raises(ValueError, match="stops"):
         kin.IntervalIntegrator(t, np.array([5]), np.array([5]))
@@ -212,8 +212,8 @@ def test_rate_jacobian_by_blocks_gives_the_same_bits(monkeypatch):
     whole[:, :, 12:15] = -m[None] * tau[:, None, None]
     dirs = rng.normal(size=(5, 3))
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    for sum_block in (kin.SUM_BLOCK, 500):  # one product per interval, then blocks of a long one
-        monkeypatch.setattr(kin, "SUM_BLOCK", sum_block)
+    for sum_block in (kin.integrator.SUM_BLOCK, 500):  # one product per interval, then blocks of a long one
+        monkeypatch.setattr(kin.integrator, "SUM_BLOCK", sum_block)
         r0, j0 = gravity_direction_residuals_jac(v @ m.T, whole, integ, dirs)
         r1, j1 = gravity_direction_residuals_jac(v @ m.T, linear_rate_jacobian(m, v, drift_time=tau), integ, dirs)
         assert np.array_equal(r0, r1) and np.array_equal(j0, j1)

@@ -275,6 +275,65 @@ def _row(cells: dict[str, str], line: int, base: Path, methods: Sequence[str],
     return Row(line=line, device=device, files=files, **opts)
 
 
+def _manifest_table(path: Path) -> tuple[list[int], list[list[str]]]:
+    """The manifest's line numbers and cells, comments and blank lines left out (:func:`read_manifest`)."""
+    try:
+        check_input_path(path, "manifest")
+    except ReaderError as exc:
+        if "not found" not in str(exc):
+            raise ManifestError(str(exc)) from None
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise ManifestError(f"{path}: manifest not found") from None
+    except IsADirectoryError:
+        raise ManifestError(f"{path}: is a directory; the manifest is a CSV file") from None
+    except UnicodeDecodeError as exc:
+        raise ManifestError(f"{path}: not a text file (UTF-8): {exc.reason} at byte {exc.start}") from None
+    lines = [(i, line) for i, line in enumerate(text.splitlines(), start=1)
+             if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        raise ManifestError(f"{path}: the manifest is empty (a header line with device,files and one line per "
+                            "recording expected)")
+    numbers = [i for i, _ in lines]
+    return numbers, list(csv.reader([line for _, line in lines]))
+
+
+def _check_header(path: Path, header: list[str], number: int) -> None:
+    """The header's columns: the required ones present, none unknown or named twice (:func:`read_manifest`)."""
+    missing = [c for c in ("device", "files") if c not in header]
+    unknown = [h for h in header if h not in MANIFEST_COLUMNS]
+    duplicated = sorted({h for h in header if header.count(h) > 1})
+    if missing or unknown or duplicated:
+        raise ManifestError(
+            f"{path}, line {number} (the header): "
+            + "; ".join(filter(None, (
+                f"missing column(s) {', '.join(missing)}" if missing else "",
+                f"unknown column(s) {', '.join(unknown)} (known: {', '.join(MANIFEST_COLUMNS)})" if unknown else "",
+                f"column(s) named twice: {', '.join(duplicated)}" if duplicated else ""))))
+
+
+def _manifest_rows(path: Path, header: list[str], numbers: list[int], table: list[list[str]],
+                   schemes) -> tuple[list[Row], list[str]]:
+    """The manifest's rows, each checked, and the problems of those that are not (:func:`read_manifest`)."""
+    from .methodinfo import declared
+
+    base = path.resolve().parent
+    methods = declared()
+    rows, problems = [], []
+    for number, cells in zip(numbers[1:], table[1:], strict=True):
+        if len(cells) > len(header):
+            problems.append(f"line {number}: {len(cells)} cells for {len(header)} columns (quote a cell that "
+                            "holds a comma)")
+            continue
+        values = {h: (cells[k].strip() if k < len(cells) else "") for k, h in enumerate(header)}
+        try:
+            rows.append(_row(values, number, base, methods, schemes))
+        except ValueError as exc:
+            problems.append(f"line {number}: {exc}")
+    return rows, problems
+
+
 def read_manifest(path: str | Path, *, allow_urls: bool | str | Sequence[str] = False) -> list[Row]:
     """The rows of the manifest CSV ``path``, every entry checked (see the module docstring).
 
@@ -297,54 +356,12 @@ def read_manifest(path: str | Path, *, allow_urls: bool | str | Sequence[str] = 
         The file cannot be read, a required column is missing, a column is unknown, or entries are
         invalid: every problem found, each with its line.
     """
-    from .methodinfo import declared
-
     path = Path(path)
     schemes = url_schemes(allow_urls)
-    try:
-        check_input_path(path, "manifest")
-    except ReaderError as exc:
-        if "not found" not in str(exc):
-            raise ManifestError(str(exc)) from None
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise ManifestError(f"{path}: manifest not found") from None
-    except IsADirectoryError:
-        raise ManifestError(f"{path}: is a directory; the manifest is a CSV file") from None
-    except UnicodeDecodeError as exc:
-        raise ManifestError(f"{path}: not a text file (UTF-8): {exc.reason} at byte {exc.start}") from None
-    lines = [(i, line) for i, line in enumerate(text.splitlines(), start=1)
-             if line.strip() and not line.lstrip().startswith("#")]
-    if not lines:
-        raise ManifestError(f"{path}: the manifest is empty (a header line with device,files and one line per "
-                            "recording expected)")
-    numbers = [i for i, _ in lines]
-    table = list(csv.reader([line for _, line in lines]))
+    numbers, table = _manifest_table(path)
     header = [h.strip().lower() for h in table[0]]
-    missing = [c for c in ("device", "files") if c not in header]
-    unknown = [h for h in header if h not in MANIFEST_COLUMNS]
-    duplicated = sorted({h for h in header if header.count(h) > 1})
-    if missing or unknown or duplicated:
-        raise ManifestError(
-            f"{path}, line {numbers[0]} (the header): "
-            + "; ".join(filter(None, (
-                f"missing column(s) {', '.join(missing)}" if missing else "",
-                f"unknown column(s) {', '.join(unknown)} (known: {', '.join(MANIFEST_COLUMNS)})" if unknown else "",
-                f"column(s) named twice: {', '.join(duplicated)}" if duplicated else ""))))
-    base = path.resolve().parent
-    methods = declared()
-    rows, problems = [], []
-    for number, cells in zip(numbers[1:], table[1:], strict=True):
-        if len(cells) > len(header):
-            problems.append(f"line {number}: {len(cells)} cells for {len(header)} columns (quote a cell that "
-                            "holds a comma)")
-            continue
-        values = {h: (cells[k].strip() if k < len(cells) else "") for k, h in enumerate(header)}
-        try:
-            rows.append(_row(values, number, base, methods, schemes))
-        except ValueError as exc:
-            problems.append(f"line {number}: {exc}")
+    _check_header(path, header, numbers[0])
+    rows, problems = _manifest_rows(path, header, numbers, table, schemes)
     if problems:
         shown = problems[:20] + ([f"… and {len(problems) - 20} more"] if len(problems) > 20 else [])
         raise ManifestError(f"{path}: {len(problems)} invalid line(s), nothing was run:\n  " + "\n  ".join(shown))
@@ -608,16 +625,7 @@ def execute(fn: Callable[[Any], Any], tasks: Sequence[Any], *, workers: int | No
             progress(done, n)
 
     if scheduler is not None:
-        with dask_client(scheduler, workers) as client:
-            from distributed import as_completed
-
-            futures = {client.submit(fn, task, pure=False): i for i, task in enumerate(tasks)}
-            for fut in as_completed(futures):
-                result = fut.result()
-                i = futures[fut]
-                fut.release()
-                tick()
-                yield i, result
+        yield from _on_dask(fn, tasks, scheduler, workers, tick)
         return
     workers = 1 if workers is None else int(workers)
     if workers < 1:
@@ -629,7 +637,28 @@ def execute(fn: Callable[[Any], Any], tasks: Sequence[Any], *, workers: int | No
             tick()
             yield i, result
         return
-    size = chunksize or _auto_chunksize(n, workers)
+    yield from _in_pool(fn, tasks, workers, chunksize or _auto_chunksize(n, workers), tick)
+
+
+def _on_dask(fn: Callable[[Any], Any], tasks: list, scheduler: str, workers: int | None,
+             tick: Callable[[], None]) -> Iterator[tuple[int, Any]]:
+    """:func:`execute` on Dask: one task per call, ``(index, result)`` as each completes."""
+    with dask_client(scheduler, workers) as client:
+        from distributed import as_completed
+
+        futures = {client.submit(fn, task, pure=False): i for i, task in enumerate(tasks)}
+        for fut in as_completed(futures):
+            result = fut.result()
+            i = futures[fut]
+            fut.release()
+            tick()
+            yield i, result
+
+
+def _in_pool(fn: Callable[[Any], Any], tasks: list, workers: int, size: int,
+             tick: Callable[[], None]) -> Iterator[tuple[int, Any]]:
+    """:func:`execute` in a pool of ``workers`` local processes, ``size`` tasks per hand-out."""
+    n = len(tasks)
     items = list(enumerate(tasks))
     chunks = [items[k:k + size] for k in range(0, n, size)]
     pool = ProcessPoolExecutor(max_workers=workers, initializer=_init_worker)

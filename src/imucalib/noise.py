@@ -222,6 +222,72 @@ def _shown(slope: np.ndarray, sigma: np.ndarray, p: float) -> np.ndarray:
         return (off <= z + SLOPE_TOLERANCE) & (off < 0.5 - z) & (off <= 0.25)
 
 
+def _bounds(taus: np.ndarray, adev: np.ndarray, delta: np.ndarray, rate: float, n: int, k: int) -> tuple:
+    """Each term's relative 1σ per cluster time, and :func:`noise_parameters`' output with the three upper
+    bounds and the figures still NaN."""
+    # each term's own degrees of freedom per cluster time, or the clusters' K − 1 where fewer (the safe side;
+    # a bound is the least over many cluster times): the 1σ of its reading and the χ² upper limit of σ
+    dof = {name: np.minimum(allan_dof(taus, rate, n, name), 0.5 / delta**2) for name in _SLOPES}
+    rel = {name: 1 / np.sqrt(2 * nu) for name, nu in dof.items()}
+    upper = {name: adev * chi2_limits(nu)[1][:, None] for name, nu in dof.items()}
+    out = {name: np.full(k, np.nan) for name in _SLOPES}
+    out["white_noise_density_bound"] = np.min(upper["white_noise_density"] * np.sqrt(taus)[:, None], axis=0)
+    out["bias_instability_bound"] = np.min(upper["bias_instability"], axis=0) / FLOOR
+    out["random_walk_bound"] = np.min(upper["random_walk"] * np.sqrt(3 / taus)[:, None], axis=0)
+    return rel, out
+
+
+def _regions(end: np.ndarray, slope: np.ndarray, sigma: np.ndarray, size: int) -> dict[str, np.ndarray]:
+    """Per term, the cluster times of one column's curve that show its slope (every point of every half
+    decade that does)."""
+    region = {}
+    for name, p in _SLOPES.items():
+        idx = np.nonzero(_shown(slope, sigma, p))[0]
+        pts = np.zeros(size, dtype=bool)
+        for i in idx:  # every point of every half decade that shows the slope
+            pts[i : end[i] + 1] = True
+        region[name] = pts
+    return region
+
+
+def _read_column(out: dict, j: int, taus: np.ndarray, adev: np.ndarray, delta: np.ndarray, rel: dict,
+                 region: dict) -> None:
+    """The three figures of column ``j`` (Allan deviation ``adev``) written into ``out``, each read over its
+    ``region`` as :func:`noise_parameters` says."""
+    s2 = adev ** 2
+    spread = {}
+    # two passes: each term read with the other's share taken out once that one is known
+    for _ in range(2):
+        kk = np.nan_to_num(out["random_walk"][j])
+        nn = np.nan_to_num(out["white_noise_density"][j])
+        own = {"white_noise_density": s2 - kk**2 * taus / 3, "random_walk": s2 - nn**2 / taus}
+        for name, scale in (("white_noise_density", taus), ("random_walk", 3 / taus)):
+            r = region[name] & (own[name] > 0)
+            if not r.any():
+                continue
+            # the term's share of σ² carries all of the scatter of σ²: its relative 1σ is δ / share
+            spread_r = rel[name][r] * s2[r] / own[name][r]
+            out[name][j] = np.sqrt(np.average(scale[r] * own[name][r], weights=spread_r**-2))
+            spread[name] = float(np.min(spread_r))
+    read = {name: float(np.nan_to_num(out[name][j])) for name in ("white_noise_density", "random_walk")}
+    for name, d in spread.items():
+        # the region's cluster times share their data: the figure is about as precise as its best one, and
+        # is stated only when it lies within FIGURE_PRECISION of the truth at CONFIDENCE: the truth over the
+        # figure between 1/(1 + P) and 1/(1 − P)
+        lower, upper_f = chi2_limits(1 / (2 * d**2))
+        if lower < 1 / (1 + FIGURE_PRECISION) or upper_f > 1 / (1 - FIGURE_PRECISION):
+            out[name][j] = np.nan
+    if region["bias_instability"].any():
+        # the floor is a term of its own only where it stands out of the other two beyond its confidence
+        # (white noise meeting a random walk also has a flat minimum, of (2NK/√3)^½)
+        r = np.nonzero(region["bias_instability"])[0]
+        i = r[np.argmin(adev[r])]
+        nn, kk = read["white_noise_density"], read["random_walk"]  # their shares, stated or not
+        floor2 = s2[i] - nn**2 / taus[i] - kk**2 * taus[i] / 3
+        if floor2 > 2 * CONFIDENCE * delta[i] * s2[i]:  # the relative 1σ of σ² is 2δ
+            out["bias_instability"][j] = np.sqrt(floor2) / FLOOR
+
+
 def noise_parameters(x: np.ndarray, rate: float) -> dict[str, np.ndarray]:
     """White noise density, bias instability and random walk per column, each read where the curve shows it.
 
@@ -284,58 +350,12 @@ def noise_parameters(x: np.ndarray, rate: float) -> dict[str, np.ndarray]:
     adev = adev if adev.ndim == 2 else adev[:, None]
     delta = allan_confidence(taus, rate, n)
     end, slope, sigma = local_slopes(taus, adev, delta)
-    # each term's own degrees of freedom per cluster time, or the clusters' K − 1 where fewer (the safe side;
-    # a bound is the least over many cluster times): the 1σ of its reading and the χ² upper limit of σ
-    dof = {name: np.minimum(allan_dof(taus, rate, n, name), 0.5 / delta**2) for name in _SLOPES}
-    rel = {name: 1 / np.sqrt(2 * nu) for name, nu in dof.items()}
-    upper = {name: adev * chi2_limits(nu)[1][:, None] for name, nu in dof.items()}
-    out = {name: np.full(k, np.nan) for name in _SLOPES}
-    out["white_noise_density_bound"] = np.min(upper["white_noise_density"] * np.sqrt(taus)[:, None], axis=0)
-    out["bias_instability_bound"] = np.min(upper["bias_instability"], axis=0) / FLOOR
-    out["random_walk_bound"] = np.min(upper["random_walk"] * np.sqrt(3 / taus)[:, None], axis=0)
+    rel, out = _bounds(taus, adev, delta, rate, n, k)
     constant = np.ptp(x, axis=0) == 0
     for j in range(k):
         if constant[j]:
             continue
-        region = {}
-        for name, p in _SLOPES.items():
-            idx = np.nonzero(_shown(slope[:, j], sigma, p))[0]
-            pts = np.zeros(taus.size, dtype=bool)
-            for i in idx:  # every point of every half decade that shows the slope
-                pts[i : end[i] + 1] = True
-            region[name] = pts
-        s2 = adev[:, j] ** 2
-        spread = {}
-        # two passes: each term read with the other's share taken out once that one is known
-        for _ in range(2):
-            kk = np.nan_to_num(out["random_walk"][j])
-            nn = np.nan_to_num(out["white_noise_density"][j])
-            own = {"white_noise_density": s2 - kk**2 * taus / 3, "random_walk": s2 - nn**2 / taus}
-            for name, scale in (("white_noise_density", taus), ("random_walk", 3 / taus)):
-                r = region[name] & (own[name] > 0)
-                if not r.any():
-                    continue
-                # the term's share of σ² carries all of the scatter of σ²: its relative 1σ is δ / share
-                spread_r = rel[name][r] * s2[r] / own[name][r]
-                out[name][j] = np.sqrt(np.average(scale[r] * own[name][r], weights=spread_r**-2))
-                spread[name] = float(np.min(spread_r))
-        read = {name: float(np.nan_to_num(out[name][j])) for name in ("white_noise_density", "random_walk")}
-        for name, d in spread.items():
-            # the region's cluster times share their data: the figure is about as precise as its best one, and
-            # is stated only when it lies within FIGURE_PRECISION of the truth at CONFIDENCE: the truth over the
-            # figure between 1/(1 + P) and 1/(1 − P)
-            lower, upper_f = chi2_limits(1 / (2 * d**2))
-            if lower < 1 / (1 + FIGURE_PRECISION) or upper_f > 1 / (1 - FIGURE_PRECISION):
-                out[name][j] = np.nan
-        if region["bias_instability"].any():
-            # the floor is a term of its own only where it stands out of the other two beyond its confidence
-            # (white noise meeting a random walk also has a flat minimum, of (2NK/√3)^½)
-            r = np.nonzero(region["bias_instability"])[0]
-            i = r[np.argmin(adev[r, j])]
-            nn, kk = read["white_noise_density"], read["random_walk"]  # their shares, stated or not
-            floor2 = s2[i] - nn**2 / taus[i] - kk**2 * taus[i] / 3
-            if floor2 > 2 * CONFIDENCE * delta[i] * s2[i]:  # the relative 1σ of σ² is 2δ
-                out["bias_instability"][j] = np.sqrt(floor2) / FLOOR
+        _read_column(out, j, taus, adev[:, j], delta, rel, _regions(end, slope[:, j], sigma, taus.size))
     for name in _SLOPES:
         out[name + "_bound"][constant] = np.nan
     for name in ("bias_instability", "random_walk"):

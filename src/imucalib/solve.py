@@ -52,18 +52,63 @@ class LMResult:
         return self.status > 0
 
 
-def levenberg_marquardt(
-    fun: Callable[[np.ndarray], np.ndarray],
-    jac: Callable[[np.ndarray], np.ndarray],
-    x0: np.ndarray,
-    *,
-    ftol: float = 1e-12,
-    xtol: float = 1e-12,
-    gtol: float = 1e-8,
-    max_iter: int = 200,
-    lambda0: float = 1e-3,
-    stol: float = 0.0,
-) -> LMResult:
+def _initial_residuals(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray) -> np.ndarray:
+    """``fun(x)`` as float64, refused when not finite (:func:`levenberg_marquardt`)."""
+    r = np.asarray(fun(x), dtype=np.float64)
+    rr = float(r @ r)  # not finite where any residual is not
+    if not rr < math.inf:
+        if not np.isfinite(r).all():
+            raise ValueError("Residuals are not finite in the initial point.")
+    return r
+
+
+def _scaled_normal_equations(jac: Callable[[np.ndarray], np.ndarray], x: np.ndarray, r: np.ndarray, cost: float,
+                             gtol: float) -> tuple:
+    """The Jacobian at ``x`` and the scaled system ``Â = D⁻¹ A D⁻¹``, ``ĝ = D⁻¹ g`` (``A = JᵀJ``, ``g = Jᵀr``,
+    ``D² = diag A``), with ``D⁻¹``, and whether the gradient is zero to ``gtol`` (:func:`levenberg_marquardt`)."""
+    j = np.asarray(jac(x), dtype=np.float64)
+    a = j.T @ j
+    g = j.T @ r
+    d2 = np.maximum(a.diagonal(), _TINY)
+    dinv = 1.0 / np.sqrt(d2)
+    if _MAX(np.abs(g) * dinv, axis=None) <= gtol * max(math.sqrt(2 * cost), _TINY):
+        # |Jᵢᵀr| / (‖Jᵢ‖‖r‖): the residual is orthogonal to the Jacobian
+        return j, None, None, dinv, True
+    # scaled system: (Â + λ I) δ̂ = −ĝ with Â = D⁻¹ A D⁻¹ (the same until the next Jacobian)
+    a_s = a * dinv[:, None] * dinv[None, :]
+    g_s = g * dinv
+    return j, a_s, g_s, dinv, False
+
+
+def _trial_step(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray, a_s: np.ndarray, g_s: np.ndarray,
+                dinv: np.ndarray, lam: float, cost: float) -> tuple:
+    """The damped step at ``λ`` (scaled), the point it reaches, its residuals and cost, and the ratio ``ρ`` of
+    the actual to the predicted cost reduction (−1 where none is predicted; :func:`levenberg_marquardt`)."""
+    step_s = _solve_damped(a_s, g_s, lam)
+    step = step_s * dinv
+    x_new = x + step
+    r_new = np.asarray(fun(x_new), dtype=np.float64)
+    rr = float(r_new @ r_new)  # not finite where any residual is not
+    cost_new = 0.5 * rr if rr < math.inf else math.inf
+    predicted = -(g_s @ step_s) - 0.5 * step_s @ (a_s @ step_s)
+    rho = (cost - cost_new) / predicted if predicted > 0 else -1.0
+    return step_s, x_new, r_new, cost_new, rho
+
+
+def _converged(reduction: float, cost: float, step_s: np.ndarray, x: np.ndarray, dinv: np.ndarray, ftol: float,
+               xtol: float) -> tuple[int, str] | None:
+    """``(status, message)`` when an accepted step ends the iterations by ``ftol`` or ``xtol``, else None
+    (:func:`levenberg_marquardt`)."""
+    if reduction <= ftol * max(cost + reduction, _TINY):
+        return 2, "the relative cost reduction is below ftol"
+    if _norm(step_s) <= xtol * (_norm(x / dinv) + xtol):
+        return 3, "the relative step is below xtol"
+    return None
+
+
+def levenberg_marquardt(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[np.ndarray], np.ndarray],
+                        x0: np.ndarray, *, ftol: float = 1e-12, xtol: float = 1e-12, gtol: float = 1e-8,
+                        max_iter: int = 200, lambda0: float = 1e-3, stol: float = 0.0) -> LMResult:
     """Minimise ``½‖fun(x)‖²`` by Levenberg–Marquardt.
 
     Parameters
@@ -92,12 +137,8 @@ def levenberg_marquardt(
         data need.
     """
     x = np.array(x0, dtype=np.float64)
-    r = np.asarray(fun(x), dtype=np.float64)
-    rr = float(r @ r)  # not finite where any residual is not
-    if not rr < math.inf:
-        if not np.isfinite(r).all():
-            raise ValueError("Residuals are not finite in the initial point.")
-    cost = 0.5 * rr
+    r = _initial_residuals(fun, x)
+    cost = 0.5 * float(r @ r)
     nfev, njev = 1, 0
     lam = None
     nu = 2.0
@@ -105,30 +146,15 @@ def levenberg_marquardt(
     j = None
     for _ in range(max_iter):
         if j is None:
-            j = np.asarray(jac(x), dtype=np.float64)
+            j, a_s, g_s, dinv, flat = _scaled_normal_equations(jac, x, r, cost, gtol)
             njev += 1
-            a = j.T @ j
-            g = j.T @ r
-            d2 = np.maximum(a.diagonal(), _TINY)
-            dinv = 1.0 / np.sqrt(d2)
-            if _MAX(np.abs(g) * dinv, axis=None) <= gtol * max(math.sqrt(2 * cost), _TINY):
-                # |Jᵢᵀr| / (‖Jᵢ‖‖r‖): the residual is orthogonal to the Jacobian
+            if flat:
                 status, message = 1, "the gradient is zero to tolerance"
                 break
             if lam is None:
                 lam = lambda0
-            # scaled system: (Â + λ I) δ̂ = −ĝ with Â = D⁻¹ A D⁻¹ (the same until the next Jacobian)
-            a_s = a * dinv[:, None] * dinv[None, :]
-            g_s = g * dinv
-        step_s = _solve_damped(a_s, g_s, lam)
-        step = step_s * dinv
-        x_new = x + step
-        r_new = np.asarray(fun(x_new), dtype=np.float64)
+        step_s, x_new, r_new, cost_new, rho = _trial_step(fun, x, a_s, g_s, dinv, lam, cost)
         nfev += 1
-        rr = float(r_new @ r_new)  # not finite where any residual is not
-        cost_new = 0.5 * rr if rr < math.inf else math.inf
-        predicted = -(g_s @ step_s) - 0.5 * step_s @ (a_s @ step_s)
-        rho = (cost - cost_new) / predicted if predicted > 0 else -1.0
         if rho > 0:
             reduction = cost - cost_new
             x, r, cost = x_new, r_new, cost_new
@@ -139,11 +165,9 @@ def levenberg_marquardt(
             j = None
             lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
             nu = 2.0
-            if reduction <= ftol * max(cost + reduction, _TINY):
-                status, message = 2, "the relative cost reduction is below ftol"
-                break
-            if _norm(step_s) <= xtol * (_norm(x / dinv) + xtol):
-                status, message = 3, "the relative step is below xtol"
+            stop = _converged(reduction, cost, step_s, x, dinv, ftol, xtol)
+            if stop is not None:
+                status, message = stop
                 break
         else:
             lam *= nu

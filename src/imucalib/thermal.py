@@ -332,6 +332,57 @@ def _polyfit(x: np.ndarray, y: np.ndarray, s: np.ndarray, order: int) -> tuple[n
     return coef, cov, chi2
 
 
+def _check_alike(calibrations: list) -> None:
+    """Every calibration :func:`combine` takes of the same sensors, model, units and misalignment shape as the
+    first."""
+    first = calibrations[0]
+    for i, cal in enumerate(calibrations[1:], start=2):
+        if (cal.gyroscope is None) != (first.gyroscope is None):
+            raise ValueError(f"calibration {i} {'has no' if cal.gyroscope is None else 'has a'} gyroscope and the "
+                             f"first {'has one' if cal.gyroscope is None else 'has none'}: combine calibrations "
+                             "of the same sensors (accelerometer-only ones together)")
+        for what in ("model", "units"):
+            if getattr(cal, what) != getattr(first, what):
+                raise ValueError(f"calibration {i} has another {what} ({getattr(cal, what)!r}) than the first "
+                                 f"({getattr(first, what)!r}): combine calibrations of one sensor made one way")
+        if cal.accelerometer.shape != first.accelerometer.shape or (
+                cal.gyroscope is not None and cal.gyroscope.shape != first.gyroscope.shape):
+            raise ValueError(f"calibration {i} has another misalignment shape than the first")
+
+
+def _significant_order(x: np.ndarray, y: np.ndarray, s: np.ndarray, order_max: int) -> tuple:
+    """The polynomial fit (coefficients, covariance, order) of the highest order up to ``order_max`` whose own
+    top term is beyond :data:`SIGNIFICANCE` σ (order 0 when none is)."""
+    coef, cov, _ = _polyfit(x, y, s, 0)
+    order = 0
+    for m in range(order_max, 0, -1):  # the highest order whose own top term is significant
+        c_m, cov_m, _ = _polyfit(x, y, s, m)
+        z = abs(c_m[m]) / np.sqrt(cov_m[m, m]) if cov_m[m, m] > 0 else np.inf
+        if z > SIGNIFICANCE:
+            coef, cov, order = c_m, cov_m, m
+            break
+    return coef, cov, order
+
+
+def _decision(coef: np.ndarray, cov: np.ndarray, order: int) -> dict:
+    """A parameter's order, ``|c₁|/σ`` and the decision in words (:func:`combine`'s summary)."""
+    z1 = None
+    if order >= 1:
+        z1 = float(abs(coef[1]) / np.sqrt(cov[1, 1]))
+    return {"order": order, "slope_over_sigma": z1,
+            "reason": ("constant: no slope beyond 3σ" if order == 0 else
+                       "linear in temperature" if order == 1 else "quadratic in temperature")}
+
+
+def _padded(coef: np.ndarray, cov: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(c₁, c₂)`` and the (3, 3) covariance of ``(c₀, c₁, c₂)``, zero past ``order``."""
+    c12 = np.zeros(2)
+    c12[: order] = coef[1: order + 1]
+    full = np.zeros((3, 3))
+    full[: order + 1, : order + 1] = cov
+    return c12, full
+
+
 def combine(calibrations: list, *, reference_c: float = REFERENCE_C, max_order: int = 2) -> tuple:
     """One thermal calibration from calibrations made at several temperatures.
 
@@ -360,18 +411,7 @@ def combine(calibrations: list, *, reference_c: float = REFERENCE_C, max_order: 
             raise ValueError(f"calibration {i + 1} already follows temperature; combine calibrations made at one "
                              "temperature each")
     first = calibrations[0]
-    for i, cal in enumerate(calibrations[1:], start=2):
-        if (cal.gyroscope is None) != (first.gyroscope is None):
-            raise ValueError(f"calibration {i} {'has no' if cal.gyroscope is None else 'has a'} gyroscope and the "
-                             f"first {'has one' if cal.gyroscope is None else 'has none'}: combine calibrations "
-                             "of the same sensors (accelerometer-only ones together)")
-        for what in ("model", "units"):
-            if getattr(cal, what) != getattr(first, what):
-                raise ValueError(f"calibration {i} has another {what} ({getattr(cal, what)!r}) than the first "
-                                 f"({getattr(first, what)!r}): combine calibrations of one sensor made one way")
-        if cal.accelerometer.shape != first.accelerometer.shape or (
-                cal.gyroscope is not None and cal.gyroscope.shape != first.gyroscope.shape):
-            raise ValueError(f"calibration {i} has another misalignment shape than the first")
+    _check_alike(calibrations)
     x = np.array(temps) - reference_c
     if np.ptp(x) < 1.0:
         raise ValueError(f"the calibrations were all made within {np.ptp(x):.2g} °C of each other: a thermal "
@@ -387,28 +427,12 @@ def combine(calibrations: list, *, reference_c: float = REFERENCE_C, max_order: 
             base[n] = float(np.mean(y))  # no 1σ to judge a slope by: kept constant, said so
             decisions[n] = {"order": 0, "reason": "no 1σ in every calibration: kept constant (the mean)"}
             continue
-        coef, cov, _ = _polyfit(x, y, s, 0)
-        order = 0
-        for m in range(order_max, 0, -1):  # the highest order whose own top term is significant
-            c_m, cov_m, _ = _polyfit(x, y, s, m)
-            z = abs(c_m[m]) / np.sqrt(cov_m[m, m]) if cov_m[m, m] > 0 else np.inf
-            if z > SIGNIFICANCE:
-                coef, cov, order = c_m, cov_m, m
-                break
-        z1 = None
-        if order >= 1:
-            z1 = float(abs(coef[1]) / np.sqrt(cov[1, 1]))
+        coef, cov, order = _significant_order(x, y, s, order_max)
         base[n] = float(coef[0])
         base_sigma[n] = float(np.sqrt(max(cov[0, 0], 0.0)))
-        decisions[n] = {"order": order, "slope_over_sigma": z1,
-                        "reason": ("constant: no slope beyond 3σ" if order == 0 else
-                                   "linear in temperature" if order == 1 else "quadratic in temperature")}
+        decisions[n] = _decision(coef, cov, order)
         if order >= 1:
-            c12 = np.zeros(2)
-            c12[: order] = coef[1: order + 1]
-            full = np.zeros((3, 3))
-            full[: order + 1, : order + 1] = cov
-            coefficients[n], covariance[n] = c12, full
+            coefficients[n], covariance[n] = _padded(coef, cov, order)
     points = [{"temperature_c": t, "values": {n: float(values[n][i]) for n in names},
                "sigmas": {n: ((c.fit or {}).get("uncertainty") or {}).get(n) for n in names}}
               for i, (t, c) in enumerate(zip(temps, calibrations, strict=True))]
@@ -512,6 +536,51 @@ def _gyroscope_slopes(calibration, recording: Recording, intervals: list[Interva
     return bias_slope, bias_sd, sol.x[theta0.size:], sd[theta0.size:]
 
 
+def _slopes_model(slopes: dict, temp: np.ndarray, reference_c: float) -> ThermalModel:
+    """The linear thermal model of the current ``slopes`` a ramp's recording is compensated with."""
+    return ThermalModel(reference_c=reference_c, range_c=(float(temp.min()), float(temp.max())),
+                        coefficients={n: [v, 0.0] for n, v in slopes.items() if v}, source="ramp")
+
+
+def _without_gyroscope(slopes: dict, sds: dict, free: set) -> set:
+    """The gyroscope's slopes taken out of ``slopes`` and ``sds`` (in place) and of ``free`` (returned)."""
+    for n in [n for n in slopes if n.startswith("gyroscope.")]:
+        del slopes[n], sds[n]
+    return {n for n in free if not n.startswith("gyroscope.")}
+
+
+def _slope_steps(cal, compensated: Recording, intervals: list[Interval], reference_c: float, sensors: tuple,
+                 sds: dict) -> dict:
+    """Each slope's step from the poses of the compensated recording, its 1σ written into ``sds``
+    (:func:`calibrate_ramp`)."""
+    from .metrics import interval_means
+
+    temps = interval_means(compensated.temperature[:, None], intervals)[:, 0] - reference_c
+    acc_means = interval_means(compensated.acc, intervals)
+    steps = {}
+    found = [("accelerometer", *_accelerometer_slopes(cal, acc_means, temps))]
+    if "gyroscope" in sensors:
+        found.append(("gyroscope", *_gyroscope_slopes(cal, compensated, intervals, acc_means, temps,
+                                                      reference_c)))
+    for sensor, b, b_sd, sc, sc_sd in found:
+        k = getattr(cal, sensor).scale
+        for i, a in enumerate("xyz"):
+            steps[f"{sensor}.bias.{a}"], sds[f"{sensor}.bias.{a}"] = b[i], b_sd[i]
+            steps[f"{sensor}.scale.{a}"], sds[f"{sensor}.scale.{a}"] = sc[i] * k[i], sc_sd[i] * abs(k[i])
+    return steps
+
+
+def _kept_model(kept: dict, sds: dict, temp: np.ndarray, reference_c: float) -> ThermalModel:
+    """The ramp's thermal model: the slopes ``kept`` with their variances."""
+    covariance = {}
+    for n in kept:
+        c = np.zeros((3, 3))
+        c[1, 1] = sds[n] ** 2
+        covariance[n] = c
+    return ThermalModel(reference_c=reference_c, coefficients={n: [v, 0.0] for n, v in kept.items()},
+                        covariance=covariance, range_c=(float(temp.min()), float(temp.max())), source="ramp")
+
+
 def calibrate_ramp(run, recording: Recording, *, reference_c: float = REFERENCE_C, iterations: int = 6):
     """Calibrate one session recorded while the temperature changed, with parameters linear in temperature.
 
@@ -546,8 +615,6 @@ def calibrate_ramp(run, recording: Recording, *, reference_c: float = REFERENCE_
     ValueError
         The recording has no temperature column.
     """
-    from .metrics import interval_means
-
     temp = _temperature_of(recording)
     if np.ptp(temp) < 2.0:
         raise ValueError(f"the recording's temperature spans {np.ptp(temp):.2g} °C: a temperature model needs a "
@@ -561,31 +628,16 @@ def calibrate_ramp(run, recording: Recording, *, reference_c: float = REFERENCE_
         for _ in range(iterations):
             compensated = recording
             if cal is not None:
-                model = ThermalModel(reference_c=reference_c, range_c=(float(temp.min()), float(temp.max())),
-                                     coefficients={n: [v, 0.0] for n, v in slopes.items() if v}, source="ramp")
-                compensated = compensate(cal.with_(thermal=model), recording)[1]
+                compensated = compensate(cal.with_(thermal=_slopes_model(slopes, temp, reference_c)), recording)[1]
             cal = run(compensated)
             if cal.gyroscope is None and "gyroscope" in sensors:  # accelerometer-only: its slopes alone
                 sensors = ("accelerometer",)
-                for n in [n for n in slopes if n.startswith("gyroscope.")]:
-                    del slopes[n], sds[n]
-                free = {n for n in free if not n.startswith("gyroscope.")}
+                free = _without_gyroscope(slopes, sds, free)
             intervals = [Interval(int(a), int(b)) for a, b in (cal.fit or {}).get("intervals") or []]
             if len(intervals) < 8:
                 raise ValueError(f"the temperature slopes need at least 8 static poses over the warm-up; "
                                  f"got {len(intervals)}")
-            temps = interval_means(compensated.temperature[:, None], intervals)[:, 0] - reference_c
-            acc_means = interval_means(compensated.acc, intervals)
-            steps = {}
-            found = [("accelerometer", *_accelerometer_slopes(cal, acc_means, temps))]
-            if "gyroscope" in sensors:
-                found.append(("gyroscope", *_gyroscope_slopes(cal, compensated, intervals, acc_means, temps,
-                                                              reference_c)))
-            for sensor, b, b_sd, sc, sc_sd in found:
-                k = getattr(cal, sensor).scale
-                for i, a in enumerate("xyz"):
-                    steps[f"{sensor}.bias.{a}"], sds[f"{sensor}.bias.{a}"] = b[i], b_sd[i]
-                    steps[f"{sensor}.scale.{a}"], sds[f"{sensor}.scale.{a}"] = sc[i] * k[i], sc_sd[i] * abs(k[i])
+            steps = _slope_steps(cal, compensated, intervals, reference_c, sensors, sds)
             for n in free:
                 slopes[n] += steps[n]
             if all(abs(steps[n]) <= 0.1 * sds[n] for n in free):
@@ -597,13 +649,7 @@ def calibrate_ramp(run, recording: Recording, *, reference_c: float = REFERENCE_
         for n in weak:
             slopes[n] = 0.0
     kept = {n: v for n, v in slopes.items() if v}
-    covariance = {}
-    for n in kept:
-        c = np.zeros((3, 3))
-        c[1, 1] = sds[n] ** 2
-        covariance[n] = c
-    model = ThermalModel(reference_c=reference_c, coefficients={n: [v, 0.0] for n, v in kept.items()},
-                         covariance=covariance, range_c=(float(temp.min()), float(temp.max())), source="ramp")
+    model = _kept_model(kept, sds, temp, reference_c)
     unc = dict((cal.fit or {}).get("uncertainty") or {})
     unc.update({f"thermal.{n}.slope": float(sds[n]) for n in kept})
     return cal.with_(thermal=model, fit={**cal.fit, "uncertainty": unc, "temperature_model": "linear",

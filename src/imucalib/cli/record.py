@@ -220,6 +220,42 @@ class EventLog:
             move_into_place(self.tmp, self.path)
 
 
+def _live_page(args: argparse.Namespace):
+    """The live view in the browser (``--view``), its address said and opened."""
+    import webbrowser
+
+    from ..record.view import LiveView
+
+    page = LiveView(port=args.view_port)
+    (print if args.events != "-" else lambda m: print(m, file=sys.stderr))(f"live view: {page.url}")
+    webbrowser.open(page.url)
+    return page
+
+
+def _calibrate_session(args: argparse.Namespace, path) -> int:
+    """``imucalib calibrate`` of the session just written (``--calibrate``), with the recording's options; its
+    exit code (2, said here, on an error: the verdict stays the last line)."""
+    from . import calibration
+
+    parser = argparse.ArgumentParser(prog="imucalib")
+    calibration.register(parser.add_subparsers(dest="command"))
+    argv = ["calibrate", str(path), "--method", args.method, "--gravity", str(args.gravity),
+            "-o", args.calibrate]
+    for flag, value in (("--columns", args.columns), ("--acc-unit", args.acc_unit),
+                        ("--gyro-unit", args.gyro_unit), ("--time-unit", args.time_unit), ("--rate", args.rate)):
+        if value is not None:
+            argv += [flag, str(value)]
+    if args.events == "-":
+        argv.append("--json")
+    cal_args = parser.parse_args(normalise_argv(argv))
+    try:
+        code = int(cal_args.func(cal_args) or 0)
+    except (ValueError, OSError, CliError) as exc:  # said here, so that the verdict stays the last line
+        print(f"imucalib calibrate: error: {exc}", file=sys.stderr)
+        code = 2
+    return code
+
+
 def cmd_record(args: argparse.Namespace) -> int:
     """``imucalib record``: :func:`imucalib.record.record` with a live view, the events, then calibrate."""
     from ..io.atomic import output_target, refuse_overwriting_inputs
@@ -241,15 +277,7 @@ def cmd_record(args: argparse.Namespace) -> int:
             writer.partial.unlink()
         raise
 
-    page = None
-    if args.view:
-        import webbrowser
-
-        from ..record.view import LiveView
-
-        page = LiveView(port=args.view_port)
-        (print if args.events != "-" else lambda m: print(m, file=sys.stderr))(f"live view: {page.url}")
-        webbrowser.open(page.url)
+    page = _live_page(args) if args.view else None
 
     def on_event(event: dict) -> None:
         log(event)
@@ -282,26 +310,7 @@ def cmd_record(args: argparse.Namespace) -> int:
     how = " (interrupted: the lines read until then)" if result.interrupted else \
         f" ({result.ended}: the session ends there)" if result.ended else ""
     say(f"session written to {result.path}{how}")
-    code = 0
-    if args.calibrate:
-        from . import calibration
-
-        parser = argparse.ArgumentParser(prog="imucalib")
-        calibration.register(parser.add_subparsers(dest="command"))
-        argv = ["calibrate", str(result.path), "--method", args.method, "--gravity", str(args.gravity),
-                "-o", args.calibrate]
-        for flag, value in (("--columns", args.columns), ("--acc-unit", args.acc_unit),
-                            ("--gyro-unit", args.gyro_unit), ("--time-unit", args.time_unit), ("--rate", args.rate)):
-            if value is not None:
-                argv += [flag, str(value)]
-        if args.events == "-":
-            argv.append("--json")
-        cal_args = parser.parse_args(normalise_argv(argv))
-        try:
-            code = int(cal_args.func(cal_args) or 0)
-        except (ValueError, OSError, CliError) as exc:  # said here, so that the verdict stays the last line
-            print(f"imucalib calibrate: error: {exc}", file=sys.stderr)
-            code = 2
+    code = _calibrate_session(args, result.path) if args.calibrate else 0
     if ended:
         say(verdict_line(ended))
     return code

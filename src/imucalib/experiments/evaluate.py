@@ -72,6 +72,39 @@ def _one_run(args) -> dict:
                 "traceback": traceback.format_exc(limit=3)}
 
 
+def _parameter_figures(truth: dict, ok: list[dict]) -> list[dict]:
+    """Per parameter of the truth: its value and the runs' mean, standard deviation and RMS error (None
+    without a run that calibrated)."""
+    params = []
+    for name, true in truth.items():
+        vals = np.array([r["parameters"].get(name, 0.0) for r in ok]) if ok else np.array([])
+        params.append({
+            "name": name, "truth": true,
+            "mean": float(vals.mean()) if vals.size else None,
+            "std": float(vals.std()) if vals.size else None,
+            "rms_error": float(np.sqrt(np.mean((vals - true) ** 2))) if vals.size else None,
+        })
+    return params
+
+
+def _mean_metrics(ok: list[dict], baseline: str | None) -> dict:
+    """The runs' mean figures, the Zhang 2021 tests' means and, with ``baseline``, the §IV-B reductions."""
+    metrics: dict = {}
+    for key in ("accelerometer_residual_rms", "gyroscope_angle_error_mean_deg"):
+        vals = [r["fit"][key] for r in ok if key in r["fit"]]
+        if vals:
+            metrics[key] = float(np.mean(vals))
+    if all("tests" in r for r in ok):
+        metrics["eq34_mean"] = float(np.mean([np.mean(r["tests"]["eq34"]) for r in ok]))
+        metrics["eq35_mean"] = float(np.mean([np.mean(r["tests"]["eq35"]) for r in ok]))
+    if baseline and all("baseline_tests" in r for r in ok):
+        red = [reductions(r["tests"], r["baseline_tests"]) for r in ok]
+        metrics["baseline"] = baseline
+        metrics["eq34_reduction"] = float(np.mean([x["eq34_reduction"] for x in red]))
+        metrics["eq35_reduction"] = float(np.mean([x["eq35_reduction"] for x in red]))
+    return metrics
+
+
 def montecarlo(
     scenario: str,
     method: str,
@@ -141,29 +174,8 @@ def montecarlo(
     ok = [r for r in results if "error" not in r]
     failures = [{"seed": r["seed"], "message": r["error"]} for r in results if "error" in r]
     truth = session(scenario, rng=seed, **sim_options).truth.parameters()
-    params = []
-    for name, true in truth.items():
-        vals = np.array([r["parameters"].get(name, 0.0) for r in ok]) if ok else np.array([])
-        params.append({
-            "name": name, "truth": true,
-            "mean": float(vals.mean()) if vals.size else None,
-            "std": float(vals.std()) if vals.size else None,
-            "rms_error": float(np.sqrt(np.mean((vals - true) ** 2))) if vals.size else None,
-        })
-    metrics: dict = {}
-    if ok:
-        for key in ("accelerometer_residual_rms", "gyroscope_angle_error_mean_deg"):
-            vals = [r["fit"][key] for r in ok if key in r["fit"]]
-            if vals:
-                metrics[key] = float(np.mean(vals))
-        if all("tests" in r for r in ok):
-            metrics["eq34_mean"] = float(np.mean([np.mean(r["tests"]["eq34"]) for r in ok]))
-            metrics["eq35_mean"] = float(np.mean([np.mean(r["tests"]["eq35"]) for r in ok]))
-        if baseline and all("baseline_tests" in r for r in ok):
-            red = [reductions(r["tests"], r["baseline_tests"]) for r in ok]
-            metrics["baseline"] = baseline
-            metrics["eq34_reduction"] = float(np.mean([x["eq34_reduction"] for x in red]))
-            metrics["eq35_reduction"] = float(np.mean([x["eq35_reduction"] for x in red]))
+    params = _parameter_figures(truth, ok)
+    metrics = _mean_metrics(ok, baseline) if ok else {}
     verdicts = {level: sum(r["fit"].get("verdict") == level for r in ok) for level in LEVELS}
     return {"scenario": scenario, "method": method, "model": model, "runs": runs,
             "parameters": params, "metrics": metrics, "verdicts": verdicts, "failures": failures}

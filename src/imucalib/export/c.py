@@ -96,6 +96,27 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
         raise ValueError(f"ctype must be 'double' or 'float'; got {ctype!r}")
     suffix = "f" if ctype == "float" else ""
 
+    num, tiny = _number_writer(ctype, suffix)
+    up = prefix.upper()
+    cal, note = gyroscope_part(calibration, "C99 header")
+    if note:
+        warnings.warn(note, ImucalibWarning, stacklevel=2)
+    lines = _constant_lines(cal, prefix, up, ctype, num)
+    thermal = cal.thermal
+    lines += _apply_thermal(prefix, up, ctype) if thermal is not None else _apply_plain(prefix, up, ctype)
+    if cal.magnetometer is not None:
+        lines += _magnetometer_lines(cal, prefix, up, ctype, num)
+    lines += [f"#endif /* {up}_CALIBRATION_H */", ""]
+    if tiny:
+        warnings.warn(f"{len(tiny)} constant(s) below float's range (e.g. {tiny[0]:.3g}, under "
+                      f"{float(_FLOAT.smallest_subnormal):.3g}) are written as 0, the value float holds; export "
+                      "without --float (double) to keep them", ImucalibWarning, stacklevel=2)
+    return "\n".join(lines)
+
+
+def _number_writer(ctype: str, suffix: str) -> tuple:
+    """``num(x)``, a constant as a C literal of ``ctype``, and the list of the constants too small for float
+    that it wrote as 0 (:func:`to_c` warns of them)."""
     tiny: list[float] = []
 
     def num(x: float) -> str:
@@ -111,10 +132,11 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
             text += ".0"
         return text + suffix
 
-    up = prefix.upper()
-    cal, note = gyroscope_part(calibration, "C99 header")
-    if note:
-        warnings.warn(note, ImucalibWarning, stacklevel=2)
+    return num, tiny
+
+
+def _constant_lines(cal: Calibration, prefix: str, up: str, ctype: str, num) -> list[str]:
+    """The header's opening comment, include guard and constants, and ``<prefix>_triad`` (:func:`to_c`)."""
     units = cal.units
     thermal = cal.thermal
     lines = [
@@ -160,29 +182,27 @@ def to_c(calibration: Calibration, *, prefix: str = "imucalib", ctype: str = "do
         "}",
         "",
     ]
-    lines += _apply_thermal(prefix, up, ctype) if thermal is not None else _apply_plain(prefix, up, ctype)
-    if cal.magnetometer is not None:
-        mag = cal.magnetometer
-        lines += [
-            f"/* magnetometer: m = M (u - b), raw {c_comment(units.get('magnetometer', {}).get('raw', 'counts'))}, "
-            f"calibrated {c_comment(mag.unit)}, in the accelerometer's frame */",
-            f"static const {ctype} {up}_MAG_M[3][3] = {_array(mag.matrix, num)};",
-            f"static const {ctype} {up}_MAG_B[3] = {_array(mag.bias, num)};",
-            "",
-            f"static inline void {prefix}_apply_mag(const {ctype} mag_raw[3], {ctype} mag[3])",
-            "{",
-            "    for (int i = 0; i < 3; ++i)",
-            f"        mag[i] = {up}_MAG_M[i][0] * (mag_raw[0] - {up}_MAG_B[0]) + {up}_MAG_M[i][1] * (mag_raw[1] - "
-            f"{up}_MAG_B[1]) + {up}_MAG_M[i][2] * (mag_raw[2] - {up}_MAG_B[2]);",
-            "}",
-            "",
-        ]
-    lines += [f"#endif /* {up}_CALIBRATION_H */", ""]
-    if tiny:
-        warnings.warn(f"{len(tiny)} constant(s) below float's range (e.g. {tiny[0]:.3g}, under "
-                      f"{float(_FLOAT.smallest_subnormal):.3g}) are written as 0, the value float holds; export "
-                      "without --float (double) to keep them", ImucalibWarning, stacklevel=2)
-    return "\n".join(lines)
+    return lines
+
+
+def _magnetometer_lines(cal: Calibration, prefix: str, up: str, ctype: str, num) -> list[str]:
+    """The magnetometer's constants and ``<prefix>_apply_mag`` (:func:`to_c`)."""
+    mag = cal.magnetometer
+    units = cal.units
+    return [
+        f"/* magnetometer: m = M (u - b), raw {c_comment(units.get('magnetometer', {}).get('raw', 'counts'))}, "
+        f"calibrated {c_comment(mag.unit)}, in the accelerometer's frame */",
+        f"static const {ctype} {up}_MAG_M[3][3] = {_array(mag.matrix, num)};",
+        f"static const {ctype} {up}_MAG_B[3] = {_array(mag.bias, num)};",
+        "",
+        f"static inline void {prefix}_apply_mag(const {ctype} mag_raw[3], {ctype} mag[3])",
+        "{",
+        "    for (int i = 0; i < 3; ++i)",
+        f"        mag[i] = {up}_MAG_M[i][0] * (mag_raw[0] - {up}_MAG_B[0]) + {up}_MAG_M[i][1] * (mag_raw[1] - "
+        f"{up}_MAG_B[1]) + {up}_MAG_M[i][2] * (mag_raw[2] - {up}_MAG_B[2]);",
+        "}",
+        "",
+    ]
 
 
 def _thermal_arrays(thermal, sensor: str, order: int) -> dict:

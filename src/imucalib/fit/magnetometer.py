@@ -211,17 +211,7 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
         No magnetometer in the recording, too few poses, poses that do not determine the
         ellipsoid, or a bad option.
     """
-    from scipy.optimize import least_squares  # here: importing scipy.optimize takes ~0.3 s
-
-    if recording.mag is None:
-        raise ValueError("the recording has no magnetometer columns (mx, my, mz) to calibrate")
-    if hemisphere not in ("north", "south"):
-        raise ValueError(f"hemisphere must be 'north' or 'south'; got {hemisphere!r}")
-    if field is not None and not (np.isfinite(field) and field > 0):
-        raise ValueError(f"the local field magnitude must be a positive number of µT; got {field!r}")
-    if len(intervals) < MIN_MAG_POSES:
-        raise ValueError(f"the magnetometer fit needs at least {MIN_MAG_POSES} static poses; got {len(intervals)}")
-
+    _check_options(recording, intervals, hemisphere, field)
     mag_means = interval_means(recording.mag, intervals)
     acc_means = interval_means(recording.acc, intervals)
     starts, stops = transition_bounds(intervals)
@@ -234,22 +224,77 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
         return _references(cal, acc_means, raw_gyro, raw_acc, integrator)
 
     up, rot = references(calibration)  # v_{k+1} = R_kᵀ v_k
+    mov = _motion_samples(recording, intervals, motion_samples)
+    mag_moving = recording.mag[mov]
+    b0, s0, use, gyro_ok, o0, dip0 = _starting_point(mag_means, mag_moving, up, rot, calibration, hemisphere)
 
+    # pose and motion-sample times [min] from the poses' mean time: the hard iron may drift (M5)
+    t_pose = np.array([float(np.mean(recording.t[iv.start:iv.stop])) for iv in intervals])
+    t_ref = float(np.mean(t_pose))
+    min_pose, min_move = (t_pose - t_ref) / 60.0, (recording.t[mov] - t_ref) / 60.0
+    eq = _PoseEquations(mag_means, mag_moving, up, rot, o0, min_pose, min_move, use)
+    theta, sigma, cov, scale = _fit_drift_if_shown(eq, b0, s0, dip0, calibration, references)
+
+    # (I): a field that is not the same at every pose (the poses' norms scatter far beyond their noise) leaves
+    # the rotation and motion-sample equations out: the two invariants of each pose, with the accelerometer
+    b, s, _, _, drift = eq.unpack(theta)
+    field_chi2, _ = field_scatter(recording.mag - np.outer((recording.t - t_ref) / 60.0, drift), intervals, b, s)
+    uniform = field_chi2 <= FIELD_DISTURBED_CHI2
+    invariants = None
+    if not uniform:
+        invariants = fit_invariants(mag_means, acc_means, calibration.accelerometer,
+                                    (calibration.fit or {}).get("uncertainty") or {}, theta[:13], scale[:13],
+                                    eq.unpack, min_pose, DRIFT_CHI2)
+        theta, cov = invariants.theta, invariants.covariance
+        use[:] = gyro_ok  # no rotation equations in this fit: every rotation the gyroscope kept is scored
+    model, o, dip, drift = _model(eq.unpack(theta), recording.mag_unit, field)
+    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+    figures = _figures(model, eq, theta, sd, dip, drift, hemisphere)
+    figures |= {
+        # (I): whether the field was uniform over the poses, and what the fit held it to
+        "magnetometer_field_uniform": bool(uniform),
+        "magnetometer_field_scatter_chi2": field_chi2,
+        "magnetometer_field_error": None if invariants is None else invariants.field_error,
+        "magnetometer_accelerometer_shift_sigma": None if invariants is None
+        else invariants.accelerometer_shift_sigma,
+    }
+    return MagnetometerFit(model=model, figures=figures, uncertainty=_named_errors(cov, sd, o), covariance=cov)
+
+
+def _check_options(recording: Recording, intervals: list[Interval], hemisphere: str, field: float | None) -> None:
+    """The errors :func:`fit_magnetometer` raises before fitting: no magnetometer, a bad option, too few poses."""
+    if recording.mag is None:
+        raise ValueError("the recording has no magnetometer columns (mx, my, mz) to calibrate")
+    if hemisphere not in ("north", "south"):
+        raise ValueError(f"hemisphere must be 'north' or 'south'; got {hemisphere!r}")
+    if field is not None and not (np.isfinite(field) and field > 0):
+        raise ValueError(f"the local field magnitude must be a positive number of µT; got {field!r}")
+    if len(intervals) < MIN_MAG_POSES:
+        raise ValueError(f"the magnetometer fit needs at least {MIN_MAG_POSES} static poses; got {len(intervals)}")
+
+
+def _motion_samples(recording: Recording, intervals: list[Interval], motion_samples: int) -> np.ndarray:
+    """The indices of the samples outside the static poses, decimated to at most ``motion_samples``."""
     moving = np.ones(len(recording), bool)
     for iv in intervals:
         moving[iv.start:iv.stop] = False
     mov = np.nonzero(moving)[0]
     if mov.size > motion_samples:
         mov = mov[np.linspace(0, mov.size - 1, motion_samples).round().astype(int)]
-    mag_moving = recording.mag[mov]
+    return mov
 
-    # ---- start: ellipsoid (M2), then the linear solve of (M3)-(M4) for O
+
+def _starting_point(mag_means: np.ndarray, mag_moving: np.ndarray, up: np.ndarray, rot: np.ndarray,
+                    calibration, hemisphere: str) -> tuple:
+    """The fit's start: hard and soft iron from the ellipsoid (M2), then the linear solve of (M3)-(M4) for
+    ``O`` and the dip it gives; with the rotations (M4) uses (``use``, and ``gyro_ok``: those the gyroscope's
+    fit kept)."""
     spread = np.vstack([mag_means, mag_moving])
     try:
         b0, s0 = soft_iron_from_ellipsoid(spread)
     except ValueError as exc:
         raise ValueError(f"the magnetometer readings do not determine hard and soft iron: {exc}") from None
-    use = np.ones(len(intervals) - 1, bool)
+    use = np.ones(len(mag_means) - 1, bool)
     # the rotations the gyroscope's fit left out (a spike, a bump) are wrong here too: not in (M4)
     left_out = [int(k) for k in (calibration.fit or {}).get("rotations_left_out") or {}]
     use[[k for k in left_out if 0 <= k < use.size]] = False
@@ -258,36 +303,51 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
     n0 = (mag_means - b0) @ s0 @ o0.T
     n0 /= np.linalg.norm(n0, axis=1, keepdims=True)
     dip0 = float(np.arcsin(np.clip(-np.mean(np.einsum("ij,ij->i", up, n0)), -1, 1)))
+    return b0, s0, use, gyro_ok, o0, dip0
 
-    # pose and motion-sample times [min] from the poses' mean time: the hard iron may drift (M5)
-    t_pose = np.array([float(np.mean(recording.t[iv.start:iv.stop])) for iv in intervals])
-    t_ref = float(np.mean(t_pose))
-    min_pose, min_move = (t_pose - t_ref) / 60.0, (recording.t[mov] - t_ref) / 60.0
 
-    def unpack(th):
+class _PoseEquations:
+    """The residual groups of the fit, (M2) norms of the poses and of the motion samples, (M3) dips, (M4)
+    rotations, with the hard iron's drift (M5) when ``theta`` holds it; ``use``: the rotations (M4) takes
+    (changed in place as the fit leaves some out)."""
+
+    def __init__(self, mag_means, mag_moving, up, rot, o0, min_pose, min_move, use) -> None:
+        self.mag_means, self.mag_moving, self.up, self.rot, self.o0 = mag_means, mag_moving, up, rot, o0
+        self.min_pose, self.min_move, self.use = min_pose, min_move, use
+
+    def unpack(self, th):
+        """``b``, ``S``, ``O``, the dip and the drift (zero without) from the parameters ``th``."""
         drift = th[13:16] if th.size > 13 else np.zeros(3)
-        return th[:3], _sym(th[3:9]), o0 @ _rotvec_matrix(th[9:12]), th[12], drift
+        return th[:3], _sym(th[3:9]), self.o0 @ _rotvec_matrix(th[9:12]), th[12], drift
 
-    def groups(th, up=up, rot=rot):
-        b, s, o, dip, drift = unpack(th)
-        v = (mag_means - b - np.outer(min_pose, drift)) @ s
+    def groups(self, th, up=None, rot=None):
+        """The four residual groups at ``th``, against the references ``up``, ``rot`` (default the fit's)."""
+        up = self.up if up is None else up
+        rot = self.rot if rot is None else rot
+        b, s, o, dip, drift = self.unpack(th)
+        v = (self.mag_means - b - np.outer(self.min_pose, drift)) @ s
         norm = np.linalg.norm(v, axis=1)
         n = v @ o.T / norm[:, None]
         r_norm = norm - 1.0
-        r_move = np.linalg.norm((mag_moving - b - np.outer(min_move, drift)) @ s, axis=1) - 1.0
+        r_move = np.linalg.norm((self.mag_moving - b - np.outer(self.min_move, drift)) @ s, axis=1) - 1.0
         r_dip = np.einsum("ij,ij->i", up, n) + np.sin(dip)
-        r_rot = (n[1:] - np.einsum("kji,kj->ki", rot, n[:-1]))[use].ravel()
+        r_rot = (n[1:] - np.einsum("kji,kj->ki", rot, n[:-1]))[self.use].ravel()
         return r_norm, r_move, r_dip, r_rot
 
-    def solve(theta, scale, sigma, use):
+    def solve(self, theta, scale, sigma):
+        """Levenberg–Marquardt on the weighted groups, the weights from each group's own residual spread,
+        refitted; a rotation the gyroscope got wrong is left out of ``use`` once. ``(theta, sigma)``."""
+        from scipy.optimize import least_squares  # here: importing scipy.optimize takes ~0.3 s
+
+        use = self.use
         p = theta.size
         for _ in range(3):  # weights from each group's own residual spread, refitted
             def fun(th, sig=sigma):
-                return np.concatenate([g / s for g, s in zip(groups(th), sig, strict=True)])
+                return np.concatenate([g / s for g, s in zip(self.groups(th), sig, strict=True)])
 
             sol = least_squares(fun, theta, x_scale=scale, method="lm", xtol=1e-14, ftol=1e-14, max_nfev=2000)
             theta = sol.x
-            res = groups(theta)
+            res = self.groups(theta)
             dof = np.array([r.size for r in res], dtype=float)
             dof[3] *= 2.0 / 3.0  # a unit-vector difference has two degrees of freedom, not three
             total = dof.sum()
@@ -302,66 +362,72 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
                 use[:] = use & ~bad
         return theta, sigma
 
-    theta = np.concatenate([b0, [s0[i, j] for i, j in _SYM], np.zeros(3), [dip0]])
-    scale = np.concatenate([np.full(3, 1.0 / np.abs(s0).max()), np.full(6, np.abs(s0).max()), np.ones(4)])
-    sigma = np.array([1e-3, 1e-2, 1e-2, 1e-2])
-    theta, sigma = solve(theta, scale, sigma, use)
-
-    def covariance(theta, sigma, scale):
+    def covariance(self, theta, sigma, scale, calibration, references):
+        """The parameters' covariance from the weighted groups' Jacobian, with what the calibration's own
+        errors carry into the references (:func:`_carried_covariance`)."""
         def fun_final(th):
-            return np.concatenate([g / s for g, s in zip(groups(th), sigma, strict=True)])
+            return np.concatenate([g / s for g, s in zip(self.groups(th), sigma, strict=True)])
 
         jac = central_jacobian(fun_final, theta, scale)
         try:
             cov = np.linalg.inv(jac.T @ jac)
         except np.linalg.LinAlgError:
             return np.full((theta.size, theta.size), np.nan)
-        return cov + _carried_covariance(calibration, references, groups, theta, sigma, jac, cov)
+        return cov + _carried_covariance(calibration, references, self.groups, theta, sigma, jac, cov)
+
+
+def _fit_drift_if_shown(eq: _PoseEquations, b0, s0, dip0, calibration, references) -> tuple:
+    """The fit from the start ``b0``, ``s0``, ``dip0``, with the hard iron's drift (M5) where the poses show it:
+    ``(theta, sigma, cov, scale)``."""
+    use = eq.use
+    theta = np.concatenate([b0, [s0[i, j] for i, j in _SYM], np.zeros(3), [dip0]])
+    scale = np.concatenate([np.full(3, 1.0 / np.abs(s0).max()), np.full(6, np.abs(s0).max()), np.ones(4)])
+    sigma = np.array([1e-3, 1e-2, 1e-2, 1e-2])
+    theta, sigma = eq.solve(theta, scale, sigma)
 
     # (M5): the hard iron drifting linearly in time (a die warming up, currents nearby), kept only where the
     # poses show it: the drift's χ² against its own covariance beyond the 99.9 % point of χ²(3)
     use_static = use.copy()
-    th_d, sig_d = solve(np.concatenate([theta, np.zeros(3)]), np.concatenate([scale, np.full(3, scale[0])]),
-                        sigma, use)
+    th_d, sig_d = eq.solve(np.concatenate([theta, np.zeros(3)]), np.concatenate([scale, np.full(3, scale[0])]),
+                           sigma)
     scale_d = np.concatenate([scale, np.full(3, scale[0])])
-    cov_d = covariance(th_d, sig_d, scale_d)
+    cov_d = eq.covariance(th_d, sig_d, scale_d, calibration, references)
     drift_chi2 = float(th_d[13:] @ np.linalg.solve(cov_d[13:, 13:], th_d[13:])) if np.all(np.isfinite(cov_d)) \
         else 0.0
     if drift_chi2 > DRIFT_CHI2:
         theta, sigma, cov, scale = th_d, sig_d, cov_d, scale_d
     else:
         use[:] = use_static
-        cov = covariance(theta, sigma, scale)
+        cov = eq.covariance(theta, sigma, scale, calibration, references)
+    return theta, sigma, cov, scale
 
-    # (I): a field that is not the same at every pose (the poses' norms scatter far beyond their noise) leaves
-    # the rotation and motion-sample equations out: the two invariants of each pose, with the accelerometer
-    b, s, _, _, drift = unpack(theta)
-    field_chi2, _ = field_scatter(recording.mag - np.outer((recording.t - t_ref) / 60.0, drift), intervals, b, s)
-    uniform = field_chi2 <= FIELD_DISTURBED_CHI2
-    invariants = None
-    if not uniform:
-        invariants = fit_invariants(mag_means, acc_means, calibration.accelerometer,
-                                    (calibration.fit or {}).get("uncertainty") or {}, theta[:13], scale[:13],
-                                    unpack, min_pose, DRIFT_CHI2)
-        theta, cov = invariants.theta, invariants.covariance
-        use[:] = gyro_ok  # no rotation equations in this fit: every rotation the gyroscope kept is scored
-    p = theta.size
-    b, s, o, dip, drift = unpack(theta)
+
+def _model(unpacked: tuple, unit_raw: str, field: float | None) -> tuple:
+    """The magnetometer model of the fitted parameters (``unpacked``: :meth:`_PoseEquations.unpack`'s), with
+    its alignment, dip and drift."""
+    b, s, o, dip, drift = unpacked
     if np.linalg.det(s) <= 0 or np.any(np.linalg.eigvalsh(s) <= 0):
         raise ValueError("the magnetometer fit did not give a positive definite soft-iron matrix: the poses "
                          "do not spread the field over enough directions")
-    unit_raw = recording.mag_unit
+    f_norm, unit = _field_norm(unit_raw, field, s)
+    return MagnetometerModel(bias=b, soft_iron=s, alignment=o, field_norm=f_norm, unit=unit), o, dip, drift
+
+
+def _field_norm(unit_raw: str, field: float | None, s: np.ndarray) -> tuple[float, str]:
+    """The calibrated field's magnitude ``F`` and unit (the module docstring's calibrated unit)."""
     if field is not None:
         f_norm, unit = float(field), "uT"
     elif unit_raw in ("uT", "gauss"):
         f_norm, unit = float(np.linalg.det(s) ** (-1.0 / 3.0)) * (100.0 if unit_raw == "gauss" else 1.0), "uT"
     else:
         f_norm, unit = 1.0, "normalised"
-    model = MagnetometerModel(bias=b, soft_iron=s, alignment=o, field_norm=f_norm, unit=unit)
+    return f_norm, unit
 
-    # ---- 1σ by name; the alignment as a small rotation about the accelerometer's axes: O Exp(φ) Oᵀ is the
+
+def _named_errors(cov: np.ndarray, sd: np.ndarray, o: np.ndarray) -> dict:
+    """1σ by name (``sd`` the square roots of ``cov``'s diagonal)."""
+    # the alignment as a small rotation about the accelerometer's axes: O Exp(φ) Oᵀ is the
     # rotation det(O)·O φ, so ψ = det(O) O φ and cov_ψ = O cov_φ Oᵀ
-    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     unc = {f"magnetometer.bias.{a}": float(sd[i]) for i, a in enumerate(AXES)}
     for k, (i, j) in enumerate(_SYM):
         unc[f"magnetometer.soft_iron.{AXES[i]}{AXES[j]}"] = float(sd[3 + k])
@@ -369,12 +435,19 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
     for i, a in enumerate(AXES):
         unc[f"magnetometer.alignment_angle.{a}"] = float(np.sqrt(max(cov_psi[i, i], 0.0)))
     unc["magnetometer.dip"] = float(sd[12])
+    return unc
 
-    fig = pose_figures(model, mag_means - np.outer(min_pose, drift), up, rot)
+
+def _figures(model: MagnetometerModel, eq: _PoseEquations, theta: np.ndarray, sd: np.ndarray, dip, drift,
+             hemisphere: str) -> dict:
+    """The ``magnetometer_…`` fit figures of the poses, the rotations and the drift (M5)."""
+    p = theta.size
+    s, use, min_pose = model.soft_iron, eq.use, eq.min_pose
+    fig = pose_figures(model, eq.mag_means - np.outer(min_pose, drift), eq.up, eq.rot)
     err = fig["direction_errors_deg"][use]
     names, angle = model.axes()
-    figures = {
-        "magnetometer_poses": len(intervals),
+    return {
+        "magnetometer_poses": len(eq.mag_means),
         "magnetometer_norm_spread": fig["norm_spread"],
         "magnetometer_dip_deg": float(np.degrees(dip)),
         "magnetometer_dip_spread_deg": fig["dip_spread_deg"],
@@ -391,14 +464,7 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
         "magnetometer_hard_iron_drift_sigma_per_min": sd[13:16].tolist() if p > 13 else None,
         "magnetometer_hard_iron_drift_over_session": float(np.linalg.norm(s @ drift) * np.ptp(min_pose))
         if p > 13 else None,
-        # (I): whether the field was uniform over the poses, and what the fit held it to
-        "magnetometer_field_uniform": bool(uniform),
-        "magnetometer_field_scatter_chi2": field_chi2,
-        "magnetometer_field_error": None if invariants is None else invariants.field_error,
-        "magnetometer_accelerometer_shift_sigma": None if invariants is None
-        else invariants.accelerometer_shift_sigma,
     }
-    return MagnetometerFit(model=model, figures=figures, uncertainty=unc, covariance=cov)
 
 
 def _carried_covariance(calibration, references, groups, theta, sigma, jac, cov) -> np.ndarray:

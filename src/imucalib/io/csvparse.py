@@ -276,14 +276,6 @@ class Layout:
                    int(d["first_line"]), d["sep"], bool(d["decimal_comma"]), int(d["ncols"]), int(d["size"]),
                    int(d["mtime_ns"]))
 
-    def unchanged(self) -> bool:
-        """Whether the file still has the size and modification time it had when scanned."""
-        try:
-            st = self.path.stat()
-        except OSError:
-            return False
-        return st.st_size == self.size and st.st_mtime_ns == self.mtime_ns
-
 
 def split_cells(line: str, sep: str | None) -> list[str]:
     """The cells of one line, stripped of blanks and of the quotes around a quoted cell."""

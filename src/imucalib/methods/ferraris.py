@@ -182,6 +182,149 @@ def _closed_form(x: dict, gravity: float, angle: float) -> dict[str, float]:
     return {k: v for k, v in out.items() if k.split(".")[1] in ESTIMATED and not k.startswith("accelerometer.g_")}
 
 
+def _face_noise(recording: Recording, faces: list[Interval], rest: Interval | None) -> tuple:
+    """The variances of the faces' mean rates (6, 3), the rate's per-sample variance (3,) and the variances of
+    the faces' mean accelerations (6, 3), for :func:`closed_form_errors`."""
+    noise = recording.gyro[rest.slice] if rest is not None and len(rest) > 2 else None
+    if noise is not None:  # the rate's white noise (the rest lies on a table); the hand's wander is in τ² below
+        rate_var = np.var(noise, axis=0, ddof=1)
+        g_faces = np.array([rate_var / len(iv) for iv in faces])
+    else:
+        g_faces = np.array([mean_variance(recording.gyro[iv.slice]) for iv in faces])
+        rate_var = np.median([np.var(recording.gyro[iv.slice], axis=0, ddof=1) for iv in faces], axis=0)
+    a_faces = np.array([mean_variance(recording.acc[iv.slice]) for iv in faces])
+    return g_faces, rate_var, a_faces
+
+
+def _tilt_variances(acc_m: np.ndarray, a_faces: np.ndarray, gravity: float, face_axis: np.ndarray) -> np.ndarray:
+    """The variance (6, 3) the faces' tilts add to each face's mean acceleration (:func:`closed_form_errors`)."""
+    s_a = (acc_m[:3] - acc_m[3:]).T / (2 * gravity)
+    # a tilt δ of face f moves reading j by g Σ_m S_jm δ_m over the two directions m off the face's axis
+    q = np.array([[gravity**2 * sum(s_a[j, m] ** 2 for m in range(3) if m != face_axis[f]) for j in range(3)]
+                  for f in range(6)])
+
+    def pair_scatter(m):  # Σ_i (c_ij − c̄_j)² of the pairs' centres c_ij = (ū₊ᵢ,ⱼ + ū₋ᵢ,ⱼ)/2, per component j
+        c = (m[:3] + m[3:]) / 2
+        return np.sum((c - c.mean(axis=0)) ** 2, axis=0)
+
+    def pair_variance(v):  # ⅔ Σ_i var c_ij: what the scatter's expectation is
+        return 2 / 3 * np.sum((v[:3] + v[3:]) / 4, axis=0)
+
+    tilt = max(float(np.sum(pair_scatter(acc_m) - pair_variance(a_faces)) / np.sum(pair_variance(q))), 0.0)
+    # and the face's own axis by g (1 − cos δ)/k ≈ g δ²/(2k) (second order): δ² = σ_δ² χ²₂ has the variance 4σ_δ⁴
+    k_a = np.abs(1.0 / np.diag(s_a))
+    q_tilt = tilt * q
+    q_tilt[np.arange(6), face_axis] += (gravity / k_a[face_axis]) ** 2 * tilt**2
+    return q_tilt
+
+
+def _gyro_drift(t: np.ndarray, faces: list[Interval], gyr_m: np.ndarray, g_faces: np.ndarray, gravity: float,
+                face_axis: np.ndarray) -> tuple:
+    """The faces' mean times and their mean ``t_ref``, the gyroscope bias's squared drift ``d²`` (3,) and the
+    scatter ``τ²`` between the faces beyond their noise (:func:`closed_form_errors`)."""
+    # the gyroscope's bias drifts between the faces: u = b + d (t − t_ref) + G g d_f + ε, 15 unknowns in 18
+    # readings per axis-triad; the closed form leaves d out (b holds at t_ref, the faces' mean time), which
+    # moves G by d (t₊ − t₋)/(2g) and each turn's bias by d (t_turn − t_ref): d² is carried, estimated without
+    # bias by d̂² − var d̂ (E d̂² = d² + var d̂; at least 0), var d̂ the fit's plus what the faces' scatter adds;
+    # the three readings left over give that scatter τ² beyond their noise
+    times = np.array([np.mean(t[iv.slice]) for iv in faces])
+    t_ref = float(times.mean())
+    design = np.zeros((6, 5))
+    design[:, 0] = 1.0
+    design[:, 1] = times - t_ref
+    design[np.arange(6), 2 + face_axis] = np.where(np.arange(6) < 3, gravity, -gravity)
+    drift, drift_var, tau2 = np.zeros(3), np.zeros(3), 0.0
+    leftover = 0.0
+    for j in range(3):
+        w = 1.0 / g_faces[:, j]
+        cov = np.linalg.pinv(design.T @ (design * w[:, None]))
+        coef = cov @ (design.T @ (w * gyr_m[:, j]))
+        r = gyr_m[:, j] - design @ coef
+        h = np.einsum("ij,jk,ik->i", design, cov, design * w[:, None])
+        leftover += float(np.sum(r**2 - (1 - h) * g_faces[:, j]))
+        drift[j], drift_var[j] = coef[1], cov[1, 1]
+    tau2 = max(leftover / 3.0, 0.0)  # one left over per axis, pooled
+    drift_ms = np.maximum(drift**2 - drift_var - tau2 / max(float(np.sum((times - t_ref) ** 2)), 1e-300), 0.0)
+    return times, t_ref, drift_ms, tau2
+
+
+def _turn_inputs(recording: Recording, turns: dict[int, list[Turn]], acc_si: np.ndarray, x: dict, t_ref: float,
+                 noise: tuple, wander: np.ndarray, gyro_scale: np.ndarray) -> list:
+    """Each turn's inputs of the closed form, appended to ``x``, and the variances of its integral: (white noise
+    and jitter, off the axis) per turn. ``noise``: the rate's per-sample variance, the step, the jitter's
+    variance (:func:`closed_form_errors`)."""
+    rate_var, dt, jitter_var = noise
+    var_turn, tilts = [], []
+    window = max(int(round(0.25 * recording.rate)), 3)
+    for i in range(3):
+        for tr in turns[i]:
+            sl = slice(tr.start, tr.stop + 1)
+            t = recording.t[sl]
+            x["integral"].append(np.trapezoid(recording.gyro[sl], t, axis=0))
+            x["duration"].append(float(t[-1] - t[0]))
+            x["force"].append(np.trapezoid(acc_si[sl], t, axis=0))
+            x["axis"].append(i)
+            x["sign"].append(int(tr.sign))
+            x["bias_shift"].append(np.zeros(3))
+            x["turn_dt"].append(float(np.mean(t)) - t_ref)
+            # the hand turns about the vertical only on average: the tilt gravity shows across the turn
+            # (rests before and after) is the turn's rotation off its axis, which the off-axis integrals hold;
+            # about the axis, the angle differs from the known one by the hand's wander at either end
+            before = acc_si[max(tr.start - window, 0):tr.start + 1].mean(axis=0)
+            after = acc_si[tr.stop:tr.stop + window + 1].mean(axis=0)
+            tilt_turn = float(np.sum((after / np.linalg.norm(after) - before / np.linalg.norm(before)) ** 2)) / 2
+            tilts.append(tilt_turn)
+            # the trapezoid ∫ ≈ Σ u_k (t_{k+1} − t_{k−1})/2 on jittered stamps: Σ_k σ_t² ((u_{k−1} − u_{k+1})/2)²
+            u = recording.gyro[sl]
+            jitter = jitter_var * np.sum(((u[:-2] - u[2:]) / 2) ** 2, axis=0)
+            var_turn.append(rate_var * dt * x["duration"][-1] + jitter)
+    # each turn's own tilt: measured (to the accelerometer's noise), only how it splits between the two
+    # off-axis integrals is not
+    return [(v_int, np.where(np.arange(3) == axis, 2 * wander[axis], tilt) / np.asarray(gyro_scale) ** 2)
+            for v_int, axis, tilt in zip(var_turn, x["axis"], tilts, strict=True)]
+
+
+def _variance_parts(x: dict, gravity: float, angle: float, variances: tuple) -> tuple[list[str], dict]:
+    """The closed form's parameter names and the variance of every parameter from each group of inputs' errors
+    ("noise", "tilt", "tau", "turn"), by central differences. ``variances``: the faces' accelerations' noise and
+    tilt, the faces' rates' noise, ``τ²``, the drift's ``d²`` and the turns' (:func:`closed_form_errors`)."""
+    a_faces, q_tilt, g_faces, tau2, drift_ms, var_turn = variances
+    base = _closed_form(x, gravity, angle)
+    names = list(base)
+    parts: dict[str, np.ndarray] = {}  # variance of every parameter from each group of inputs' errors
+
+    def add(group, key, index, var):  # central differences of the closed form in one input, times its variance
+        h = float(np.sqrt(var)) if var > 0 else 0.0
+        if h == 0.0:
+            return
+        out = []
+        for sgn in (1.0, -1.0):
+            y = {k: (v.copy() if isinstance(v, np.ndarray) else
+                     [a.copy() if isinstance(a, np.ndarray) else a for a in v]) for k, v in x.items()}
+            if isinstance(y[key], list):
+                y[key][index[0]][index[1]] += sgn * h
+            else:
+                y[key][index] += sgn * h
+            out.append(_closed_form(y, gravity, angle))
+        d = np.array([(out[0][n] - out[1][n]) / 2 for n in names])
+        parts[group] = parts.get(group, 0.0) + d**2
+
+    for f in range(6):
+        for j in range(3):
+            add("noise", "acc", (f, j), a_faces[f, j])
+            add("tilt", "acc", (f, j), q_tilt[f, j])
+            add("noise", "gyro", (f, j), g_faces[f, j])
+            add("tau", "gyro", (f, j), tau2)
+    for j in range(3):
+        add("noise", "drift", j, drift_ms[j])
+    for n, (v_int, v_off) in enumerate(var_turn):
+        for j in range(3):
+            add("noise", "integral", (n, j), v_int[j])
+            add("turn", "integral", (n, j), v_off[j])
+            add("tau", "bias_shift", (n, j), tau2)
+    return names, parts
+
+
 def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[int, list[Turn]], angle: float,
                        acc_si: np.ndarray, gravity: float, gyro_scale: np.ndarray,
                        rest: Interval | None = None) -> dict[str, float]:
@@ -223,57 +366,12 @@ def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[
     accelerometer's errors in ``∫a dt`` (the g-sensitivity term) are left out:
     a second-order term.
     """
-    noise = recording.gyro[rest.slice] if rest is not None and len(rest) > 2 else None
-    if noise is not None:  # the rate's white noise (the rest lies on a table); the hand's wander is in τ² below
-        rate_var = np.var(noise, axis=0, ddof=1)
-        g_faces = np.array([rate_var / len(iv) for iv in faces])
-    else:
-        g_faces = np.array([mean_variance(recording.gyro[iv.slice]) for iv in faces])
-        rate_var = np.median([np.var(recording.gyro[iv.slice], axis=0, ddof=1) for iv in faces], axis=0)
-    a_faces = np.array([mean_variance(recording.acc[iv.slice]) for iv in faces])
+    g_faces, rate_var, a_faces = _face_noise(recording, faces, rest)
     acc_m = interval_means(recording.acc, faces)
     gyr_m = interval_means(recording.gyro, faces)
-    s_a = (acc_m[:3] - acc_m[3:]).T / (2 * gravity)
     face_axis = np.tile(np.arange(3), 2)
-    # a tilt δ of face f moves reading j by g Σ_m S_jm δ_m over the two directions m off the face's axis
-    q = np.array([[gravity**2 * sum(s_a[j, m] ** 2 for m in range(3) if m != face_axis[f]) for j in range(3)]
-                  for f in range(6)])
-
-    def pair_scatter(m):  # Σ_i (c_ij − c̄_j)² of the pairs' centres c_ij = (ū₊ᵢ,ⱼ + ū₋ᵢ,ⱼ)/2, per component j
-        c = (m[:3] + m[3:]) / 2
-        return np.sum((c - c.mean(axis=0)) ** 2, axis=0)
-
-    def pair_variance(v):  # ⅔ Σ_i var c_ij: what the scatter's expectation is
-        return 2 / 3 * np.sum((v[:3] + v[3:]) / 4, axis=0)
-
-    tilt = max(float(np.sum(pair_scatter(acc_m) - pair_variance(a_faces)) / np.sum(pair_variance(q))), 0.0)
-    # and the face's own axis by g (1 − cos δ)/k ≈ g δ²/(2k) (second order): δ² = σ_δ² χ²₂ has the variance 4σ_δ⁴
-    k_a = np.abs(1.0 / np.diag(s_a))
-    q_tilt = tilt * q
-    q_tilt[np.arange(6), face_axis] += (gravity / k_a[face_axis]) ** 2 * tilt**2
-    # the gyroscope's bias drifts between the faces: u = b + d (t − t_ref) + G g d_f + ε, 15 unknowns in 18
-    # readings per axis-triad; the closed form leaves d out (b holds at t_ref, the faces' mean time), which
-    # moves G by d (t₊ − t₋)/(2g) and each turn's bias by d (t_turn − t_ref): d² is carried, estimated without
-    # bias by d̂² − var d̂ (E d̂² = d² + var d̂; at least 0), var d̂ the fit's plus what the faces' scatter adds;
-    # the three readings left over give that scatter τ² beyond their noise
-    times = np.array([np.mean(recording.t[iv.slice]) for iv in faces])
-    t_ref = float(times.mean())
-    design = np.zeros((6, 5))
-    design[:, 0] = 1.0
-    design[:, 1] = times - t_ref
-    design[np.arange(6), 2 + face_axis] = np.where(np.arange(6) < 3, gravity, -gravity)
-    drift, drift_var, tau2 = np.zeros(3), np.zeros(3), 0.0
-    leftover = 0.0
-    for j in range(3):
-        w = 1.0 / g_faces[:, j]
-        cov = np.linalg.pinv(design.T @ (design * w[:, None]))
-        coef = cov @ (design.T @ (w * gyr_m[:, j]))
-        r = gyr_m[:, j] - design @ coef
-        h = np.einsum("ij,jk,ik->i", design, cov, design * w[:, None])
-        leftover += float(np.sum(r**2 - (1 - h) * g_faces[:, j]))
-        drift[j], drift_var[j] = coef[1], cov[1, 1]
-    tau2 = max(leftover / 3.0, 0.0)  # one left over per axis, pooled
-    drift_ms = np.maximum(drift**2 - drift_var - tau2 / max(float(np.sum((times - t_ref) ** 2)), 1e-300), 0.0)
+    q_tilt = _tilt_variances(acc_m, a_faces, gravity, face_axis)
+    times, t_ref, drift_ms, tau2 = _gyro_drift(recording.t, faces, gyr_m, g_faces, gravity, face_axis)
     steps = np.diff(recording.t)
     dt = float(np.median(steps))
     # timestamp jitter: a step is the clock's period plus the difference of two jitters, var = 2 σ_t² (gaps left out)
@@ -283,68 +381,9 @@ def closed_form_errors(recording: Recording, faces: list[Interval], turns: dict[
     wander = np.median([_wander(recording.gyro[iv.slice], dt) for iv in faces], axis=0) * np.asarray(gyro_scale) ** 2
     x = {"acc": acc_m, "gyro": gyr_m, "integral": [], "duration": [], "force": [], "axis": [], "sign": [],
          "bias_shift": [], "drift": np.zeros(3), "face_dt": times - t_ref, "turn_dt": []}
-    var_turn, tilts = [], []
-    window = max(int(round(0.25 * recording.rate)), 3)
-    for i in range(3):
-        for tr in turns[i]:
-            sl = slice(tr.start, tr.stop + 1)
-            t = recording.t[sl]
-            x["integral"].append(np.trapezoid(recording.gyro[sl], t, axis=0))
-            x["duration"].append(float(t[-1] - t[0]))
-            x["force"].append(np.trapezoid(acc_si[sl], t, axis=0))
-            x["axis"].append(i)
-            x["sign"].append(int(tr.sign))
-            x["bias_shift"].append(np.zeros(3))
-            x["turn_dt"].append(float(np.mean(t)) - t_ref)
-            # the hand turns about the vertical only on average: the tilt gravity shows across the turn
-            # (rests before and after) is the turn's rotation off its axis, which the off-axis integrals hold;
-            # about the axis, the angle differs from the known one by the hand's wander at either end
-            before = acc_si[max(tr.start - window, 0):tr.start + 1].mean(axis=0)
-            after = acc_si[tr.stop:tr.stop + window + 1].mean(axis=0)
-            tilt_turn = float(np.sum((after / np.linalg.norm(after) - before / np.linalg.norm(before)) ** 2)) / 2
-            tilts.append(tilt_turn)
-            # the trapezoid ∫ ≈ Σ u_k (t_{k+1} − t_{k−1})/2 on jittered stamps: Σ_k σ_t² ((u_{k−1} − u_{k+1})/2)²
-            u = recording.gyro[sl]
-            jitter = jitter_var * np.sum(((u[:-2] - u[2:]) / 2) ** 2, axis=0)
-            var_turn.append(rate_var * dt * x["duration"][-1] + jitter)
-    # each turn's own tilt: measured (to the accelerometer's noise), only how it splits between the two
-    # off-axis integrals is not
-    var_turn = [(v_int, np.where(np.arange(3) == axis, 2 * wander[axis], tilt) / np.asarray(gyro_scale) ** 2)
-                for v_int, axis, tilt in zip(var_turn, x["axis"], tilts, strict=True)]
-    base = _closed_form(x, gravity, angle)
-    names = list(base)
-    parts: dict[str, np.ndarray] = {}  # variance of every parameter from each group of inputs' errors
+    var_turn = _turn_inputs(recording, turns, acc_si, x, t_ref, (rate_var, dt, jitter_var), wander, gyro_scale)
+    names, parts = _variance_parts(x, gravity, angle, (a_faces, q_tilt, g_faces, tau2, drift_ms, var_turn))
     dof = {"tilt": 6.0, "tau": 3.0}  # the estimated variances' degrees of freedom (the others' are measured)
-
-    def add(group, key, index, var):  # central differences of the closed form in one input, times its variance
-        h = float(np.sqrt(var)) if var > 0 else 0.0
-        if h == 0.0:
-            return
-        out = []
-        for sgn in (1.0, -1.0):
-            y = {k: (v.copy() if isinstance(v, np.ndarray) else
-                     [a.copy() if isinstance(a, np.ndarray) else a for a in v]) for k, v in x.items()}
-            if isinstance(y[key], list):
-                y[key][index[0]][index[1]] += sgn * h
-            else:
-                y[key][index] += sgn * h
-            out.append(_closed_form(y, gravity, angle))
-        d = np.array([(out[0][n] - out[1][n]) / 2 for n in names])
-        parts[group] = parts.get(group, 0.0) + d**2
-
-    for f in range(6):
-        for j in range(3):
-            add("noise", "acc", (f, j), a_faces[f, j])
-            add("tilt", "acc", (f, j), q_tilt[f, j])
-            add("noise", "gyro", (f, j), g_faces[f, j])
-            add("tau", "gyro", (f, j), tau2)
-    for j in range(3):
-        add("noise", "drift", j, drift_ms[j])
-    for n, (v_int, v_off) in enumerate(var_turn):
-        for j in range(3):
-            add("noise", "integral", (n, j), v_int[j])
-            add("turn", "integral", (n, j), v_off[j])
-            add("tau", "bias_shift", (n, j), tau2)
     total = sum(parts.values())
     # Satterthwaite's degrees of freedom of the sum, and the 1σ of a t with them (as for the joint fit's
     # rotations, imucalib.fit.gyroscope): estimated from a handful of leftovers, the variance is right on

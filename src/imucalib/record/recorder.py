@@ -487,8 +487,7 @@ class Recorder:
 
     def _current_run(self) -> Interval | None:
         """The static run the detector's final statistic ends in (None when moving), looked for after the last
-        interval only: :meth:`~imucalib.segment.StillDetector.current` at a cost that does not grow with the
-        session."""
+        interval only: at a cost that does not grow with the session."""
         det = self.detector
         stat = det.stream.statistic
         if stat.size == 0 or stat[-1] >= det.threshold:

@@ -195,6 +195,76 @@ def _not_a_table(recorder: Recorder, writer: SessionWriter, exc: ValueError, mor
     raise ValueError(f"{exc} (the {writer.lines} lines read so far are in {partial})") from None
 
 
+def _resume(writer: SessionWriter, recorder: Recorder) -> None:
+    """The recorder fed the unfinished session's lines again (already in the file: not written twice)."""
+    from .recorder import HEAD_LINES
+
+    if len(writer.resumed) < HEAD_LINES:
+        writer.finish(rename=False)
+        raise ValueError(f"--resume: {writer.partial} holds {len(writer.resumed)} lines, fewer than the "
+                         f"{HEAD_LINES} the layout is read from: give -o another name")
+    recorder.sink = None
+    recorder.feed(writer.resumed)
+    recorder.mark_written()
+
+
+def _follow(q: queue.Queue, recorder: Recorder, writer: SessionWriter, stop: threading.Event,
+            interrupted: threading.Event, poll: float, silence: float) -> tuple:
+    """The lines the reading thread queues fed to the recorder until the stream ends, fails or is interrupted;
+    ``(how it ended, the reading error)`` (:func:`record`)."""
+    ended, error = None, None
+    last, said = time.monotonic(), 0
+    while not interrupted.is_set():
+        try:
+            item = q.get(timeout=poll)
+        except queue.Empty:
+            quiet = time.monotonic() - last
+            if silence and quiet >= silence * (said + 1):
+                said += 1
+                recorder.emit({"event": "silence", "seconds": round(silence * said, 1),
+                               "message": f"no data for {silence * said:g} s: is the sensor still sending? "
+                                          "(check the cable or connection, the port, the baud rate)"})
+            continue
+        if isinstance(item, _End):
+            ended = item.reason
+            break
+        if isinstance(item, _Failed):
+            error = item.error
+            break
+        last, said = time.monotonic(), 0
+        for k in range(0, len(item), 2000):  # Ctrl-C is looked at between slices of a long batch
+            try:
+                recorder.feed(item[k:k + 2000])
+            except ValueError as exc:  # the stream cannot be followed: keep what was read, say where it is
+                stop.set()
+                more = list(item[k + 2000:])
+                while not q.empty():
+                    queued = q.get_nowait()
+                    more += queued if isinstance(queued, list) else []
+                _not_a_table(recorder, writer, exc, more)
+            if interrupted.is_set():
+                break
+    return ended, error
+
+
+def _end_stream(recorder: Recorder, writer: SessionWriter, source, error) -> None:
+    """The recorder's end of the stream; a table it cannot follow, or a failed read, leaves the ``.partial`` file
+    and raises (:func:`record`)."""
+    try:
+        recorder.end_stream()
+    except ValueError as exc:
+        if error is None:
+            _not_a_table(recorder, writer, exc)
+        head = recorder.unread()
+        writer.write_lines(head)
+        partial = writer.finish(rename=False)
+        raise RecordError(f"reading {source.name} failed after {recorder.line_no + len(head)} lines "
+                          f"({type(error).__name__}: {error}); the lines read so far are in {partial}") from None
+    except BaseException:
+        writer.finish(rename=False)
+        raise
+
+
 def record(stream, output: str | Path | SessionWriter, recorder: Recorder, *, poll: float = 0.1,
            force: bool = False, silence: float = 5.0) -> RecordResult:
     """Record ``stream`` into ``output`` while ``recorder`` follows it.
@@ -237,15 +307,7 @@ def record(stream, output: str | Path | SessionWriter, recorder: Recorder, *, po
     """
     writer = output if isinstance(output, SessionWriter) else SessionWriter(output, force=force)
     if writer.resumed:  # the session so far, followed again; its lines are in the file already
-        from .recorder import HEAD_LINES
-
-        if len(writer.resumed) < HEAD_LINES:
-            writer.finish(rename=False)
-            raise ValueError(f"--resume: {writer.partial} holds {len(writer.resumed)} lines, fewer than the "
-                             f"{HEAD_LINES} the layout is read from: give -o another name")
-        recorder.sink = None
-        recorder.feed(writer.resumed)
-        recorder.mark_written()
+        _resume(writer, recorder)
     recorder.sink = writer.write_lines
     source = as_source(stream)
     q: queue.Queue = queue.Queue()
@@ -256,39 +318,8 @@ def record(stream, output: str | Path | SessionWriter, recorder: Recorder, *, po
         for sig in (signal.SIGINT, signal.SIGTERM):
             previous[sig] = signal.signal(sig, lambda signum, frame: interrupted.set())
     thread.start()
-    ended, error = None, None
-    last, said = time.monotonic(), 0
     try:
-        while not interrupted.is_set():
-            try:
-                item = q.get(timeout=poll)
-            except queue.Empty:
-                quiet = time.monotonic() - last
-                if silence and quiet >= silence * (said + 1):
-                    said += 1
-                    recorder.emit({"event": "silence", "seconds": round(silence * said, 1),
-                                   "message": f"no data for {silence * said:g} s: is the sensor still sending? "
-                                              "(check the cable or connection, the port, the baud rate)"})
-                continue
-            if isinstance(item, _End):
-                ended = item.reason
-                break
-            if isinstance(item, _Failed):
-                error = item.error
-                break
-            last, said = time.monotonic(), 0
-            for k in range(0, len(item), 2000):  # Ctrl-C is looked at between slices of a long batch
-                try:
-                    recorder.feed(item[k:k + 2000])
-                except ValueError as exc:  # the stream cannot be followed: keep what was read, say where it is
-                    stop.set()
-                    more = list(item[k + 2000:])
-                    while not q.empty():
-                        queued = q.get_nowait()
-                        more += queued if isinstance(queued, list) else []
-                    _not_a_table(recorder, writer, exc, more)
-                if interrupted.is_set():
-                    break
+        ended, error = _follow(q, recorder, writer, stop, interrupted, poll, silence)
     except BaseException:
         stop.set()
         writer.finish(rename=False)
@@ -298,19 +329,7 @@ def record(stream, output: str | Path | SessionWriter, recorder: Recorder, *, po
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     thread.join(timeout=1.0)
-    try:
-        recorder.end_stream()
-    except ValueError as exc:
-        if error is None:
-            _not_a_table(recorder, writer, exc)
-        head = recorder.unread()
-        writer.write_lines(head)
-        partial = writer.finish(rename=False)
-        raise RecordError(f"reading {source.name} failed after {recorder.line_no + len(head)} lines "
-                          f"({type(error).__name__}: {error}); the lines read so far are in {partial}") from None
-    except BaseException:
-        writer.finish(rename=False)
-        raise
+    _end_stream(recorder, writer, source, error)
     path = writer.finish()
     recorder.conclude()
     if error is not None:

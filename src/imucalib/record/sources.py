@@ -166,50 +166,13 @@ def open_source(spec: str, *, stdin=None) -> Iterator[Source]:
         yield FdSource(sys.stdin.fileno())
         return
     if spec.startswith("serial:"):
-        try:
-            import serial  # pyserial
-        except ImportError:
-            raise ValueError("a serial port needs pyserial: pip install 'imucalib[serial]'") from None
-        rest = spec[len("serial:"):]
-        port, _, query = rest.partition("?")
-        opts = parse_qs(query, keep_blank_values=True)
-        unknown = sorted(set(opts) - {"baud"})
-        if unknown:
-            raise ValueError(f"{spec}: unknown setting {', '.join(unknown)} of a serial port; the one setting is baud, "
-                             "e.g. serial:/dev/ttyUSB0?baud=115200")
-        try:
-            baud = int(opts.get("baud", ["115200"])[-1])
-        except ValueError:
-            raise ValueError(f"{spec}: baud must be a whole number of bits per second") from None
-        if not 50 <= baud <= MAX_BAUD:
-            raise ValueError(f"{spec}: a baud rate of {baud} bits per second is not one a serial port runs at "
-                             f"(50 to {MAX_BAUD:,}; 115200 is common)")
-        if not port:
-            raise ValueError(f"{spec}: name the port, e.g. serial:/dev/ttyUSB0?baud=115200")
-        try:
-            port_obj = serial.serial_for_url(port, baudrate=baud, timeout=0.1)
-        except serial.SerialException as exc:
-            raise ValueError(f"{spec}: cannot open the port ({exc})") from None
-        try:
-            yield SerialSource(port_obj, f"the serial port {port}")
-        finally:
-            with contextlib.suppress(Exception):  # a port that went away may fail to close
-                port_obj.close()
+        with _serial_source(spec) as source:
+            yield source
         return
     url = urlsplit(spec)
     if url.scheme == "tcp":
-        try:
-            host, port_no = url.hostname, url.port
-        except ValueError:
-            host, port_no = None, None
-        if not host or not port_no:
-            raise ValueError(f"{spec}: give the host and port, e.g. tcp://192.168.1.20:5000")
-        try:
-            sock = socket.create_connection((host, port_no), timeout=10)
-        except OSError as exc:
-            raise ValueError(f"{spec}: cannot connect ({exc})") from None
-        with sock:
-            yield SocketSource(sock, spec)
+        with _tcp_source(spec, url) as source:
+            yield source
         return
     if url.scheme == "phyphox":
         if not url.hostname:
@@ -218,6 +181,63 @@ def open_source(spec: str, *, stdin=None) -> Iterator[Source]:
         return
     raise ValueError(f"unknown source {spec!r}: use -, serial:/dev/ttyUSB0?baud=115200, tcp://HOST:PORT or "
                      "phyphox://HOST:8080")
+
+
+@contextlib.contextmanager
+def _serial_source(spec: str) -> Iterator[Source]:
+    """:func:`open_source` of ``serial:PORT?baud=N``: the port opened, closed on leaving."""
+    try:
+        import serial  # pyserial
+    except ImportError:
+        raise ValueError("a serial port needs pyserial: pip install 'imucalib[serial]'") from None
+    port, baud = _serial_settings(spec)
+    try:
+        port_obj = serial.serial_for_url(port, baudrate=baud, timeout=0.1)
+    except serial.SerialException as exc:
+        raise ValueError(f"{spec}: cannot open the port ({exc})") from None
+    try:
+        yield SerialSource(port_obj, f"the serial port {port}")
+    finally:
+        with contextlib.suppress(Exception):  # a port that went away may fail to close
+            port_obj.close()
+
+
+def _serial_settings(spec: str) -> tuple[str, int]:
+    """The port and baud rate of ``serial:PORT?baud=N`` (115200 when not given), checked."""
+    rest = spec[len("serial:"):]
+    port, _, query = rest.partition("?")
+    opts = parse_qs(query, keep_blank_values=True)
+    unknown = sorted(set(opts) - {"baud"})
+    if unknown:
+        raise ValueError(f"{spec}: unknown setting {', '.join(unknown)} of a serial port; the one setting is baud, "
+                         "e.g. serial:/dev/ttyUSB0?baud=115200")
+    try:
+        baud = int(opts.get("baud", ["115200"])[-1])
+    except ValueError:
+        raise ValueError(f"{spec}: baud must be a whole number of bits per second") from None
+    if not 50 <= baud <= MAX_BAUD:
+        raise ValueError(f"{spec}: a baud rate of {baud} bits per second is not one a serial port runs at "
+                         f"(50 to {MAX_BAUD:,}; 115200 is common)")
+    if not port:
+        raise ValueError(f"{spec}: name the port, e.g. serial:/dev/ttyUSB0?baud=115200")
+    return port, baud
+
+
+@contextlib.contextmanager
+def _tcp_source(spec: str, url) -> Iterator[Source]:
+    """:func:`open_source` of ``tcp://HOST:PORT`` (``url`` split): the connection made, closed on leaving."""
+    try:
+        host, port_no = url.hostname, url.port
+    except ValueError:
+        host, port_no = None, None
+    if not host or not port_no:
+        raise ValueError(f"{spec}: give the host and port, e.g. tcp://192.168.1.20:5000")
+    try:
+        sock = socket.create_connection((host, port_no), timeout=10)
+    except OSError as exc:
+        raise ValueError(f"{spec}: cannot connect ({exc})") from None
+    with sock:
+        yield SocketSource(sock, spec)
 
 
 def _json_depth(text: str) -> int:

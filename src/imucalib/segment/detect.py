@@ -39,7 +39,6 @@ from .still import STILL_OFFSET, join_blips, still_inside, still_outside, still_
 from .windows import (
     TRANSPOSE_BYTES,
     VarianceNormStream,
-    column_means,
     moving_variance,
     odd_window,
     pose_means,
@@ -233,11 +232,25 @@ def detect_intervals(
     window, min_interval = _hold_window(min_hold, window, min_interval)
     blocks = still_blocks(recording, min_hold=min_hold) if init_static is None else None
     if blocks is not None:
-        if not blocks.poses:
-            raise ValueError(f"no block of the recording is still for {min_hold:g} s: each pose must be held "
-                             "still (or give a shorter hold with --min-hold SECONDS)")
-        poses = blocks.poses
-        return poses, float("nan"), poses[0], fit_determined(interval_means(recording.acc, poses), gravity)[0]
+        return _block_poses(recording, blocks, gravity, min_hold)
+    return _scan(recording, gravity, init_static, list(multipliers), window, min_interval, gyro_gate)
+
+
+def _block_poses(recording: Recording, blocks, gravity: float,
+                 min_hold: float) -> tuple[list[Interval], float, Interval, TriadModel]:
+    """:func:`detect_intervals` of a recording in blocks: the still part of each block its pose, the first the
+    rest, the multiplier NaN."""
+    if not blocks.poses:
+        raise ValueError(f"no block of the recording is still for {min_hold:g} s: each pose must be held "
+                         "still (or give a shorter hold with --min-hold SECONDS)")
+    poses = blocks.poses
+    return poses, float("nan"), poses[0], fit_determined(interval_means(recording.acc, poses), gravity)[0]
+
+
+def _scan(recording: Recording, gravity: float, init_static: float | None, multipliers: list[float], window: float,
+          min_interval: float, gyro_gate: bool) -> tuple[list[Interval], float, Interval, TriadModel]:
+    """:func:`detect_intervals` of a recording with an initial rest and rotations: the multiplier scan, then
+    again with the gyroscope's gate."""
     long_window = max(window, VARIANCE_WINDOW)
     win = odd_window(long_window, recording.rate)
     stat = variance_norm(recording.acc, win)  # formed once: the initial rest's search reads it too
@@ -245,53 +258,63 @@ def detect_intervals(
         rest = find_initial_rest(recording, statistic=stat)
     else:
         rest = initial_rest(recording, init_static)
-    multipliers = list(multipliers)
     detector = make_detector(recording, rest, window, min_interval, statistic=stat)
     intervals, mult, model = scan_thresholds(detector, gravity, recording, multipliers, window + min_interval, None)
     if gyro_gate and recording.gyro is not None:  # an accelerometer-only recording has no gate
-        from ..fit.gyroscope import axes_disagreement, rough_scale
-
-        bias = column_means(recording.gyro[rest.slice])  # recording.gyro[rest.slice].mean(axis=0), bit for bit
-        try:
-            scale = rough_scale(recording, intervals, model, bias)
-        except ValueError:
-            # the accelerometer found the poses but the gyroscope does not confirm them: say why when its
-            # rotations disagree with the accelerometer's (axes swapped or reversed on one sensor)
-            hint = axes_disagreement(recording, intervals, model, bias)
-            if hint is not None:
-                raise ValueError(hint) from None
-            raise
-        widest = detector_runs(detector, [max(multipliers) * detector[0]])[0]
-        # gyro_still(recording, rest, scale, widest), its samples outside the intervals judged only when needed
-        gyro = np.asarray(recording.gyro, dtype=np.float64)
-        settings = still_settings(recording, rest, scale, STILL_RATE, STILL_WINDOW, STILL_N_SIGMA)
-        still = np.empty(gyro.shape[0], dtype=bool)
-        if not still_inside(gyro, settings, widest, still, STILL_OFFSET):  # else the scan would find the same again
-            still_outside(gyro, settings, widest, still)
-            try:
-                gated = scan_thresholds(detector, gravity, recording, multipliers, window + min_interval, still,
-                                        reduce=False)
-            except ValueError:
-                hint = axes_disagreement(recording, intervals, model, bias)
-                if hint is not None:
-                    raise ValueError(hint) from None
-                # the gate leaves too few poses (hand-held poses that wobble): they are kept for the accelerometer,
-                # weighted by their scatter, and unreliable_transitions leaves their rotations out of the gyroscope
-                weights = 1.0 / pose_scatter(recording.acc, intervals)
-                model = fit_determined(interval_means(recording.acc, intervals), gravity, weights=weights)[0]
-            else:
-                if len(gated[0]) < len(intervals):  # the gate took poses out: a gyroscope whose axes are not the
-                    hint = axes_disagreement(recording, intervals, model, bias)  # accelerometer's is not still
-                    if hint is not None:
-                        raise ValueError(hint)
-                intervals, mult, model = gated
-                joined = join_blips(recording, intervals, settings)  # a moment of tremor does not part a hold
-                if len(joined) < len(intervals):
-                    means = interval_means(recording.acc, joined)
-                    model = (fit_gravity_norm(means, gravity)[0] if len(joined) >= MIN_INTERVALS
-                             else fit_determined(means, gravity)[0])
-                    intervals = joined
+        intervals, mult, model = _gyro_gated(recording, gravity, rest, detector, multipliers,
+                                             window + min_interval, (intervals, mult, model))
     return intervals, mult, rest, model
+
+
+def _gyro_gated(recording: Recording, gravity: float, rest: Interval, detector, multipliers: list[float],
+                shortest: float, ungated: tuple) -> tuple[list[Interval], float, TriadModel]:
+    """The scan again without the samples where the gyroscope is not still (:func:`detect_intervals`):
+    ``(intervals, multiplier, model)``, those of the scan without the gate (``ungated``) when the gate finds
+    the same or leaves too few poses."""
+    from ..fit.gyroscope import axes_disagreement, rough_scale
+
+    intervals, mult, model = ungated
+    bias = recording.gyro[rest.slice].mean(axis=0)
+    try:
+        scale = rough_scale(recording, intervals, model, bias)
+    except ValueError:
+        # the accelerometer found the poses but the gyroscope does not confirm them: say why when its
+        # rotations disagree with the accelerometer's (axes swapped or reversed on one sensor)
+        hint = axes_disagreement(recording, intervals, model, bias)
+        if hint is not None:
+            raise ValueError(hint) from None
+        raise
+    widest = detector_runs(detector, [max(multipliers) * detector[0]])[0]
+    # gyro_still(recording, rest, scale, widest), its samples outside the intervals judged only when needed
+    gyro = np.asarray(recording.gyro, dtype=np.float64)
+    settings = still_settings(recording, rest, scale, STILL_RATE, STILL_WINDOW, STILL_N_SIGMA)
+    still = np.empty(gyro.shape[0], dtype=bool)
+    if still_inside(gyro, settings, widest, still, STILL_OFFSET):  # else the scan would find the same again
+        return intervals, mult, model
+    still_outside(gyro, settings, widest, still)
+    try:
+        gated = scan_thresholds(detector, gravity, recording, multipliers, shortest, still, reduce=False)
+    except ValueError:
+        hint = axes_disagreement(recording, intervals, model, bias)
+        if hint is not None:
+            raise ValueError(hint) from None
+        # the gate leaves too few poses (hand-held poses that wobble): they are kept for the accelerometer,
+        # weighted by their scatter, and unreliable_transitions leaves their rotations out of the gyroscope
+        weights = 1.0 / pose_scatter(recording.acc, intervals)
+        model = fit_determined(interval_means(recording.acc, intervals), gravity, weights=weights)[0]
+        return intervals, mult, model
+    if len(gated[0]) < len(intervals):  # the gate took poses out: a gyroscope whose axes are not the
+        hint = axes_disagreement(recording, intervals, model, bias)  # accelerometer's is not still
+        if hint is not None:
+            raise ValueError(hint)
+    intervals, mult, model = gated
+    joined = join_blips(recording, intervals, settings)  # a moment of tremor does not part a hold
+    if len(joined) < len(intervals):
+        means = interval_means(recording.acc, joined)
+        model = (fit_gravity_norm(means, gravity)[0] if len(joined) >= MIN_INTERVALS
+                 else fit_determined(means, gravity)[0])
+        intervals = joined
+    return intervals, mult, model
 
 
 def _hold_window(min_hold: float, window: float | None, min_interval: float | None) -> tuple[float, float]:
@@ -409,15 +432,6 @@ class StillDetector:
         """Finish the record; returns the static intervals that end with it."""
         self.stream.close()
         return self._update(open_end=True)
-
-    def current(self) -> Interval | None:
-        """The static run the final statistic is in at its last sample (None when moving)."""
-        stat = self.stream.statistic
-        if stat.size == 0 or stat[-1] >= self.threshold:
-            return None
-        below = np.nonzero(stat >= self.threshold)[0]
-        start = int(below[-1]) + 1 if below.size else 0
-        return Interval(start, stat.size, "static")
 
     def _update(self, open_end: bool) -> list[Interval]:
         stat = self.stream.statistic

@@ -1,0 +1,71 @@
+"""Quaternions, rotations and the integration of angular-rate sequences.
+
+Conventions
+-----------
+Quaternions are Hamilton quaternions stored **scalar first**, ``q = [w, x, y, z]``,
+as float64 arrays of shape (..., 4). A unit quaternion ``q`` rotates a vector
+from the body frame to the reference frame, ``v_ref = R(q) · v_body``; the
+attitude of a body turning with body-frame rate ``ω`` obeys
+
+    q̇ = ½ · q ⊗ [0, ω]                                            (Zhang 2021, eq. 12)
+
+with ``R(q)`` the matrix of Zhang 2021, eq. (13). :func:`to_scipy` and
+:func:`from_scipy` convert to and from :class:`scipy.spatial.transform.Rotation`
+(which stores scalar last).
+
+Integration
+-----------
+Between samples ``k`` and ``k+1`` the rate is taken as linear in time, so the
+classic fourth-order Runge–Kutta step uses ``ω_k`` at the start, the mid-step
+rate ``(ω_k + ω_{k+1}) / 2`` and ``ω_{k+1}`` at the end (Zhang 2021, eq. 23 is
+the first-order special case). Because the equation is linear in ``q`` and every
+stage multiplies ``q`` on the right, one RK4 step is ``q_{k+1} = q_k ⊗ S_k`` with
+
+    K1 = ½ω_k,  K2 = (1 + h/2·K1) ⊗ ½ω_m,  K3 = (1 + h/2·K2) ⊗ ½ω_m,
+    K4 = (1 + h·K3) ⊗ ½ω_{k+1},  S_k = 1 + h/6·(K1 + 2K2 + 2K3 + K4).
+
+So the attitude change over an interval is the ordered product ``S_0 ⊗ … ⊗ S_{n-1}``
+(normalised once: scaling commutes with the product, so this equals normalising
+after every step). The step factors are computed for all samples at once and the
+products are formed by pairwise (tree) reduction, which vectorises the
+integration over time steps and over many intervals together.
+"""
+
+from __future__ import annotations
+
+from .derivatives import five_point_derivative, segmented_five_point
+from .integrator import IntervalIntegrator
+from .products import integrate, integrate_intervals, rk4_step_factors
+from .quaternions import (
+    angle_between,
+    from_scipy,
+    matrix_to_quat,
+    quat_conjugate,
+    quat_from_rotvec,
+    quat_multiply,
+    quat_normalize,
+    quat_to_matrix,
+    quat_to_rotvec,
+    skew,
+    to_scipy,
+)
+
+__all__ = [
+    "quat_multiply",
+    "quat_conjugate",
+    "quat_normalize",
+    "quat_to_matrix",
+    "matrix_to_quat",
+    "quat_from_rotvec",
+    "quat_to_rotvec",
+    "rk4_step_factors",
+    "integrate",
+    "integrate_intervals",
+    "IntervalIntegrator",
+    "to_scipy",
+    "from_scipy",
+    "skew",
+    "angle_between",
+    "five_point_derivative",
+    "segmented_five_point",
+]
