@@ -98,28 +98,62 @@ def _block_times(path: Path, t: np.ndarray, blocks: list[list[int]]) -> np.ndarr
 
 
 def read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=None) -> Recording:
-    table = split_table(path, columns) if frame is None else _frame_table(frame)
-    dated = datetime_cells(table.first_row) if frame is None else []
-    source = table.layout  # where the file's rows lie: apply copies their text (io.writers)
-    if dated:  # date-time stamps: read as a DataFrame's datetimes are
-        frame = read_dated(path, skiprows=table.skipped, sep=table.sep, dated=dated,
-                           has_header=table.header is not None and not datetime_cells(table.header))
-        table = _frame_table(frame)
-        dated_digest = None if csvparse.is_gzip(path) else csvparse.file_digest(source).hexdigest()
-    has_header = table.header is not None
-    first_line, names = table.first_line, table.names
-    mapping = _map_columns(path, names, columns, has_header)
+    """One CSV file (or the DataFrame ``frame``) as a recording: its table found, its rows parsed straight
+    into the recording's arrays, its times in seconds and its units from the options or the header."""
+    table, frame, source, parsed = _table_of(path, columns, frame)
+    mapping = _map_columns(path, table.names, columns, table.header is not None)
     numeric_cols = sorted({j for j in mapping.values() if j is not None})
     sensors = [mapping[f] for f in (*FIELDS[1:], "mx", "my", "mz") if mapping[f] is not None]
     # the samples go straight into the recording's arrays: no copy of the whole table
     blocks = _prompt_blocks(path, table) if frame is None and table.prompts else None
-    sparse = (packets.sparse_rows(path, table.layout, names, numeric_cols, sensors) if frame is None and blocks is None
-              and packets.has_empty_cells(table.sample, table.sep, sensors) else None)
+    sparse = (packets.sparse_rows(path, table.layout, table.names, numeric_cols, sensors) if frame is None
+              and blocks is None and packets.has_empty_cells(table.sample, table.sep, sensors) else None)
     plan = csvparse.plan(table.layout) if frame is None and blocks is None and sparse is None else None
     rows = (plan.rows if plan is not None else len(frame) if frame is not None else sparse[0] if sparse is not None
             else blocks[0].shape[0])
     if rows == 0:
         raise ReaderError(f"{path}: no data rows after the header")
+    acc, gyro, cols, time_unit = _sensor_columns(path, table, frame, mapping, numeric_cols, rows,
+                                                 (blocks, sparse, plan), parsed, time_unit)
+    meta: dict = {"columns": {f: (table.names[j] if j is not None else None) for f, j in mapping.items()
+                              if f in FIELDS or j is not None},
+                  "column_names": list(table.names), "header": table.header is not None,
+                  "separator": table.sep or " "}
+    if table.skipped:
+        meta["preamble_lines"] = table.skipped
+    t, acc, gyro, cols = _times(path, table, mapping, cols, blocks, rows, rate, time_unit, (acc, gyro), parsed,
+                                meta)
+    au, gu = _sensor_units(table, mapping, acc_unit, gyro_unit)
+    extra, temperature = _other_columns(table, mapping, cols, meta)
+    rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
+                    extra=extra, metadata=meta)
+    if parsed.get("digest") and not csvparse.is_gzip(path) and not table.units_row:  # what apply needs to copy the
+        # file's own text (io.writers); a units line under the header: the file is written anew
+        meta["source_layout"] = {**source.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec),
+                                 "digest": parsed["digest"]}
+    return rec
+
+
+def _table_of(path: Path, columns, frame):
+    """The table of :func:`read_csv`: the file's (or the frame's), the frame read from date-time stamps, where
+    the file's rows lie (what apply copies, :mod:`.writers`) and the parse's facts so far."""
+    table = split_table(path, columns) if frame is None else _frame_table(frame)
+    dated = datetime_cells(table.first_row) if frame is None else []
+    source = table.layout  # where the file's rows lie: apply copies their text (io.writers)
+    parsed: dict = {}
+    if dated:  # date-time stamps: read as a DataFrame's datetimes are
+        frame = read_dated(path, skiprows=table.skipped, sep=table.sep, dated=dated,
+                           has_header=table.header is not None and not datetime_cells(table.header))
+        table = _frame_table(frame)
+        parsed["digest"] = None if csvparse.is_gzip(path) else csvparse.file_digest(source).hexdigest()
+    return table, frame, source, parsed
+
+
+def _sensor_columns(path: Path, table: Table, frame, mapping: dict, numeric_cols: list[int], rows: int,
+                    how: tuple, parsed: dict, time_unit):
+    """The accelerometer's and gyroscope's arrays filled from the rows (``how``: prompt blocks, sparse rows or
+    a parse plan), every column read, and the time unit (nanoseconds for a DataFrame's datetimes)."""
+    blocks, sparse, plan = how
     has_gyro = mapping["gx"] is not None
     acc, gyro = np.empty((rows, 3)), (np.empty((rows, 3)) if has_gyro else None)
     targets = {f: (acc if f[0] == "a" else gyro)[:, "xyz".index(f[1])] for f in FIELDS[1:]
@@ -127,7 +161,6 @@ def read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=No
     out: dict[int, np.ndarray] = {}
     for f, view in targets.items():
         out.setdefault(mapping[f], view)
-    parsed: dict = {"digest": dated_digest} if dated else {}
     if blocks is not None:
         cols = {j: blocks[0][:, j] for j in range(table.ncols)}
     elif sparse is not None:
@@ -141,12 +174,16 @@ def read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=No
     for f, view in targets.items():
         if cols[mapping[f]] is not view:  # a column used for two fields
             view[:] = cols[mapping[f]]
-    meta: dict = {"columns": {f: (names[j] if j is not None else None) for f, j in mapping.items()
-                              if f in FIELDS or j is not None},
-                  "column_names": list(names), "header": has_header, "separator": table.sep or " "}
-    if table.skipped:
-        meta["preamble_lines"] = table.skipped
-    tcol = mapping["t"]
+    return acc, gyro, cols, time_unit
+
+
+def _times(path: Path, table: Table, mapping: dict, cols: dict, blocks, rows: int, rate, time_unit, sensors: tuple,
+           parsed: dict, meta: dict):
+    """The recording's times [s]: from the time column (blocks that restart moved after each other, coarse
+    stamps repaired), a packet counter or the rate; and the sensors' arrays and columns, without the rows
+    the repair dropped."""
+    acc, gyro = sensors
+    names, tcol = table.names, mapping["t"]
     if blocks is not None:
         meta["blocks"] = blocks[1]
         if tcol is not None:
@@ -166,50 +203,55 @@ def read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=No
             t = (np.arange(rows) + (0 if blocks is None else BLOCK_GAP_STEPS * np.repeat(
                 np.arange(len(blocks[1])), [b - a for a, b in blocks[1]]))) / rate
         meta["time_unit"] = None
-    else:
-        if rate is not None:
-            raise ReaderError(
-                f"{path}: the file has a time column ({names[tcol]!r}) and --rate was given; "
-                "pass only one (use --columns with '-' for t to ignore the time column)"
-            )
-        raw_t, offset = time_column(cols[tcol])
-        rep = repair_coarse(path, raw_t, [acc] + ([gyro] if has_gyro else []), first_line, names[tcol])
-        raw_t = rep.t
-        if rep.keep is not None:  # repeated rows dropped: every column with them
-            acc, gyro = acc[rep.keep], (gyro[rep.keep] if has_gyro else None)
-            cols = {j: c[rep.keep] for j, c in cols.items()}
-            parsed.pop("digest", None)  # the rows are no longer the file's: a writer writes them anew
-        unit = time_unit or unit_in(names[tcol]) if has_header else time_unit
-        if unit not in TIME_UNITS:
-            unit = time_unit or _infer_time_unit(raw_t, path, names[tcol])
-        t = to_seconds(raw_t, unit, meta)
-        if offset:
-            meta["t0"] = offset
-            meta["time_relative"] = True
-    au = acc_unit or (unit_in(names[mapping["ax"]]) if has_header else None) or "counts"
-    gu = gyro_unit or (unit_in(names[mapping["gx"]]) if has_header and has_gyro else None) or "counts"
+        return t, acc, gyro, cols
+    if rate is not None:
+        raise ReaderError(
+            f"{path}: the file has a time column ({names[tcol]!r}) and --rate was given; "
+            "pass only one (use --columns with '-' for t to ignore the time column)"
+        )
+    raw_t, offset = time_column(cols[tcol])
+    rep = repair_coarse(path, raw_t, [acc] + ([gyro] if gyro is not None else []), table.first_line, names[tcol])
+    raw_t = rep.t
+    if rep.keep is not None:  # repeated rows dropped: every column with them
+        acc, gyro = acc[rep.keep], (gyro[rep.keep] if gyro is not None else None)
+        cols = {j: c[rep.keep] for j, c in cols.items()}
+        parsed.pop("digest", None)  # the rows are no longer the file's: a writer writes them anew
+    unit = time_unit or unit_in(names[tcol]) if table.header is not None else time_unit
+    if unit not in TIME_UNITS:
+        unit = time_unit or _infer_time_unit(raw_t, path, names[tcol])
+    t = to_seconds(raw_t, unit, meta)
+    if offset:
+        meta["t0"] = offset
+        meta["time_relative"] = True
+    return t, acc, gyro, cols
+
+
+def _sensor_units(table: Table, mapping: dict, acc_unit, gyro_unit) -> tuple[str, str]:
+    """The accelerometer's and gyroscope's units: the option's, else the header's, else counts."""
+    has_header, has_gyro = table.header is not None, mapping["gx"] is not None
+    au = acc_unit or (unit_in(table.names[mapping["ax"]]) if has_header else None) or "counts"
+    gu = gyro_unit or (unit_in(table.names[mapping["gx"]]) if has_header and has_gyro else None) or "counts"
     if au not in ACC_UNITS:
         au = "counts"
     if gu not in GYRO_UNITS:
         gu = "counts"
+    return au, gu
+
+
+def _other_columns(table: Table, mapping: dict, cols: dict, meta: dict):
+    """The columns no field reads (``extra``) and the temperature, a column the header names so or a packet's."""
+    names = table.names
     used = {j for j in mapping.values() if j is not None}
     extra, temperature = packets.mapped_others(mapping, names, cols, meta)
     for j, name in enumerate(names):
         col = cols.get(j)
         if j in used or col is None or (table.trailing and j == table.ncols - 1):
             continue  # read as a field, not read (another packet's), or the empty cell after a trailing separator
-        if temperature is None and has_header and _TEMP.match(name) and col.dtype.kind == "f":
+        if temperature is None and table.header is not None and _TEMP.match(name) and col.dtype.kind == "f":
             temperature = col
             meta["temperature_column"] = name
         extra[name if name not in extra else f"{name} (column {j + 1})"] = col
-    rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
-                    extra=extra, metadata=meta)
-    if parsed.get("digest") and not csvparse.is_gzip(path) and not table.units_row:  # what apply needs to copy the
-        # file's own text (io.writers); a units line under the header: the file is written anew
-        meta["source_layout"] = {**source.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec),
-                                 "digest": parsed["digest"]}
-    return rec
-
+    return extra, temperature
 
 
 def read_frame(frame, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic) -> Recording:

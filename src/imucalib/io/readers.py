@@ -10,7 +10,8 @@ dropped: a bad row is an error, never skipped.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -104,6 +105,20 @@ def read(
     """
     if is_frame(paths):
         return read_frame(paths, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic)
+    paths = _input_paths(paths)
+    _check_units(acc_unit, gyro_unit, time_unit, rate)
+    reader = _chosen_reader(paths, reader)
+    if reader in ("csv", "mat") and len(paths) > 1:  # one file per pose (per face): blocks of one recording
+        return read_file_blocks(paths, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic,
+                                read=read)
+    _check_options(paths, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic)
+    paths = _pair_order(paths, reader)
+    rec = _format_reader(paths, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic, progress)()
+    return _finished(paths, reader, rec, acc_unit, gyro_unit, time_unit)
+
+
+def _input_paths(paths: str | Path | Sequence[str | Path]) -> list[Path]:
+    """The input paths, each an existing file or a ROS 2 bag directory (:func:`read`)."""
     if isinstance(paths, str | Path):
         paths = [paths]
     paths = [Path(p) for p in paths]
@@ -113,6 +128,11 @@ def read(
         inputs.check_input_path(p)
         if p.is_dir() and not _is_rosbag(p):
             raise ReaderError(f"{p}: is a directory, not a data file (a ROS 2 bag directory holds metadata.yaml)")
+    return paths
+
+
+def _check_units(acc_unit, gyro_unit, time_unit, rate) -> None:
+    """The unit options are units this package knows, the rate a positive number (:func:`read`)."""
     if acc_unit is not None and acc_unit not in ACC_UNITS:
         raise ReaderError(f"unknown accelerometer unit {acc_unit!r}; use one of {', '.join(ACC_UNITS)}")
     if gyro_unit is not None and gyro_unit not in GYRO_UNITS:
@@ -121,13 +141,20 @@ def read(
         raise ReaderError(f"unknown time unit {time_unit!r}; use one of {', '.join(TIME_UNITS)}")
     if rate is not None and not (np.isfinite(rate) and rate > 0):
         raise ReaderError(f"rate must be a positive number of Hz; got {rate!r}")
+
+
+def _chosen_reader(paths: Sequence[Path], reader: str | None) -> str:
+    """The reader given, checked, or the one :func:`guess_reader` finds."""
     if reader is None:
         reader = guess_reader(paths)
     if reader not in READERS:
         raise ReaderError(f"unknown reader {reader!r}; use one of {', '.join(READERS)}")
-    if reader in ("csv", "mat") and len(paths) > 1:  # one file per pose (per face): blocks of one recording
-        return read_file_blocks(paths, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic,
-                                read=read)
+    return reader
+
+
+def _check_options(paths: Sequence[Path], reader: str, columns, acc_unit, gyro_unit, rate, variable, time_unit,
+                   topic) -> None:
+    """The number of files the reader takes, text files where it reads text, and only the options it uses."""
     expected = 2 if reader in ("imutk", "phone") else 1
     if len(paths) != expected:
         what = ("two files: the accelerometer file, then the gyroscope file" if expected == 2
@@ -144,9 +171,6 @@ def read(
         if ignored:
             raise ReaderError(f"a ROS bag's sensor_msgs/Imu fixes the fields, units and time; "
                               f"{', '.join(ignored)} cannot be set")
-        from .rosbag import read_rosbag
-
-        rec = read_rosbag(paths[0], topic=topic, progress=progress)
     elif topic is not None:
         raise ReaderError(f"topic applies to ROS bags; the {reader} reader has none")
     elif reader == "phone":
@@ -155,19 +179,39 @@ def read(
         if ignored:
             raise ReaderError(f"a phone app's files name their columns and carry their own time; "
                               f"{', '.join(ignored)} cannot be set")
-        rec = read_phone(paths, acc_unit, gyro_unit, time_unit)
-    elif reader == "imutk":
-        if [sensors_named(head_names(p) or []) for p in paths] == [{"gyro"}, {"acc"}]:
-            warnings.warn(f"{paths[0]} names the gyroscope's axes and {paths[1]} the accelerometer's: read as the "
-                          "accelerometer's file, then the gyroscope's", ImucalibWarning, stacklevel=2)
-            paths = [paths[1], paths[0]]
-        rec = read_imutk(paths[0], paths[1], acc_unit, gyro_unit, time_unit)
-    elif reader == "mat":
-        rec = read_mat(paths[0], columns, acc_unit, gyro_unit, rate, variable, time_unit)
-    elif columns is None and (xsens := inputs.xsens_header(paths[0])) is not None:
-        rec = inputs.read_xsens(paths[0], xsens, acc_unit, gyro_unit, rate, time_unit, read_csv=read_csv)
-    else:
-        rec = read_csv(paths[0], columns, acc_unit, gyro_unit, rate, time_unit)
+
+
+def _pair_order(paths: list[Path], reader: str) -> list[Path]:
+    """imu_tk's pair in the order accelerometer, gyroscope: swapped, with a warning, when the headers say so."""
+    if reader == "imutk" and [sensors_named(head_names(p) or []) for p in paths] == [{"gyro"}, {"acc"}]:
+        warnings.warn(f"{paths[0]} names the gyroscope's axes and {paths[1]} the accelerometer's: read as the "
+                      "accelerometer's file, then the gyroscope's", ImucalibWarning, stacklevel=3)
+        return [paths[1], paths[0]]
+    return paths
+
+
+def _format_reader(paths: Sequence[Path], reader: str, columns, acc_unit, gyro_unit, rate, variable, time_unit,
+                   topic, progress) -> Callable[[], Recording]:
+    """The reader of the format, its arguments bound: :func:`read` calls it (a partial adds no frame, so the
+    readers' warnings still point at the caller of :func:`read`)."""
+    if reader == "rosbag":
+        from .rosbag import read_rosbag
+
+        return partial(read_rosbag, paths[0], topic=topic, progress=progress)
+    if reader == "phone":
+        return partial(read_phone, paths, acc_unit, gyro_unit, time_unit)
+    if reader == "imutk":
+        return partial(read_imutk, paths[0], paths[1], acc_unit, gyro_unit, time_unit)
+    if reader == "mat":
+        return partial(read_mat, paths[0], columns, acc_unit, gyro_unit, rate, variable, time_unit)
+    if columns is None and (xsens := inputs.xsens_header(paths[0])) is not None:
+        return partial(inputs.read_xsens, paths[0], xsens, acc_unit, gyro_unit, rate, time_unit, read_csv=read_csv)
+    return partial(read_csv, paths[0], columns, acc_unit, gyro_unit, rate, time_unit)
+
+
+def _finished(paths: Sequence[Path], reader: str, rec: Recording, acc_unit, gyro_unit, time_unit) -> Recording:
+    """The recording checked against its header and its magnitudes, with the notes on its units, and
+    ``metadata`` saying where it came from (:func:`read`)."""
     acc_unit, gyro_unit, time_unit = _flags_over_header(paths, reader, rec, acc_unit, gyro_unit, time_unit)
     inputs.check_against_header(paths, reader, rec, acc_unit, gyro_unit, time_unit, unit_in=unit_in,
                                 phone_specs=phone_specs)
@@ -227,7 +271,7 @@ def _flags_over_header(paths: Sequence[Path], reader: str, rec: Recording, acc_u
             elif value in looks:
                 told = f"; the readings' median norm, {norm:.3g}, is gravity in neither unit: check the column"
         warnings.warn(f"{where_file}: {flag} {value} overrides the header ({where!r} says {unit}): the readings are "
-                      f"taken in {value}{told}", ImucalibWarning, stacklevel=3)
+                      f"taken in {value}{told}", ImucalibWarning, stacklevel=4)
     return tuple(None if f in overridden else given[f][1] for f in ("ax", "gx", "t"))
 
 

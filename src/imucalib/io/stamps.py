@@ -216,7 +216,7 @@ def note_held_samples(path, acc: np.ndarray, gyro: np.ndarray | None, rate: floa
     warnings.warn(f"{path}: {100 * same.mean():.0f}% of the rows repeat the row before exactly: each reading is "
                   f"held for about {hold:g} rows, so the sensor updates at about {rate / hold:.4g} Hz, not "
                   f"{rate:.4g} Hz (read faster than it updates); the rows are kept as they are, but noise figures "
-                  "from sample-to-sample differences come out low", ImucalibWarning, stacklevel=4)
+                  "from sample-to-sample differences come out low", ImucalibWarning, stacklevel=5)
 
 
 #: a calendar date and time of day as loggers print them: ISO 8601 (``2024-05-01T12:00:00.010Z``) or with a
