@@ -31,31 +31,10 @@ def read_file_blocks(paths: Sequence[Path], reader: str, columns, acc_unit, gyro
     if twice:
         raise ReaderError(f"{twice[0]} is given twice; several files are read as blocks of one recording (one pose "
                           "each), each file once")
-    recs = []
-    notes: dict[str, list] = {}  # a note's text without the file and its figures → [first note, files it is in]
-    for p in paths:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", ImucalibWarning)
-            recs.append(read(p, reader=reader, columns=columns, acc_unit=acc_unit, gyro_unit=gyro_unit, rate=rate,
-                             variable=variable, time_unit=time_unit))
-        for w in caught:
-            key = re.sub(r"[-+]?\d[\d.]*(?:e[-+]?\d+)?", "#", str(w.message).replace(str(p), ""))
-            notes.setdefault(key, [w, 0])[1] += 1
-    for w, count in notes.values():
-        warnings.warn(f"{w.message}" + (f" (and in {count - 1} more of the files)" if count > 1 else ""),
-                      w.category, stacklevel=3)
+    recs = _read_each(paths, read, dict(reader=reader, columns=columns, acc_unit=acc_unit, gyro_unit=gyro_unit,
+                                        rate=rate, variable=variable, time_unit=time_unit))
+    _check_alike(paths, recs)
     first = recs[0]
-    for p, rec in zip(paths[1:], recs[1:], strict=True):
-        has = ("a gyroscope" if first.gyro is not None else "no gyroscope",
-               "a gyroscope" if rec.gyro is not None else "no gyroscope")
-        for what, a, b in (("has", *has), ("has its accelerometer in", first.acc_unit, rec.acc_unit),
-                           ("has its gyroscope in", first.gyro_unit if first.gyro is not None else None,
-                            rec.gyro_unit if rec.gyro is not None else None),
-                           ("has the columns", first.metadata.get("column_names"), rec.metadata.get("column_names"))):
-            if a != b:
-                a, b = (", ".join(v) if isinstance(v, list) else str(v) for v in (a, b))
-                raise ReaderError(f"several files are read as blocks (one pose each) of one recording, so they must "
-                                  f"match: {p} {what} {b}, {paths[0]} {what} {a}")
     steps = np.concatenate([np.diff(r.t) for r in recs])
     gap = BLOCK_GAP_STEPS * (float(np.median(steps)) if steps.size else 1.0)
     times, start, blocks, row = [], 0.0, [], 0
@@ -83,3 +62,36 @@ def read_file_blocks(paths: Sequence[Path], reader: str, columns, acc_unit, gyro
         temperature=None if any(x is None for x in temps) else np.concatenate(temps),
         extra={k: np.concatenate([r.extra[k] for r in recs]) for k in keys}, metadata=meta,
     )
+
+
+def _read_each(paths: Sequence[Path], read: Callable[..., Recording], options: dict) -> list[Recording]:
+    """Each file read as one file is; a note that every file repeats is shown once (with the count)."""
+    recs = []
+    notes: dict[str, list] = {}  # a note's text without the file and its figures → [first note, files it is in]
+    for p in paths:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ImucalibWarning)
+            recs.append(read(p, **options))
+        for w in caught:
+            key = re.sub(r"[-+]?\d[\d.]*(?:e[-+]?\d+)?", "#", str(w.message).replace(str(p), ""))
+            notes.setdefault(key, [w, 0])[1] += 1
+    for w, count in notes.values():
+        warnings.warn(f"{w.message}" + (f" (and in {count - 1} more of the files)" if count > 1 else ""),
+                      w.category, stacklevel=4)
+    return recs
+
+
+def _check_alike(paths: Sequence[Path], recs: list[Recording]) -> None:
+    """The files' recordings have the same sensors, units and columns (blocks of one recording must)."""
+    first = recs[0]
+    for p, rec in zip(paths[1:], recs[1:], strict=True):
+        has = ("a gyroscope" if first.gyro is not None else "no gyroscope",
+               "a gyroscope" if rec.gyro is not None else "no gyroscope")
+        for what, a, b in (("has", *has), ("has its accelerometer in", first.acc_unit, rec.acc_unit),
+                           ("has its gyroscope in", first.gyro_unit if first.gyro is not None else None,
+                            rec.gyro_unit if rec.gyro is not None else None),
+                           ("has the columns", first.metadata.get("column_names"), rec.metadata.get("column_names"))):
+            if a != b:
+                a, b = (", ".join(v) if isinstance(v, list) else str(v) for v in (a, b))
+                raise ReaderError(f"several files are read as blocks (one pose each) of one recording, so they must "
+                                  f"match: {p} {what} {b}, {paths[0]} {what} {a}")

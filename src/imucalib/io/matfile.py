@@ -21,6 +21,43 @@ __all__ = ["read_mat"]
 
 
 def read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_unit) -> Recording:
+    """A MATLAB file's matrix (``variable``, else the one that fits, else its sensors' variables put together)
+    as a recording; its other variables are used (a magnetometer, a temperature) or named in a note."""
+    found = _mat_variables(path)
+    variable, columns, found = _chosen_variable(path, found, variable, columns)
+    m = _oriented_matrix(path, found, variable)
+    names = [str(j) for j in range(m.shape[1])]
+    if columns is None:
+        if m.shape[1] < 7:
+            raise ReaderError(f"{path}: variable {variable!r} has {m.shape[1]} columns; pass "
+                              "--columns (use '-' for t with --rate when there is no time; 4 entries "
+                              "t,ax,ay,az for an accelerometer-only log)")
+        columns = [str(j) for j in range(10 if m.shape[1] == 10 else 7)]
+        if m.shape[1] == 10:  # t, accelerometer, gyroscope, magnetometer: the 9-axis layout loggers write
+            warnings.warn(f"{path}: variable {variable!r} has 10 columns: taken as t,ax,ay,az,gx,gy,gz,mx,my,mz "
+                          "(pass --columns to say otherwise)", ImucalibWarning, stacklevel=3)
+    mapping = _map_columns(path, names, columns, True)
+    bad = ~np.isfinite(m[:, [j for j in mapping.values() if j is not None]])
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        raise ReaderError(f"{path}: variable {variable!r}, row {i + 1}: a NaN or inf value; "
+                          "fix the data (imucalib never skips rows)")
+    meta: dict = {"variable": variable}
+    t = _mat_times(path, m, mapping, rate, time_unit, meta)
+    extra, temperature = _mat_others(path, found, variable, m, mapping)
+    named, named_temp = packets.mapped_others(mapping, names, {j: m[:, j] for j in range(m.shape[1])}, meta)
+    extra.update(named)
+    temperature = named_temp if named_temp is not None else temperature
+    return Recording(
+        t=t, acc=m[:, [mapping["ax"], mapping["ay"], mapping["az"]]],
+        gyro=None if mapping["gx"] is None else m[:, [mapping["gx"], mapping["gy"], mapping["gz"]]],
+        acc_unit=acc_unit or "counts", gyro_unit=gyro_unit or "counts", metadata=meta,
+        extra=extra, temperature=temperature,
+    )
+
+
+def _mat_variables(path: Path) -> dict:
+    """The variables of a MATLAB file (v4 to v7; a v7.3 file and one that is no MAT file are refused)."""
     from scipy.io import loadmat
 
     with path.open("rb") as f:
@@ -35,7 +72,12 @@ def read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_unit
     except Exception as exc:  # scipy raises several types for non-MAT input
         raise ReaderError(f"{path}: not a readable MATLAB file ({exc}); for imu_tk's text "
                           "files use --reader imutk") from None
-    found = {k: v for k, v in content.items() if not k.startswith("__")}
+    return {k: v for k, v in content.items() if not k.startswith("__")}
+
+
+def _chosen_variable(path: Path, found: dict, variable, columns):
+    """The matrix to read: ``variable``, else the one numeric matrix that fits, else the sensors' own variables
+    put together (:func:`.matvars.assemble`, the columns then without a time); with the columns and variables."""
     if variable is None:
         cands = [k for k, v in found.items()
                  if isinstance(v, np.ndarray) and v.ndim == 2 and v.dtype.kind in "fiu"
@@ -58,6 +100,11 @@ def read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_unit
     if variable not in found:
         raise ReaderError(f"{path}: no variable {variable!r}; variables present: "
                           f"{', '.join(found) or 'none'}")
+    return variable, columns, found
+
+
+def _oriented_matrix(path: Path, found: dict, variable: str) -> np.ndarray:
+    """The variable as a float matrix of one row a sample (a matrix stored a sample a column is transposed)."""
     m = np.asarray(found[variable])
     if m.ndim != 2 or m.dtype.kind not in "fiu":
         raise ReaderError(f"{path}: variable {variable!r} must be a numeric matrix; got shape "
@@ -67,43 +114,20 @@ def read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_unit
         m = m.T
     elif m.shape[0] in (3, 4) and m.shape[1] > m.shape[0]:  # an accelerometer-only matrix stored as rows
         m = m.T
-    names = [str(j) for j in range(m.shape[1])]
-    if columns is None:
-        if m.shape[1] < 7:
-            raise ReaderError(f"{path}: variable {variable!r} has {m.shape[1]} columns; pass "
-                              "--columns (use '-' for t with --rate when there is no time; 4 entries "
-                              "t,ax,ay,az for an accelerometer-only log)")
-        columns = [str(j) for j in range(10 if m.shape[1] == 10 else 7)]
-        if m.shape[1] == 10:  # t, accelerometer, gyroscope, magnetometer: the 9-axis layout loggers write
-            warnings.warn(f"{path}: variable {variable!r} has 10 columns: taken as t,ax,ay,az,gx,gy,gz,mx,my,mz "
-                          "(pass --columns to say otherwise)", ImucalibWarning, stacklevel=3)
-    mapping = _map_columns(path, names, columns, True)
-    bad = ~np.isfinite(m[:, [j for j in mapping.values() if j is not None]])
-    if bad.any():
-        i, j = np.argwhere(bad)[0]
-        raise ReaderError(f"{path}: variable {variable!r}, row {i + 1}: a NaN or inf value; "
-                          "fix the data (imucalib never skips rows)")
-    meta: dict = {"variable": variable}
+    return m
+
+
+def _mat_times(path: Path, m: np.ndarray, mapping: dict, rate, time_unit, meta: dict) -> np.ndarray:
+    """The times [s]: the time column's (its unit given or inferred), else the rows at ``rate``."""
     if mapping["t"] is None:
         if rate is None:
             raise ReaderError(f"{path}: no time column; pass --rate HZ")
-        t = np.arange(m.shape[0]) / rate
-    else:
-        if rate is not None:
-            raise ReaderError(f"{path}: a time column and --rate were given; pass only one")
-        raw_t = m[:, mapping["t"]]
-        _check_time(path, raw_t, 1, "time (row)")
-        t = to_seconds(raw_t, time_unit or _infer_time_unit(raw_t, path, f"column {mapping['t']}"), meta)
-    extra, temperature = _mat_others(path, found, variable, m, mapping)
-    named, named_temp = packets.mapped_others(mapping, names, {j: m[:, j] for j in range(m.shape[1])}, meta)
-    extra.update(named)
-    temperature = named_temp if named_temp is not None else temperature
-    return Recording(
-        t=t, acc=m[:, [mapping["ax"], mapping["ay"], mapping["az"]]],
-        gyro=None if mapping["gx"] is None else m[:, [mapping["gx"], mapping["gy"], mapping["gz"]]],
-        acc_unit=acc_unit or "counts", gyro_unit=gyro_unit or "counts", metadata=meta,
-        extra=extra, temperature=temperature,
-    )
+        return np.arange(m.shape[0]) / rate
+    if rate is not None:
+        raise ReaderError(f"{path}: a time column and --rate were given; pass only one")
+    raw_t = m[:, mapping["t"]]
+    _check_time(path, raw_t, 1, "time (row)")
+    return to_seconds(raw_t, time_unit or _infer_time_unit(raw_t, path, f"column {mapping['t']}"), meta)
 
 
 _MAT_MAG = re.compile(r"^(?:m|mag|magn|magnetometer|magneticfield|magnetic_field|compass)$", re.I)

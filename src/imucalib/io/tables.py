@@ -207,18 +207,8 @@ def split_table(path: Path, columns: Sequence[str] | None = None) -> Table:
     start = _table_start(lines)
     if start + 2 < len(lines) and _prompt_not_header(lines, start, columns):
         start += 1  # a logger's first prompt, as wide as the rows by chance: skipped as a preamble line
-    preamble = lines[:start]
     sep = sniff_separator(lines[start])
-    first = line_cells(lines[start], sep)
-    has_header = any(_not_number(c) for c in first)
-    header = [c.strip('"\'').strip() for c in first] if has_header else None
-    if header and re.match(r"#\s", header[0]):  # numpy.savetxt's header="…" writes "# " before the names
-        header[0] = header[0][1:].strip()
-    row0 = start + 1 if has_header else start
-    units = _units_row(head.lines, row0, sep, header) if header else None
-    if units is not None:  # a line of units under the names (a vendor's export): read as the names' units
-        header = [f"{h} [{u}]" if u else h for h, u in zip(header, units, strict=True)]
-        row0 += 1
+    header, row0, units = _header_of(head.lines, lines[start], start, sep)
     first_line = row0 + 1
     if row0 >= len(head.lines):
         raise ReaderError(f"{path}: no data rows after the header" if head.complete
@@ -230,26 +220,39 @@ def split_table(path: Path, columns: Sequence[str] | None = None) -> Table:
     if header and len(first_row) == len(header) + 1 and first_row[-1] == "":
         header.append("")  # the rows end with a separator, the header does not
     ncols = len(header) if header else len(first_row)
-    hdr = None
-    if has_header:
-        hdr_end = head.offsets[start + 1] - 1
-        hdr = (head.offsets[start], hdr_end)
+    hdr = None if header is None else (head.offsets[start], head.offsets[start + 1] - 1)
     layout = csvparse.Layout(path, hdr, (head.offsets[row0], head.end), first_line, sep, decimal_comma, ncols,
                              head.size, head.mtime_ns)
     trailing = first_row[-1:] == [""] and (header is None or header[-1] == "") and sep not in (None, " ")
-    table = Table(header, first_line, sep, ncols, layout, first_row, skipped=start, rate=_preamble_rate(preamble),
-                   units_row=units is not None,
-                   sample=head.lines[row0:row0 + 1000], trailing=trailing,
-                   prompts=any(is_prompt(ln, sep) for ln in head.lines[row0:] + ([] if head.complete else
-                                                                                  [head.last])))
+    table = Table(header, first_line, sep, ncols, layout, first_row, skipped=start, rate=_preamble_rate(lines[:start]),
+                  units_row=units is not None,
+                  sample=head.lines[row0:row0 + 1000], trailing=trailing,
+                  prompts=any(is_prompt(ln, sep) for ln in head.lines[row0:] + ([] if head.complete else
+                                                                                 [head.last])))
     if units is not None:
         warnings.warn(f"{path}: line {first_line - 1} gives the columns' units ({', '.join(u for u in units if u)}): "
                       "read as the units of the names above it", ImucalibWarning, stacklevel=4)
     if start:
         what = "" if table.rate is None else f" (they give a sampling rate of {table.rate:g} Hz)"
         warnings.warn(f"{path}: skipped {start} line{'s' if start > 1 else ''} before the "
-                      f"{'header' if has_header else 'data'}{what}", ImucalibWarning, stacklevel=4)
+                      f"{'header' if header is not None else 'data'}{what}", ImucalibWarning, stacklevel=4)
     return table
+
+
+def _header_of(lines: Sequence[str], line: str, start: int, sep: str | None):
+    """The header in ``line`` (``lines[start]``), None when its cells are all numbers; the index of the first
+    row; and the cells of a line of units under the names (read into them), else None."""
+    first = line_cells(line, sep)
+    has_header = any(_not_number(c) for c in first)
+    header = [c.strip('"\'').strip() for c in first] if has_header else None
+    if header and re.match(r"#\s", header[0]):  # numpy.savetxt's header="…" writes "# " before the names
+        header[0] = header[0][1:].strip()
+    row0 = start + 1 if has_header else start
+    units = _units_row(lines, row0, sep, header) if header else None
+    if units is not None:  # a line of units under the names (a vendor's export): read as the names' units
+        header = [f"{h} [{u}]" if u else h for h, u in zip(header, units, strict=True)]
+        row0 += 1
+    return header, row0, units
 
 
 #: a cell of a units line: a short unit (``s``, ``ms``, ``g``, ``m/s^2``, ``m/s²``, ``deg/s``, ``°/s``, ``[counts]``)
