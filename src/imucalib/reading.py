@@ -89,27 +89,21 @@ def read(
     if poses:
         return _pose_table(paths, reader, options)
     from .io.readers import is_frame
+    from .io.readers import read as read_files
 
-    if is_frame(paths):
-        paths = [paths]  # a pandas DataFrame: read as one CSV file, never a session
-    elif isinstance(paths, str | Path):
-        paths = [paths]
-    paths = list(paths)
-    if paths and not is_frame(paths[0]) and is_session_directory(paths, reader):
+    paths = [paths] if is_frame(paths) or isinstance(paths, str | Path) else list(paths)  # a DataFrame: one table
+    if paths and not is_frame(paths[0]) and is_session_directory(paths, reader):  # never a DataFrame
         from .sessions import read_session
 
         return read_session(paths[0])
-    return _recording(paths, reader, mag_unit, mag_topic, options)
+    rec = read_files(paths[0] if len(paths) == 1 and is_frame(paths[0]) else paths, reader=reader, **options)
+    return _with_magnetometer(rec, paths, mag_unit, mag_topic)
 
 
-def _recording(paths: list, reader: str | None, mag_unit: str | None, mag_topic: str | None, options: dict):
-    """:func:`read` of data files (or a DataFrame): :func:`imucalib.io.read`, with the magnetometer attached."""
+def _with_magnetometer(rec, paths: list, mag_unit: str | None, mag_topic: str | None):
+    """The recording :func:`read` read, its magnetometer attached: its columns', or a ROS bag's topic's."""
     from .io.magnetometer import attach_magnetometer
-    from .io.readers import is_frame
-    from .io.readers import read as read_files
 
-    source = paths[0] if len(paths) == 1 and is_frame(paths[0]) else paths
-    rec = read_files(source, reader=reader, **options)
     if mag_topic is not None:
         if rec.metadata.get("reader") != "rosbag":
             raise ValueError("a magnetometer topic (--mag-topic) applies to ROS bags")

@@ -69,7 +69,7 @@ def _prompt_blocks(path: Path, table: Table) -> tuple[np.ndarray, list[list[int]
         raise ReaderError(f"{path}: no data rows between the prompt lines")
     warnings.warn(f"{path}: {prompts} line{'s' if prompts > 1 else ''} inside the data that are not rows (a logger's "
                   f"prompts) cut the rows into {len(blocks)} blocks: each block is read as one pose",
-                  ImucalibWarning, stacklevel=5)
+                  ImucalibWarning, stacklevel=6)
     return np.concatenate(parts), blocks
 
 
@@ -92,7 +92,7 @@ def _block_times(path: Path, t: np.ndarray, blocks: list[list[int]]) -> np.ndarr
         warnings.warn(f"{path}: the time restarts in {moved} of the {len(blocks)} blocks: each such block was put "
                       f"{BLOCK_GAP_STEPS} sampling steps after the one before (each keeps its own time base; the "
                       "gaps between blocks are not used for integration)",
-                      ImucalibWarning, stacklevel=5)
+                      ImucalibWarning, stacklevel=6)
     return t
 
 
@@ -100,43 +100,6 @@ def _block_times(path: Path, t: np.ndarray, blocks: list[list[int]]) -> np.ndarr
 def read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=None) -> Recording:
     """One CSV file (or the DataFrame ``frame``) as a recording: its table found, its rows parsed straight
     into the recording's arrays, its times in seconds and its units from the options or the header."""
-    table, frame, source, parsed = _table_of(path, columns, frame)
-    mapping = _map_columns(path, table.names, columns, table.header is not None)
-    numeric_cols = sorted({j for j in mapping.values() if j is not None})
-    sensors = [mapping[f] for f in (*FIELDS[1:], "mx", "my", "mz") if mapping[f] is not None]
-    # the samples go straight into the recording's arrays: no copy of the whole table
-    blocks = _prompt_blocks(path, table) if frame is None and table.prompts else None
-    sparse = (packets.sparse_rows(path, table.layout, table.names, numeric_cols, sensors) if frame is None
-              and blocks is None and packets.has_empty_cells(table.sample, table.sep, sensors) else None)
-    plan = csvparse.plan(table.layout) if frame is None and blocks is None and sparse is None else None
-    rows = (plan.rows if plan is not None else len(frame) if frame is not None else sparse[0] if sparse is not None
-            else blocks[0].shape[0])
-    if rows == 0:
-        raise ReaderError(f"{path}: no data rows after the header")
-    acc, gyro, cols, time_unit = _sensor_columns(path, table, frame, mapping, numeric_cols, rows,
-                                                 (blocks, sparse, plan), parsed, time_unit)
-    meta: dict = {"columns": {f: (table.names[j] if j is not None else None) for f, j in mapping.items()
-                              if f in FIELDS or j is not None},
-                  "column_names": list(table.names), "header": table.header is not None,
-                  "separator": table.sep or " "}
-    if table.skipped:
-        meta["preamble_lines"] = table.skipped
-    t, acc, gyro, cols = _times(path, table, mapping, cols, blocks, rows, rate, time_unit, (acc, gyro), parsed,
-                                meta)
-    au, gu = _sensor_units(table, mapping, acc_unit, gyro_unit)
-    extra, temperature = _other_columns(table, mapping, cols, meta)
-    rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
-                    extra=extra, metadata=meta)
-    if parsed.get("digest") and not csvparse.is_gzip(path) and not table.units_row:  # what apply needs to copy the
-        # file's own text (io.writers); a units line under the header: the file is written anew
-        meta["source_layout"] = {**source.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec),
-                                 "digest": parsed["digest"]}
-    return rec
-
-
-def _table_of(path: Path, columns, frame):
-    """The table of :func:`read_csv`: the file's (or the frame's), the frame read from date-time stamps, where
-    the file's rows lie (what apply copies, :mod:`.writers`) and the parse's facts so far."""
     table = split_table(path, columns) if frame is None else _frame_table(frame)
     dated = datetime_cells(table.first_row) if frame is None else []
     source = table.layout  # where the file's rows lie: apply copies their text (io.writers)
@@ -146,18 +109,13 @@ def _table_of(path: Path, columns, frame):
                            has_header=table.header is not None and not datetime_cells(table.header))
         table = _frame_table(frame)
         parsed["digest"] = None if csvparse.is_gzip(path) else csvparse.file_digest(source).hexdigest()
-    return table, frame, source, parsed
-
-
-def _sensor_columns(path: Path, table: Table, frame, mapping: dict, numeric_cols: list[int], rows: int,
-                    how: tuple, parsed: dict, time_unit):
-    """The accelerometer's and gyroscope's arrays filled from the rows (``how``: prompt blocks, sparse rows or
-    a parse plan), every column read, and the time unit (nanoseconds for a DataFrame's datetimes)."""
-    blocks, sparse, plan = how
-    has_gyro = mapping["gx"] is not None
-    acc, gyro = np.empty((rows, 3)), (np.empty((rows, 3)) if has_gyro else None)
-    targets = {f: (acc if f[0] == "a" else gyro)[:, "xyz".index(f[1])] for f in FIELDS[1:]
-               if mapping[f] is not None}
+    names = table.names
+    mapping = _map_columns(path, names, columns, table.header is not None)
+    numeric_cols = sorted({j for j in mapping.values() if j is not None})
+    sensors = [mapping[f] for f in (*FIELDS[1:], "mx", "my", "mz") if mapping[f] is not None]
+    # the samples go straight into the recording's arrays: no copy of the whole table
+    blocks, sparse, plan, rows = _row_source(path, table, frame, numeric_cols, sensors)
+    acc, gyro, targets = _sensor_arrays(mapping, rows)
     out: dict[int, np.ndarray] = {}
     for f, view in targets.items():
         out.setdefault(mapping[f], view)
@@ -174,41 +132,98 @@ def _sensor_columns(path: Path, table: Table, frame, mapping: dict, numeric_cols
     for f, view in targets.items():
         if cols[mapping[f]] is not view:  # a column used for two fields
             view[:] = cols[mapping[f]]
-    return acc, gyro, cols, time_unit
-
-
-def _times(path: Path, table: Table, mapping: dict, cols: dict, blocks, rows: int, rate, time_unit, sensors: tuple,
-           parsed: dict, meta: dict):
-    """The recording's times [s]: from the time column (blocks that restart moved after each other, coarse
-    stamps repaired), a packet counter or the rate; and the sensors' arrays and columns, without the rows
-    the repair dropped."""
-    acc, gyro = sensors
-    names, tcol = table.names, mapping["t"]
+    meta = _column_meta(table, mapping)
+    tcol = mapping["t"]
     if blocks is not None:
-        meta["blocks"] = blocks[1]
-        if tcol is not None:
-            shifted = _block_times(path, cols[tcol], blocks[1])
-            if not np.array_equal(shifted, cols[tcol]):
-                meta["time_original"] = cols[tcol]  # what a writer writes back (imucalib.io.writers)
-            cols[tcol] = shifted
+        _shift_blocks(path, cols, tcol, blocks[1], meta)
     if tcol is None:
-        if rate is None and table.rate is not None:
-            rate = table.rate
-            meta["rate_from"] = "preamble"
-        if mapping["n"] is not None:
-            t = packets.counter_times(path, cols[mapping["n"]], names[mapping["n"]], rate)
-        elif rate is None:
-            raise ReaderError(f"{path}: no time column found; pass --rate HZ (the sampling rate)")
-        else:  # blocks of a logger that paused: BLOCK_GAP_STEPS steps between them, as between files
-            t = (np.arange(rows) + (0 if blocks is None else BLOCK_GAP_STEPS * np.repeat(
-                np.arange(len(blocks[1])), [b - a for a, b in blocks[1]]))) / rate
-        meta["time_unit"] = None
-        return t, acc, gyro, cols
-    if rate is not None:
-        raise ReaderError(
-            f"{path}: the file has a time column ({names[tcol]!r}) and --rate was given; "
-            "pass only one (use --columns with '-' for t to ignore the time column)"
-        )
+        t = _rate_times(path, table, mapping, cols, blocks, rows, rate, meta)
+    else:
+        if rate is not None:
+            raise ReaderError(
+                f"{path}: the file has a time column ({names[tcol]!r}) and --rate was given; "
+                "pass only one (use --columns with '-' for t to ignore the time column)"
+            )
+        t, acc, gyro, cols = _column_times(path, table, tcol, cols, (acc, gyro), time_unit, parsed, meta)
+    au, gu = _sensor_units(table, mapping, acc_unit, gyro_unit)
+    extra, temperature = _other_columns(table, mapping, cols, meta)
+    rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
+                    extra=extra, metadata=meta)
+    if parsed.get("digest") and not csvparse.is_gzip(path) and not table.units_row:  # what apply needs to copy the
+        # file's own text (io.writers); a units line under the header: the file is written anew
+        meta["source_layout"] = {**source.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec),
+                                 "digest": parsed["digest"]}
+    return rec
+
+
+def _sensor_arrays(mapping: dict, rows: int):
+    """The accelerometer's array, the gyroscope's (None without its columns) and each field's column of them."""
+    acc = np.empty((rows, 3))
+    gyro = np.empty((rows, 3)) if mapping["gx"] is not None else None
+    targets = {f: (acc if f[0] == "a" else gyro)[:, "xyz".index(f[1])] for f in FIELDS[1:]
+               if mapping[f] is not None}
+    return acc, gyro, targets
+
+
+def _column_meta(table: Table, mapping: dict) -> dict:
+    """The recording's ``metadata`` from its table: the columns each field reads, the names, the separator."""
+    names = table.names
+    meta: dict = {"columns": {f: (names[j] if j is not None else None) for f, j in mapping.items()
+                              if f in FIELDS or j is not None},
+                  "column_names": list(names), "header": table.header is not None, "separator": table.sep or " "}
+    if table.skipped:
+        meta["preamble_lines"] = table.skipped
+    return meta
+
+
+def _shift_blocks(path: Path, cols: dict, tcol: int | None, blocks: list[list[int]], meta: dict) -> None:
+    """The prompt-separated blocks in ``meta``; a time that restarts in a block moved after the block before
+    (:func:`_block_times`), the times as written kept for a writer."""
+    meta["blocks"] = blocks
+    if tcol is not None:
+        shifted = _block_times(path, cols[tcol], blocks)
+        if not np.array_equal(shifted, cols[tcol]):
+            meta["time_original"] = cols[tcol]  # what a writer writes back (imucalib.io.writers)
+        cols[tcol] = shifted
+
+
+def _rate_times(path: Path, table: Table, mapping: dict, cols: dict, blocks, rows: int, rate, meta: dict):
+    """The times [s] of a table without a time column: a sample counter's, else the rows at ``rate`` (given
+    or written in the preamble), blocks of a logger that paused :data:`BLOCK_GAP_STEPS` steps apart."""
+    if rate is None and table.rate is not None:
+        rate = table.rate
+        meta["rate_from"] = "preamble"
+    if mapping["n"] is not None:
+        t = packets.counter_times(path, cols[mapping["n"]], table.names[mapping["n"]], rate)
+    elif rate is None:
+        raise ReaderError(f"{path}: no time column found; pass --rate HZ (the sampling rate)")
+    else:  # blocks of a logger that paused: BLOCK_GAP_STEPS steps between them, as between files
+        t = (np.arange(rows) + (0 if blocks is None else BLOCK_GAP_STEPS * np.repeat(
+            np.arange(len(blocks[1])), [b - a for a, b in blocks[1]]))) / rate
+    meta["time_unit"] = None
+    return t
+
+
+def _row_source(path: Path, table: Table, frame, numeric_cols: list[int], sensors: list[int]):
+    """Where :func:`read_csv` takes the rows from: the blocks between a logger's prompts, the rows of a table of
+    several packets (sparse), or a plan of the file's chunks (else a DataFrame's rows); and their number."""
+    blocks = _prompt_blocks(path, table) if frame is None and table.prompts else None
+    sparse = (packets.sparse_rows(path, table.layout, table.names, numeric_cols, sensors) if frame is None
+              and blocks is None and packets.has_empty_cells(table.sample, table.sep, sensors) else None)
+    plan = csvparse.plan(table.layout) if frame is None and blocks is None and sparse is None else None
+    rows = (plan.rows if plan is not None else len(frame) if frame is not None else sparse[0] if sparse is not None
+            else blocks[0].shape[0])
+    if rows == 0:
+        raise ReaderError(f"{path}: no data rows after the header")
+    return blocks, sparse, plan, rows
+
+
+def _column_times(path: Path, table: Table, tcol: int, cols: dict, sensors: tuple, time_unit, parsed: dict,
+                  meta: dict):
+    """The times [s] from the time column (coarse stamps repaired, its unit given, written or inferred), and
+    the sensors' arrays and columns without the rows the repair dropped."""
+    acc, gyro = sensors
+    names = table.names
     raw_t, offset = time_column(cols[tcol])
     rep = repair_coarse(path, raw_t, [acc] + ([gyro] if gyro is not None else []), table.first_line, names[tcol])
     raw_t = rep.t
