@@ -1,5 +1,8 @@
-"""Readers: generic CSV, imu_tk's two-file text format, phone apps' two-file CSV (:mod:`.phone`), MATLAB
-``.mat``, ROS bags (:mod:`.rosbag`).
+"""The readers' entry: :func:`read` checks the inputs and options, picks the format (:func:`guess_reader`) and
+hands the files to its reader — generic CSV and DataFrames (:mod:`.csvreader`), imu_tk's two-file text
+format (:mod:`.imutk`), phone apps' two-file CSV (:mod:`.phonepair`), MATLAB ``.mat`` (:mod:`.matfile`),
+ROS bags (:mod:`.rosbag`), several files as blocks of one recording (:mod:`.fileblocks`) — then checks
+the recording against the header and notes units that look wrong.
 
 Every reader returns a :class:`~imucalib.recording.Recording` and reports bad
 input with a :class:`ReaderError` naming the file, the line (1-based, as an
