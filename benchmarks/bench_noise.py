@@ -91,7 +91,7 @@ def main() -> None:
     out["bump_16hz"] = {"random_walk": p["random_walk"].tolist(), "random_walk_bound": p["random_walk_bound"].tolist()}
     data = DATA / "xsens_imu_tk"
     if data.is_dir():
-        from imucalib.io.data import read_data
+        from imucalib.reading import read as read_data
         from imucalib.segment import find_initial_rest
 
         rec = read_data([str(data / "xsens_acc.mat"), str(data / "xsens_gyro.mat")], reader="imutk")

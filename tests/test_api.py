@@ -89,8 +89,8 @@ def test_several_files_are_blocks_and_a_frame_is_a_file(mag_csv, tmp_path):
 
 def test_the_public_names_are_the_libraries_own():
     from imucalib.comparison import compare
-    from imucalib.io.data import read_data
     from imucalib.methods import calibrate
+    from imucalib.reading import read as read_data
     from imucalib.validation import validate
 
     assert imucalib.read is read_data and imucalib.calibrate is calibrate

@@ -187,25 +187,25 @@ def test_figures_go_through_a_temporary_file(capsys, tmp_path, session):
 
 
 def test_an_interrupted_session_write_does_not_read_as_a_session(tmp_path, monkeypatch):
-    import imucalib.io.session as base
+    import imucalib.io.sessionfiles as base
     from imucalib.scenarios import read_session, session, write_session
 
     sim = session("zhang2021", rng=0)
     write_session(sim, tmp_path / "s")
     assert read_session(tmp_path / "s").seed == 0
-    original = base._write_rec
+    original = base.write_recording
 
     def fail_at_the_tests(path, rec):
         if path.name.startswith("test_"):
             raise KeyboardInterrupt
         original(path, rec)
 
-    monkeypatch.setattr(base, "_write_rec", fail_at_the_tests)
+    monkeypatch.setattr(base, "write_recording", fail_at_the_tests)
     with pytest.raises(KeyboardInterrupt):
         write_session(session("zhang2021", rng=1), tmp_path / "s")
     assert not (tmp_path / "s" / "session.json").exists()  # new recordings, old index: no longer a session
     assert not [p for p in (tmp_path / "s").iterdir() if p.name.startswith(".")]
-    monkeypatch.setattr(base, "_write_rec", original)
+    monkeypatch.setattr(base, "write_recording", original)
     write_session(session("zhang2021", rng=1), tmp_path / "s")
     assert read_session(tmp_path / "s").seed == 1
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from imucalib.io import read
-from imucalib.io.csvparse import _fixed_chunk
+from imucalib.io.fixedcells import fixed_chunk as _fixed_chunk
 
 XSENS = Path(__file__).resolve().parents[2] / "shared" / "data" / "xsens_imu_tk"
 

@@ -5,7 +5,7 @@ import warnings
 import numpy as np
 import pytest
 
-from imucalib.io import csvparse, read, readers
+from imucalib.io import csvparse, imutk, read
 from imucalib.io.errors import ReaderError
 
 
@@ -27,11 +27,11 @@ def _pair(tmp_path, n=3000, **kw):
 @pytest.mark.parametrize("kw", [{}, {"bom": True}, {"tail": "\n\n  \n"}, {"tail": ""}])
 def test_chunks_give_the_whole_texts_numbers(tmp_path, monkeypatch, kw):
     paths = _pair(tmp_path, **kw)
-    whole = [readers._numeric_table(p, p.read_bytes().decode("utf-8-sig"), 4, ("time", "x", "y", "z"))
+    whole = [imutk.numeric_table(p, p.read_bytes().decode("utf-8-sig"), 4, ("time", "x", "y", "z"))
              for p in paths]
     monkeypatch.setattr(csvparse, "CHUNK_BYTES", 4096)  # many chunks
     for p, w in zip(paths, whole, strict=True):
-        t, xyz = readers._imutk_table(p)
+        t, xyz = imutk.imutk_table(p)
         assert xyz.shape == (3000, 3) and xyz.flags.c_contiguous
         assert np.array_equal(t, w[:, 0]) and np.array_equal(xyz, w[:, 1:])
     with warnings.catch_warnings():
@@ -51,4 +51,4 @@ def test_a_bad_line_is_named_as_before(tmp_path, monkeypatch, damage, message):
     paths[0].write_text("\n".join(damage(lines)) + "\n")
     monkeypatch.setattr(csvparse, "CHUNK_BYTES", 256)
     with pytest.raises(ReaderError, match=message):
-        readers._imutk_table(paths[0])
+        imutk.imutk_table(paths[0])

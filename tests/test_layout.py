@@ -298,7 +298,9 @@ def test_the_real_floors_keep_simulators_below_methods_and_experiments_above():
     scanned = layout.scan(PACKAGE)
     where = {m: layout.floor_of(scanned, m) for m in scanned.modules}
     assert None not in where.values()
-    assert names[where["imucalib.io.data"]] == "sessions" and names[where["imucalib.io.readers"]] == "readers"
+    assert names[where["imucalib.reading"]] == "sessions" and names[where["imucalib.io.sessionfiles"]] == "readers"
+    assert {names[f] for m, f in where.items() if m == "imucalib.io" or m.startswith("imucalib.io.")} == {"readers"}
+    assert not [m for _, _, modules in layout.FLOORS for m in modules if m.startswith("io.")]  # io is one floor
     table = layout.floor_table()
     assert table.splitlines()[1].split()[1] == "interface" and table.splitlines()[-1].split()[1] == "foundations"
 

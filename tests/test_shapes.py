@@ -389,7 +389,7 @@ def test_a_mat_file_uses_its_magnetometer_and_temperature_and_names_what_it_leav
     from scipy.io import savemat
 
     from imucalib.io import read
-    from imucalib.io.data import read_data
+    from imucalib.reading import read as read_data
 
     sim = session("handheld", rng=6, n_poses=3, rest=3.0, magnetometer=True)
     rec = sim.recording

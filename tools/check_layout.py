@@ -53,7 +53,7 @@ FLOORS_PACKAGE = "imucalib"
 
 #: The floors of the package, lowest first: (name, what lives there, modules and packages relative to the
 #: package; ``""`` is the package's own ``__init__``). A module is on the floor of its longest listed
-#: prefix (``io.session`` is above the rest of ``io``). A module imports its own floor and those below.
+#: prefix (``methods.x`` is on the floor of ``methods``). A module imports its own floor and those below.
 FLOORS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("foundations", "units, records, models, rotations, solvers, residuals, pose plans, method declarations, "
      "the fit report's fields",
@@ -64,8 +64,8 @@ FLOORS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
      ("fit", "segment", "thermal", "verdict", "noise")),
     ("calibration", "the calibration record, its exports and reports", ("calibration", "export", "report",
                                                                         "upright")),
-    ("sessions", "the simulated-session format; reading any input the command line takes",
-     ("io.session", "io.data")),
+    ("sessions", "the simulated sessions (their truth is a calibration); reading any input the command line takes",
+     ("sessions", "reading")),
     ("simulators", "simulated sessions with their truth", ("scenarios",)),
     ("methods", "the published methods over the shared stages", ("methods",)),
     ("services", "validation, comparison, guided recording, batch runs and the calibration store",

@@ -43,7 +43,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "DEFAULT_METHOD": ".methodinfo",
     "calibrate": ".methods",
     "compare": ".comparison",
-    "read": (".io.data", "read_data"),
+    "read": ".reading",
     "validate": ".validation",
     "TriadModel": ".models",
     "ImucalibWarning": ".recording",

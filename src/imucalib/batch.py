@@ -40,7 +40,7 @@ What a manifest can make the batch do, and whom to trust:
   workers can run code in them, and in the process running the batch. Use only a scheduler of your own,
   on a network that only trusted hosts reach (``scheduler="local"`` listens on 127.0.0.1).
 
-Each row is read with :func:`imucalib.io.data.read_data` and calibrated with
+Each row is read with :func:`imucalib.read` and calibrated with
 :func:`imucalib.methods.calibrate`, exactly as ``imucalib calibrate FILES --method …`` does, in a
 worker (:func:`run_row`), which also hashes the files (SHA-256 of their contents). The process that runs
 the batch writes each result into the store (:class:`imucalib.store.Store`) as it arrives, one transaction
@@ -147,7 +147,7 @@ class Row:
                 "variable": self.variable, "gravity": self.gravity, "temperature_c": self.temperature_c}
 
     def reader_options(self) -> dict[str, Any]:
-        """The keyword options of :func:`imucalib.io.data.read_data`."""
+        """The keyword options of :func:`imucalib.read`."""
         return {"reader": self.reader, "columns": list(self.columns) if self.columns else None,
                 "acc_unit": self.acc_unit, "gyro_unit": self.gyro_unit, "time_unit": self.time_unit,
                 "rate": self.rate, "topic": self.topic, "variable": self.variable}
@@ -457,8 +457,8 @@ def run_row(task: dict) -> dict:
         ``skipped`` when its files' hash is in ``task["skip"]``; ``failed`` on any error, and when the
         calibration's verdict is ``rejected`` (its calibration is returned all the same).
     """
-    from .io.data import read_data
     from .methods import calibrate
+    from .reading import read as read_data
     from .recording import ImucalibWarning
 
     t0 = time.perf_counter()

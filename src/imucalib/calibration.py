@@ -136,10 +136,11 @@ class Calibration:
 
         A pandas DataFrame is read as :func:`imucalib.io.read` reads it (its
         column names as a CSV header; ``read_options`` are that function's:
-        ``columns``, ``acc_unit``, ``gyro_unit``, ``rate``, ``time_unit``) and
+        ``columns``, ``acc_unit``, ``gyro_unit``, ``rate``, ``time_unit``, and
+        ``mag_unit`` as for :func:`imucalib.read`) and
         a copy of it is returned with the calibrated columns added:
-        ``acc_x_cal [m/s^2]`` … ``gyro_z_cal [rad/s]``, as ``imucalib apply``
-        adds them to a CSV file.
+        ``acc_x_cal [m/s^2]`` … ``gyro_z_cal [rad/s]`` (and ``mag_x_cal`` …
+        when both have a magnetometer), as ``imucalib apply`` adds them to a CSV file.
 
         Parameters
         ----------
@@ -301,12 +302,14 @@ class Calibration:
         return False
 
     def _apply_frame(self, frame, read_options: dict, bias_drift: str = "auto"):
+        from .io.magnetometer import attach_magnetometer
         from .io.readers import is_frame, read
         from .io.writers import calibrated_columns
 
         if not is_frame(frame):
             raise TypeError(f"apply takes a Recording or a pandas DataFrame; got {type(frame).__name__}")
-        rec = read(frame, **read_options)
+        options = {k: v for k, v in read_options.items() if k != "mag_unit"}  # its magnetometer, as imucalib.read
+        rec = attach_magnetometer(read(frame, **options), read_options.get("mag_unit"))
         out = self.apply(rec, bias_drift=bias_drift)
         mag = out.mag if self.magnetometer is not None and rec.mag is not None else None
         added = calibrated_columns(out.acc, out.gyro, mag, out.mag_unit)

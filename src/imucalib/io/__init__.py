@@ -3,9 +3,11 @@
 The readers are imported on first use (PEP 562): a submodule such as
 :mod:`.atomic` can be imported without them.
 
-:func:`read` here is the readers' level: the file's columns, no more. What the command line reads —
-the magnetometer's columns attached, a ROS bag's magnetic-field topic, a simulated session directory —
-is :func:`imucalib.read` (:func:`imucalib.io.data.read_data`). A table of averaged poses (one row per
+:func:`read` here is the readers' level: the file's columns, no more (:mod:`.readers` picks the format;
+:mod:`.csvreader`, :mod:`.imutk`, :mod:`.matfile`, :mod:`.phonepair`, :mod:`.fileblocks` and :mod:`.rosbag`
+read them). What the command line reads — the magnetometer's columns attached, a ROS bag's magnetic-field
+topic, a table of averaged poses, a simulated session directory — is :func:`imucalib.read`
+(:mod:`imucalib.reading`), which takes :func:`read`'s options. A table of averaged poses (one row per
 orientation) is read by :func:`read_pose_table` (:mod:`.posetable`).
 """
 

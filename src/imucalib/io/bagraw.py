@@ -371,6 +371,32 @@ def _mcap_string(buf: bytes, pos: int) -> tuple[str, int]:
     return buf[pos + 4:pos + 4 + size].decode("utf-8", errors="replace"), pos + 4 + size
 
 
+def _mcap_summary(summary: bytes, topic: str) -> tuple[set[int], list[tuple]]:
+    """The channels of ``topic`` and the chunk indexes (start, length, channel → message index offset,
+    compression, compressed and uncompressed sizes) in an MCAP file's summary section."""
+    channels, indexes, pos = set(), [], 0
+    while pos + 9 <= len(summary):
+        op, size = summary[pos], struct.unpack_from("<Q", summary, pos + 1)[0]
+        body = pos + 9
+        if op == 0x04:  # Channel: u16 id, u16 schema, topic, encoding, metadata
+            (cid,) = struct.unpack_from("<H", summary, body)
+            name, _ = _mcap_string(summary, body + 4)
+            if name == topic:
+                channels.add(cid)
+        elif op == 0x08:  # Chunk Index
+            _, _, start, length, map_len = struct.unpack_from("<QQQQI", summary, body)
+            offsets = {}
+            for k in range(map_len // 10):
+                cid, at = struct.unpack_from("<HQ", summary, body + 36 + 10 * k)
+                offsets[cid] = at
+            p = body + 36 + map_len + 8
+            compression, p = _mcap_string(summary, p)
+            compressed, uncompressed = struct.unpack_from("<QQ", summary, p)
+            indexes.append((start, length, offsets, compression, compressed, uncompressed))
+        pos = body + size
+    return channels, indexes
+
+
 def mcap_blocks(path: Path, topic: str) -> Iterator[Block] | None:
     """Blocks (one a chunk) of the messages of ``topic`` in an MCAP file, from its summary; None if not indexed."""
     f = path.open("rb")
@@ -387,26 +413,7 @@ def mcap_blocks(path: Path, topic: str) -> Iterator[Block] | None:
             raise ValueError("no summary")
         f.seek(summary_start)
         summary = f.read(end - 37 - summary_start)
-        channels, indexes, pos = set(), [], 0
-        while pos + 9 <= len(summary):
-            op, size = summary[pos], struct.unpack_from("<Q", summary, pos + 1)[0]
-            body = pos + 9
-            if op == 0x04:  # Channel: u16 id, u16 schema, topic, encoding, metadata
-                (cid,) = struct.unpack_from("<H", summary, body)
-                name, _ = _mcap_string(summary, body + 4)
-                if name == topic:
-                    channels.add(cid)
-            elif op == 0x08:  # Chunk Index
-                _, _, start, length, map_len = struct.unpack_from("<QQQQI", summary, body)
-                offsets = {}
-                for k in range(map_len // 10):
-                    cid, at = struct.unpack_from("<HQ", summary, body + 36 + 10 * k)
-                    offsets[cid] = at
-                p = body + 36 + map_len + 8
-                compression, p = _mcap_string(summary, p)
-                compressed, uncompressed = struct.unpack_from("<QQ", summary, p)
-                indexes.append((start, length, offsets, compression, compressed, uncompressed))
-            pos = body + size
+        channels, indexes = _mcap_summary(summary, topic)
         if not indexes:
             raise ValueError("no chunk index")
     except (OSError, ValueError, struct.error, IndexError):

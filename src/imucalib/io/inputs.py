@@ -210,7 +210,7 @@ def note_physical_units(paths: Sequence[Path], rec: Recording) -> None:
             looks.append(f"the gyroscope like {gyro} (99% of its readings within {rate:.3g})")
     warnings.warn(f"{', '.join(map(str, paths))}: no unit given or written in a header, so the readings are taken "
                   f"as counts; they look like physical units, {' and '.join(looks)}: if they are, pass "
-                  f"{' '.join(flags)}", ImucalibWarning, stacklevel=3)
+                  f"{' '.join(flags)}", ImucalibWarning, stacklevel=4)
 
 
 def note_gyro_unit(paths: Sequence[Path], rec: Recording) -> None:
@@ -228,7 +228,7 @@ def note_gyro_unit(paths: Sequence[Path], rec: Recording) -> None:
     warnings.warn(f"{', '.join(map(str, paths))}: no gyroscope unit given or written in the header, so its readings "
                   f"are taken as counts, but they are not whole numbers, so they are not counts: they look like "
                   f"{guess} (99% of them within {rate:.3g}); pass --gyro-unit {guess} (or the unit the logger "
-                  "writes)", ImucalibWarning, stacklevel=3)
+                  "writes)", ImucalibWarning, stacklevel=4)
 
 
 # -------------------------------------------------------------------- Xsens

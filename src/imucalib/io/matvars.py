@@ -103,5 +103,5 @@ def assemble(path: Path, found: dict) -> tuple[str, np.ndarray, set[str]] | None
     taken = {name.split(".", 1)[0] for name in acc_names + gyro_names + (times if t_acc is not None else [])}
     warnings.warn(f"{path}: no matrix of every column: the variables {used} were read as the accelerometer and the "
                   "gyroscope" + ("" if t_acc is not None else " (no time: pass --rate)"), ImucalibWarning,
-                  stacklevel=4)
+                  stacklevel=5)
     return label, matrix, taken

@@ -82,7 +82,7 @@ def sparse_rows(path: Path, layout: csvparse.Layout, names: Sequence[str], neede
         warnings.warn(f"{path}: skipped {skipped} of {skip.size} rows that leave the columns "
                       f"{', '.join(names[j] for j in sensors)} empty (another packet's rows: the file's rows take "
                       f"turns between packet types); {int(keep.sum())} rows read, and only the columns named (the "
-                      "others belong to the other packets)", ImucalibWarning, stacklevel=4)
+                      "others belong to the other packets)", ImucalibWarning, stacklevel=5)
     return int(keep.sum()), out
 
 
@@ -100,10 +100,10 @@ def counter_times(path: Path, counter: np.ndarray, name: str, rate: float | None
         lost = int(np.sum(d - 1))
         if lost:
             warnings.warn(f"{path}: the sample counter {name!r} skips {lost} samples: kept as gaps in the time",
-                          ImucalibWarning, stacklevel=4)
+                          ImucalibWarning, stacklevel=5)
         return (np.asarray(counter, dtype=np.float64) - float(counter[0])) / rate
     warnings.warn(f"{path}: the column {name!r} looks like a sample counter but does not count up by whole steps: "
-                  "not used; the samples are taken as evenly spaced at --rate", ImucalibWarning, stacklevel=4)
+                  "not used; the samples are taken as evenly spaced at --rate", ImucalibWarning, stacklevel=5)
     return np.arange(counter.size) / rate
 
 

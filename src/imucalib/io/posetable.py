@@ -243,6 +243,38 @@ def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit:
         A file that is not such a table, naming the line and what to change.
     """
     path = Path(path)
+    lines, header, rows, sep, table = _pose_rows(path)
+    ncols = len(table[0])
+    text = {j: next((i, c[j]) for i, c in zip(rows, table, strict=True) if _number(c[j]) is None)
+            for j in range(ncols) if any(_number(c[j]) is None for c in table)}  # column → its first text
+    text_cols = list(text)
+    notes: list[str] = []
+    units: dict[str, str] = {}
+    if header is not None:
+        names, units = _named_columns(path, _cells(lines[header], sep), ncols, text, notes)
+    else:
+        names = _ordered_columns(path, table, ncols, text_cols, notes)
+    values = {name: np.array([float(c[j]) for c in table]) for j, name in enumerate(names)
+              if name and name != "label"}
+    acc, gyro, sigma = _pose_means(values, notes)
+    labels = tuple(c[names.index("label")] for c in table) if "label" in names else None
+    acc_unit = _unit("accelerometer", acc_unit or units.get("acc") or fallback_acc_unit, acc, notes)
+    if gyro is not None:
+        gyro_unit = gyro_unit or units.get("gyro") or fallback_gyro_unit
+        if gyro_unit is None:
+            gyro_unit = "counts"
+            notes.append("the gyroscope's unit is not in the header: taken as counts (pass --gyro-unit)")
+    source = TableText(lines, header, rows, sep, tuple(names))
+    try:
+        return PoseTable(acc=acc, acc_unit=acc_unit, gyro=gyro, gyro_unit=gyro_unit if gyro is not None else None,
+                         n=values.get("n"), acc_sigma=sigma, labels=labels, notes=tuple(notes), source=source)
+    except ValueError as exc:
+        raise ReaderError(f"{path}: {exc}") from None
+
+
+def _pose_rows(path: Path):
+    """The file's lines, its header's index (None without one), the poses' line indices, the separator and the
+    poses' cells (as many in every row)."""
     try:
         text = read_small_text(path, MAX_TABLE_BYTES, "pose table",
                                "one line per pose: ax ay az [gx gy gz] [n] [σ]")
@@ -268,20 +300,14 @@ def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit:
         if len(cells) != ncols:
             raise ReaderError(f"{path}, line {i + 1}: {len(cells)} columns where the first pose has {ncols}: "
                               "every pose needs the same columns")
-    text = {j: next((i, c[j]) for i, c in zip(rows, table, strict=True) if _number(c[j]) is None)
-            for j in range(ncols) if any(_number(c[j]) is None for c in table)}  # column → its first text
-    text_cols = list(text)
-    notes: list[str] = []
-    units: dict[str, str] = {}
-    if header is not None:
-        names, units = _named_columns(path, _cells(lines[header], sep), ncols, text, notes)
-    else:
-        names = _ordered_columns(path, table, ncols, text_cols, notes)
-    values = {name: np.array([float(c[j]) for c in table]) for j, name in enumerate(names)
-              if name and name != "label"}
+    return lines, header, rows, sep, table
+
+
+def _pose_means(values: dict[str, np.ndarray], notes: list[str]):
+    """The accelerometer's means (poses × 3), the gyroscope's (or None) and their σ (per axis, per pose, or
+    None) from the named columns' values; a note when σ comes without a sample count."""
     acc = np.column_stack([values[f"a{a}"] for a in "xyz"])
     gyro = np.column_stack([values[f"g{a}"] for a in "xyz"]) if all(f"g{a}" in values for a in "xyz") else None
-    labels = tuple(c[names.index("label")] for c in table) if "label" in names else None
     sigma = None
     if all(f"sigma_{a}" in values for a in "xyz"):
         sigma = np.column_stack([values[f"sigma_{a}"] for a in "xyz"])
@@ -289,18 +315,7 @@ def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit:
         sigma = values["sigma"]
     if sigma is not None and "n" not in values:
         notes.append("the table gives σ but no sample count n: σ is taken as each pose mean's own standard error")
-    acc_unit = _unit("accelerometer", acc_unit or units.get("acc") or fallback_acc_unit, acc, notes)
-    if gyro is not None:
-        gyro_unit = gyro_unit or units.get("gyro") or fallback_gyro_unit
-        if gyro_unit is None:
-            gyro_unit = "counts"
-            notes.append("the gyroscope's unit is not in the header: taken as counts (pass --gyro-unit)")
-    source = TableText(lines, header, rows, sep, tuple(names))
-    try:
-        return PoseTable(acc=acc, acc_unit=acc_unit, gyro=gyro, gyro_unit=gyro_unit if gyro is not None else None,
-                         n=values.get("n"), acc_sigma=sigma, labels=labels, notes=tuple(notes), source=source)
-    except ValueError as exc:
-        raise ReaderError(f"{path}: {exc}") from None
+    return acc, gyro, sigma
 
 
 def _named_columns(path: Path, header: list[str], ncols: int, text: dict[int, tuple[int, str]],
@@ -327,15 +342,29 @@ def _named_columns(path: Path, header: list[str], ncols: int, text: dict[int, tu
                 unread.append(cell.strip() or f"column {j + 1}")
             continue
         names.append(kind)
-        sensor = "acc" if kind[0] == "a" or kind.startswith("sigma") else "gyro" if kind[0] == "g" else None
-        table = _ACC_UNIT_NAMES if sensor == "acc" else _GYRO_UNIT_NAMES
-        if sensor and unit:
-            if unit not in table:
-                notes.append(f"the unit {unit!r} of column {cell.strip()!r} is not one of "
-                             f"{', '.join(ACC_UNITS if sensor == 'acc' else GYRO_UNITS)}: ignored")
-            elif units.setdefault(sensor, table[unit]) != table[unit]:
-                raise ReaderError(f"{path}: the header gives the {'accelerometer' if sensor == 'acc' else 'gyroscope'}"
-                                  f" columns two units, {units[sensor]} and {table[unit]}")
+        _column_unit(path, cell, kind, unit, units, notes)
+    _check_named(path, header, names)
+    if unread:
+        notes.append(f"column(s) {', '.join(unread)} not read (kept as they are when the table is written again)")
+    return names, units
+
+
+def _column_unit(path: Path, cell: str, kind: str, unit: str | None, units: dict[str, str], notes: list[str]) -> None:
+    """The unit a named column ``cell`` (of field ``kind``) carries, into ``units`` by sensor: a note for a unit
+    this package does not know, an error for a second unit of the same sensor."""
+    sensor = "acc" if kind[0] == "a" or kind.startswith("sigma") else "gyro" if kind[0] == "g" else None
+    table = _ACC_UNIT_NAMES if sensor == "acc" else _GYRO_UNIT_NAMES
+    if sensor and unit:
+        if unit not in table:
+            notes.append(f"the unit {unit!r} of column {cell.strip()!r} is not one of "
+                         f"{', '.join(ACC_UNITS if sensor == 'acc' else GYRO_UNITS)}: ignored")
+        elif units.setdefault(sensor, table[unit]) != table[unit]:
+            raise ReaderError(f"{path}: the header gives the {'accelerometer' if sensor == 'acc' else 'gyroscope'}"
+                              f" columns two units, {units[sensor]} and {table[unit]}")
+
+
+def _check_named(path: Path, header: list[str], names: list[str]) -> None:
+    """The header names the accelerometer's three axes, the gyroscope's three or none, σ of three axes or one."""
     missing = [f for f in ("ax", "ay", "az") if f not in names]
     if missing:
         raise ReaderError(f"{path}: no column named {' or '.join(missing)} in the header ({', '.join(header)}): name "
@@ -347,9 +376,6 @@ def _named_columns(path: Path, header: list[str], ncols: int, text: dict[int, tu
     if 0 < len(axes) < 3:
         raise ReaderError(f"{path}: the header gives σ of {', '.join(axes)} only: give it for the three axes, or "
                           "one σ column")
-    if unread:
-        notes.append(f"column(s) {', '.join(unread)} not read (kept as they are when the table is written again)")
-    return names, units
 
 
 def _ordered_columns(path: Path, table: list[list[str]], ncols: int, text_cols: list[int],

@@ -433,60 +433,20 @@ def write_calibrated_bag(source: str | Path, destination: str | Path, calibratio
     reader = _open(source)
     try:
         topic = _choose_topic(reader, topic, source)
-        imu_conns = [c for c in reader.connections if c.topic == topic]
-        msgtype = imu_conns[0].msgtype
-        raw_parts, offsets, done = [], [], 0
-        try:  # rosbags' own order, the order the copy below meets the messages in
-            for block in _library_blocks(reader, imu_conns):
-                decoded = _decoded(reader, block, msgtype, done, source, topic)
-                raw_parts.append(decoded.readings)
-                offsets.append(decoded.fields_at)
-                done += len(block)
-        except ReaderError:
-            raise
-        except Exception as exc:
-            raise _damaged(source, topic, done, exc) from None
-        raw = np.concatenate(raw_parts) if raw_parts else np.empty((0, 6))
-        fields_at = np.concatenate(offsets) if offsets else np.empty(0, np.int64)
+        raw, fields_at = _raw_imu(reader, [c for c in reader.connections if c.topic == topic], source, topic)
         acc = calibration.accelerometer_si(raw[:, :3])
         gyro = calibration.gyroscope.forward(raw[:, 3:], acc)
-        acc_bytes, gyro_bytes = acc.astype("<f8"), gyro.astype("<f8")
         total = sum(c.msgcount for c in reader.connections)
         lone_mcap = reader.is2 and source.is_file()
         with atomic_create(destination) as building:
             target = building.with_name(building.name + ".bag") if lone_mcap else building
             writer, serialize = _writer_like(reader, source, target)
-            copied = corrected = 0
             with writer:
                 out = {}
                 for c in reader.connections:
                     out[c.id] = _add_connection_like(writer, c, reader)
-                try:
-                    for conn, log_ns, data in reader.messages():
-                        if conn.topic == topic:
-                            k, o = corrected, int(fields_at[corrected])
-                            if o >= 0:  # the standard layout: the six doubles in place
-                                b = bytearray(data)
-                                b[o + 104:o + 128] = gyro_bytes[k].tobytes()
-                                b[o + 200:o + 224] = acc_bytes[k].tobytes()
-                                data = bytes(b)
-                            else:
-                                m = reader.deserialize(data, conn.msgtype)
-                                la, av = m.linear_acceleration, m.angular_velocity
-                                la.x, la.y, la.z = map(float, acc[k])
-                                av.x, av.y, av.z = map(float, gyro[k])
-                                data = serialize(m, conn.msgtype)
-                            corrected += 1
-                        else:
-                            copied += 1
-                        writer.write(out[conn.id], log_ns, data)
-                        if progress is not None and (copied + corrected) % 10_000 == 0:
-                            progress(copied + corrected, total)
-                except (ReaderError, OSError):
-                    raise
-                except Exception as exc:
-                    raise _reader_error(f"{source}: the bag is damaged and cannot be copied past message "
-                                        f"{copied + corrected + 1} ({_why(exc)})") from None
+                copied, corrected = _copy_messages(reader, writer, out, serialize, topic, fields_at, (acc, gyro),
+                                                   progress, total, source)
             if lone_mcap:
                 os.rename(target / f"{target.name}.mcap", building)
             if progress is not None:
@@ -494,6 +454,61 @@ def write_calibrated_bag(source: str | Path, destination: str | Path, calibratio
     finally:
         reader.close()
     return {"topic": topic, "corrected": corrected, "copied": copied, "output": str(destination)}
+
+
+def _raw_imu(reader, imu_conns: list, source: Path, topic: str) -> tuple[np.ndarray, np.ndarray]:
+    """The topic's raw readings (messages × 6: accelerometer, gyroscope) in the order the copy meets them, and
+    where each message's fields lie in its bytes (−1 where the layout is not the standard one)."""
+    msgtype = imu_conns[0].msgtype
+    raw_parts, offsets, done = [], [], 0
+    try:  # rosbags' own order, the order the copy below meets the messages in
+        for block in _library_blocks(reader, imu_conns):
+            decoded = _decoded(reader, block, msgtype, done, source, topic)
+            raw_parts.append(decoded.readings)
+            offsets.append(decoded.fields_at)
+            done += len(block)
+    except ReaderError:
+        raise
+    except Exception as exc:
+        raise _damaged(source, topic, done, exc) from None
+    raw = np.concatenate(raw_parts) if raw_parts else np.empty((0, 6))
+    fields_at = np.concatenate(offsets) if offsets else np.empty(0, np.int64)
+    return raw, fields_at
+
+
+def _copy_messages(reader, writer, out: dict, serialize, topic: str, fields_at: np.ndarray, calibrated: tuple,
+                   progress, total: int, source: Path) -> tuple[int, int]:
+    """Every message written to ``writer``, the topic's with the calibrated readings; (copied, corrected)."""
+    acc, gyro = calibrated
+    acc_bytes, gyro_bytes = acc.astype("<f8"), gyro.astype("<f8")
+    copied = corrected = 0
+    try:
+        for conn, log_ns, data in reader.messages():
+            if conn.topic == topic:
+                k, o = corrected, int(fields_at[corrected])
+                if o >= 0:  # the standard layout: the six doubles in place
+                    b = bytearray(data)
+                    b[o + 104:o + 128] = gyro_bytes[k].tobytes()
+                    b[o + 200:o + 224] = acc_bytes[k].tobytes()
+                    data = bytes(b)
+                else:
+                    m = reader.deserialize(data, conn.msgtype)
+                    la, av = m.linear_acceleration, m.angular_velocity
+                    la.x, la.y, la.z = map(float, acc[k])
+                    av.x, av.y, av.z = map(float, gyro[k])
+                    data = serialize(m, conn.msgtype)
+                corrected += 1
+            else:
+                copied += 1
+            writer.write(out[conn.id], log_ns, data)
+            if progress is not None and (copied + corrected) % 10_000 == 0:
+                progress(copied + corrected, total)
+    except (ReaderError, OSError):
+        raise
+    except Exception as exc:
+        raise _reader_error(f"{source}: the bag is damaged and cannot be copied past message "
+                            f"{copied + corrected + 1} ({_why(exc)})") from None
+    return copied, corrected
 
 
 def _writer_like(reader, source: Path, destination: Path):

@@ -82,7 +82,7 @@ def guess_unit(t: np.ndarray, path: Path | None = None, name: str = "time") -> s
         others = ", ".join(f"{rates[u]:.4g} Hz in {u}" for u in TIME_UNITS if u != unit)
         warnings.warn(f"{path}: the time column {name!r} was read in {_NAMES[unit]}: its median step, {step:.6g}, "
                       f"gives {rates[unit]:.4g} Hz in {unit}, the only unit in which the rate is one IMUs record at "
-                      f"({others}); pass --time-unit to say otherwise", ImucalibWarning, stacklevel=5)
+                      f"({others}); pass --time-unit to say otherwise", ImucalibWarning, stacklevel=6)
     return unit
 
 
@@ -156,7 +156,7 @@ def repair_coarse(path: Path, t: np.ndarray, values: Sequence[np.ndarray], first
         d = np.diff(t)
         warnings.warn(f"{path}: dropped {dropped} row{'s' if dropped > 1 else ''} that repeat the row before "
                       f"exactly (the same {name} and the same readings: a logger writing one sample twice)",
-                      ImucalibWarning, stacklevel=4)
+                      ImucalibWarning, stacklevel=5)
     if np.all(d > 0):
         return Repair(t, keep, dropped)
     lines = np.nonzero(keep)[0] if keep is not None else np.arange(t.size)
@@ -193,7 +193,7 @@ def repair_coarse(path: Path, t: np.ndarray, values: Sequence[np.ndarray], first
                   f"interval ({interval:.6g}, {zeros} steps of zero): the times were put on the "
                   f"stamps' straight line at that interval, within the resolution of each stamp"
                   + (f"; {len(runs) - 1} gap{'s' if len(runs) > 2 else ''} between them kept" if len(runs) > 1
-                     else ""), ImucalibWarning, stacklevel=4)
+                     else ""), ImucalibWarning, stacklevel=5)
     return Repair(out, keep, dropped, r, interval, len(runs) - 1)
 
 
@@ -216,7 +216,7 @@ def note_held_samples(path, acc: np.ndarray, gyro: np.ndarray | None, rate: floa
     warnings.warn(f"{path}: {100 * same.mean():.0f}% of the rows repeat the row before exactly: each reading is "
                   f"held for about {hold:g} rows, so the sensor updates at about {rate / hold:.4g} Hz, not "
                   f"{rate:.4g} Hz (read faster than it updates); the rows are kept as they are, but noise figures "
-                  "from sample-to-sample differences come out low", ImucalibWarning, stacklevel=4)
+                  "from sample-to-sample differences come out low", ImucalibWarning, stacklevel=5)
 
 
 #: a calendar date and time of day as loggers print them: ISO 8601 (``2024-05-01T12:00:00.010Z``) or with a

@@ -126,15 +126,18 @@ def write_csv(
     ['acc_x_cal [m/s^2]', 'acc_y_cal [m/s^2]', 'acc_z_cal [m/s^2]',
      'gyro_x_cal [rad/s]', 'gyro_y_cal [rad/s]', 'gyro_z_cal [rad/s]']
     """
-    rec = recording
-    n = len(rec)
     added = calibrated_columns(calibrated_acc, calibrated_gyro, calibrated_mag, mag_unit)
+    _check_rows(added, len(recording))
+    layout = _source_layout(recording)
+    if layout is None or not _copy_source(path, recording, layout, added):
+        _write_values(path, recording, added)  # the samples read, whatever their file has become since
+
+
+def _check_rows(added: dict[str, np.ndarray], n: int) -> None:
+    """Each calibrated column has the recording's ``n`` rows."""
     for k, v in added.items():
         if len(v) != n:
             raise ValueError(f"column {k!r} has {len(v)} rows; the recording has {n}")
-    layout = _source_layout(rec)
-    if layout is None or not _copy_source(path, rec, layout, added):
-        _write_values(path, rec, added)  # the samples read, whatever their file has become since
 
 
 # ------------------------------------------------------------ copying the source

@@ -99,7 +99,7 @@ def _solve(fun_jac, x0, scales):
 
 
 def calibrate(session, *, gravity: float | None = None, initial: str = "estimate") -> Calibration:
-    """Calibrate from a :class:`~imucalib.io.session.WangSession`-like object.
+    """Calibrate from a :class:`~imucalib.sessions.WangSession`-like object.
 
     It needs ``positions_acc``, ``positions_gyro`` (static means, pulses/s),
     ``turn_sum``, ``turn_sum2`` and ``turn_angle`` (CW/CCW turn integrals) and

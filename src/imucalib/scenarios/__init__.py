@@ -6,7 +6,7 @@ scenario lives in its own module (``zhang2021``, ``handheld``, ``qureshi2017``,
 them; the papers' experiments that run a method on these sessions are :mod:`imucalib.experiments`.
 Methods never import from here: a session hands its layout to a method through ordinary keyword
 options (:meth:`Session.method_options`). The session records and their directory format are
-:mod:`imucalib.io.session`.
+:mod:`imucalib.sessions`.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """What every simulated session shares: the distortion by a true calibration, pose plans.
 
-The session records and their directory format are :mod:`imucalib.io.session`.
+The session records and their directory format are :mod:`imucalib.sessions`.
 
 Raw readings are made by distorting true signals with a true
 :class:`~imucalib.calibration.Calibration` (Zhang 2021, eqs. 31–32: the exact
@@ -15,9 +15,9 @@ import warnings
 import numpy as np
 
 from ..calibration import Calibration
-from ..io.session import Session, TossSequence, read_session, write_session
 from ..kinematics import integrate, quat_from_rotvec, quat_to_matrix
 from ..recording import ImucalibWarning, Interval, Recording
+from ..sessions import Session, TossSequence, read_session, write_session
 
 __all__ = ["DEFAULT_NOISE", "Session", "TossSequence", "attitude_with_up", "distort", "noise_levels",
            "pose_session", "read_session", "turns_between", "write_session"]

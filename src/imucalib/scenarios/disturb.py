@@ -1,7 +1,7 @@
 """What people add to a simulated session after the fact: a tap during the initial rest, and a recording
 made of blocks (one file per pose) whose blocks hold the lift onto the pose.
 
-Both take a :class:`~imucalib.io.session.Session` (e.g. ``session("handheld", rng=...)``) and return a new one
+Both take a :class:`~imucalib.sessions.Session` (e.g. ``session("handheld", rng=...)``) and return a new one
 with the same truth; the segments stay the truth (``"static"`` the holds as the sensor lay still).
 """
 
@@ -12,8 +12,8 @@ import math
 
 import numpy as np
 
-from ..io.session import Session
 from ..recording import Interval, Recording
+from ..sessions import Session
 
 __all__ = ["in_blocks", "with_tap"]
 

@@ -717,7 +717,7 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
     Returns
     -------
     dict
-        Fields of :class:`~imucalib.io.session.Session`: ``recording``,
+        Fields of :class:`~imucalib.sessions.Session`: ``recording``,
         ``segments``, ``truth``, ``noise``, ``options``.
     """
     if procedure not in ("poses", "ferraris"):

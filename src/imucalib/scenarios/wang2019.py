@@ -56,9 +56,9 @@ import numpy as np
 
 from ..calibration import Calibration
 from ..constants import DEG, DEG_PER_HOUR, EARTH_RATE, G0, MICRO_G
-from ..io.session import WangSession
 from ..kinematics import quat_from_rotvec, quat_to_matrix
 from ..models import TriadModel
+from ..sessions import WangSession
 
 __all__ = ["EARTH_RATE", "G0", "NOISE", "TURNTABLE_ERRORS", "WangSession", "plan", "random_truth", "session"]
 

@@ -1,8 +1,11 @@
-"""What ``imucalib calibrate`` reads: a recording from data files, or a simulated session directory.
+"""What ``imucalib calibrate`` reads: a recording from data files, a table of averaged poses, or a simulated
+session directory.
 
-:func:`read_data` is the one entry point the command line and batch runs
+:func:`read` is :func:`imucalib.read`, the one entry point the command line and batch runs
 (:mod:`imucalib.batch`) share, so a manifest row is read exactly as the same
-files given to ``imucalib calibrate`` are.
+files given to ``imucalib calibrate`` are. The files' columns are read by :func:`imucalib.io.read`;
+this adds the magnetometer, tables of poses and session directories (whose truth is a calibration,
+:mod:`imucalib.sessions`).
 """
 
 from __future__ import annotations
@@ -10,39 +13,19 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-__all__ = ["is_session_directory", "read_data"]
+from .io.sessionfiles import is_session_directory
+
+__all__ = ["read"]
 
 
-def is_session_directory(paths: Sequence[str | Path], reader: str | None = None) -> bool:
-    """True when ``paths`` name a simulated session directory (``imucalib simulate -o DIR``).
-
-    ``reader="session"`` says so; without a reader, one directory that is not a ROS 2 bag is taken
-    for a session.
-    """
-    if reader == "session":
-        return True
-    if reader is not None or len(paths) != 1 or not Path(paths[0]).is_dir():
-        return False
-    from .rosbag import is_rosbag  # a directory: perhaps a ROS 2 bag
-
-    return not is_rosbag(Path(paths[0]))
-
-
-def read_data(
+def read(
     paths: str | Path | Sequence[str | Path],
     *,
     reader: str | None = None,
-    columns: Sequence[str] | None = None,
-    acc_unit: str | None = None,
-    gyro_unit: str | None = None,
-    rate: float | None = None,
-    variable: str | None = None,
-    time_unit: str | None = None,
-    topic: str | None = None,
-    progress=None,
     mag_unit: str | None = None,
     mag_topic: str | None = None,
     poses: bool = False,
+    **options,
 ):
     """The data in ``paths``: a :class:`~imucalib.recording.Recording`, or a simulated session.
 
@@ -56,15 +39,10 @@ def read_data(
     paths : str, Path, sequence of them, or pandas.DataFrame
         One file, several (two imu_tk files; CSV or MAT files read as blocks of one recording), a ROS bag,
         a pandas DataFrame (read as a CSV file) or a simulated session directory (written by
-        :func:`imucalib.io.session.write_session`, read by :func:`imucalib.io.session.read_session`; found
+        :func:`imucalib.sessions.write_session`, read by :func:`imucalib.sessions.read_session`; found
         without ``reader`` too).
     reader : {"csv", "imutk", "mat", "phone", "rosbag", "session"}, optional
         The format; guessed from the file(s) when omitted (:func:`imucalib.io.guess_reader`).
-    columns, acc_unit, gyro_unit, rate, variable, time_unit, topic, progress
-        As for :func:`imucalib.io.read`: the columns in the order ``t, ax, ay, az, gx, gy, gz``, the
-        accelerometer's unit (counts, g, m/s^2) and the gyroscope's (counts, deg/s, rad/s), the sampling
-        rate [Hz] of a file without a time column, a MATLAB matrix's name, the time column's unit, a ROS
-        bag's ``sensor_msgs/Imu`` topic, and ``progress(done, total)``.
     mag_unit : str, optional
         The magnetometer columns' unit (``"uT"``, ``"counts"`` …), when the header does not write it; an error
         when it contradicts the header or there are no magnetometer columns.
@@ -73,6 +51,12 @@ def read_data(
     poses : bool
         ``paths`` is one table of averaged poses, one row per orientation
         (:func:`imucalib.io.posetable.read_pose_table`, with ``acc_unit`` and ``gyro_unit``).
+    **options
+        The options of :func:`imucalib.io.read`, which reads the files (documented there): ``columns``
+        (in the order ``t, ax, ay, az, gx, gy, gz``), ``acc_unit`` (counts, g, m/s^2), ``gyro_unit``
+        (counts, deg/s, rad/s), ``rate`` [Hz] of a file without a time column, ``variable`` (a MATLAB
+        matrix's name), ``time_unit``, ``topic`` (a ROS bag's ``sensor_msgs/Imu`` topic) and
+        ``progress(done, total)``.
 
     Returns
     -------
@@ -94,7 +78,7 @@ def read_data(
     A simulated session directory reads as the session, with its truth:
 
     >>> import tempfile, imucalib
-    >>> from imucalib.io.session import write_session
+    >>> from imucalib.sessions import write_session
     >>> from imucalib.scenarios import session
     >>> folder = tempfile.mkdtemp()
     >>> _ = write_session(session("handheld", rng=1), folder)
@@ -103,40 +87,46 @@ def read_data(
     (3, 'truth')
     """
     if poses:
-        return _pose_table(paths, reader, acc_unit, gyro_unit)
-    from .readers import is_frame
+        return _pose_table(paths, reader, options)
+    from .io.readers import is_frame
+    from .io.readers import read as read_files
 
-    if is_frame(paths):
-        paths = [paths]  # a pandas DataFrame: read as one CSV file, never a session
-    elif isinstance(paths, str | Path):
-        paths = [paths]
-    paths = list(paths)
-    if paths and not is_frame(paths[0]) and is_session_directory(paths, reader):
-        from .session import read_session
+    paths = [paths] if is_frame(paths) or isinstance(paths, str | Path) else list(paths)  # a DataFrame: one table
+    if paths and not is_frame(paths[0]) and is_session_directory(paths, reader):  # never a DataFrame
+        from .sessions import read_session
 
         return read_session(paths[0])
-    from .magnetometer import attach_magnetometer
-    from .readers import read
+    rec = read_files(paths[0] if len(paths) == 1 and is_frame(paths[0]) else paths, reader=reader, **options)
+    return _with_magnetometer(rec, paths, mag_unit, mag_topic)
 
-    source = paths[0] if len(paths) == 1 and is_frame(paths[0]) else paths
-    rec = read(source, reader=reader, columns=columns, acc_unit=acc_unit, gyro_unit=gyro_unit, rate=rate,
-               variable=variable, time_unit=time_unit, topic=topic, progress=progress)
+
+def _with_magnetometer(rec, paths: list, mag_unit: str | None, mag_topic: str | None):
+    """The recording :func:`read` read, its magnetometer attached: its columns', or a ROS bag's topic's."""
+    from .io.magnetometer import attach_magnetometer
+
     if mag_topic is not None:
         if rec.metadata.get("reader") != "rosbag":
             raise ValueError("a magnetometer topic (--mag-topic) applies to ROS bags")
-        from .rosbag import add_magnetic_field
+        from .io.rosbag import add_magnetic_field
 
         return add_magnetic_field(rec, paths[0], mag_topic)
     return attach_magnetometer(rec, mag_unit)
 
 
-def _pose_table(paths, reader: str | None, acc_unit: str | None, gyro_unit: str | None):
-    """:func:`read_data` of a table of averaged poses: one text file."""
-    from .posetable import read_pose_table
+def _pose_table(paths, reader: str | None, options: dict):
+    """:func:`read` of a table of averaged poses: one text file."""
+    import inspect
 
+    from .io.posetable import read_pose_table
+    from .io.readers import read as read_files
+
+    known = set(inspect.signature(read_files).parameters) - {"paths", "reader"}
+    for name in options:
+        if name not in known:
+            raise TypeError(f"read() got an unexpected keyword argument {name!r}")
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
     if len(paths) != 1 or not isinstance(paths[0], str | Path):
         raise ValueError(f"a table of averaged poses is one text file; got {len(paths)} inputs")
     if reader not in (None, "csv"):
         raise ValueError(f"a table of averaged poses is a text table: the reader {reader!r} does not apply")
-    return read_pose_table(paths[0], acc_unit=acc_unit, gyro_unit=gyro_unit)
+    return read_pose_table(paths[0], acc_unit=options.get("acc_unit"), gyro_unit=options.get("gyro_unit"))
