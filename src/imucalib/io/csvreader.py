@@ -21,7 +21,7 @@ from .columns import map_columns as _map_columns
 from .errors import ReaderError
 from .stamps import TIME_UNITS, datetime_cells, read_dated, repair_coarse, to_seconds
 from .stamps import guess_unit as _infer_time_unit
-from .tables import Table, is_prompt, parse_block, parse_table, split_table, time_column, unit_in
+from .tables import MILLI_UNITS, Table, is_prompt, parse_block, parse_table, split_table, time_column, unit_in
 
 __all__ = ["BLOCK_GAP_STEPS", "read_csv", "read_frame"]
 
@@ -146,11 +146,16 @@ def read_csv(path: Path, columns, acc_unit, gyro_unit, rate, time_unit, frame=No
             )
         t, acc, gyro, cols = _column_times(path, table, tcol, cols, (acc, gyro), time_unit, parsed, meta)
     au, gu = _sensor_units(table, mapping, acc_unit, gyro_unit)
+    (acc, au), (gyro, gu) = _from_milli(path, acc, au, table, mapping["ax"]), _from_milli(path, gyro, gu, table,
+                                                                                         mapping["gx"])
     extra, temperature = _other_columns(table, mapping, cols, meta)
     rec = Recording(t=t, acc=acc, gyro=gyro, acc_unit=au, gyro_unit=gu, temperature=temperature,
                     extra=extra, metadata=meta)
-    if parsed.get("digest") and not csvparse.is_gzip(path) and not table.units_row:  # what apply needs to copy the
-        # file's own text (io.writers); a units line under the header: the file is written anew
+    scaled = any(unit_in(table.names[mapping[f]]) in MILLI_UNITS for f in ("ax", "gx")
+                 if table.header is not None and mapping[f] is not None)
+    # what apply needs to copy the file's own text (io.writers); a units line under the header, or readings
+    # scaled from thousandths of a unit: the file is written anew
+    if parsed.get("digest") and not csvparse.is_gzip(path) and not table.units_row and not scaled:
         meta["source_layout"] = {**source.to_dict(), "rows": rows, "fingerprint": csvparse.fingerprint(rec),
                                  "digest": parsed["digest"]}
     return rec
@@ -246,11 +251,23 @@ def _sensor_units(table: Table, mapping: dict, acc_unit, gyro_unit) -> tuple[str
     has_header, has_gyro = table.header is not None, mapping["gx"] is not None
     au = acc_unit or (unit_in(table.names[mapping["ax"]]) if has_header else None) or "counts"
     gu = gyro_unit or (unit_in(table.names[mapping["gx"]]) if has_header and has_gyro else None) or "counts"
-    if au not in ACC_UNITS:
+    if au not in ACC_UNITS and au not in MILLI_UNITS:
         au = "counts"
-    if gu not in GYRO_UNITS:
+    if gu not in GYRO_UNITS and gu not in MILLI_UNITS:
         gu = "counts"
     return au, gu
+
+
+def _from_milli(path: Path, values, unit: str, table: Table, column) -> tuple:
+    """``values`` in thousandths of a unit (``mg``, ``mdps``, ``mrad/s``: :data:`.tables.MILLI_UNITS`) taken in
+    the unit, with a note; other units as they are."""
+    if unit not in MILLI_UNITS or values is None:
+        return values, unit
+    base, factor = MILLI_UNITS[unit]
+    values *= factor
+    warnings.warn(f"{path}: column {table.names[column]!r} is in {unit}: its readings are taken in {base} "
+                  f"(× {factor:g})", ImucalibWarning, stacklevel=5)
+    return values, base
 
 
 def _other_columns(table: Table, mapping: dict, cols: dict, meta: dict):

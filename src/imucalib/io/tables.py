@@ -26,7 +26,7 @@ from .columns import not_number as _not_number
 from .errors import ReaderError
 
 __all__ = ["Table", "head_names", "is_prompt", "line_cells", "names_sensor_columns", "parse_block", "parse_table",
-           "sensors_named", "sniff_separator", "split_table", "time_column", "unit_in"]
+           "sensors_named", "sniff_separator", "split_table", "time_column", "unit_in", "MILLI_UNITS"]
 
 
 def parse_block(path: Path, lines: list[str], first_line: int, ncols: int | None,
@@ -82,8 +82,12 @@ def parse_block(path: Path, lines: list[str], first_line: int, ncols: int | None
 
 
 
+#: thousandths of a unit, as vendors' logs write them: the unit the readings are taken in and the factor to it
+MILLI_UNITS = {"mg": ("g", 1e-3), "mdps": ("deg/s", 1e-3), "mrad/s": ("rad/s", 1e-3)}
+
+
 def unit_in(name: str) -> str | None:
-    """A unit written in a column name: ``[m/s^2]``, ``(dps)``, ``_ms`` …"""
+    """A unit written in a column name: ``[m/s^2]``, ``(dps)``, ``_ms``, ``[mg]`` … (:data:`MILLI_UNITS`)."""
     m = re.search(r"[\[\(]\s*([^\]\)]+?)\s*[\]\)]", name)
     tail = m.group(1) if m else re.split(r"[_\s]", name)[-1]
     u = tail.strip().lower().replace(" ", "").replace("²", "^2")
@@ -92,6 +96,7 @@ def unit_in(name: str) -> str | None:
         "g": "g", "m/s^2": "m/s^2", "m/s2": "m/s^2", "ms^-2": "m/s^2", "ms-2": "m/s^2",
         "deg/s": "deg/s", "dps": "deg/s", "°/s": "deg/s", "rad/s": "rad/s", "rads^-1": "rad/s",
         "rad/sec": "rad/s", "counts": "counts", "lsb": "counts", "raw": "counts",
+        "mg": "mg", "mdps": "mdps", "mdeg/s": "mdps", "m°/s": "mdps", "mrad/s": "mrad/s",
     }
     return table.get(u)
 
