@@ -37,7 +37,19 @@ class TossSequence:
 
 @dataclass
 class Session:
-    """A simulated session: raw recordings, the truth and the segment layout."""
+    """A simulated session: raw recordings, the truth and the segment layout.
+
+    Examples
+    --------
+    :func:`imucalib.scenarios.session` makes them; the 10 s rest and 14 poses alternate with 14 rotations:
+
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> sim.scenario, sim.seed, len(sim.segments), sim.segments[0]
+    ('handheld', 1, 29, Interval(start=0, stop=996, kind='static'))
+    >>> sim.truth.method
+    'truth'
+    """
 
     scenario: str
     seed: int | None
@@ -90,7 +102,18 @@ class WangSession:
 
 
 class SessionFileError(ValueError):
-    """A simulated session directory that cannot be read; the message names the file and entry."""
+    """A simulated session directory that cannot be read; the message names the file and entry.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from imucalib.io.session import SessionFileError, read_session
+    >>> try:
+    ...     read_session(tempfile.mkdtemp())
+    ... except SessionFileError as exc:
+    ...     print(exc)
+    /...: not a simulated session directory (no session.json)
+    """
 
 
 def _kind(value) -> str:
@@ -263,6 +286,21 @@ def write_session(sim: Session | WangSession, directory: str | Path, *, overwrit
     -------
     Path
         The directory.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.io.session import write_session
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> folder = write_session(sim, Path(tempfile.mkdtemp()) / "sim")
+    >>> sorted(p.name for p in folder.iterdir())
+    ['recording.csv', 'session.json', 'truth.json']
+    >>> write_session(sim, folder, overwrite=False)
+    Traceback (most recent call last):
+        ...
+    FileExistsError: /.../sim holds recording.csv, truth.json, session.json, which this session would ...
     """
     d = Path(directory)
     if d.exists() and not d.is_dir():

@@ -719,6 +719,21 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
     dict
         Fields of :class:`~imucalib.io.session.Session`: ``recording``,
         ``segments``, ``truth``, ``noise``, ``options``.
+
+    Examples
+    --------
+    :func:`imucalib.scenarios.session` calls it (``session("handheld", ...)``); its fields, for a short
+    session of a 10 s rest and 14 poses:
+
+    >>> import numpy as np
+    >>> from imucalib.scenarios.handheld import generate
+    >>> fields = generate(np.random.default_rng(1), rest=10, n_poses=14)
+    >>> sorted(fields), fields["recording"].acc_unit
+    (['noise', 'options', 'recording', 'segments', 'truth'], 'counts')
+    >>> generate(np.random.default_rng(1), procedure="figure-eight")
+    Traceback (most recent call last):
+        ...
+    ValueError: procedure must be 'poses' or 'ferraris'; got 'figure-eight'
     """
     if procedure not in ("poses", "ferraris"):
         raise ValueError(f"procedure must be 'poses' or 'ferraris'; got {procedure!r}")
