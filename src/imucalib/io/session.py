@@ -287,6 +287,13 @@ def write_session(sim: Session | WangSession, directory: str | Path, *, overwrit
     Path
         The directory.
 
+    Raises
+    ------
+    FileExistsError
+        Without ``overwrite``, when the directory holds files of a session already.
+    NotADirectoryError
+        When ``directory`` is a file.
+
     Examples
     --------
     >>> import tempfile

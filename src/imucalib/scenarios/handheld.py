@@ -720,6 +720,13 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
         Fields of :class:`~imucalib.io.session.Session`: ``recording``,
         ``segments``, ``truth``, ``noise``, ``options``.
 
+    Raises
+    ------
+    ValueError
+        For an option out of its range (an unknown ``procedure``, a negative duration, a probability
+        outside [0, 1], a jitter of half a sample period or more, ``temperature`` and ``ramp`` together,
+        an unknown magnetometer option…), the message naming it.
+
     Examples
     --------
     :func:`imucalib.scenarios.session` calls it (``session("handheld", ...)``); its fields, for a short
