@@ -33,7 +33,9 @@ exclude_patterns = ["_build", "_generated/*.py", "examples"]
 templates_path = []
 autosummary_generate = False
 autodoc_default_options = {"members": False}
-autodoc_typehints = "description"  # the signatures' types, under Parameters and Returns
+# the types are those the numpydoc Parameters and Returns sections give: autodoc's own list of the annotations
+# ("description") would repeat them as a second Parameters block and a "Return type" under every function
+autodoc_typehints = "none"
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
@@ -51,3 +53,4 @@ html_theme_options = {
 html_sidebars = {"**": []}
 html_static_path = ["_static"]
 html_css_files = ["imucalib.css"]
+html_js_files = ["imucalib.js"]  # long names in the page menu break after a dot or an underscore

@@ -28,12 +28,14 @@ Times are ISO 8601 dates or date-times (``2024-05-01``, ``2024-05-01T14:30``,
 ``2024-05-01T14:30:00+02:00``); one without a zone is taken as UTC when times
 are compared.
 
-Examples
---------
->>> from imucalib.store import Store
->>> with Store("fleet.sqlite") as store:                     # doctest: +SKIP
-...     cal, record = store.get("IMU-0042", at="2024-06-01")
-...     cal.save("imu-0042.json")
+In a program, the calibration of a device as it was on a date, from a store a batch filled (:class:`Store`
+has an example that runs)::
+
+    from imucalib.store import Store
+
+    with Store("fleet.sqlite", readonly=True) as store:
+        cal, record = store.get("IMU-0042", at="2024-06-01")
+        cal.save("imu-0042.json")
 """
 
 from __future__ import annotations
