@@ -137,7 +137,8 @@ class BatchError(ValueError):
     ...         pass
     ... except BatchError as exc:
     ...     print(exc)
-    --workers applies to local processes and --scheduler local; the cluster at tcp://192.0.2.1:8786 has its ...
+    --workers applies to local processes and --scheduler local; the cluster at tcp://192.0.2.1:8786
+    has its own workers
     """
 
 
@@ -157,7 +158,7 @@ class Row:
     >>> from imucalib.batch import read_manifest
     >>> folder = Path(tempfile.mkdtemp())
     >>> _ = (folder / "run1.csv").write_text("t,ax,ay,az,gx,gy,gz" + chr(10))
-    >>> _ = (folder / "manifest.csv").write_text("device,files" + chr(10) + "imu1,run1.csv" + chr(10))
+    >>> _ = (folder / "manifest.csv").write_text(chr(10).join(["device,files", "imu1,run1.csv"]))
     >>> row = read_manifest(folder / "manifest.csv")[0]
     >>> row.device, Path(row.files[0]).name, row.method, row.gravity
     ('imu1', 'run1.csv', 'tedaldi2014', 9.80665)
@@ -346,14 +347,15 @@ def read_manifest(path: str | Path, *, allow_urls: bool | str | Sequence[str] = 
     >>> folder = Path(tempfile.mkdtemp())
     >>> _ = (folder / "run1.csv").write_text("t,ax,ay,az,gx,gy,gz" + chr(10))
     >>> manifest = folder / "manifest.csv"
-    >>> _ = manifest.write_text(chr(10).join(["device,files,method,gravity", "imu1,run1.csv,ellipsoid,9.81"]))
+    >>> _ = manifest.write_text(chr(10).join(["device,files,method,gravity",
+    ...                                       "imu1,run1.csv,ellipsoid,9.81"]))
     >>> [(row.line, row.device, row.method, row.gravity) for row in read_manifest(manifest)]
     [(2, 'imu1', 'ellipsoid', 9.81)]
     >>> _ = manifest.write_text(chr(10).join(["device,files,methd", "imu1,run1.csv,ellipsoid"]))
     >>> read_manifest(manifest)
     Traceback (most recent call last):
         ...
-    imucalib.batch.ManifestError: .../manifest.csv, line 1 (the header): unknown column(s) methd (known: ...)
+    imucalib.batch.ManifestError: ...manifest.csv, line 1 (the header): unknown column(s) methd ...
     """
     from .methodinfo import declared
 
@@ -768,7 +770,8 @@ def run_batch(manifest: str | Path, store: str | Path, *, workers: int | None = 
     >>> from imucalib.scenarios import session
     >>> folder = Path(tempfile.mkdtemp())
     >>> _ = write_session(session("handheld", rng=1, rest=10, n_poses=14), folder / "imu1")
-    >>> _ = (folder / "manifest.csv").write_text("device,files,reader" + chr(10) + "imu1,imu1,session" + chr(10))
+    >>> manifest = chr(10).join(["device,files,reader", "imu1,imu1,session"])
+    >>> _ = (folder / "manifest.csv").write_text(manifest)
     >>> summary = run_batch(folder / "manifest.csv", folder / "fleet.sqlite", workers=1)
     >>> summary["rows"], summary["calibrated"], summary["verdicts"]
     (1, 1, {'accepted': 1, 'suspect': 0, 'rejected': 0})

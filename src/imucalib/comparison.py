@@ -181,7 +181,8 @@ def compare(
     >>> from imucalib.comparison import compare
     >>> from imucalib.scenarios import session
     >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
-    >>> found = compare(sim.recording, gravity=sim.truth.gravity, methods=["tedaldi2014", "ellipsoid"], folds=5)
+    >>> found = compare(sim.recording, gravity=sim.truth.gravity,
+    ...                 methods=["tedaldi2014", "ellipsoid"], folds=5)
     >>> found["best"], [(m["method"], m["rank"], m["verdict"]) for m in found["methods"]]
     ('tedaldi2014', [('tedaldi2014', 1, 'accepted'), ('ellipsoid', 2, 'accepted')])
     """

@@ -97,7 +97,8 @@ def accelerometer_plan(plan: str | int | np.ndarray, *, noise: float = 0.002,
     >>> from imucalib.plans import accelerometer_plan
     >>> six = accelerometer_plan("six")
     >>> [p["parameter"] for p in six["parameters"] if not p["observable"]]
-    ['accelerometer.misalignment.xy', 'accelerometer.misalignment.xz', 'accelerometer.misalignment.yz']
+    ['accelerometer.misalignment.xy', 'accelerometer.misalignment.xz',
+     'accelerometer.misalignment.yz']
     """
     d = plan_directions(plan) if not isinstance(plan, np.ndarray) else np.asarray(plan, dtype=float)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)

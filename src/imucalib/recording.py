@@ -52,7 +52,7 @@ class ImucalibWarning(UserWarning):
     ...     warnings.simplefilter("always", ImucalibWarning)
     ...     rec = Recording.from_streams(t, np.zeros((5, 3)), t + 0.005, np.zeros((5, 3)))
     >>> print(caught[0].message)
-    accelerometer and gyroscope timestamps differ: the gyroscope was linearly interpolated onto the 4 ...
+    accelerometer and gyroscope timestamps differ: the gyroscope was linearly interpolated ...
 
     ``warnings.simplefilter("error", ImucalibWarning)`` makes them errors instead.
     """

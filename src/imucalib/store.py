@@ -111,7 +111,7 @@ class StoreError(ValueError):
     ...     Store(path, create=False)
     ... except StoreError as exc:
     ...     print(exc)
-    /.../fleet.sqlite: no store there (a batch creates it: imucalib batch MANIFEST --store /.../fleet.sqlite)
+    /.../fleet.sqlite: no store there (a batch creates it: imucalib batch MANIFEST --store ...)
     """
 
 
@@ -258,7 +258,8 @@ class Store:
     >>> from imucalib.store import Store
     >>> folder = Path(tempfile.mkdtemp())
     >>> _ = write_session(session("handheld", rng=1, rest=10, n_poses=14), folder / "imu1")
-    >>> _ = (folder / "manifest.csv").write_text("device,files,reader" + chr(10) + "imu1,imu1,session" + chr(10))
+    >>> manifest = chr(10).join(["device,files,reader", "imu1,imu1,session"])
+    >>> _ = (folder / "manifest.csv").write_text(manifest)
     >>> _ = run_batch(folder / "manifest.csv", folder / "fleet.sqlite", workers=1)
     >>> with Store(folder / "fleet.sqlite", readonly=True) as store:
     ...     cal, record = store.get("imu1")

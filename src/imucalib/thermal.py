@@ -274,7 +274,9 @@ def compensate(calibration, recording: Recording) -> tuple:
     >>> from imucalib.scenarios import session
     >>> from imucalib.thermal import calibrate_ramp, compensate
     >>> sim = session("handheld", rng=1, rest=10, n_poses=20, ramp=(20.0, 40.0, 60.0))
-    >>> cal = calibrate_ramp(lambda rec: tedaldi2014.calibrate(rec, gravity=9.81), sim.recording, iterations=2)
+    >>> def method(recording):
+    ...     return tedaldi2014.calibrate(recording, gravity=9.81)
+    >>> cal = calibrate_ramp(method, sim.recording, iterations=2)
     >>> at_25, compensated = compensate(cal, sim.recording)
     >>> at_25.thermal is None
     True
@@ -613,7 +615,9 @@ def calibrate_ramp(run, recording: Recording, *, reference_c: float = REFERENCE_
     >>> from imucalib.scenarios import session
     >>> from imucalib.thermal import calibrate_ramp
     >>> sim = session("handheld", rng=1, rest=10, n_poses=20, ramp=(20.0, 40.0, 60.0))
-    >>> cal = calibrate_ramp(lambda rec: tedaldi2014.calibrate(rec, gravity=9.81), sim.recording, iterations=2)
+    >>> def method(recording):
+    ...     return tedaldi2014.calibrate(recording, gravity=9.81)
+    >>> cal = calibrate_ramp(method, sim.recording, iterations=2)
     >>> np.round([cal.thermal.coefficients[f"gyroscope.bias.{a}"][0] for a in "xyz"], 1)
     array([ 2.4, -6.5,  0.5])
     >>> np.round([sim.truth.thermal.coefficients[f"gyroscope.bias.{a}"][0] for a in "xyz"], 1)

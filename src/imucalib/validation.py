@@ -150,7 +150,7 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
     >>> found["verdict"], found["own_recording"]
     ('rejected', False)
     >>> found["verdict_reasons"][0]
-    'the gravity-norm residual is 148× the white-noise floor (limit 8×): the model leaves structure ...'
+    'the gravity-norm residual is 148× the white-noise floor (limit 8×): ...'
     """
     gravity = gravity or calibration.gravity
     calibration.check_units(recording)

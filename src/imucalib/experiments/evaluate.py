@@ -49,7 +49,8 @@ def parameter_errors(estimate: Calibration, truth: Calibration) -> dict[str, flo
     >>> from imucalib.scenarios import session
     >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
     >>> errors = parameter_errors(calibrate(sim.recording), sim.truth)
-    >>> relative = errors["accelerometer.scale.x"] / sim.truth.parameters()["accelerometer.scale.x"]
+    >>> truth = sim.truth.parameters()
+    >>> relative = errors["accelerometer.scale.x"] / truth["accelerometer.scale.x"]
     >>> round(errors["accelerometer.bias.x"], 2), round(100 * relative, 4)
     (0.98, 0.009)
     """
@@ -145,7 +146,8 @@ def montecarlo(
     Two short hand-held sessions (seeds 0 and 1) calibrated by ``tedaldi2014``:
 
     >>> from imucalib.experiments.evaluate import montecarlo
-    >>> study = montecarlo("handheld", "tedaldi2014", runs=2, sim_options={"rest": 10, "n_poses": 14})
+    >>> study = montecarlo("handheld", "tedaldi2014", runs=2,
+    ...                    sim_options={"rest": 10, "n_poses": 14})
     >>> study["runs"], study["verdicts"]
     (2, {'accepted': 2, 'suspect': 0, 'rejected': 0})
     >>> study["parameters"][0]["name"], sorted(study["parameters"][0])

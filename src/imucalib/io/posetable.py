@@ -264,18 +264,19 @@ def read_pose_table(path: str | Path, *, acc_unit: str | None = None, gyro_unit:
     >>> from pathlib import Path
     >>> from imucalib.io import read_pose_table
     >>> path = Path(tempfile.mkdtemp()) / "poses.csv"
-    >>> _ = path.write_text(chr(10).join(["ax,ay,az", "0.01,0.02,1.00", "0.02,-0.01,-1.01", "1.00,0.01,0.02",
+    >>> _ = path.write_text(chr(10).join(["ax,ay,az", "0.01,0.02,1.00", "0.02,-0.01,-1.01",
+    ...     "1.00,0.01,0.02",
     ...     "-0.99,0.00,0.01", "0.00,1.01,-0.02", "0.01,-1.00,0.00"]))
     >>> table = read_pose_table(path)
     >>> table.acc.shape, table.acc_unit
     ((6, 3), 'g')
     >>> table.notes[0]
-    "the accelerometer's unit is not given: g, recognised from the poses' norms (median |a| = 1); pass ..."
+    "the accelerometer's unit is not given: g, recognised from the poses' norms ..."
     >>> _ = path.write_text("ax,ay" + chr(10) + "1,2" + chr(10))
     >>> read_pose_table(path)
     Traceback (most recent call last):
         ...
-    imucalib.io.errors.ReaderError: .../poses.csv: no column named az in the header (ax, ay): name the ...
+    imucalib.io.errors.ReaderError: .../poses.csv: no column named az in the header ...
     """
     path = Path(path)
     try:
@@ -481,7 +482,8 @@ def write_pose_table(path: str | Path, table: PoseTable, calibrated_acc: np.ndar
     >>> from imucalib.io.posetable import PoseTable
     >>> from imucalib.methods._pose_table import apply_to_table, calibrate_pose_table
     >>> corners = np.array(list(itertools.product((-1, 1), repeat=3))) / np.sqrt(3)
-    >>> table = PoseTable(acc=1.02 * np.vstack([np.eye(3), -np.eye(3), corners]) + 0.03, acc_unit="g")
+    >>> up = np.vstack([np.eye(3), -np.eye(3), corners])  # 14 directions of gravity
+    >>> table = PoseTable(acc=1.02 * up + 0.03, acc_unit="g")
     >>> calibrated = apply_to_table(calibrate_pose_table(table, gravity=9.81), table)
     >>> path = Path(tempfile.mkdtemp()) / "calibrated.csv"
     >>> write_pose_table(path, table, calibrated.acc)

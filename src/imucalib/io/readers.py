@@ -120,7 +120,8 @@ def read(
     >>> from pathlib import Path
     >>> from imucalib.io import read
     >>> path = Path(tempfile.mkdtemp()) / "imu.csv"
-    >>> _ = path.write_text(chr(10).join(["t,ax,ay,az,gx,gy,gz", "0.00,0.01,-0.02,1.00,0.1,0.0,-0.1",
+    >>> _ = path.write_text(chr(10).join(["t,ax,ay,az,gx,gy,gz",
+    ...     "0.00,0.01,-0.02,1.00,0.1,0.0,-0.1",
     ...     "0.01,0.02,-0.01,1.01,0.0,0.1,-0.1", "0.02,0.00,-0.02,0.99,0.1,0.1,0.0"]))
     >>> rec = read(path, acc_unit="g", gyro_unit="deg/s")
     >>> rec.acc.shape, rec.acc_unit, rec.gyro_unit, round(rec.rate)
@@ -295,10 +296,11 @@ def guess_reader(paths: Sequence[Path]) -> str:
     >>> from pathlib import Path
     >>> from imucalib.io import guess_reader
     >>> folder = Path(tempfile.mkdtemp())
-    >>> _ = (folder / "imu.csv").write_text("t,ax,ay,az" + chr(10) + "0.0,0.01,-0.02,1.00" + chr(10))
+    >>> _ = (folder / "imu.csv").write_text(chr(10).join(["t,ax,ay,az", "0.0,0.01,-0.02,1.00"]))
     >>> guess_reader([folder / "imu.csv"])
     'csv'
-    >>> _ = (folder / "acc.txt").write_text("0.00 102 -55 16420" + chr(10))  # two headerless files: imu_tk's pair
+    >>> # two files without a header: imu_tk's pair
+    >>> _ = (folder / "acc.txt").write_text("0.00 102 -55 16420" + chr(10))
     >>> _ = (folder / "gyro.txt").write_text("0.00 3 -1 2" + chr(10))
     >>> guess_reader([folder / "acc.txt", folder / "gyro.txt"])
     'imutk'

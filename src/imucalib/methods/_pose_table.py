@@ -118,9 +118,10 @@ def calibrate_pose_table(table: PoseTable, *, gravity: float) -> Calibration:
     >>> from imucalib.io.posetable import PoseTable
     >>> from imucalib.methods._pose_table import calibrate_pose_table
     >>> corners = np.array(list(itertools.product((-1, 1), repeat=3))) / np.sqrt(3)
-    >>> table = PoseTable(acc=1.02 * np.vstack([np.eye(3), -np.eye(3), corners]) + 0.03, acc_unit="g")
+    >>> up = np.vstack([np.eye(3), -np.eye(3), corners])  # 14 directions of gravity
+    >>> table = PoseTable(acc=1.02 * up + 0.03, acc_unit="g")
     >>> cal = calibrate_pose_table(table, gravity=9.81)
-    >>> cal.accelerometer.scale.round(4), cal.accelerometer.bias.round(4)  # 9.81 / 1.02 (m/s²)/g, 0.03 g
+    >>> cal.accelerometer.scale.round(4), cal.accelerometer.bias.round(4)  # 9.81 / 1.02, 0.03
     (array([9.6176, 9.6176, 9.6176]), array([0.03, 0.03, 0.03]))
     >>> cal.gyroscope is None, cal.fit["verdict"]
     (True, 'accepted')
@@ -250,7 +251,8 @@ def apply_to_table(calibration: Calibration, table: PoseTable) -> CalibratedTabl
     >>> from imucalib.io.posetable import PoseTable
     >>> from imucalib.methods._pose_table import apply_to_table, calibrate_pose_table
     >>> corners = np.array(list(itertools.product((-1, 1), repeat=3))) / np.sqrt(3)
-    >>> table = PoseTable(acc=1.02 * np.vstack([np.eye(3), -np.eye(3), corners]) + 0.03, acc_unit="g")
+    >>> up = np.vstack([np.eye(3), -np.eye(3), corners])  # 14 directions of gravity
+    >>> table = PoseTable(acc=1.02 * up + 0.03, acc_unit="g")
     >>> calibrated = apply_to_table(calibrate_pose_table(table, gravity=9.81), table)
     >>> np.linalg.norm(calibrated.acc, axis=1).round(6)
     array([9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81])

@@ -118,7 +118,8 @@ def calibrate(recording, *, gravity: float, intervals=None, gyroscope: str = "st
     >>> cal = qureshi2017.calibrate(sim.recording, gravity=sim.truth.gravity)
     >>> (cal.accelerometer.scale / sim.truth.accelerometer.scale).round(3)
     array([1., 1., 1.])
-    >>> (cal.gyroscope.scale / sim.truth.gyroscope.scale).round(2)  # from turns the accelerometer measures
+    >>> # the gyroscope's, from the turns the accelerometer measures:
+    >>> (cal.gyroscope.scale / sim.truth.gyroscope.scale).round(2)
     array([1.  , 0.99, 1.01])
     """
     if gyroscope not in ("static", "dynamic"):

@@ -226,10 +226,11 @@ def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15
 
     Poses spread over all directions are not the six faces:
 
-    >>> six_position.calibrate(session("handheld", rng=1, rest=10, n_poses=14).recording, gravity=9.81)
+    >>> spread = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> six_position.calibrate(spread.recording, gravity=spread.truth.gravity)
     Traceback (most recent call last):
         ...
-    ValueError: this method needs the six faces, each axis up and down within 15° of gravity; the poses lack ...
+    ValueError: this method needs the six faces, each axis up and down within 15° of gravity; ...
     """
     intervals = static_poses(recording, gravity, intervals, init_static=init_static, min_hold=min_hold)
     means = interval_means(recording.acc, intervals)

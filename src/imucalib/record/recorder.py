@@ -80,8 +80,10 @@ class Recorder:
     >>> events = []
     >>> recorder = Recorder(events.append, rest=5)
     >>> recorder.feed(path.read_bytes().splitlines(keepends=True)[:1200])
-    >>> events[0]["event"], events[0]["acc_unit"], [e.get("remaining_s") for e in events if e["event"] == "rest"]
-    ('format', 'counts', [5, 4, 3, 2, 1, 0])
+    >>> events[0]["event"], events[0]["acc_unit"]
+    ('format', 'counts')
+    >>> [event["remaining_s"] for event in events if event["event"] == "rest"]
+    [5, 4, 3, 2, 1, 0]
     """
 
     def __init__(self, on_event: Callable[[dict], None], *, method: str = DEFAULT_METHOD,

@@ -223,7 +223,8 @@ class RecordError(OSError):
     >>> from pathlib import Path
     >>> from imucalib.record import Recorder, RecordError, record
     >>> class Unplugged(io.RawIOBase):
-    ...     rows = [b"t,ax,ay,az,gx,gy,gz"] + [b"%.2f,0,0,16384,0,0,0" % (k / 100) for k in range(300)]
+    ...     rows = [b"t,ax,ay,az,gx,gy,gz"]
+    ...     rows += [b"%.2f,0,0,16384,0,0,0" % (k / 100) for k in range(300)]
     ...     def readable(self):
     ...         return True
     ...     def readline(self, size=-1):
@@ -234,7 +235,8 @@ class RecordError(OSError):
     ...     record(Unplugged(), Path(tempfile.mkdtemp()) / "s.csv", Recorder(lambda event: None))
     ... except RecordError as exc:
     ...     print(exc)
-    reading the stream failed after 301 lines (OSError: device disconnected); the session so far is in /.../s.csv
+    reading the stream failed after 301 lines (OSError: device disconnected); the session so far
+    is in /.../s.csv
     """
 
 

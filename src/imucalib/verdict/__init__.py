@@ -127,7 +127,7 @@ def check_rate(recording: Recording) -> None:
     >>> check_rate(Recording(np.arange(10) * 1000.0, np.zeros((10, 3)), None))
     Traceback (most recent call last):
         ...
-    ValueError: the sampling rate is 0.001 Hz, outside 5-50000 Hz where IMUs record: the time base is ...
+    ValueError: the sampling rate is 0.001 Hz, outside 5-50000 Hz where IMUs record: ...
     """
     rate = recording.rate
     lo, hi = THRESHOLDS["rate_hz"]
@@ -269,7 +269,8 @@ def plausible(calibration) -> bool:
     ...          "gyroscope": {"raw": "rad/s", "calibrated": "rad/s"}}
     >>> plausible(Calibration(accelerometer=TriadModel(scale=[1.01, 0.99, 1.0]), units=units))
     True
-    >>> plausible(Calibration(accelerometer=TriadModel(scale=[2.0, 1.0, 1.0]), units=units))  # twice the unit
+    >>> # twice the unit's factor on x:
+    >>> plausible(Calibration(accelerometer=TriadModel(scale=[2.0, 1.0, 1.0]), units=units))
     False
     """
     return all(c.level < 2 for c in plausibility(calibration))
@@ -313,7 +314,7 @@ def plausibility(calibration) -> list[Check]:
     ...          "gyroscope": {"raw": "rad/s", "calibrated": "rad/s"}}
     >>> cal = Calibration(accelerometer=TriadModel(scale=[0.01, 0.01, 0.01]), units=units)
     >>> plausibility(cal)
-    [Check(level=2, text="the accelerometer scale factor of axis x is 0.00102× the nominal factor of the ...")]
+    [Check(level=2, text="the accelerometer scale factor of axis x is 0.00102× the nominal ...")]
     >>> plausibility(Calibration())  # the identity, in counts: nothing to object
     []
     """
@@ -719,11 +720,13 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     >>> intervals, *_ = detect_intervals(sim.recording, sim.truth.gravity)
     >>> assess(sim.truth, sim.recording, intervals)["verdict"]
     'accepted'
-    >>> off = sim.truth.with_(accelerometer=sim.truth.accelerometer.with_(scale=1.1 * sim.truth.accelerometer.scale))
-    >>> off = off.with_(fit=fit_summary(off, sim.recording, intervals))  # the figures the checks read
+    >>> acc = sim.truth.accelerometer
+    >>> off = sim.truth.with_(accelerometer=acc.with_(scale=1.1 * acc.scale))
+    >>> # the figures the checks read:
+    >>> off = off.with_(fit=fit_summary(off, sim.recording, intervals))
     >>> found = assess(off, sim.recording, intervals)
     >>> found["verdict"], found["verdict_reasons"][0]
-    ('rejected', 'the gravity-norm residual is 520× the white-noise floor (limit 8×): the model leaves ...')
+    ('rejected', 'the gravity-norm residual is 520× the white-noise floor (limit 8×): ...')
     """
     if purpose not in ("calibrate", "validate"):
         raise ValueError(f"purpose must be 'calibrate' or 'validate'; got {purpose!r}")
