@@ -111,16 +111,12 @@ class ManifestError(ValueError):
 
     Examples
     --------
-    >>> import tempfile
-    >>> from pathlib import Path
     >>> from imucalib.batch import ManifestError, read_manifest
-    >>> manifest = Path(tempfile.mkdtemp()) / "manifest.csv"
-    >>> _ = manifest.write_text("device,files" + chr(10))
     >>> try:
-    ...     read_manifest(manifest)
+    ...     read_manifest("no_such_manifest.csv")
     ... except ManifestError as exc:
     ...     print(exc)
-    /.../manifest.csv: the manifest has a header but no recordings
+    no_such_manifest.csv: manifest not found
     """
 
 
@@ -151,17 +147,12 @@ class Row:
 
     Examples
     --------
-    :func:`read_manifest` gives them; each has every entry of its line, checked, and the defaults:
+    :func:`read_manifest` gives them, one per line, with the defaults where the line leaves a cell empty:
 
-    >>> import tempfile
-    >>> from pathlib import Path
-    >>> from imucalib.batch import read_manifest
-    >>> folder = Path(tempfile.mkdtemp())
-    >>> _ = (folder / "run1.csv").write_text("t,ax,ay,az,gx,gy,gz" + chr(10))
-    >>> _ = (folder / "manifest.csv").write_text(chr(10).join(["device,files", "imu1,run1.csv"]))
-    >>> row = read_manifest(folder / "manifest.csv")[0]
-    >>> row.device, Path(row.files[0]).name, row.method, row.gravity
-    ('imu1', 'run1.csv', 'tedaldi2014', 9.80665)
+    >>> from imucalib.batch import Row
+    >>> row = Row(line=2, device="imu1", files=("/data/imu1.csv",))
+    >>> row.method, row.gravity, row.reader
+    ('tedaldi2014', 9.80665, None)
     """
 
     line: int
