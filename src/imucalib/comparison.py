@@ -176,13 +176,13 @@ def compare(
 
     Examples
     --------
-    Two methods on a short simulated session, cross-validated over 5 folds of its poses:
+    Two methods on a short simulated session, cross-validated over 3 folds of its poses:
 
     >>> from imucalib.comparison import compare
     >>> from imucalib.scenarios import session
     >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
     >>> found = compare(sim.recording, gravity=sim.truth.gravity,
-    ...                 methods=["tedaldi2014", "ellipsoid"], folds=5)
+    ...                 methods=["tedaldi2014", "ellipsoid"], folds=3)
     >>> found["best"], [(m["method"], m["rank"], m["verdict"]) for m in found["methods"]]
     ('tedaldi2014', [('tedaldi2014', 1, 'accepted'), ('ellipsoid', 2, 'accepted')])
     """
