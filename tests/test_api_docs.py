@@ -108,13 +108,12 @@ def test_an_exception_an_example_raises_is_in_the_raises_section():
     assert unlisted == []
 
 
-@pytest.mark.parametrize("name, obj", [(n, o) for n, o in OBJECTS if ">>>" in (o.__doc__ or "")],
-                         ids=lambda v: v if isinstance(v, str) else "")
+@pytest.mark.parametrize("name, obj", OBJECTS, ids=lambda v: v if isinstance(v, str) else "")
 def test_api_examples_run(name, obj):
     finder = doctest.DocTestFinder(recurse=False)
     runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     tests = finder.find(obj, name, globs={})
-    assert tests and any(t.examples for t in tests)
+    assert tests and any(t.examples for t in tests), f"{name}: no example to run (>>> lines)"
     for test in tests:
         runner.run(test)
     assert runner.failures == 0, f"{name}: {runner.failures} example(s) failed (run with -s to see them)"
