@@ -33,7 +33,9 @@ exclude_patterns = ["_build", "_generated/*.py", "examples"]
 templates_path = []
 autosummary_generate = False
 autodoc_default_options = {"members": False}
-autodoc_typehints = "description"  # the signatures' types, under Parameters and Returns
+# the types are those the numpydoc Parameters and Returns sections give: autodoc's own list of the annotations
+# ("description") would repeat them as a second Parameters block and a "Return type" under every function
+autodoc_typehints = "none"
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
@@ -51,3 +53,19 @@ html_theme_options = {
 html_sidebars = {"**": []}
 html_static_path = ["_static"]
 html_css_files = ["imucalib.css"]
+html_js_files = ["imucalib.js"]  # long names in the page menu break after a dot or an underscore
+
+
+def _no_type_docstring(app, what, name, obj, options, lines):
+    """A constant's docstring when it is only its type's (``tuple``, ``float``): left out, the page describes it.
+
+    A constant re-exported by a package (``imucalib.io.READERS``) has no ``#:`` comment there, and autodoc
+    would show the built-in type's text ("Built-in immutable sequence…") as its description.
+    """
+    if what == "data" and lines and type(obj).__doc__ and \
+            " ".join(" ".join(lines).split()) == " ".join(type(obj).__doc__.split()):
+        lines.clear()
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _no_type_docstring, priority=100)

@@ -107,11 +107,35 @@ _HASH_BLOCK = 1 << 20
 
 
 class ManifestError(ValueError):
-    """A manifest that cannot be read or has invalid entries; the message names the file and lines."""
+    """A manifest that cannot be read or has invalid entries; the message names the file and lines.
+
+    Examples
+    --------
+    >>> from imucalib.batch import ManifestError, read_manifest
+    >>> try:
+    ...     read_manifest("no_such_manifest.csv")
+    ... except ManifestError as exc:
+    ...     print(exc)
+    no_such_manifest.csv: manifest not found
+    """
 
 
 class BatchError(ValueError):
-    """A batch that could not go on (a worker process died, the Dask scheduler is out of reach)."""
+    """A batch that could not go on (a worker process died, the Dask scheduler is out of reach).
+
+    Examples
+    --------
+    A remote Dask cluster has workers of its own, so asking for a number of them is an error:
+
+    >>> from imucalib.batch import BatchError, dask_client
+    >>> try:
+    ...     with dask_client("tcp://192.0.2.1:8786", workers=4):
+    ...         pass
+    ... except BatchError as exc:
+    ...     print(exc)
+    --workers applies to local processes and --scheduler local; the cluster at tcp://192.0.2.1:8786
+    has its own workers
+    """
 
 
 # ------------------------------------------------------------------ manifest
@@ -120,6 +144,15 @@ class Row:
     """One recording of a manifest, checked: what :func:`run_row` calibrates.
 
     ``files`` are absolute local paths or URLs; ``recorded_at`` is normalised (:func:`imucalib.store.parse_time`).
+
+    Examples
+    --------
+    :func:`read_manifest` gives them, one per line, with the defaults where the line leaves a cell empty:
+
+    >>> from imucalib.batch import Row
+    >>> row = Row(line=2, device="imu1", files=("/data/imu1.csv",))
+    >>> row.method, row.gravity, row.reader
+    ('tedaldi2014', 9.80665, None)
     """
 
     line: int
@@ -355,6 +388,24 @@ def read_manifest(path: str | Path, *, allow_urls: bool | str | Sequence[str] = 
     ManifestError
         The file cannot be read, a required column is missing, a column is unknown, or entries are
         invalid: every problem found, each with its line.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.batch import read_manifest
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / "run1.csv").write_text("t,ax,ay,az,gx,gy,gz" + chr(10))
+    >>> manifest = folder / "manifest.csv"
+    >>> _ = manifest.write_text(chr(10).join(["device,files,method,gravity",
+    ...                                       "imu1,run1.csv,ellipsoid,9.81"]))
+    >>> [(row.line, row.device, row.method, row.gravity) for row in read_manifest(manifest)]
+    [(2, 'imu1', 'ellipsoid', 9.81)]
+    >>> _ = manifest.write_text(chr(10).join(["device,files,methd", "imu1,run1.csv,ellipsoid"]))
+    >>> read_manifest(manifest)
+    Traceback (most recent call last):
+        ...
+    imucalib.batch.ManifestError: ...manifest.csv, line 1 (the header): unknown column(s) methd ...
     """
     path = Path(path)
     schemes = url_schemes(allow_urls)
@@ -727,6 +778,23 @@ def run_batch(manifest: str | Path, store: str | Path, *, workers: int | None = 
         "scheduler"}``: ``calibrated`` counts the rows stored with a calibration that is not rejected,
         ``failed`` those stored with an error (a rejected verdict included), ``skipped`` those already in
         the store (or twice in the manifest).
+
+    Examples
+    --------
+    A manifest of one simulated device, calibrated into a new store:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.batch import run_batch
+    >>> from imucalib.sessions import write_session
+    >>> from imucalib.scenarios import session
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = write_session(session("handheld", rng=1, rest=10, n_poses=14), folder / "imu1")
+    >>> manifest = chr(10).join(["device,files,reader", "imu1,imu1,session"])
+    >>> _ = (folder / "manifest.csv").write_text(manifest)
+    >>> summary = run_batch(folder / "manifest.csv", folder / "fleet.sqlite", workers=1)
+    >>> summary["rows"], summary["calibrated"], summary["verdicts"]
+    (1, 1, {'accepted': 1, 'suspect': 0, 'rejected': 0})
     """
     t0 = time.perf_counter()
     rows = read_manifest(manifest, allow_urls=allow_urls)

@@ -79,6 +79,30 @@ class Calibration:
     magnetometer : MagnetometerModel or None
         Hard and soft iron and the map into the accelerometer's frame, when the IMU has a
         magnetometer and it was calibrated (``units["magnetometer"]`` then gives its units).
+
+    Raises
+    ------
+    ValueError
+        For a ``lever_arm`` without three entries or a ``gravity`` that is not a positive number.
+
+    Examples
+    --------
+    A simulated session's true calibration (:func:`imucalib.calibrate` makes one from a recording),
+    applied, saved and read back:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucalib import Calibration
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> cal = sim.truth
+    >>> calibrated = cal.apply(sim.recording)
+    >>> calibrated.acc_unit, calibrated.gyro_unit
+    ('m/s^2', 'rad/s')
+    >>> path = Path(tempfile.mkdtemp()) / "calib.json"
+    >>> cal.save(path)
+    >>> Calibration.load(path).parameters() == cal.parameters()
+    True
     """
 
     accelerometer: TriadModel = field(default_factory=_default_acc)
@@ -456,7 +480,20 @@ class Calibration:
 
 
 class CalibrationFileError(ValueError):
-    """A calibration file (or dictionary) that cannot be used; the message names the entry."""
+    """A calibration file (or dictionary) that cannot be used; the message names the entry.
+
+    Examples
+    --------
+    Raised by :meth:`Calibration.load` and :meth:`Calibration.from_dict` for what is not a calibration:
+
+    >>> from imucalib import Calibration
+    >>> from imucalib.calibration import CalibrationFileError
+    >>> try:
+    ...     Calibration.from_dict({"format": "something else"})
+    ... except CalibrationFileError as exc:
+    ...     print(exc)
+    not an imucalib calibration: 'format' is "something else", not "imucalib.calibration"
+    """
 
 
 def _kind(value) -> str:
@@ -589,7 +626,7 @@ def check_document(d) -> None:
     >>> check_document({"format": "something else"})
     Traceback (most recent call last):
         ...
-    imucalib.calibration.CalibrationFileError: not an imucalib calibration: 'format' is "something else", not ...
+    imucalib.calibration.CalibrationFileError: not an imucalib calibration: 'format' is ...
     """
     if not isinstance(d, dict):
         raise CalibrationFileError(f"expected a JSON object (an imucalib calibration); got {_kind(d)}")
@@ -823,6 +860,23 @@ def with_bias_session(calibration: Calibration, recording: Recording) -> Calibra
     Calibration
         A copy with those three fit fields added; a calibration without a bias drift (or without a
         gyroscope) is returned as it is.
+
+    Examples
+    --------
+    A calibration stripped of those fields no longer recognises its own recording; they are added back:
+
+    >>> from imucalib.calibration import with_bias_session
+    >>> from imucalib.methods import calibrate
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> cal = calibrate(sim.recording)
+    >>> bare = cal.with_(fit={k: v for k, v in cal.fit.items() if "over_session" not in k
+    ...                       and not k.startswith("gyroscope_bias_session")})
+    >>> bare.is_own_session(sim.recording)
+    False
+    >>> restored = with_bias_session(bare, sim.recording)
+    >>> restored.is_own_session(sim.recording), restored.fit["gyroscope_bias_session_s"]
+    (True, [0.0, 90.56])
     """
     rate = calibration.drift_rate()
     if rate is None or recording.gyro is None or len(recording) == 0:

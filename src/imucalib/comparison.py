@@ -173,6 +173,18 @@ def compare(
         * ``peers`` (list of dict): one per peer calibration, in the order given (empty without them),
           with ``name``, ``ok``, ``reason``, ``cv_accelerometer_residual_rms`` and
           ``cv_gyroscope_angle_error_mean_deg``.
+
+    Examples
+    --------
+    Two methods on a short simulated session, cross-validated over 3 folds of its poses:
+
+    >>> from imucalib.comparison import compare
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> found = compare(sim.recording, gravity=sim.truth.gravity,
+    ...                 methods=["tedaldi2014", "ellipsoid"], folds=3)
+    >>> found["best"], [(m["method"], m["rank"], m["verdict"]) for m in found["methods"]]
+    ('tedaldi2014', [('tedaldi2014', 1, 'accepted'), ('ellipsoid', 2, 'accepted')])
     """
     from .segment import detect_intervals
 

@@ -245,6 +245,22 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
     dict
         The ``fit`` entries: static poses, the residual and its noise floor, the gyroscope's angle errors, the
         pose coverage and the next poses to record (``docs/architecture.rst`` names each).
+
+    Examples
+    --------
+    The figures of a simulated session's true calibration on that session:
+
+    >>> from imucalib.metrics import fit_summary
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.segment import detect_intervals
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> intervals, *_ = detect_intervals(sim.recording, sim.truth.gravity)
+    >>> fit = fit_summary(sim.truth, sim.recording, intervals)
+    >>> fit["static_intervals"]
+    15
+    >>> # the residual is below its noise floor: noise is all the truth leaves
+    >>> fit["accelerometer_residual_rms"] < fit["accelerometer_noise_floor"]
+    True
     """
     up = pose_specific_force(calibration, recording, intervals)
     res = gravity_residuals(calibration, recording, intervals, gravity, up=up)
@@ -306,6 +322,16 @@ def gravity_noise_floor(calibration, recording: Recording, intervals: Sequence[I
     -------
     float
         The floor [m/s²].
+
+    Examples
+    --------
+    >>> from imucalib.metrics import gravity_noise_floor
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.segment import detect_intervals
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> intervals, *_ = detect_intervals(sim.recording, sim.truth.gravity)
+    >>> round(gravity_noise_floor(sim.truth, sim.recording, intervals), 4)  # m/s²
+    0.0017
     """
     var = []
     model = calibration.accelerometer
@@ -407,7 +433,8 @@ def pose_coverage(acc_means: np.ndarray, *, cone_deg: float = COVERAGE_CONE_DEG)
     --------
     >>> import numpy as np
     >>> from imucalib.metrics import pose_coverage
-    >>> cover, flags = pose_coverage(np.array([[0, 0, 9.8], [0, 0, -9.8], [9.8, 0, 0], [0, 9.8, 0]]))
+    >>> up = np.array([[0, 0, 9.8], [0, 0, -9.8], [9.8, 0, 0], [0, 9.8, 0]])
+    >>> cover, flags = pose_coverage(up)
     >>> cover["z"], len(flags)
     ([-1.0, 1.0], 2)
     """

@@ -80,7 +80,21 @@ _AXIS_ROWS = 256
 
 
 class NotInvertibleError(ValueError):
-    """A scale-factor polynomial is not monotonic over the range asked of it."""
+    """A scale-factor polynomial is not monotonic over the range asked of it.
+
+    Examples
+    --------
+    A cubic scale factor ``f(x) = x − 0.1 x³`` turns back beyond ``x = ±1.83``, so it never reaches 5:
+
+    >>> import numpy as np
+    >>> from imucalib.models import NotInvertibleError, TriadModel
+    >>> model = TriadModel(scale=[1.0, 1.0, 1.0], scale_cubic=[-0.1, 0.0, 0.0])
+    >>> try:
+    ...     model.inverse(np.array([[5.0, 0.0, 0.0]]))
+    ... except NotInvertibleError as exc:
+    ...     print(exc)
+    the x-axis scale polynomial f(x) = 1x + 0x² + -0.1x³ is not monotonic beyond the raw range ...
+    """
 
 
 def misalignment_entries(shape: str) -> tuple[tuple[int, int], ...]:
@@ -147,6 +161,24 @@ class TriadModel:
         ``T · (f(u − b − G a) + d)``. Zero in the canonical model; it represents
         Wang 2019's ``C (K1 N + K2 N² + K3 N³ + ∇)`` (eq. 2) exactly, which an
         input-side ``b`` cannot once ``k2``/``k3`` ≠ 0.
+
+    Raises
+    ------
+    ValueError
+        For entries of the wrong shape, a misalignment whose diagonal is not 1 or with entries outside
+        ``shape``, or a zero scale factor.
+
+    Examples
+    --------
+    An accelerometer with 0.01 m/s² per count and a bias of 10 counts on x: raw readings to SI and back:
+
+    >>> import numpy as np
+    >>> from imucalib.models import TriadModel
+    >>> model = TriadModel(scale=[0.01, 0.01, 0.01], bias=[10, 0, 0])
+    >>> model.forward(np.array([[110.0, 0.0, 981.0]]))
+    array([[1.  , 0.  , 9.81]])
+    >>> model.inverse(np.array([[1.0, 0.0, 9.81]]))
+    array([[110.,   0., 981.]])
     """
 
     misalignment: np.ndarray = field(default_factory=lambda: np.eye(3))
@@ -447,6 +479,17 @@ class MagnetometerModel:
         Field magnitude ``F`` in ``unit`` (1 when ``unit`` is ``"normalised"``).
     unit : str
         Calibrated unit, ``"uT"`` or ``"normalised"``.
+
+    Examples
+    --------
+    A magnetometer with a hard-iron bias and no soft iron: the calibrated field is the reading less the bias,
+    in units of the field's magnitude:
+
+    >>> import numpy as np
+    >>> from imucalib.models import MagnetometerModel
+    >>> model = MagnetometerModel(bias=[10.0, -5.0, 3.0])
+    >>> model.forward(np.array([[11.0, -5.0, 3.0]])), model.unit
+    (array([[1., 0., 0.]]), 'normalised')
     """
 
     bias: np.ndarray = field(default_factory=lambda: np.zeros(3))

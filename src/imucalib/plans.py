@@ -97,7 +97,8 @@ def accelerometer_plan(plan: str | int | np.ndarray, *, noise: float = 0.002,
     >>> from imucalib.plans import accelerometer_plan
     >>> six = accelerometer_plan("six")
     >>> [p["parameter"] for p in six["parameters"] if not p["observable"]]
-    ['accelerometer.misalignment.xy', 'accelerometer.misalignment.xz', 'accelerometer.misalignment.yz']
+    ['accelerometer.misalignment.xy', 'accelerometer.misalignment.xz',
+     'accelerometer.misalignment.yz']
     """
     d = plan_directions(plan) if not isinstance(plan, np.ndarray) else np.asarray(plan, dtype=float)
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
@@ -184,6 +185,17 @@ def next_poses(directions: np.ndarray, *, count: int = 3, candidates: np.ndarray
     with the trace breaking ties (and ``simple`` favouring the cube's
     directions); the inverse of each candidate's update comes from
     Sherman–Morrison, ``(A + j jᵀ)⁻¹ = A⁻¹ − A⁻¹j jᵀA⁻¹ / (1 + jᵀA⁻¹j)``.
+
+    Examples
+    --------
+    After the four poses x up and down and z up and down, the next two to record:
+
+    >>> import numpy as np
+    >>> from imucalib.plans import next_poses
+    >>> done = np.array([[0, 0, 1.0], [0, 0, -1], [1, 0, 0], [-1, 0, 0]])
+    >>> next_poses(done, count=2).round(3)
+    array([[-0.577, -0.577, -0.577],
+           [ 0.   , -1.   ,  0.   ]])
     """
     d = np.asarray(directions, dtype=float).reshape(-1, 3)
     norms = np.linalg.norm(d, axis=1)

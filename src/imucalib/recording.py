@@ -37,7 +37,25 @@ MAG_UNITS = ("counts", "uT", "gauss", "normalised")
 
 
 class ImucalibWarning(UserWarning):
-    """Warnings emitted by imucalib (data changed, weak geometry, poor fit...)."""
+    """Warnings emitted by imucalib (data changed, weak geometry, poor fit...).
+
+    Examples
+    --------
+    A warning says what was done to the data and why; here the gyroscope's stream, stamped 5 ms after the
+    accelerometer's, is interpolated onto its times:
+
+    >>> import warnings
+    >>> import numpy as np
+    >>> from imucalib import ImucalibWarning, Recording
+    >>> t = np.arange(5) / 100.0
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always", ImucalibWarning)
+    ...     rec = Recording.from_streams(t, np.zeros((5, 3)), t + 0.005, np.zeros((5, 3)))
+    >>> print(caught[0].message)
+    accelerometer and gyroscope timestamps differ: the gyroscope was linearly interpolated ...
+
+    ``warnings.simplefilter("error", ImucalibWarning)`` makes them errors instead.
+    """
 
 
 def require_pandas(what: str):
@@ -81,6 +99,22 @@ class Interval:
 
     ``kind`` says what the samples are: ``"static"``, ``"motion"``,
     ``"weightless"`` or ``"test"``.
+
+    Examples
+    --------
+    The second half of a 200-sample recording, as the pose detectors give them
+    (:func:`imucalib.segment.detect_intervals`):
+
+    >>> import numpy as np
+    >>> from imucalib import Interval, Recording
+    >>> rec = Recording(np.arange(200) / 100.0, acc=np.zeros((200, 3)), gyro=np.zeros((200, 3)))
+    >>> pose = Interval(100, 200)
+    >>> len(pose), pose.kind, rec[pose].t[:2]
+    (100, 'static', array([1.  , 1.01]))
+    >>> Interval(5, 5)
+    Traceback (most recent call last):
+        ...
+    ValueError: Interval stop (5) must exceed start (5)
     """
 
     start: int
@@ -125,6 +159,28 @@ class Recording:
     mag : (N, 3) array_like, optional
         Magnetometer samples in ``mag_unit`` (None: the IMU has none, or it was not read).
     mag_unit : {"counts", "uT", "gauss", "normalised"}
+
+    Raises
+    ------
+    ValueError
+        For arrays whose shapes do not match ``t``, non-finite values, no samples, times that do not
+        increase, or an unknown unit.
+
+    Examples
+    --------
+    Two seconds at 100 Hz of a sensor lying still, z up, built from arrays (readers build them from files):
+
+    >>> import numpy as np
+    >>> from imucalib import Recording
+    >>> t = np.arange(200) / 100.0
+    >>> rec = Recording(t, acc=np.tile([0.0, 0.0, 1.0], (200, 1)), gyro=np.zeros((200, 3)),
+    ...                 acc_unit="g", gyro_unit="deg/s")
+    >>> len(rec), round(rec.rate), rec.duration, rec.has_gyroscope
+    (200, 100, 1.99, True)
+    >>> Recording(t[::-1], acc=np.zeros((200, 3)), gyro=None)
+    Traceback (most recent call last):
+        ...
+    ValueError: timestamps must be strictly increasing; sample 1 is decreasing (t=1.99 then 1.98)
     """
 
     t: np.ndarray

@@ -38,7 +38,19 @@ class TossSequence:
 
 @dataclass
 class Session:
-    """A simulated session: raw recordings, the truth and the segment layout."""
+    """A simulated session: raw recordings, the truth and the segment layout.
+
+    Examples
+    --------
+    :func:`imucalib.scenarios.session` makes them; the 10 s rest and 14 poses alternate with 14 rotations:
+
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> sim.scenario, sim.seed, len(sim.segments), sim.segments[0]
+    ('handheld', 1, 29, Interval(start=0, stop=996, kind='static'))
+    >>> sim.truth.method
+    'truth'
+    """
 
     scenario: str
     seed: int | None
@@ -124,6 +136,28 @@ def write_session(sim: Session | WangSession, directory: str | Path, *, overwrit
     -------
     Path
         The directory.
+
+    Raises
+    ------
+    FileExistsError
+        Without ``overwrite``, when the directory holds files of a session already.
+    NotADirectoryError
+        When ``directory`` is a file.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.sessions import write_session
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> folder = write_session(sim, Path(tempfile.mkdtemp()) / "sim")
+    >>> sorted(p.name for p in folder.iterdir())
+    ['recording.csv', 'session.json', 'truth.json']
+    >>> write_session(sim, folder, overwrite=False)
+    Traceback (most recent call last):
+        ...
+    FileExistsError: /.../sim holds recording.csv, truth.json, session.json, which this ...
     """
     d = Path(directory)
     if d.exists() and not d.is_dir():

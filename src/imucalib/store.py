@@ -28,12 +28,14 @@ Times are ISO 8601 dates or date-times (``2024-05-01``, ``2024-05-01T14:30``,
 ``2024-05-01T14:30:00+02:00``); one without a zone is taken as UTC when times
 are compared.
 
-Examples
---------
->>> from imucalib.store import Store
->>> with Store("fleet.sqlite") as store:                     # doctest: +SKIP
-...     cal, record = store.get("IMU-0042", at="2024-06-01")
-...     cal.save("imu-0042.json")
+In a program, the calibration of a device as it was on a date, from a store a batch filled (:class:`Store`
+has an example that runs)::
+
+    from imucalib.store import Store
+
+    with Store("fleet.sqlite", readonly=True) as store:
+        cal, record = store.get("IMU-0042", at="2024-06-01")
+        cal.save("imu-0042.json")
 """
 
 from __future__ import annotations
@@ -97,7 +99,20 @@ _JSON_COLUMNS = ("files", "settings", "notes")
 
 
 class StoreError(ValueError):
-    """A store that cannot be opened or read, or a calibration it does not hold; the message names the file."""
+    """A store that cannot be opened or read, or a calibration it does not hold; the message names the file.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.store import Store, StoreError
+    >>> path = Path(tempfile.mkdtemp()) / "fleet.sqlite"
+    >>> try:
+    ...     Store(path, create=False)
+    ... except StoreError as exc:
+    ...     print(exc)
+    /.../fleet.sqlite: no store there (a batch creates it: imucalib batch MANIFEST --store ...)
+    """
 
 
 def parse_time(text: str | datetime | date | None, *, what: str = "time") -> tuple[str | None, float | None]:
@@ -229,6 +244,27 @@ class Store:
         read. When SQLite cannot open it read-only there (a write-ahead-log store needs its ``-shm`` file,
         which a read-only folder cannot hold), it is opened as immutable: as it is on disk, which is what a
         folder that nobody can write to holds. Implies ``create=False``.
+
+    Examples
+    --------
+    A store filled by a batch (:func:`imucalib.batch.run_batch`), then read: the calibration to use for a
+    device:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.batch import run_batch
+    >>> from imucalib.sessions import write_session
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.store import Store
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = write_session(session("handheld", rng=1, rest=10, n_poses=14), folder / "imu1")
+    >>> manifest = chr(10).join(["device,files,reader", "imu1,imu1,session"])
+    >>> _ = (folder / "manifest.csv").write_text(manifest)
+    >>> _ = run_batch(folder / "manifest.csv", folder / "fleet.sqlite", workers=1)
+    >>> with Store(folder / "fleet.sqlite", readonly=True) as store:
+    ...     cal, record = store.get("imu1")
+    ...     store.devices(), cal.method, cal.fit["verdict"]
+    (['imu1'], 'tedaldi2014', 'accepted')
     """
 
     def __init__(self, path: str | Path, *, create: bool = True, readonly: bool = False) -> None:

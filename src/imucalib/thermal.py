@@ -75,6 +75,23 @@ class ThermalModel:
         The calibration points ``{"temperature_c", "values", "sigmas"}`` it was fitted to (for plots).
     source : str
         ``"combined"`` (:func:`combine`) or ``"ramp"`` (:func:`calibrate_ramp`).
+
+    Examples
+    --------
+    Calibrations of one simulated sensor at 10, 25 and 40 °C, combined (:func:`combine`) into one with a
+    thermal model:
+
+    >>> from imucalib.methods import calibrate
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.thermal import combine
+    >>> cals = [calibrate(session("handheld", rng=1, rest=10, n_poses=14, temperature=c).recording)
+    ...         for c in (10.0, 25.0, 40.0)]
+    >>> cal, summary = combine(cals)
+    >>> model = cal.thermal
+    >>> model.source, model.reference_c, [round(c) for c in model.range_c]
+    ('combined', 25.0, [10, 40])
+    >>> "gyroscope.bias.x" in model.coefficients
+    True
     """
 
     reference_c: float = REFERENCE_C
@@ -246,6 +263,25 @@ def compensate(calibration, recording: Recording) -> tuple:
     ------
     ValueError
         The recording has no temperature column.
+
+    Examples
+    --------
+    A thermal calibration of a simulated warm-up gives the same calibrated values as its calibration at
+    25 °C applied to the compensated recording:
+
+    >>> import numpy as np
+    >>> from imucalib.methods import tedaldi2014
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.thermal import calibrate_ramp, compensate
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=20, ramp=(20.0, 40.0, 60.0))
+    >>> def method(recording):
+    ...     return tedaldi2014.calibrate(recording, gravity=9.81)
+    >>> cal = calibrate_ramp(method, sim.recording, iterations=2)
+    >>> at_25, compensated = compensate(cal, sim.recording)
+    >>> at_25.thermal is None
+    True
+    >>> np.allclose(at_25.apply(compensated).acc, cal.apply(sim.recording).acc)
+    True
     """
     model = calibration.thermal
     if model is None:
@@ -401,6 +437,29 @@ def combine(calibrations: list, *, reference_c: float = REFERENCE_C, max_order: 
     (Calibration, dict)
         The calibration at ``T₀`` with its :class:`ThermalModel`, and a summary: each parameter's order,
         ``|c₁|/σ``, ``|c₂|/σ`` and the decision in words.
+
+    Raises
+    ------
+    ValueError
+        For fewer than two calibrations, calibrations made within a fraction of a degree of each other,
+        calibrations that differ in method, model, units or sensors, or one that already follows temperature.
+
+    Examples
+    --------
+    One simulated sensor calibrated at 10, 25 and 40 °C:
+
+    >>> from imucalib.methods import calibrate
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.thermal import combine
+    >>> cals = [calibrate(session("handheld", rng=1, rest=10, n_poses=14, temperature=c).recording)
+    ...         for c in (10.0, 25.0, 40.0)]
+    >>> cal, summary = combine(cals)
+    >>> cal.thermal.source, summary["gyroscope.bias.x"]["order"]
+    ('combined', 1)
+    >>> combine(cals[:1])
+    Traceback (most recent call last):
+        ...
+    ValueError: a thermal model needs calibrations at two or more temperatures; got 1
     """
     if len(calibrations) < 2:
         raise ValueError(f"a thermal model needs calibrations at two or more temperatures; got {len(calibrations)}")
@@ -614,6 +673,24 @@ def calibrate_ramp(run, recording: Recording, *, reference_c: float = REFERENCE_
     ------
     ValueError
         The recording has no temperature column.
+
+    Examples
+    --------
+    A simulated warm-up from 20 to 40 °C, calibrated by ``tedaldi2014`` with biases linear in temperature;
+    the gyroscope biases' slopes [counts/°C] against the simulation's:
+
+    >>> import numpy as np
+    >>> from imucalib.methods import tedaldi2014
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.thermal import calibrate_ramp
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=20, ramp=(20.0, 40.0, 60.0))
+    >>> def method(recording):
+    ...     return tedaldi2014.calibrate(recording, gravity=9.81)
+    >>> cal = calibrate_ramp(method, sim.recording, iterations=2)
+    >>> np.round([cal.thermal.coefficients[f"gyroscope.bias.{a}"][0] for a in "xyz"], 1)
+    array([ 2.4, -6.5,  0.5])
+    >>> np.round([sim.truth.thermal.coefficients[f"gyroscope.bias.{a}"][0] for a in "xyz"], 1)
+    array([ 2.6, -6.6,  0.4])
     """
     temp = _temperature_of(recording)
     if np.ptp(temp) < 2.0:

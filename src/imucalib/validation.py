@@ -136,6 +136,21 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
     ValueError
         When the recording is not in the calibration's raw units, does not
         start with a rest, or has fewer than :data:`MIN_POSES` static poses.
+
+    Examples
+    --------
+    A calibration checked on a recording of another device is rejected:
+
+    >>> from imucalib.methods import calibrate
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.validation import validate
+    >>> cal = calibrate(session("handheld", rng=1, rest=10, n_poses=14).recording)
+    >>> other = session("handheld", rng=3, rest=10, n_poses=14)
+    >>> found = validate(cal, other.recording)
+    >>> found["verdict"], found["own_recording"]
+    ('rejected', False)
+    >>> found["verdict_reasons"][0]
+    'the gravity-norm residual is 148× the white-noise floor (limit 8×): ...'
     """
     gravity = gravity or calibration.gravity
     calibration.check_units(recording)

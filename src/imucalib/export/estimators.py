@@ -127,8 +127,10 @@ def read_noise(path: str | Path) -> tuple[dict, list[str]]:
     >>> from pathlib import Path
     >>> from imucalib.export import read_noise
     >>> path = Path(tempfile.mkdtemp()) / "imu.yaml"
-    >>> _ = path.write_text(chr(10).join(["accelerometer_noise_density: 2.0e-3", "accelerometer_random_walk: 3.0e-3",
-    ...     "gyroscope_noise_density: 1.7e-4", "gyroscope_random_walk: 2.0e-5", "rostopic: /imu0", "update_rate: 200"]))
+    >>> _ = path.write_text(chr(10).join([
+    ...     "accelerometer_noise_density: 2.0e-3", "accelerometer_random_walk: 3.0e-3",
+    ...     "gyroscope_noise_density: 1.7e-4", "gyroscope_random_walk: 2.0e-5",
+    ...     "rostopic: /imu0", "update_rate: 200"]))
     >>> entries, notes = read_noise(path)
     >>> entries["gyroscope_noise_density"], entries["update_rate"], entries["rostopic"]
     (0.00017, 200.0, '/imu0')
@@ -298,6 +300,29 @@ def to_openvins(calibration: Calibration, *, model: str = "kalibr", raw_scale: t
         An unknown ``model``; a calibration with nonlinear scale terms; raw counts without ``raw_scale`` (or
         ``raw_scale`` for readings in physical units); matrices that overflow or vanish; a topic that is not a
         ROS name.
+
+    Examples
+    --------
+    A calibration of readings already in m/s² and rad/s (a simulated session calibrated by its truth, then
+    calibrated again), as OpenVINS reads it:
+
+    >>> from imucalib.export import to_openvins
+    >>> from imucalib.methods import calibrate
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> cal = calibrate(sim.truth.apply(sim.recording))
+    >>> text, notes = to_openvins(cal, rostopic="/imu0")
+    >>> [line for line in text.splitlines() if not line.startswith("#")][1:4]
+    ['imu0:', '  rostopic: /imu0', '  model: kalibr']
+    >>> notes[0]
+    'no --noise file: the noise entries (accelerometer_noise_density, ...) are left out; ...'
+
+    A calibration of raw counts needs the factors the driver publishes them with:
+
+    >>> to_openvins(sim.truth)
+    Traceback (most recent call last):
+        ...
+    imucalib.export.linear.ExportError: OpenVINS reads m/s^2 and rad/s, but this calibration ...
     """
     if model not in OPENVINS_MODELS:
         raise ExportError(f"OpenVINS's IMU model must be one of {', '.join(OPENVINS_MODELS)}; got {model!r}")
@@ -356,6 +381,22 @@ def to_kalibr(calibration: Calibration, *, raw_scale: tuple[float, float] | None
     ExportError
         A calibration with nonlinear scale terms; raw counts without ``raw_scale`` (or ``raw_scale`` for
         readings in physical units); matrices that overflow or vanish; a topic that is not a ROS name.
+
+    Examples
+    --------
+    A calibration of readings already in m/s² and rad/s (a simulated session calibrated by its truth, then
+    calibrated again), as Kalibr writes its result:
+
+    >>> from imucalib.export import to_kalibr
+    >>> from imucalib.methods import calibrate
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> cal = calibrate(sim.truth.apply(sim.recording))
+    >>> text, notes = to_kalibr(cal, rostopic="/imu0")
+    >>> "C_gyro_i:" in text, "rostopic: /imu0" in text
+    (True, True)
+    >>> notes[0]
+    "Kalibr's IMU frame i is the accelerometer frame made orthogonal with a lower-triangular ..."
     """
     calibration, note = gyroscope_part(calibration, "Kalibr imu0 entry (scale-misalignment)")
     form = linear_form(calibration, "Kalibr", physical=True, raw_scale=raw_scale)

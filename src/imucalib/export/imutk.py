@@ -76,12 +76,13 @@ def to_imutk(calibration: Calibration) -> tuple[str, str]:
     >>> cal = truth.with_(gyroscope=truth.gyroscope.with_(g_sensitivity=np.zeros((3, 3))))
     >>> from imucalib.export import to_imutk
     >>> acc, gyro = to_imutk(cal)
-    >>> [len(block.splitlines()) for block in acc.split(chr(10) * 2)[:3]]  # misalignment, scale, bias
+    >>> # misalignment, scale and bias: three lines each
+    >>> [len(block.splitlines()) for block in acc.split(chr(10) * 2)[:3]]
     [3, 3, 3]
     >>> to_imutk(truth)
     Traceback (most recent call last):
         ...
-    imucalib.export.linear.ExportError: imu_tk has no gyroscope g-sensitivity, and this calibration has one ...
+    imucalib.export.linear.ExportError: imu_tk has no gyroscope g-sensitivity, and this ...
     """
     calibration, note = gyroscope_part(calibration, "imu_tk parameter files")
     if note:

@@ -38,7 +38,20 @@ UNIT_TO_SI = {"m/s^2": 1.0, "g": STANDARD_GRAVITY, "rad/s": 1.0, "deg/s": np.pi 
 
 
 class ExportError(ValueError):
-    """A calibration a target format cannot hold, or export options that do not fit it."""
+    """A calibration a target format cannot hold, or export options that do not fit it.
+
+    Examples
+    --------
+    Raised by the exporters (:func:`to_c`, :func:`to_openvins`, …) with what to change:
+
+    >>> from imucalib.export import ExportError, to_openvins
+    >>> from imucalib.scenarios import session
+    >>> try:
+    ...     to_openvins(session("handheld", rng=1, rest=10, n_poses=14).truth, model="vins")
+    ... except ExportError as exc:
+    ...     print(exc)
+    OpenVINS's IMU model must be one of kalibr, rpng; got 'vins'
+    """
 
 
 @dataclass(frozen=True)

@@ -210,6 +210,21 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
     ValueError
         No magnetometer in the recording, too few poses, poses that do not determine the
         ellipsoid, or a bad option.
+
+    Examples
+    --------
+    A simulated session with a magnetometer: its hard-iron bias [counts] beside the truth's:
+
+    >>> from imucalib import Interval
+    >>> from imucalib.fit.magnetometer import fit_magnetometer
+    >>> from imucalib.methods import calibrate
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14, magnetometer=True)
+    >>> cal = calibrate(sim.recording, magnetometer=False)
+    >>> intervals = [Interval(a, b) for a, b in cal.fit["intervals"]]
+    >>> found = fit_magnetometer(sim.recording, intervals, cal)
+    >>> found.model.bias.round(1), sim.truth.magnetometer.bias.round(1)
+    (array([-86.6, -85.6, 107.3]), array([-86.6, -85.5, 107.4]))
     """
     _check_options(recording, intervals, hemisphere, field)
     mag_means = interval_means(recording.mag, intervals)

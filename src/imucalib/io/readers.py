@@ -105,6 +105,25 @@ def read(
     with a warning saying which of the two the accelerometer's magnitude
     supports; with no unit given or written, readings that look like m/s², g, rad/s or
     deg/s are still taken as counts, with a note saying so.
+
+    Examples
+    --------
+    A small CSV file with a header (time, accelerometer in g, gyroscope in deg/s):
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.io import read
+    >>> path = Path(tempfile.mkdtemp()) / "imu.csv"
+    >>> _ = path.write_text(chr(10).join(["t,ax,ay,az,gx,gy,gz",
+    ...     "0.00,0.01,-0.02,1.00,0.1,0.0,-0.1",
+    ...     "0.01,0.02,-0.01,1.01,0.0,0.1,-0.1", "0.02,0.00,-0.02,0.99,0.1,0.1,0.0"]))
+    >>> rec = read(path, acc_unit="g", gyro_unit="deg/s")
+    >>> rec.acc.shape, rec.acc_unit, rec.gyro_unit, round(rec.rate)
+    ((3, 3), 'g', 'deg/s', 100)
+    >>> read(path.with_name("missing.csv"))
+    Traceback (most recent call last):
+        ...
+    imucalib.io.errors.ReaderError: .../missing.csv: file not found
     """
     if is_frame(paths):
         return read_frame(paths, reader, columns, acc_unit, gyro_unit, rate, variable, time_unit, topic)
@@ -308,6 +327,21 @@ def guess_reader(paths: Sequence[Path]) -> str:
     ------
     OSError
         The first file cannot be opened.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.io import guess_reader
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / "imu.csv").write_text(chr(10).join(["t,ax,ay,az", "0.0,0.01,-0.02,1.00"]))
+    >>> guess_reader([folder / "imu.csv"])
+    'csv'
+    >>> # two files without a header: imu_tk's pair
+    >>> _ = (folder / "acc.txt").write_text("0.00 102 -55 16420" + chr(10))
+    >>> _ = (folder / "gyro.txt").write_text("0.00 3 -1 2" + chr(10))
+    >>> guess_reader([folder / "acc.txt", folder / "gyro.txt"])
+    'imutk'
     """
     if _is_rosbag(paths[0]):
         return "rosbag"

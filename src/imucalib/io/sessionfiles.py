@@ -27,7 +27,19 @@ __all__ = ["SessionFileError", "is_session_directory", "load_meta", "read_record
 
 
 class SessionFileError(ValueError):
-    """A simulated session directory that cannot be read; the message names the file and entry."""
+    """A simulated session directory that cannot be read; the message names the file and entry.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from imucalib.io.sessionfiles import SessionFileError, load_meta
+    >>> from pathlib import Path
+    >>> try:
+    ...     load_meta(Path(tempfile.mkdtemp()))
+    ... except SessionFileError as exc:
+    ...     print(exc)
+    /...: not a simulated session directory (no session.json)
+    """
 
 
 def _kind(value) -> str:

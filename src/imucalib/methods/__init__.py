@@ -135,6 +135,32 @@ def calibrate(
     Calibration
         With ``fit["verdict"]`` (``accepted``, ``suspect`` or ``rejected``) and
         ``fit["verdict_reasons"]`` (:mod:`imucalib.verdict`).
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``method``, a ``model`` the method does not fit, a recording the method cannot
+        calibrate (e.g. accelerometer-only for a method that needs a gyroscope, free-hand readings for
+        ``wang2019``, poses that miss a face the method needs) or a bad option.
+    TypeError
+        When ``data`` is neither a recording, a session nor a pose table.
+
+    Examples
+    --------
+    A short simulated hand-held session, calibrated by the default method and by another one:
+
+    >>> from imucalib.methods import calibrate
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> cal = calibrate(sim.recording)
+    >>> cal.method, cal.fit["verdict"]
+    ('tedaldi2014', 'accepted')
+    >>> calibrate(sim.recording, method="ellipsoid").fit["verdict"]
+    'accepted'
+    >>> calibrate(sim.recording, method="no_such_method")
+    Traceback (most recent call last):
+        ...
+    ValueError: unknown method 'no_such_method'; choose one of ellipsoid, ferraris, ...
     """
     cal = _calibrate(data, method=method or DEFAULT_METHOD, model=model, gravity=gravity, **options)
     recording = _recording_or_none(data)
@@ -284,6 +310,20 @@ def with_magnetometer(calibration: Calibration, recording: Recording, *, field: 
     ------
     ValueError
         For a bad option (``hemisphere``, ``field``).
+
+    Examples
+    --------
+    A simulated session with a magnetometer, calibrated first without it, then with it:
+
+    >>> from imucalib.methods import calibrate, with_magnetometer
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14, magnetometer=True)
+    >>> cal = calibrate(sim.recording, magnetometer=False)
+    >>> cal.magnetometer is None
+    True
+    >>> cal = with_magnetometer(cal, sim.recording)
+    >>> cal.magnetometer.unit, round(cal.fit["magnetometer_direction_error_mean_deg"], 2)
+    ('normalised', 0.05)
     """
     from ..fit.magnetometer import fit_magnetometer
     from ..recording import Interval

@@ -108,6 +108,23 @@ def calibrate_pose_table(table: PoseTable, *, gravity: float) -> Calibration:
     ------
     ValueError
         When the poses determine no model (fewer than four, or in too few directions).
+
+    Examples
+    --------
+    14 poses of an accelerometer reading 2 % high with a bias of 0.03 g, without noise:
+
+    >>> import itertools
+    >>> import numpy as np
+    >>> from imucalib.io.posetable import PoseTable
+    >>> from imucalib.methods._pose_table import calibrate_pose_table
+    >>> corners = np.array(list(itertools.product((-1, 1), repeat=3))) / np.sqrt(3)
+    >>> up = np.vstack([np.eye(3), -np.eye(3), corners])  # 14 directions of gravity
+    >>> table = PoseTable(acc=1.02 * up + 0.03, acc_unit="g")
+    >>> cal = calibrate_pose_table(table, gravity=9.81)
+    >>> cal.accelerometer.scale.round(4), cal.accelerometer.bias.round(4)  # 9.81 / 1.02, 0.03
+    (array([9.6176, 9.6176, 9.6176]), array([0.03, 0.03, 0.03]))
+    >>> cal.gyroscope is None, cal.fit["verdict"]
+    (True, 'accepted')
     """
     means = np.asarray(table.acc, dtype=np.float64)
     m = len(means)
@@ -224,6 +241,21 @@ def apply_to_table(calibration: Calibration, table: PoseTable) -> CalibratedTabl
     ------
     ValueError
         When the table's units are not the raw units the calibration maps.
+
+    Examples
+    --------
+    The calibration of a table, applied to its own poses: every calibrated mean has the norm of gravity:
+
+    >>> import itertools
+    >>> import numpy as np
+    >>> from imucalib.io.posetable import PoseTable
+    >>> from imucalib.methods._pose_table import apply_to_table, calibrate_pose_table
+    >>> corners = np.array(list(itertools.product((-1, 1), repeat=3))) / np.sqrt(3)
+    >>> up = np.vstack([np.eye(3), -np.eye(3), corners])  # 14 directions of gravity
+    >>> table = PoseTable(acc=1.02 * up + 0.03, acc_unit="g")
+    >>> calibrated = apply_to_table(calibrate_pose_table(table, gravity=9.81), table)
+    >>> np.linalg.norm(calibrated.acc, axis=1).round(6)
+    array([9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81, 9.81])
     """
     pairs = [("accelerometer", table.acc_unit)]
     if calibration.gyroscope is not None and table.gyro is not None:

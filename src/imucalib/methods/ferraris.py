@@ -422,6 +422,25 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
     -------
     Calibration
         The calibration, with its fit figures, 1σ errors and verdict in ``fit``.
+
+    Raises
+    ------
+    ValueError
+        When the poses lack one of the six faces, no turn about an axis is found, or ``angle`` is not a
+        positive number of degrees.
+
+    Examples
+    --------
+    A simulated Ferraris procedure (the six faces, and a full turn about each axis):
+
+    >>> from imucalib.methods import ferraris
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, procedure="ferraris", rest=5)
+    >>> cal = ferraris.calibrate(sim.recording, gravity=sim.truth.gravity)
+    >>> (cal.gyroscope.scale / sim.truth.gyroscope.scale).round(3)
+    array([1.   , 1.001, 1.   ])
+    >>> cal.fit["sections"]  # the faces and turns were found in the recording
+    'found'
     """
     if not np.isfinite(angle) or angle <= 0:
         raise ValueError(f"the turn angle must be a positive number of degrees; got {angle!r}")

@@ -101,6 +101,26 @@ def calibrate(recording, *, gravity: float, intervals=None, gyroscope: str = "st
     -------
     Calibration
         The calibration, with its fit figures, 1σ errors and verdict in ``fit``.
+
+    Raises
+    ------
+    ValueError
+        When the poses lack one of the six faces (each axis up and down within 30°), or for an unknown
+        ``gyroscope``.
+
+    Examples
+    --------
+    The six faces and the turns between them of a simulated Ferraris procedure:
+
+    >>> from imucalib.methods import qureshi2017
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, procedure="ferraris", rest=5)
+    >>> cal = qureshi2017.calibrate(sim.recording, gravity=sim.truth.gravity)
+    >>> (cal.accelerometer.scale / sim.truth.accelerometer.scale).round(3)
+    array([1., 1., 1.])
+    >>> # the gyroscope's, from the turns the accelerometer measures:
+    >>> (cal.gyroscope.scale / sim.truth.gyroscope.scale).round(2)
+    array([1.  , 0.99, 1.01])
     """
     if gyroscope not in ("static", "dynamic"):
         raise ValueError(f"gyroscope must be 'static' or 'dynamic'; got {gyroscope!r}")

@@ -207,6 +207,30 @@ def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15
     -------
     Calibration
         The calibration, with its fit figures, 1σ errors and verdict in ``fit``.
+
+    Raises
+    ------
+    ValueError
+        When the poses lack one of the six faces (each axis up and down within ``max_tilt``).
+
+    Examples
+    --------
+    The six faces of a simulated Ferraris procedure (each axis up, then down, with turns between them):
+
+    >>> from imucalib.methods import six_position
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, procedure="ferraris", rest=5)
+    >>> cal = six_position.calibrate(sim.recording, gravity=sim.truth.gravity)
+    >>> (cal.accelerometer.scale / sim.truth.accelerometer.scale).round(3)
+    array([1., 1., 1.])
+
+    Poses spread over all directions are not the six faces:
+
+    >>> spread = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> six_position.calibrate(spread.recording, gravity=spread.truth.gravity)
+    Traceback (most recent call last):
+        ...
+    ValueError: this method needs the six faces, each axis up and down within 15° of gravity; ...
     """
     intervals = static_poses(recording, gravity, intervals, init_static=init_static, min_hold=min_hold)
     means = interval_means(recording.acc, intervals)

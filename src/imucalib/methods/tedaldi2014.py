@@ -160,6 +160,20 @@ def calibrate(
         rotation is reliable (:func:`imucalib.segment.no_usable_rotations`:
         saturated, spiking or gapped rotations are left out), the calibration
         has no gyroscope and ``fit["gyroscope_not_calibrated"]`` says why.
+
+    Examples
+    --------
+    A short simulated hand-held session (an initial rest, then 14 poses), calibrated by this method alone; the
+    scale factors come out within 0.1 % of the simulation's truth:
+
+    >>> from imucalib.methods import tedaldi2014
+    >>> from imucalib.scenarios import session
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> cal = tedaldi2014.calibrate(sim.recording, gravity=sim.truth.gravity)
+    >>> (cal.accelerometer.scale / sim.truth.accelerometer.scale).round(3)
+    array([1., 1., 1.])
+    >>> len(cal.fit["intervals"]), cal.fit["threshold_multiplier"]  # the rest and the 14 poses
+    (15, 7.0)
     """
     say = progress or (lambda msg: None)
     say("detecting static intervals")

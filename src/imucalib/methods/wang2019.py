@@ -118,6 +118,22 @@ def calibrate(session, *, gravity: float | None = None, initial: str = "estimate
     -------
     Calibration
         The ``wang2019`` model (nonlinear scale factors), with its fit figures and verdict in ``fit``.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``initial``, or fewer positions or turn pairs than the models' parameters.
+
+    Examples
+    --------
+    A simulated turntable session (10 s per position instead of the paper's 300 s):
+
+    >>> from imucalib.methods import wang2019
+    >>> from imucalib.scenarios.wang2019 import session
+    >>> turntable = session(rng=1, dwell_s=10)
+    >>> cal = wang2019.calibrate(turntable)
+    >>> (cal.accelerometer.scale / turntable.truth.accelerometer.scale).round(4)
+    array([1., 1., 1.])
     """
     if initial not in ("estimate", "nominal"):
         raise ValueError(f"initial must be 'estimate' or 'nominal'; got {initial!r}")

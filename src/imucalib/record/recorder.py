@@ -65,6 +65,25 @@ class Recorder:
     sink : callable, optional
         Called with the lines the session keeps (a list of bytes), in order, once each block is analysed
         (the session file: :class:`~imucalib.record.session.SessionWriter`).
+
+    Examples
+    --------
+    The first 12 s of a simulated stream, fed in one block: the format is found and the rest counted down:
+
+    >>> import io, tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.io import write_csv
+    >>> from imucalib.record import Recorder
+    >>> from imucalib.scenarios import session
+    >>> path = Path(tempfile.mkdtemp()) / "stream.csv"
+    >>> write_csv(path, session("handheld", rng=1, rest=8, n_poses=12).recording)
+    >>> events = []
+    >>> recorder = Recorder(events.append, rest=5)
+    >>> recorder.feed(path.read_bytes().splitlines(keepends=True)[:1200])
+    >>> events[0]["event"], events[0]["acc_unit"]
+    ('format', 'counts')
+    >>> [event["remaining_s"] for event in events if event["event"] == "rest"]
+    [5, 4, 3, 2, 1, 0]
     """
 
     def __init__(self, on_event: Callable[[dict], None], *, method: str = DEFAULT_METHOD,

@@ -74,6 +74,20 @@ class SessionWriter:
     ``.partial`` is created new (never through a symbolic link, never over a
     file) — or, with ``resume``, an existing one is appended to (its lines in
     :attr:`resumed`, for the recorder to follow first).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.record import SessionWriter
+    >>> output = Path(tempfile.mkdtemp()) / "session.csv"
+    >>> writer = SessionWriter(output)
+    >>> writer.write_lines([b"t,ax,ay,az" + bytes([10]), b"0.00,12,-40,16390" + bytes([10])])
+    True
+    >>> output.with_name("session.csv.partial").exists(), output.exists()
+    (True, False)
+    >>> writer.finish() == output, output.read_text().splitlines()
+    (True, ['t,ax,ay,az', '0.00,12,-40,16390'])
     """
 
     def __init__(self, output: str | Path, *, force: bool = False, resume: bool = False) -> None:
@@ -128,7 +142,21 @@ class SessionWriter:
 
 @dataclass
 class RecordResult:
-    """What :func:`record` did: the file, lines read, lines left out, poses, complete, interrupted, how it ended."""
+    """What :func:`record` did: the file, lines read, lines left out, poses, complete, interrupted, how it ended.
+
+    Examples
+    --------
+    :func:`record` returns one; here a stream of two seconds of a sensor lying still:
+
+    >>> import io, tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.record import Recorder, record
+    >>> rows = [b"t,ax,ay,az,gx,gy,gz"] + [b"%.2f,0,0,16384,0,0,0" % (k / 100) for k in range(200)]
+    >>> result = record(io.BytesIO(bytes([10]).join(rows)), Path(tempfile.mkdtemp()) / "s.csv",
+    ...                 Recorder(lambda event: None))
+    >>> result.lines, result.bad, result.poses, result.complete, result.interrupted
+    (201, 0, 0, False, False)
+    """
 
     path: Path
     lines: int
@@ -185,7 +213,31 @@ def _pump(source: Source, q: queue.Queue, stop: threading.Event, poll: float) ->
 
 
 class RecordError(OSError):
-    """Reading the stream failed: the session so far is kept (the message says where)."""
+    """Reading the stream failed: the session so far is kept (the message says where).
+
+    Examples
+    --------
+    A stream that fails after 300 rows, as a device unplugged in the middle of a read does:
+
+    >>> import io, tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.record import Recorder, RecordError, record
+    >>> class Unplugged(io.RawIOBase):
+    ...     rows = [b"t,ax,ay,az,gx,gy,gz"]
+    ...     rows += [b"%.2f,0,0,16384,0,0,0" % (k / 100) for k in range(300)]
+    ...     def readable(self):
+    ...         return True
+    ...     def readline(self, size=-1):
+    ...         if self.rows:
+    ...             return self.rows.pop(0) + bytes([10])
+    ...         raise OSError("device disconnected")
+    >>> try:
+    ...     record(Unplugged(), Path(tempfile.mkdtemp()) / "s.csv", Recorder(lambda event: None))
+    ... except RecordError as exc:
+    ...     print(exc)
+    reading the stream failed after 301 lines (OSError: device disconnected); the session so far
+    is in /.../s.csv
+    """
 
 
 def _not_a_table(recorder: Recorder, writer: SessionWriter, exc: ValueError, more: list | None = None):
@@ -304,6 +356,24 @@ def record(stream, output: str | Path | SessionWriter, recorder: Recorder, *, po
         The stream is not a table that can be followed (its lines so far are in the ``.partial`` file).
     RecordError
         Reading the stream failed (the session so far is at ``output``).
+
+    Examples
+    --------
+    A simulated session replayed as a stream (a serial port or ``imucalib record -`` would give the same
+    lines), recorded to a file while the recorder follows it:
+
+    >>> import io, tempfile
+    >>> from pathlib import Path
+    >>> from imucalib.io import write_csv
+    >>> from imucalib.record import Recorder, record
+    >>> from imucalib.scenarios import session
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> write_csv(folder / "stream.csv", session("handheld", rng=1, rest=8, n_poses=14).recording)
+    >>> events = []
+    >>> result = record(io.BytesIO((folder / "stream.csv").read_bytes()), folder / "session.csv",
+    ...                 Recorder(events.append))
+    >>> result.path.name, result.poses, result.complete, events[-1]["verdict"]
+    ('session.csv', 14, True, 'accepted')
     """
     writer = output if isinstance(output, SessionWriter) else SessionWriter(output, force=force)
     if writer.resumed:  # the session so far, followed again; its lines are in the file already

@@ -31,6 +31,20 @@ class LiveView:
         Read for the current orientation (the mean of its last tenth of a second).
     port : int
         The local port (0: any free one; :attr:`url` says which).
+
+    Examples
+    --------
+    The page is served on a free local port until :meth:`close`:
+
+    >>> import json, urllib.request
+    >>> from imucalib.record.view import LiveView
+    >>> view = LiveView()
+    >>> view.url
+    'http://127.0.0.1:.../'
+    >>> with urllib.request.urlopen(view.url + "state.json") as reply:
+    ...     sorted(json.load(reply))[:4]
+    ['checklist', 'complete', 'current', 'holding']
+    >>> view.close()
     """
 
     def __init__(self, recorder=None, *, port: int = 0) -> None:

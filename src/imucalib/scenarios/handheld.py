@@ -719,6 +719,28 @@ def generate(rng, *, truth: Calibration | None = None, noise=None, procedure: st
     dict
         Fields of :class:`~imucalib.sessions.Session`: ``recording``,
         ``segments``, ``truth``, ``noise``, ``options``.
+
+    Raises
+    ------
+    ValueError
+        For an option out of its range (an unknown ``procedure``, a negative duration, a probability
+        outside [0, 1], a jitter of half a sample period or more, ``temperature`` and ``ramp`` together,
+        an unknown magnetometer option…), the message naming it.
+
+    Examples
+    --------
+    :func:`imucalib.scenarios.session` calls it (``session("handheld", ...)``); its fields, for a short
+    session of a 10 s rest and 14 poses:
+
+    >>> import numpy as np
+    >>> from imucalib.scenarios.handheld import generate
+    >>> fields = generate(np.random.default_rng(1), rest=10, n_poses=14)
+    >>> sorted(fields), fields["recording"].acc_unit
+    (['noise', 'options', 'recording', 'segments', 'truth'], 'counts')
+    >>> generate(np.random.default_rng(1), procedure="figure-eight")
+    Traceback (most recent call last):
+        ...
+    ValueError: procedure must be 'poses' or 'ferraris'; got 'figure-eight'
     """
     if procedure not in ("poses", "ferraris"):
         raise ValueError(f"procedure must be 'poses' or 'ferraris'; got {procedure!r}")

@@ -145,6 +145,18 @@ def detect_static_gyro(
     ------
     ValueError
         The initial rest has zero gyroscope noise (no threshold can be set from it).
+
+    Examples
+    --------
+    Zhang et al.'s simulated session, 40 static poses after an initial rest:
+
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.segment import detect_static_gyro, find_initial_rest
+    >>> sim = session("zhang2021", rng=1)
+    >>> rest = find_initial_rest(sim.recording)
+    >>> static = detect_static_gyro(sim.recording, rest)
+    >>> len(static), static[1]
+    (40, Interval(start=1295, stop=1412, kind='static'))
     """
     rate = recording.rate
     norm, zeta = gyro_norm_variance(recording, rest, window)  # eq. (22)
@@ -228,6 +240,17 @@ def detect_intervals(
         No threshold gives poses from which an accelerometer model is determined, an initial rest in which
         the sensor moves, or blocks none of which is still for ``min_hold`` seconds; the message says what
         to record or which option to give.
+
+    Examples
+    --------
+    A simulated session of a 10 s rest and 14 poses:
+
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.segment import detect_intervals
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> intervals, multiplier, rest, model = detect_intervals(sim.recording, sim.truth.gravity)
+    >>> len(intervals), multiplier, rest
+    (15, 7.0, Interval(start=0, stop=897, kind='static'))
     """
     window, min_interval = _hold_window(min_hold, window, min_interval)
     blocks = still_blocks(recording, min_hold=min_hold) if init_static is None else None

@@ -52,7 +52,8 @@ def find_faces(raw_means: np.ndarray, gravity: float, *, max_tilt: float = 15.0)
     --------
     >>> import numpy as np
     >>> from imucalib.segment import find_faces
-    >>> means = 9.81 * np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1.0]])
+    >>> means = 9.81 * np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0],
+    ...                          [0, 0, -1], [0, 0, 1.0]])
     >>> find_faces(means, 9.81)
     array([1, 3, 5, 0, 2, 4])
     """

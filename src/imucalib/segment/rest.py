@@ -93,6 +93,25 @@ def find_initial_rest(
     ------
     ValueError
         If the recording does not start with at least ``shortest`` seconds of rest.
+
+    Examples
+    --------
+    A simulated session that starts with 10 s on a table; the rest found ends at 9 s, where the
+    detector's statistic first sees the hand:
+
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.segment import find_initial_rest
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> rest = find_initial_rest(sim.recording)
+    >>> rest, round(float(sim.recording.t[rest.stop]), 1)
+    (Interval(start=0, stop=897, kind='static'), 9.0)
+
+    A recording cut 0.5 s before the first turn has too short a rest:
+
+    >>> find_initial_rest(sim.recording[950:])
+    Traceback (most recent call last):
+        ...
+    ValueError: no initial rest found: the sensor moves 0.46 s after the start; ...
     """
     rate = recording.rate
     n0 = int(round(min_seconds * rate))

@@ -115,6 +115,19 @@ def check_rate(recording: Recording) -> None:
     ------
     ValueError
         At a sampling rate no IMU records at (the time base is in the wrong unit, or broken).
+
+    Examples
+    --------
+    Times in milliseconds read as seconds make a 1 kHz recording a 1 mHz one:
+
+    >>> import numpy as np
+    >>> from imucalib import Recording
+    >>> from imucalib.verdict import check_rate
+    >>> check_rate(Recording(np.arange(10) / 1000, np.zeros((10, 3)), None))  # 1 kHz: fine
+    >>> check_rate(Recording(np.arange(10) * 1000.0, np.zeros((10, 3)), None))
+    Traceback (most recent call last):
+        ...
+    ValueError: the sampling rate is 0.001 Hz, outside 5-50000 Hz where IMUs record: ...
     """
     rate = recording.rate
     lo, hi = THRESHOLDS["rate_hz"]
@@ -165,6 +178,16 @@ def turn_speed(calibration, recording: Recording, intervals: list[Interval]) -> 
     -------
     float
         The median angular speed [deg/s], NaN without a turn above 10°.
+
+    Examples
+    --------
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.segment import detect_intervals
+    >>> from imucalib.verdict import turn_speed
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> intervals, *_ = detect_intervals(sim.recording, sim.truth.gravity)
+    >>> round(turn_speed(sim.truth, sim.recording, intervals))  # deg/s, a hand's pace
+    35
     """
     return _turn_speed(Poses(calibration, recording, intervals))
 
@@ -236,6 +259,20 @@ def plausible(calibration) -> bool:
     -------
     bool
         True when no check of :func:`plausibility` rejects it.
+
+    Examples
+    --------
+    Readings in m/s²: scale factors 1 % off the unit's are plausible, twice it on x is not:
+
+    >>> from imucalib import Calibration
+    >>> from imucalib.models import TriadModel
+    >>> from imucalib.verdict import plausible
+    >>> units = {"accelerometer": {"raw": "m/s^2", "calibrated": "m/s^2"},
+    ...          "gyroscope": {"raw": "rad/s", "calibrated": "rad/s"}}
+    >>> plausible(Calibration(accelerometer=TriadModel(scale=[1.01, 0.99, 1.0]), units=units))
+    True
+    >>> plausible(Calibration(accelerometer=TriadModel(scale=[2.0, 1.0, 1.0]), units=units))
+    False
     """
     return all(c.level < 2 for c in plausibility(calibration))
 
@@ -266,6 +303,21 @@ def plausibility(calibration) -> list[Check]:
     list of Check
         One check per finding, each with its level (1 suspect, 2 rejected) and its sentence; empty when all is
         plausible.
+
+    Examples
+    --------
+    Readings declared in g but fitted with 0.01 m/s² per unit (they were counts): the unit is wrong:
+
+    >>> from imucalib import Calibration
+    >>> from imucalib.models import TriadModel
+    >>> from imucalib.verdict import plausibility
+    >>> units = {"accelerometer": {"raw": "g", "calibrated": "m/s^2"},
+    ...          "gyroscope": {"raw": "rad/s", "calibrated": "rad/s"}}
+    >>> cal = Calibration(accelerometer=TriadModel(scale=[0.01, 0.01, 0.01]), units=units)
+    >>> plausibility(cal)
+    [Check(level=2, text="the accelerometer scale factor of axis x is 0.00102× the nominal ...")]
+    >>> plausibility(Calibration())  # the identity, in counts: nothing to object
+    []
     """
     out = []
     fit = calibration.fit or {}
@@ -656,6 +708,26 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
         ``{"verdict": …, "verdict_reasons": [...], "verdict_notes": [...], **figures}``: the verdict is the worst
         level among the checks (``accepted``, ``suspect`` or ``rejected``); reasons are the sentences of the suspect
         and rejecting ones, notes the rest; the figures are those the checks rest on.
+
+    Examples
+    --------
+    A simulated session judged with its true calibration, and with an accelerometer 10 % off (with the
+    figures the checks read, :func:`imucalib.metrics.fit_summary`):
+
+    >>> from imucalib.metrics import fit_summary
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.segment import detect_intervals
+    >>> from imucalib.verdict import assess
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> intervals, *_ = detect_intervals(sim.recording, sim.truth.gravity)
+    >>> assess(sim.truth, sim.recording, intervals)["verdict"]
+    'accepted'
+    >>> acc = sim.truth.accelerometer
+    >>> off = sim.truth.with_(accelerometer=acc.with_(scale=1.1 * acc.scale))
+    >>> off = off.with_(fit=fit_summary(off, sim.recording, intervals))
+    >>> found = assess(off, sim.recording, intervals)
+    >>> found["verdict"], found["verdict_reasons"][0]
+    ('rejected', 'the gravity-norm residual is 520× the white-noise floor (limit 8×): ...')
     """
     if purpose not in ("calibrate", "validate"):
         raise ValueError(f"purpose must be 'calibrate' or 'validate'; got {purpose!r}")
@@ -725,5 +797,16 @@ def with_verdict(calibration, recording: Recording | None = None, intervals: lis
     -------
     Calibration
         A copy whose ``fit`` holds what :func:`assess` returns.
+
+    Examples
+    --------
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.segment import detect_intervals
+    >>> from imucalib.verdict import with_verdict
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> intervals, *_ = detect_intervals(sim.recording, sim.truth.gravity)
+    >>> judged = with_verdict(sim.truth, sim.recording, intervals)
+    >>> judged.fit["verdict"], judged.fit["verdict_reasons"]
+    ('accepted', [])
     """
     return calibration.with_(fit={**(calibration.fit or {}), **assess(calibration, recording, intervals)})

@@ -61,6 +61,21 @@ class RawComparison:
         How many poses and rotations the figures are over.
     skipped : tuple of str
         Why a figure was not compared, in words.
+
+    Examples
+    --------
+    What :func:`compare_with_raw` returns; readings in counts have no figures of their own:
+
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.segment import detect_intervals
+    >>> from imucalib.verdict.base import Poses
+    >>> from imucalib.verdict.raw import compare_with_raw
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> intervals, *_ = detect_intervals(sim.recording, sim.truth.gravity)
+    >>> found = compare_with_raw(Poses(sim.truth, sim.recording, intervals))
+    >>> found.poses, found.rotations, found.residual_rms_raw, found.skipped
+    (15, 14, None,
+     ("the accelerometer's readings are counts", "the gyroscope's readings are counts"))
     """
 
     residual_rms: float | None
@@ -84,6 +99,26 @@ def compare_with_raw(found: Poses) -> RawComparison:
     -------
     RawComparison
         The calibration's figures beside the raw readings' (None where the readings are counts).
+
+    Examples
+    --------
+    Readings already in m/s² and rad/s (a simulated session calibrated by its truth), calibrated again: the
+    new calibration is better than the readings taken as they are:
+
+    >>> from imucalib import Interval
+    >>> from imucalib.methods import calibrate
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.verdict.base import Poses
+    >>> from imucalib.verdict.raw import compare_with_raw
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> readings = sim.truth.apply(sim.recording)
+    >>> cal = calibrate(readings)
+    >>> intervals = [Interval(a, b) for a, b in cal.fit["intervals"]]
+    >>> found = compare_with_raw(Poses(cal, readings, intervals))
+    >>> found.residual_rms < found.residual_rms_raw
+    True
+    >>> found.angle_error_mean_deg < found.angle_error_mean_deg_raw
+    True
     """
     calibration, recording, intervals = found.calibration, found.recording, found.intervals
     g = calibration.gravity
