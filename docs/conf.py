@@ -33,9 +33,10 @@ exclude_patterns = ["_build", "_generated/*.py", "examples"]
 templates_path = []
 autosummary_generate = False
 autodoc_default_options = {"members": False}
-# the types are those the numpydoc Parameters and Returns sections give: autodoc's own list of the annotations
-# ("description") would repeat them as a second Parameters block and a "Return type" under every function
-autodoc_typehints = "none"
+# the annotations in the signatures; the numpydoc Parameters and Returns sections say what each value is
+# (autodoc's "description" would repeat the types as a second Parameters block and a "Return type")
+autodoc_typehints = "signature"
+autodoc_typehints_format = "short"
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False

@@ -117,3 +117,12 @@ def test_api_examples_run(name, obj):
     for test in tests:
         runner.run(test)
     assert runner.failures == 0, f"{name}: {runner.failures} example(s) failed (run with -s to see them)"
+
+
+def test_the_api_page_shows_the_type_hints():
+    """The signatures carry their annotations (autodoc's "none" would hide them; "description" repeats them)."""
+    conf = (API.parent / "conf.py").read_text(encoding="utf-8")
+    setting = re.search(r'^autodoc_typehints\s*=\s*"(\w+)"', conf, re.M)
+    assert setting is not None and setting.group(1) == "signature"
+    assert inspect.signature(importlib.import_module("imucalib").calibrate).return_annotation not in (
+        inspect.Signature.empty, None)
