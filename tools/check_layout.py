@@ -57,8 +57,8 @@ FLOORS_PACKAGE = "imucalib"
 FLOORS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("foundations", "units, records, models, rotations, solvers, residuals, pose plans, method declarations, "
      "the fit report's fields",
-     ("constants", "presets", "methodinfo", "reportfields", "recording", "conventions", "models", "kinematics", "solve",
-      "residuals", "metrics", "plans", "progress", "printable")),
+     ("constants", "presets", "methodinfo", "fitreport", "reportfields", "recording", "conventions", "models",
+      "kinematics", "solve", "residuals", "metrics", "plans", "progress", "printable")),
     ("readers", "files and streams in and out", ("io",)),
     ("estimators", "segmentation, fits, thermal models, noise, verdict",
      ("fit", "segment", "thermal", "verdict", "noise")),

@@ -1,7 +1,8 @@
 """The result of a calibration: both triad models, lever arm, fit quality; JSON I/O.
 
 The file format is versioned JSON (``"format": "imucalib.calibration"``,
-``"format_version": 1``); ``docs/architecture.rst`` describes every entry.
+``"format_version": 2``; version 1 files, whose content is the same, load too); ``docs/architecture.rst``
+describes every entry.
 """
 
 from __future__ import annotations
@@ -21,18 +22,20 @@ from .io.atomic import atomic_write
 from .io.jsontext import SmallFileError, dumps, jsonable, read_json
 from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
 from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, ImucalibWarning, Recording
-from .reportfields import undeclared
+from .fitreport import FitReport
 from .thermal import ThermalModel
 
 __all__ = ["BIAS_DRIFT", "DEVICE_MAX_CHARS", "DRIFT_NOTICE_DEG_S", "FULL_SCALE", "Calibration", "CalibrationFileError",
-           "FORMAT", "FORMAT_VERSION", "GRAVITY_LIMITS", "SESSION_CHECK_SAMPLES", "check_device", "check_document",
-           "check_magnitudes", "with_bias_session"]
+           "FORMAT", "FORMAT_VERSION", "GRAVITY_LIMITS", "READABLE_VERSIONS", "SESSION_CHECK_SAMPLES", "check_device",
+           "check_document", "check_magnitudes", "with_bias_session"]
 
 #: the longest device name a calibration holds [characters]
 DEVICE_MAX_CHARS = 256
 
 FORMAT = "imucalib.calibration"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+#: the versions this one reads (version 1 is version 2 with the same ``fit`` object: files of both load)
+READABLE_VERSIONS = (1, 2)
 _BLOCK = 1 << 16  # samples calibrated at a time by apply
 #: what :meth:`Calibration.apply` takes for ``bias_drift``
 BIAS_DRIFT = ("auto", "on", "off")
@@ -74,8 +77,9 @@ class Calibration:
         Which method and model variant produced it.
     units : dict
         Raw and calibrated units of each sensor.
-    fit : dict
-        Fit-quality figures, the verdict and its reasons (every entry in ``docs/architecture.rst``).
+    fit : FitReport
+        Fit-quality figures, the verdict and its reasons, stage by stage (:mod:`imucalib.fitreport`; every
+        entry in ``docs/architecture.rst``). A mapping of the file's flat ``fit`` keys is turned into one.
     magnetometer : MagnetometerModel or None
         Hard and soft iron and the map into the accelerometer's frame, when the IMU has a
         magnetometer and it was calibrated (``units["magnetometer"]`` then gives its units).
@@ -95,11 +99,13 @@ class Calibration:
     )
     device: str | None = None
     created: str | None = None
-    fit: dict = field(default_factory=dict)
+    fit: FitReport = field(default_factory=FitReport)
     magnetometer: MagnetometerModel | None = None
     thermal: ThermalModel | None = None
 
     def __post_init__(self) -> None:
+        if not isinstance(self.fit, FitReport):
+            object.__setattr__(self, "fit", FitReport.from_flat(self.fit or {}))
         if self.lever_arm is not None:
             r = np.array(self.lever_arm, dtype=np.float64).reshape(-1)
             if r.shape != (3,):
@@ -384,7 +390,7 @@ class Calibration:
             "accelerometer": self.accelerometer.to_dict(gyroscope=False),
             "gyroscope": None if self.gyroscope is None else self.gyroscope.to_dict(gyroscope=True),
             "lever_arm": None if self.lever_arm is None else self.lever_arm.tolist(),
-            "fit": jsonable(self.fit),
+            "fit": jsonable(self.fit.to_flat()),
         }
         if self.magnetometer is not None:  # only when there is one: files without it are as before
             out["magnetometer"] = self.magnetometer.to_dict()
@@ -397,11 +403,11 @@ class Calibration:
         """Inverse of :meth:`to_dict`; checks the format, its version and every entry's type and shape.
 
         Raises :class:`CalibrationFileError` naming the entry that is wrong. A ``fit`` field that is not
-        declared (:data:`imucalib.reportfields.FIELDS`: a file from another version) is kept as read, with an
+        declared (:mod:`imucalib.fitreport`: a file from another version) is kept as read, with an
         :class:`~imucalib.recording.ImucalibWarning` naming it.
         """
         check_document(d)
-        unknown = undeclared(d.get("fit") or {})
+        unknown = FitReport.undeclared(d.get("fit") or {})
         if unknown:
             warnings.warn(f"the calibration's fit holds field(s) this version does not know: {', '.join(unknown)}; "
                           "kept as read", ImucalibWarning, stacklevel=2)
@@ -417,7 +423,7 @@ class Calibration:
             if units else cls().units,
             device=d.get("device"),
             created=d.get("created"),
-            fit=d.get("fit") or {},
+            fit=FitReport.from_flat(d.get("fit") or {}),
             magnetometer=None if d.get("magnetometer") is None else MagnetometerModel.from_dict(d["magnetometer"]),
             thermal=None if d.get("thermal") is None else ThermalModel.from_dict(d["thermal"]),
         )
@@ -594,9 +600,9 @@ def check_document(d) -> None:
         raise CalibrationFileError(f"not an imucalib calibration: 'format' is {json.dumps(d.get('format'))}, "
                                    f"not \"{FORMAT}\"")
     version = d.get("format_version")
-    if version != FORMAT_VERSION:
+    if isinstance(version, bool) or version not in READABLE_VERSIONS:
         raise CalibrationFileError(f"calibration format_version {json.dumps(version)} is not supported "
-                                   f"(this imucalib reads version {FORMAT_VERSION})")
+                                   f"(this imucalib reads versions {', '.join(map(str, READABLE_VERSIONS))})")
     missing = [k for k in ("accelerometer", "gyroscope") if k not in d]
     if missing:
         raise CalibrationFileError(f"calibration lacks the {' and '.join(missing)} section(s)")
