@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 
+from .fitreport import FitReport
 from .io.atomic import atomic_write
 from .io.jsontext import SmallFileError, dumps, jsonable, read_json
 from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
 from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, ImucalibWarning, Recording
-from .fitreport import FitReport
 from .thermal import ThermalModel
 
 __all__ = ["BIAS_DRIFT", "DEVICE_MAX_CHARS", "DRIFT_NOTICE_DEG_S", "FULL_SCALE", "Calibration", "CalibrationFileError",
