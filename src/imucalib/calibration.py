@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .fitreport import FitReport
+from .fitreport import FitReport, GyroscopeReport, VerdictReport
 from .io.atomic import atomic_write
 from .io.jsontext import SmallFileError, dumps, jsonable, read_json
 from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
@@ -155,8 +155,8 @@ class Calibration:
             Whether the gyroscope bias drifts as the calibration's fit found it,
             ``b(t) = b + d (t − t_ref)`` (Zhang 2021, eq. 11 with the linear drift
             of :func:`imucalib.fit.gyroscope.static_gyro`; ``d`` is
-            ``fit["gyroscope_bias_drift_per_s"]``, ``t_ref``
-            ``fit["gyroscope_bias_time_s"]``), or is the constant ``b``.
+            ``fit.gyroscope.bias_drift_per_s``, ``t_ref``
+            ``fit.gyroscope.bias_time_s``), or is the constant ``b``.
             ``"auto"`` (the default) applies the drift to the recording the
             calibration was made from, or a part of it (:meth:`is_own_session`),
             and keeps the constant bias on any other: a drift is not
@@ -211,7 +211,7 @@ class Calibration:
     @property
     def bias_drift(self) -> np.ndarray | None:
         """The gyroscope bias's linear drift ``d`` [raw units per s] the fit found, or None (constant bias)."""
-        d = (self.fit or {}).get("gyroscope_bias_drift_per_s")
+        d = self.fit.gyroscope.bias_drift_per_s
         if d is None or self.gyroscope is None:
             return None
         return np.asarray(d, dtype=np.float64).reshape(3)
@@ -222,7 +222,7 @@ class Calibration:
         ``b(t) = b + d (t − t_ref)``: the static poses' gyroscope means with a
         bias that drifts linearly (Zhang 2021, eq. 11; the drift as
         :func:`imucalib.fit.gyroscope.static_gyro` fits it), ``t_ref`` the time
-        at which the stored bias holds (``fit["gyroscope_bias_time_s"]``, the
+        at which the stored bias holds (``fit.gyroscope.bias_time_s``, the
         mean of the poses' times in the calibrated recording's time base).
         Zeros for a calibration without a drift.
         """
@@ -230,7 +230,7 @@ class Calibration:
         d = self.bias_drift
         if d is None:
             return np.zeros((t.size, 3))
-        t_ref = float(self.fit.get("gyroscope_bias_time_s", 0.0))
+        t_ref = float(self.fit.gyroscope.bias_time_s or 0.0)
         return (t - t_ref)[:, None] * d[None, :]
 
     def drift_rate(self) -> np.ndarray | None:
@@ -251,10 +251,10 @@ class Calibration:
         Both must hold:
 
         * its first and last times lie within the calibrated recording's
-          (``fit["gyroscope_bias_session_s"]``, in that recording's time base),
+          (``fit.gyroscope.bias_session_s``, in that recording's time base),
           give or take half a sample period;
         * of the calibrated recording's check samples
-          (``fit["gyroscope_bias_session_check"]``: the time and raw gyroscope
+          (``fit.gyroscope.bias_session_check``: the time and raw gyroscope
           reading of :data:`SESSION_CHECK_SAMPLES` samples spread evenly over
           it), at least one falls within its time span, and every one that
           does is found in it at the same time with the same reading.
@@ -267,8 +267,8 @@ class Calibration:
         False for a calibration without these fields (made before they
         existed, or without a drift) and for a recording without a gyroscope.
         """
-        fit = self.fit or {}
-        span, check = fit.get("gyroscope_bias_session_s"), fit.get("gyroscope_bias_session_check")
+        fit = self.fit
+        span, check = fit.gyroscope.bias_session_s, fit.gyroscope.bias_session_check
         if span is None or check is None or recording.gyro is None or len(recording) == 0:
             return False
         t = np.asarray(recording.t, dtype=np.float64)
@@ -677,19 +677,23 @@ def check_document(d) -> None:
             raise CalibrationFileError(f"'thermal': reference_c and range_c must be temperatures in "
                                        f"{TEMPERATURE_LIMITS[0]:g}..{TEMPERATURE_LIMITS[1]:g} degC; got "
                                        f"{json.dumps([ref, span])[:80]}")
-    fit = d.get("fit")
-    if fit is not None and not isinstance(fit, dict):
-        raise CalibrationFileError(f"'fit': expected an object (the fit figures); got {_kind(fit)}")
-    if isinstance(fit, dict):
-        if fit.get("verdict") is not None and fit["verdict"] not in _VERDICTS:
-            raise CalibrationFileError(f"'fit.verdict': expected one of {', '.join(_VERDICTS)}; got "
-                                       f"{json.dumps(fit['verdict'])[:40]}")
-        for key in ("verdict_reasons", "verdict_notes"):
-            texts = fit.get(key)
-            if texts is not None and not (isinstance(texts, list) and all(isinstance(r, str) for r in texts)):
-                raise CalibrationFileError(f"'fit.{key}': expected a list of strings")
-            for text in texts or []:
-                _printable(text, f"'fit.{key}'", 2000)
+    flat = d.get("fit")
+    if flat is not None and not isinstance(flat, dict):
+        raise CalibrationFileError(f"'fit': expected an object (the fit figures); got {_kind(flat)}")
+    if isinstance(flat, dict):
+        _check_verdict(FitReport.from_flat(flat).verdict)
+
+
+def _check_verdict(verdict: VerdictReport) -> None:
+    """Refuse a file's verdict that is not one of the three levels, or reasons and notes that are not texts."""
+    if verdict.level is not None and verdict.level not in _VERDICTS:
+        raise CalibrationFileError(f"'fit.verdict': expected one of {', '.join(_VERDICTS)}; got "
+                                   f"{json.dumps(verdict.level)[:40]}")
+    for key, texts in (("verdict_reasons", verdict.reasons), ("verdict_notes", verdict.notes)):
+        if texts is not None and not (isinstance(texts, list) and all(isinstance(r, str) for r in texts)):
+            raise CalibrationFileError(f"'fit.{key}': expected a list of strings")
+        for text in texts or []:
+            _printable(text, f"'fit.{key}'", 2000)
 
 
 #: the largest reading, in calibrated units, any MEMS sensor gives: 1000 g [m/s²] and 1000 rad/s (57 000 °/s)
@@ -804,7 +808,7 @@ def with_bias_session(calibration: Calibration, recording: Recording) -> Calibra
     """``calibration`` with the fit fields that tie its gyroscope bias drift to ``recording``, the one it came from.
 
     For a calibration whose fit found a drifting gyroscope bias
-    (``fit["gyroscope_bias_drift_per_s"]``): ``gyroscope_bias_session_s``, the
+    (``fit.gyroscope.bias_drift_per_s``): ``gyroscope_bias_session_s``, the
     recording's first and last times, and ``gyroscope_bias_session_check``,
     :data:`SESSION_CHECK_SAMPLES` of its samples (time and raw gyroscope
     reading) spread evenly over it, which :meth:`Calibration.is_own_session`
@@ -832,12 +836,12 @@ def with_bias_session(calibration: Calibration, recording: Recording) -> Calibra
         return calibration
     t = np.asarray(recording.t, dtype=np.float64)
     k = np.unique(np.round(np.linspace(0, len(t) - 1, SESSION_CHECK_SAMPLES)).astype(int))
-    t_ref = float(calibration.fit.get("gyroscope_bias_time_s", 0.0))
+    t_ref = float(calibration.fit.gyroscope.bias_time_s or 0.0)
     ends = np.degrees(np.outer([t[0] - t_ref, t[-1] - t_ref], rate))
-    fields = {"gyroscope_bias_session_s": [float(t[0]), float(t[-1])],
-              "gyroscope_bias_session_check": [[float(t[i]), *(float(v) for v in recording.gyro[i])] for i in k],
-              "gyroscope_bias_drift_over_session_deg_s": ends.tolist()}
-    return calibration.with_(fit={**calibration.fit, **fields})
+    session = GyroscopeReport(bias_session_s=[float(t[0]), float(t[-1])],
+                              bias_session_check=[[float(t[i]), *(float(v) for v in recording.gyro[i])] for i in k],
+                              bias_drift_over_session_deg_s=ends.tolist())
+    return calibration.with_(fit=calibration.fit.add(session))
 
 
 def units_of(recording: Recording) -> dict:

@@ -201,14 +201,14 @@ def compare(
 
         try:
             full = fit(intervals, magnetometer=magnetometer)
-            sel = full.fit.get("model_selection")
+            sel = full.fit.method.model_selection
             row["model"] = model or (sel["requested"] if sel else full.model)
             if sel:
                 # the variant is chosen once on all poses; the folds refit that variant
                 row["model_selected"] = sel["selected"]
                 fit = partial(fit, model=sel["selected"], extra={"select": False})
             row["fit"] = {k: v for k, v in full.fit.items() if isinstance(v, int | float)}
-            row["verdict"] = full.fit.get("verdict")
+            row["verdict"] = full.fit.verdict.level
             say(f"{name}: cross-validating on {len(fold_list)} held-out poses")
             cv = leave_one_pose_out(recording, intervals, fit, gravity=gravity, folds=fold_list)
         except (ValueError, np.linalg.LinAlgError) as exc:

@@ -11,7 +11,7 @@ A record holds only the fields given to it: a field not given reads as None and 
 as None is written as ``null`` (``magnetometer_field_error``: a uniform field), so that a file's ``fit`` object
 is exactly the flat one of :meth:`FitReport.to_flat`, read back by :meth:`FitReport.from_flat`. A key no record
 declares (a file from another version) is kept as read in :attr:`FitReport.extra` and written back. Read as a
-mapping, a report is that flat object (``cal.fit["verdict"]``), for scripts written against the flat layout.
+mapping, a report is that flat object (``report["verdict"]``), for scripts written against the flat layout.
 """
 
 from __future__ import annotations
@@ -36,10 +36,25 @@ class _Unset:
 _UNSET: Any = _Unset()
 
 
-def _f(key: str, unit: str, meaning: str) -> Any:
+def _f(key: str, unit: str, meaning: str, *, by_index: bool = False) -> Any:
     """A report field: its key in the file's ``fit`` object, its unit (``""``: a count, a ratio, a name or
-    text; for a list or mapping, its entries' unit) and what it holds, in one sentence."""
-    return field(default=_UNSET, metadata={"key": key, "unit": unit, "meaning": meaning})
+    text; for a list or mapping, its entries' unit) and what it holds, in one sentence. ``by_index``: a
+    mapping by integer index in the record, by the index's text in the file (JSON's keys are texts)."""
+    return field(default=_UNSET, metadata={"key": key, "unit": unit, "meaning": meaning, "by_index": by_index})
+
+
+def _encoded(f, value: Any) -> Any:
+    """A field's value as the file's ``fit`` object holds it."""
+    if f.metadata["by_index"] and isinstance(value, Mapping):
+        return {str(k): v for k, v in value.items()}
+    return value
+
+
+def _decoded(f, value: Any) -> Any:
+    """A field's value from the file's ``fit`` object, as the record holds it."""
+    if f.metadata["by_index"] and isinstance(value, Mapping):
+        return {int(k): v for k, v in value.items()}
+    return value
 
 
 @dataclass(frozen=True)
@@ -74,7 +89,7 @@ class _Group:
 
     def flat(self) -> dict[str, Any]:
         """The given fields by their keys in the file, in their declared order."""
-        return {f.metadata["key"]: getattr(self, f.name) for f in self._declared() if f.name in self.given}
+        return {f.metadata["key"]: _encoded(f, getattr(self, f.name)) for f in self._declared() if f.name in self.given}
 
 
 @dataclass(frozen=True)
@@ -185,8 +200,8 @@ class GyroscopeReport(_Group):
             "pose_table: the raw unit of gyroscope_rest_mean")
     approach: str | None = _f("gyroscope_approach", "",
             "qureshi2017's gyroscope approach (static bias or dynamic)")
-    rotations_left_out: dict | None = _f("rotations_left_out", "",
-            "the rotations left out of the gyroscope fit and why, by index")
+    rotations_left_out: dict[int, str] | None = _f("rotations_left_out", "",
+            "the rotations left out of the gyroscope fit and why, by index", by_index=True)
     rotations_used: list | None = _f("rotations_used", "",
             "qureshi2017: turns used about each axis")
     rotations_rejected: list | None = _f("rotations_rejected", "",
@@ -340,6 +355,7 @@ _RECORDS: dict[str, type[_Group]] = {
 #: a file key → (record's attribute in FitReport, field's attribute in the record)
 _KEYS: dict[str, tuple[str, str]] = {f.metadata["key"]: (g, f.name) for g, r in _RECORDS.items()
                                      for f in r._declared()}
+_FIELDS = {f.metadata["key"]: f for r in _RECORDS.values() for f in r._declared()}
 
 
 def declarations() -> Iterator[tuple[str, str, str, str]]:
@@ -421,7 +437,7 @@ class FitReport(Mapping):
         for key, value in flat.items():
             if key in _KEYS:
                 g, name = _KEYS[key]
-                given[g][name] = value
+                given[g][name] = _decoded(_FIELDS[key], value)
             else:
                 extra[key] = value
         return cls(**{g: r(**given[g]) for g, r in _RECORDS.items()}, extra=extra)
@@ -437,7 +453,7 @@ class FitReport(Mapping):
             g, name = _KEYS[key]
             record = getattr(self, g)
             if name in record.given:
-                return getattr(record, name)
+                return _encoded(_FIELDS[key], getattr(record, name))
         elif key in self.extra:
             return self.extra[key]
         raise KeyError(key)

@@ -285,20 +285,21 @@ def progress(enabled: bool) -> Callable[[str], None] | None:
     return stage_printer(enabled)
 
 
-def print_verdict(result: dict, headline: str, *, advise: bool = False) -> None:
-    """``headline``, then one line per reason of ``result["verdict_reasons"]``, then its notes indented further.
+def print_verdict(verdict, headline: str, *, advise: bool = False) -> None:
+    """``headline``, then one line per reason of ``verdict`` (a :class:`~imucalib.fitreport.VerdictReport`), then
+    its notes indented further.
 
     With ``advise``, a verdict other than accepted is followed by the poses to
-    record next (``result["next_poses"]``) in words.
+    record next (``verdict.next_poses``) in words.
     """
     print(headline)
-    for reason in result.get("verdict_reasons") or []:
+    for reason in verdict.reasons or []:
         print(f"  - {reason}")
-    if advise and result.get("verdict") != "accepted" and result.get("next_poses"):
+    if advise and verdict.level != "accepted" and verdict.next_poses:
         from ..plans import describe_poses
 
-        print(f"  record next: {describe_poses(result['next_poses'])}")
-    for note in result.get("verdict_notes") or []:
+        print(f"  record next: {describe_poses(verdict.next_poses)}")
+    for note in verdict.notes or []:
         print(f"      note: {note}")
 
 
@@ -307,9 +308,9 @@ def check_verdict(calibration, path, force: bool) -> None:
 
     A calibration without a verdict (a file from before verdicts) is used as it is.
     """
-    fit = calibration.fit or {}
-    verdict = fit.get("verdict")
-    reasons = "; ".join(fit.get("verdict_reasons") or []) or "no reason recorded"
+    fit = calibration.fit
+    verdict = fit.verdict.level
+    reasons = "; ".join(fit.verdict.reasons or []) or "no reason recorded"
     if verdict == "rejected" and not force:
         raise CliError(f"the calibration in {path} was rejected when it was made: {reasons}. Calibrate again, "
                        "or pass --force to use it all the same")

@@ -60,12 +60,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..assembly import assemble, rest_seconds
 from ..calibration import Calibration, units_of
 from ..fit.accelerometer import GravityNormFit, accelerometer_covariance, gravity_norm_fit
 from ..fit.gyroscope import GyroFit, fit_gyroscope
+from ..fitreport import FitReport, GyroscopeReport, MethodReport
 from ..kinematics import IntervalIntegrator, five_point_derivative, quat_to_matrix, segmented_five_point, skew
 from ..methodinfo import MethodInfo, Option
-from ..metrics import fit_summary, interval_means, transition_bounds
+from ..metrics import interval_means, transition_bounds
 from ..models import AXES, TriadModel, misalignment_entries
 from ..presets import MIN_HOLD
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
@@ -842,7 +844,7 @@ def calibrate(
         parameters exceeds this [m/s²] are not free fall and are dropped.
     select : bool
         Without weightless data, also fit the simpler variants and return the
-        one Akaike's criterion (small-sample corrected, :func:`_criterion`) prefers (``fit["model_selection"]``
+        one Akaike's criterion (small-sample corrected, :func:`_criterion`) prefers (``fit.method.model_selection``
         says which), among the variants the poses can carry: never one with so few
         poses per accelerometer parameter that the verdict rejects it.
     detector : {"accelerometer", "gyroscope"}
@@ -938,22 +940,16 @@ def calibrate(
         chosen = cands[best]
     else:
         chosen = stages(layout)
-    cal = _stage_calibration(chosen, gravity, recording).with_(
-        method="zhang2021", model=model if selection is None else selection["selected"])
-    fit = fit_summary(cal, recording, static, gravity)
-    fit |= chosen.gyro.summary()
-    fit["uncertainty"] = chosen.errors
-    fit["iterations"] = chosen.iterations
-    fit["converged"] = chosen.converged
-    fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
-    if selection is not None:
-        fit["model_selection"] = selection
-    return cal.with_(fit=fit)
+    method = MethodReport(iterations=chosen.iterations, converged=chosen.converged)
+    return assemble("zhang2021", recording, static, chosen.acc, chosen.gyroscope, gravity=gravity,
+                    model=model if selection is None else selection["selected"], uncertainty=chosen.errors,
+                    figures=[chosen.gyro.report(), rest_seconds(recording, rest),
+                             method if selection is None else method.with_(model_selection=selection)])
 
 
 def _stage_calibration(st: _Stages, gravity: float, recording: Recording) -> Calibration:
     return Calibration(accelerometer=st.acc, gyroscope=st.gyroscope, gravity=gravity,
-                       units=units_of(recording), fit={"converged": st.converged})
+                       units=units_of(recording), fit=FitReport.of(MethodReport(converged=st.converged)))
 
 
 def _tosses(recording: Recording, weightless, rest: Interval, step1: _Stages, fall_threshold: float):
@@ -1008,20 +1004,16 @@ def _joint(recording: Recording, static: list[Interval], rest: Interval, layout:
     acc, gyro, r = layout.models(sol.x)
     cal = Calibration(accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity, method="zhang2021",
                       model=model, units=units_of(recording))
-    fit = fit_summary(cal, recording, static, gravity)
-    fit |= step1.gyro.summary()
-    fit["gyroscope_g_sensitivity"] = "estimated" if layout.with_g else "none"
-    fit["weights"] = {k: float(np.mean(v)) for k, v in c.items()}  # means over intervals
-    fit["cost"] = float(sol.cost)
-    # 1σ errors from the weighted Jacobian at the solution, σ² from the weighted residuals of each cost term
-    fit["uncertainty"] = _joint_errors(layout, sol, c, m)
-    fit["iterations"] = int(sol.njev)
-    fit["converged"] = bool(sol.success)
-    fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
-    fit["weightless_segments"] = len(weightless)
     cal_w = cal.apply(Recording(np.arange(wl_acc.shape[0]) * dt, wl_acc, wl_gyro,
                                 acc_unit=recording.acc_unit, gyro_unit=recording.gyro_unit))
     wd = segmented_five_point(cal_w.gyro, wl_starts, wl_stops, dt)
     e4 = cal_w.acc - lever_arm_matrix(cal_w.gyro, wd) @ r
-    fit["weightless_residual_rms"] = float(np.sqrt(np.mean(np.sum(e4**2, axis=1))))
-    return cal.with_(fit=fit)
+    figures = [step1.gyro.report(), GyroscopeReport(g_sensitivity="estimated" if layout.with_g else "none"),
+               MethodReport(weights={k: float(np.mean(v)) for k, v in c.items()},  # means over intervals
+                            cost=float(sol.cost), iterations=int(sol.njev), converged=bool(sol.success),
+                            weightless_segments=len(weightless),
+                            weightless_residual_rms=float(np.sqrt(np.mean(np.sum(e4**2, axis=1))))),
+               rest_seconds(recording, rest)]
+    # 1σ errors from the weighted Jacobian at the solution, σ² from the weighted residuals of each cost term
+    return assemble("zhang2021", recording, static, acc, gyro, gravity=gravity, model=model, lever_arm=r,
+                    figures=figures, uncertainty=_joint_errors(layout, sol, c, m))
