@@ -148,8 +148,7 @@ def calibrate(
         leave it out as Tedaldi 2014 does (False), or keep it where the poses
         support it ("auto", :func:`imucalib.fit.gyroscope.static_gyro`).
     intervals : list of Interval, optional
-        Static intervals to use instead of detecting them (the first one is
-        then taken as the initial rest).
+        Static intervals to use instead of detecting them (the first one is then taken as the initial rest).
     progress : callable, optional
         Called with a short message at each stage.
 
@@ -157,11 +156,10 @@ def calibrate(
     -------
     Calibration
         ``fit`` holds the figures every method gives (``docs/architecture.rst``) plus ``threshold_multiplier`` and
-        ``initial_rest_seconds``. Without a gyroscope (accelerometer-only
-        recording), without rotations recorded (poses in blocks), or when no
-        rotation is reliable (:func:`imucalib.segment.no_usable_rotations`:
-        saturated, spiking or gapped rotations are left out), the calibration
-        has no gyroscope and ``fit.gyroscope.not_calibrated`` says why.
+        ``initial_rest_seconds``. Without a gyroscope (accelerometer-only recording), without rotations recorded
+        (poses in blocks), or when no rotation is reliable (:func:`imucalib.segment.no_usable_rotations`:
+        saturated, spiking or gapped rotations are left out), the calibration has no gyroscope and
+        ``fit.gyroscope.not_calibrated`` says why.
     """
     say = progress or (lambda msg: None)
     say("detecting static intervals")
@@ -171,23 +169,14 @@ def calibrate(
             window=window, min_interval=min_interval,
         )
     else:
-        intervals = [iv for iv in intervals if iv.kind == "static"]
-        mult, rest = float("nan"), intervals[0]
-        if len(intervals) >= MIN_INTERVALS:
-            acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
+        intervals, mult, rest, acc_model = _given(recording, intervals, gravity)
     means = interval_means(recording.acc, intervals)
-    which = reduced = None
-    if len(intervals) < MIN_INTERVALS:  # few poses: the model they determine (the full one from 9 spread poses)
-        acc_model, _, which = fit_determined(means, gravity)
-    else:
-        reduced = undetermined_misalignment(acc_model, means, gravity, recording)
-        if reduced:  # a misalignment the poses do not determine is held at none rather than guessed
-            acc_model, _, which = fit_determined(means, gravity, richest="scale and bias per axis")
-    if recording.gyro is None or pose_blocks(recording) is not None:  # no gyroscope, or no rotations recorded
-        return _accelerometer_alone(recording, intervals, acc_model, which, gravity, mult, rest, reduced=reduced)
-    exclude = unreliable_transitions(recording, intervals)
-    why = no_usable_rotations(intervals, exclude)
-    if why:  # nothing to fit the gyroscope to: the accelerometer's calibration, and why
+    acc_model, which, reduced = _determined(recording, means, gravity,
+                                            acc_model if len(intervals) >= MIN_INTERVALS else None)
+    blocks = recording.gyro is None or pose_blocks(recording) is not None  # no gyroscope, or no rotations recorded
+    exclude = {} if blocks else unreliable_transitions(recording, intervals)
+    why = None if blocks else no_usable_rotations(intervals, exclude)
+    if blocks or why:  # nothing to fit the gyroscope to: the accelerometer's calibration, and why
         return _accelerometer_alone(recording, intervals, acc_model, which, gravity, mult, rest, why, exclude,
                                     reduced=reduced)
     say("calibrating the gyroscope")
@@ -210,6 +199,31 @@ def _figures(recording: Recording, intervals: list[Interval], acc_model, which, 
     if reduced:
         out.append(AccelerometerReport(model_reduced=reduced))
     return out
+
+
+def _given(recording: Recording, intervals: list[Interval], gravity: float) -> tuple:
+    """The static intervals given, as :func:`detect_intervals` returns those it finds (no detector threshold,
+    the first interval the rest, the full linear model only from :data:`MIN_INTERVALS` poses)."""
+    intervals = [iv for iv in intervals if iv.kind == "static"]
+    acc_model = None
+    if len(intervals) >= MIN_INTERVALS:
+        acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
+    return intervals, float("nan"), intervals[0], acc_model
+
+
+def _determined(recording: Recording, means: np.ndarray, gravity: float, acc_model) -> tuple:
+    """The accelerometer model the poses determine: ``acc_model`` (the full linear model, None for fewer than
+    :data:`MIN_INTERVALS` poses), or the reduced one of :func:`fit_determined`, with which it is (None: the full
+    one) and why its misalignment is held at none (None: it is not)."""
+    if acc_model is None:  # few poses: the model they determine (the full one from 9 spread poses)
+        acc_model, _, which = fit_determined(means, gravity)
+        return acc_model, which, None
+    reduced = undetermined_misalignment(acc_model, means, gravity, recording)
+    if not reduced:
+        return acc_model, None, None
+    # a misalignment the poses do not determine is held at none rather than guessed
+    acc_model, _, which = fit_determined(means, gravity, richest="scale and bias per axis")
+    return acc_model, which, reduced
 
 
 def undetermined_misalignment(acc_model, means: np.ndarray, gravity: float, recording: Recording) -> str | None:
