@@ -18,11 +18,12 @@ from typing import Any
 
 import numpy as np
 
+from .constants import STANDARD_GRAVITY, earth_gravity_text
 from .fitreport import FitReport, GyroscopeReport, VerdictReport
 from .io.atomic import atomic_write
 from .io.jsontext import SmallFileError, dumps, jsonable, read_json
 from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
-from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, ImucalibWarning, Recording
+from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, ImucalibWarning, Recording
 from .thermal import ThermalModel
 
 __all__ = ["BIAS_DRIFT", "DEVICE_MAX_CHARS", "DRIFT_NOTICE_DEG_S", "FULL_SCALE", "Calibration", "CalibrationFileError",
@@ -741,7 +742,7 @@ def check_magnitudes(calibration: Calibration) -> None:
     lo, hi = GRAVITY_LIMITS
     if not lo <= calibration.gravity <= hi:
         raise CalibrationFileError(f"'gravity': {calibration.gravity:g} m/s^2 is not a gravity (expected "
-                                   f"{lo:g}-{hi:g} m/s^2; the Earth's is 9.78-9.83)")
+                                   f"{lo:g}-{hi:g} m/s^2; the Earth's is {earth_gravity_text()})")
     cals = [("", calibration)]
     if calibration.thermal is not None:
         from .thermal import evaluate

@@ -40,10 +40,11 @@ from functools import partial
 
 import numpy as np
 
+from .constants import STANDARD_GRAVITY
 from .crossval import leave_one_pose_out
 from .methods import calibrate, method_names
 from .presets import MIN_HOLD
-from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
+from .recording import ImucalibWarning, Interval, Recording
 
 __all__ = ["DEFAULT_MODELS", "RANKED_BY", "compare", "even_folds", "rank", "tied_best"]
 
@@ -207,7 +208,7 @@ def compare(
                 # the variant is chosen once on all poses; the folds refit that variant
                 row["model_selected"] = sel["selected"]
                 fit = partial(fit, model=sel["selected"], extra={"select": False})
-            row["fit"] = {k: v for k, v in full.fit.items() if isinstance(v, int | float)}
+            row["fit"] = {k: v for k, v in full.fit.to_flat().items() if isinstance(v, int | float)}
             row["verdict"] = full.fit.verdict.level
             say(f"{name}: cross-validating on {len(fold_list)} held-out poses")
             cv = leave_one_pose_out(recording, intervals, fit, gravity=gravity, folds=fold_list)

@@ -26,7 +26,7 @@ import numpy as np
 from .calibration import Calibration
 from .fitreport import FitReport
 from .metrics import fit_summary, gap_flags
-from .presets import MIN_HOLD, VALIDATE_MULTIPLIER, hold_settings
+from .presets import MIN_HOLD, VALIDATE_MIN_POSES, VALIDATE_MULTIPLIER, hold_settings
 from .recording import ImucalibWarning, Interval, Recording
 from .segment import gyro_still, initial_rest, static_at, still_intervals
 from .thermal import compensate
@@ -45,7 +45,7 @@ RAW_KEYS = ("accelerometer_residual_rms_raw", "gyroscope_angle_error_mean_deg_ra
 #: the accelerometer detector's threshold, in multiples of the initial rest's variance norm
 THRESHOLD_MULTIPLIER = VALIDATE_MULTIPLIER
 #: the fewest static poses (the initial rest included) a validation needs
-MIN_POSES = 2
+MIN_POSES = VALIDATE_MIN_POSES
 
 
 def find_poses(calibration: Calibration, recording: Recording, *, init_static: float | None = None,

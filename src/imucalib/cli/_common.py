@@ -11,7 +11,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
-from ..constants import GRAVITY_RANGE, STANDARD_GRAVITY
+from ..constants import GRAVITY_RANGE, STANDARD_GRAVITY, earth_gravity_text
 from ..presets import MIN_HOLD
 from ..printable import printable
 from ..progress import Progress, stage_printer
@@ -58,7 +58,7 @@ def gravity_value(text: str) -> float:
     g = positive_float(text)
     if not GRAVITY_LIMITS[0] <= g <= GRAVITY_LIMITS[1]:
         raise argparse.ArgumentTypeError(f"{text} m/s^2 is not a gravity (expected {GRAVITY_LIMITS[0]:g}-"
-                                         f"{GRAVITY_LIMITS[1]:g} m/s^2; the Earth's is 9.78-9.83)")
+                                         f"{GRAVITY_LIMITS[1]:g} m/s^2; the Earth's is {earth_gravity_text()})")
     lo, hi = GRAVITY_RANGE
     if not lo <= g <= hi:
         show_warning(f"--gravity {text}: {g:g} m/s^2 is outside {lo}-{hi} m/s^2, the gravity on the Earth's "
@@ -372,7 +372,6 @@ def load_calibration(path: str, recording, gravity: float | None):
     if not str(path).endswith(".calib"):
         return Calibration.load(path)
     from ..export.imutk import from_imutk, imutk_pair
-    from ..recording import STANDARD_GRAVITY
 
     acc, gyro = imutk_pair(path)
     return from_imutk(acc, gyro if recording.gyro is not None else None, acc_unit=recording.acc_unit,

@@ -24,6 +24,7 @@ from ..fitreport import GyroscopeReport
 from ..kinematics import IntervalIntegrator, angle_between, quat_from_rotvec, quat_to_matrix
 from ..metrics import interval_means, rowwise, transition_bounds
 from ..models import AXES, TriadModel
+from ..presets import GYRO_MIN_POSES
 from ..recording import Interval, Recording
 from ..residuals import (
     AccelLayout,
@@ -41,7 +42,7 @@ __all__ = ["MIN_POSES", "SIGNED_PERMUTATIONS", "GyroFit", "StaticGyro", "acceler
            "joint_errors_at", "joint_problem", "rotation_angles", "rough_scale", "static_gyro", "transition_errors"]
 
 #: the fewest static poses a gravity-direction fit takes
-MIN_POSES = 4
+MIN_POSES = GYRO_MIN_POSES
 
 
 def _gyro_scale_guess(

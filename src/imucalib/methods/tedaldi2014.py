@@ -35,6 +35,7 @@ import numpy as np
 
 from ..assembly import POSES_IN_BLOCKS, assemble, rest_seconds
 from ..calibration import Calibration, units_of
+from ..constants import STANDARD_GRAVITY
 from ..fit.accelerometer import (
     accelerometer_covariance,
     accelerometer_errors,
@@ -46,8 +47,8 @@ from ..fit.gyroscope import errors_at, fit_gyroscope, joint_errors_at, static_gy
 from ..fitreport import AccelerometerReport, SegmentationReport
 from ..methodinfo import MethodInfo, Option
 from ..metrics import interval_means
-from ..presets import MIN_HOLD, MULTIPLIERS
-from ..recording import STANDARD_GRAVITY, Interval, Recording
+from ..presets import FULL_MODEL_POSES, MIN_HOLD, MULTIPLIERS
+from ..recording import Interval, Recording
 from ..segment import detect_intervals, no_usable_rotations, pose_blocks, unreliable_transitions
 
 METHOD = MethodInfo(
@@ -76,8 +77,6 @@ METHOD = MethodInfo(
 )
 
 __all__ = ["calibrate", "uncertainty"]
-
-MIN_INTERVALS = 9
 
 
 def uncertainty(recording: Recording, intervals: list[Interval], calibration: Calibration) -> dict[str, float]:
@@ -172,7 +171,7 @@ def calibrate(
         intervals, mult, rest, acc_model = _given(recording, intervals, gravity)
     means = interval_means(recording.acc, intervals)
     acc_model, which, reduced = _determined(recording, means, gravity,
-                                            acc_model if len(intervals) >= MIN_INTERVALS else None)
+                                            acc_model if len(intervals) >= FULL_MODEL_POSES else None)
     blocks = recording.gyro is None or pose_blocks(recording) is not None  # no gyroscope, or no rotations recorded
     exclude = {} if blocks else unreliable_transitions(recording, intervals)
     why = None if blocks else no_usable_rotations(intervals, exclude)
@@ -203,17 +202,17 @@ def _figures(recording: Recording, intervals: list[Interval], acc_model, which, 
 
 def _given(recording: Recording, intervals: list[Interval], gravity: float) -> tuple:
     """The static intervals given, as :func:`detect_intervals` returns those it finds (no detector threshold,
-    the first interval the rest, the full linear model only from :data:`MIN_INTERVALS` poses)."""
+    the first interval the rest, the full linear model only from :data:`FULL_MODEL_POSES` poses)."""
     intervals = [iv for iv in intervals if iv.kind == "static"]
     acc_model = None
-    if len(intervals) >= MIN_INTERVALS:
+    if len(intervals) >= FULL_MODEL_POSES:
         acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
     return intervals, float("nan"), intervals[0], acc_model
 
 
 def _determined(recording: Recording, means: np.ndarray, gravity: float, acc_model) -> tuple:
     """The accelerometer model the poses determine: ``acc_model`` (the full linear model, None for fewer than
-    :data:`MIN_INTERVALS` poses), or the reduced one of :func:`fit_determined`, with which it is (None: the full
+    :data:`FULL_MODEL_POSES` poses), or the reduced one of :func:`fit_determined`, with which it is (None: the full
     one) and why its misalignment is held at none (None: it is not)."""
     if acc_model is None:  # few poses: the model they determine (the full one from 9 spread poses)
         acc_model, _, which = fit_determined(means, gravity)

@@ -62,6 +62,7 @@ import numpy as np
 
 from ..assembly import assemble, rest_seconds
 from ..calibration import Calibration, units_of
+from ..constants import STANDARD_GRAVITY
 from ..fit.accelerometer import GravityNormFit, accelerometer_covariance, gravity_norm_fit
 from ..fit.gyroscope import GyroFit, fit_gyroscope
 from ..fit.zhang_cost import (
@@ -81,8 +82,8 @@ from ..kinematics import five_point_derivative, segmented_five_point
 from ..methodinfo import MethodInfo, Option
 from ..metrics import interval_means
 from ..models import TriadModel
-from ..presets import MIN_HOLD
-from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
+from ..presets import MIN_HOLD, MIN_INTERVALS
+from ..recording import ImucalibWarning, Interval, Recording
 from ..segment import (
     detect_intervals,
     detect_static_gyro,
@@ -127,9 +128,6 @@ __all__ = [
     "lever_arm_matrix",
     "weights",
 ]
-
-#: the fewest static poses (the initial rest included) a calibration takes
-MIN_INTERVALS = 10
 
 
 
