@@ -547,18 +547,17 @@ def _joint(recording: Recording, static: list[Interval], rest: Interval, layout:
                                   max_iter=max_iter, drift=_drift(step1.gyro))
     m = len(static)
     acc, gyro, r = layout.models(sol.x)
-    cal = Calibration(accelerometer=acc, gyroscope=gyro, lever_arm=r, gravity=gravity, method="zhang2021",
-                      model=model, units=units_of(recording))
-    cal_w = cal.apply(Recording(np.arange(wl_acc.shape[0]) * dt, wl_acc, wl_gyro,
-                                acc_unit=recording.acc_unit, gyro_unit=recording.gyro_unit))
-    wd = segmented_five_point(cal_w.gyro, wl_starts, wl_stops, dt)
-    e4 = cal_w.acc - lever_arm_matrix(cal_w.gyro, wd) @ r
     figures = [step1.gyro.report(), GyroscopeReport(g_sensitivity="estimated" if layout.with_g else "none"),
                MethodReport(weights={k: float(np.mean(v)) for k, v in c.items()},  # means over intervals
                             cost=float(sol.cost), iterations=int(sol.njev), converged=bool(sol.success),
-                            weightless_segments=len(weightless),
-                            weightless_residual_rms=float(np.sqrt(np.mean(np.sum(e4**2, axis=1))))),
+                            weightless_segments=len(weightless)),
                rest_seconds(recording, rest)]
     # 1σ errors from the weighted Jacobian at the solution, σ² from the weighted residuals of each cost term
-    return assemble("zhang2021", recording, static, acc, gyro, gravity=gravity, model=model, lever_arm=r,
-                    figures=figures, uncertainty=joint_errors(layout, sol, c, m))
+    cal = assemble("zhang2021", recording, static, acc, gyro, gravity=gravity, model=model, lever_arm=r,
+                   figures=figures, uncertainty=joint_errors(layout, sol, c, m))
+    cal_w = cal.apply(Recording(np.arange(wl_acc.shape[0]) * dt, wl_acc, wl_gyro,  # the constant bias, as fitted
+                                acc_unit=recording.acc_unit, gyro_unit=recording.gyro_unit), bias_drift="off")
+    wd = segmented_five_point(cal_w.gyro, wl_starts, wl_stops, dt)
+    e4 = cal_w.acc - lever_arm_matrix(cal_w.gyro, wd) @ r
+    rms = float(np.sqrt(np.mean(np.sum(e4**2, axis=1))))
+    return cal.with_(fit=cal.fit.add(MethodReport(weightless_residual_rms=rms)))
