@@ -11,6 +11,7 @@ from imucalib.calibration import FORMAT_VERSION, Calibration
 from imucalib.fitreport import (
     AccelerometerReport,
     FitReport,
+    GyroscopeReport,
     MagnetometerReport,
     SegmentationReport,
     VerdictReport,
@@ -39,6 +40,10 @@ def test_a_version_1_file_loads_into_the_records_and_writes_the_same_fit():
     # a field written as null stays given (and written), one never given stays out
     assert doc["fit"]["magnetometer_field_error"] is None and "field_error" in fit.magnetometer.given
     assert "magnetometer_error" not in doc["fit"] and "error" not in fit.magnetometer.given
+    # the rotations left out by index: integers in the record, their texts in the file (JSON's keys)
+    left = fit.gyroscope.rotations_left_out
+    assert left and {str(k): v for k, v in left.items()} == doc["fit"]["rotations_left_out"]
+    assert all(isinstance(k, int) for k in left)
     again = json.loads(cal.to_json())
     assert again["format_version"] == FORMAT_VERSION == 2
     assert again["fit"] == doc["fit"]
@@ -71,3 +76,18 @@ def test_records_are_added_field_by_field():
 def test_the_flat_table_is_derived_from_the_records():
     assert [(f.name, f.unit, f.meaning, f.group) for f in FIELDS] == list(declarations())
     assert len(FIELDS) > 80 and len({f.name for f in FIELDS}) == len(FIELDS)
+
+
+def test_a_mapping_by_index_is_integers_in_the_record_and_texts_in_the_file():
+    report = FitReport.of(GyroscopeReport(rotations_left_out={12: "a spike", 3: "a gap"}))
+    assert report.to_flat() == {"rotations_left_out": {"12": "a spike", "3": "a gap"}}
+    assert report["rotations_left_out"] == {"12": "a spike", "3": "a gap"}
+    back = FitReport.from_flat(json.loads(json.dumps(report.to_flat())))
+    assert back.gyroscope.rotations_left_out == {12: "a spike", 3: "a gap"} and back == report
+
+
+def test_unknown_keys_are_kept_in_extra_and_written_back_after_the_records():
+    report = FitReport.from_flat({"a_future_figure": [1, 2], "verdict": "accepted"})
+    assert report.extra == {"a_future_figure": [1, 2]} and report.verdict.level == "accepted"
+    assert list(report.to_flat()) == ["verdict", "a_future_figure"]
+    assert FitReport.undeclared({"a_future_figure": 1, "verdict": "x"}) == ["a_future_figure"]
