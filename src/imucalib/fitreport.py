@@ -59,7 +59,11 @@ def _decoded(f, value: Any) -> Any:
 
 @dataclass(frozen=True)
 class _Group:
-    """A stage's record: the fields given, each None when not given."""
+    """A stage's record: the fields given, each None when not given.
+
+    ``given`` names the fields given (those written to the file). A copy with changes is :meth:`with_`
+    (``dataclasses.replace`` would give every field, the ones not given as ``null``).
+    """
 
     given: frozenset = field(default=frozenset(), init=False, repr=False)
 
