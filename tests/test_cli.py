@@ -33,7 +33,7 @@ def test_calibrate_json_and_apply(capsys, tmp_path, session_csv):
     code, out, err = run(capsys, "calibrate", path, "--json", "-o", tmp_path / "c.json")
     assert code == 0, err
     doc = json.loads(out)  # stdout holds the JSON and nothing else
-    assert doc["format"] == "imucalib.calibration" and doc["format_version"] == 1
+    assert doc["format"] == "imucalib.calibration" and doc["format_version"] == 2
     assert doc["fit"]["static_intervals"] == 25
     cal = Calibration.load(tmp_path / "c.json")
     np.testing.assert_allclose(cal.accelerometer.scale, truth.accelerometer.scale, rtol=2e-3)

@@ -86,9 +86,9 @@ def test_json_round_trip(tmp_path):
     back = Calibration.load(tmp_path / "c.json")
     assert back.parameters() == cal.parameters()
     assert back.fit == {"static_intervals": 40}
-    (tmp_path / "v2.json").write_text('{"format": "imucalib.calibration", "format_version": 2}')
-    with pytest.raises(ValueError, match="format_version 2 is not supported"):
-        Calibration.load(tmp_path / "v2.json")
+    (tmp_path / "v3.json").write_text('{"format": "imucalib.calibration", "format_version": 3}')
+    with pytest.raises(ValueError, match="format_version 3 is not supported"):
+        Calibration.load(tmp_path / "v3.json")
 
 
 def test_invalid_models_are_refused():

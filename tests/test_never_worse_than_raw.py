@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from imucalib import Calibration, Recording
+from imucalib.fitreport import FitReport, UncertaintyReport
 from imucalib.methods import calibrate
 from imucalib.metrics import gravity_direction_errors
 from imucalib.models import TriadModel
@@ -116,7 +117,7 @@ def test_the_seed_once_suspect_while_worse_than_raw_is_rejected_with_both_figure
     # without the comparison with the raw readings the same checks find it only suspect
     import imucalib.verdict
 
-    monkeypatch.setattr(imucalib.verdict, "raw_checks", lambda calibration, found, fitted: ([], {}))
+    monkeypatch.setattr(imucalib.verdict, "raw_checks", lambda calibration, found, fitted: ([], FitReport()))
     without = assess(cal.with_(fit={k: v for k, v in fit.items() if not k.startswith("verdict")}), rec)
     assert without["verdict"] == "suspect"
     assert without["verdict_reasons"] == [r for r in fit["verdict_reasons"] if r != reason]
@@ -274,7 +275,7 @@ def test_calibrate_and_validate_judge_the_same_rotations_and_residual_alike():
     iv = [Interval(int(a), int(b)) for a, b in exact.fit["intervals"]]
     # the z scale 2 % off: the residual over the faces tens of times the noise floor
     off = exact.with_(accelerometer=exact.accelerometer.with_(scale=exact.accelerometer.scale * [1, 1, 1.02]))
-    fit = fit_summary(off, sim.recording, iv) | {"uncertainty_unavailable": exact.fit.get("uncertainty_unavailable")}
+    fit = fit_summary(off, sim.recording, iv).add(UncertaintyReport(unavailable=exact.fit.uncertainty.unavailable))
     assert fit["accelerometer_residual_to_noise"] > 40
     made = assess(off.with_(fit=fit), sim.recording, iv)
     checked = assess(off.with_(fit=fit), sim.recording, iv, purpose="validate")

@@ -44,7 +44,8 @@ def test_a_command_imports_only_what_it_runs(tmp_path):
     Calibration(TriadModel(), TriadModel(), method="tedaldi2014", model="linear").save(path)
     loaded = _modules_after(f"from imucalib.cli import main\nmain(['export', {str(path)!r}, '--format', 'c'])")
     assert not loaded & set(HEAVY)
-    assert not {m for m in loaded if m.startswith(("imucalib.scenarios", "imucalib.fit", "imucalib.methods"))}
+    assert not {m for m in loaded if m.split(".")[:2] in (["imucalib", "scenarios"], ["imucalib", "fit"],
+                                                           ["imucalib", "methods"])}  # (fitreport is the record)
 
 
 @pytest.mark.parametrize("argv", [["calibrate", "--help"], ["--version"]])

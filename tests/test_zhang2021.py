@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from imucalib.calibration import Calibration
+from imucalib.fit import zhang_cost
 from imucalib.methods import zhang2021
 from imucalib.recording import ImucalibWarning, Interval, Recording
 from synth import table1_truth, tedaldi_session, weightless_segments
@@ -51,18 +52,18 @@ def test_noise_free_all_45_parameters_recovered(truth, noise_free):
 def test_jacobian_matches_finite_differences(truth, noise_free):
     rec, iv, wl = noise_free
     captured = {}
-    original = zhang2021.levenberg_marquardt
+    original = zhang_cost.levenberg_marquardt  # the solver of eq. (21)
 
     def spy(fun, jac, x0, **kw):
         captured.update(fun=fun, jac=jac, x0=x0)
         return original(fun, jac, x0, **kw)
 
-    zhang2021.levenberg_marquardt = spy
+    zhang_cost.levenberg_marquardt = spy
     try:
         zhang2021.calibrate(rec, weightless=wl[:10], model="all", gravity=truth.gravity,
                             intervals=iv, noise_weights=False, max_iter=1)
     finally:
-        zhang2021.levenberg_marquardt = original
+        zhang_cost.levenberg_marquardt = original
     fun, jac, x = captured["fun"], captured["jac"], captured["x0"]
     j = jac(x)
     h = 1e-6 * np.maximum(np.abs(x), 1e-4)

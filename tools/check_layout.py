@@ -57,13 +57,13 @@ FLOORS_PACKAGE = "imucalib"
 FLOORS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("foundations", "units, records, models, rotations, solvers, residuals, pose plans, method declarations, "
      "the fit report's fields",
-     ("constants", "presets", "methodinfo", "reportfields", "recording", "conventions", "models", "kinematics", "solve",
-      "residuals", "metrics", "plans", "progress", "printable")),
+     ("constants", "presets", "methodinfo", "fitreport", "reportfields", "recording", "conventions", "models",
+      "kinematics", "solve", "residuals", "metrics", "plans", "progress", "printable")),
     ("readers", "files and streams in and out", ("io",)),
     ("estimators", "segmentation, fits, thermal models, noise, verdict",
      ("fit", "segment", "thermal", "verdict", "noise")),
-    ("calibration", "the calibration record, its exports and reports", ("calibration", "export", "report",
-                                                                        "upright")),
+    ("calibration", "the calibration record, its exports and reports", ("calibration", "calibfile", "assembly",
+                                                                        "export", "report", "upright")),
     ("sessions", "the simulated sessions (their truth is a calibration); reading any input the command line takes",
      ("sessions", "reading")),
     ("simulators", "simulated sessions with their truth", ("scenarios",)),

@@ -555,11 +555,11 @@ def run_row(task: dict) -> dict:
             out["notes"] = [row_message(ValueError(str(w.message)), replace, row.files, heads) for w in caught
                             if issubclass(w.category, ImucalibWarning)]
             cal = cal.with_(device=row.device)
-            verdict = (cal.fit or {}).get("verdict")
+            verdict = cal.fit.verdict.level
             out["calibration"] = cal.to_json()
             out["verdict"] = verdict
             if verdict == "rejected":
-                reasons = "; ".join(cal.fit.get("verdict_reasons") or []) or "no reason recorded"
+                reasons = "; ".join(cal.fit.verdict.reasons or []) or "no reason recorded"
                 out["error"] = f"the calibration is rejected: {reasons}"
             else:
                 out["status"] = "ok"

@@ -40,10 +40,11 @@ from functools import partial
 
 import numpy as np
 
+from .constants import STANDARD_GRAVITY
 from .crossval import leave_one_pose_out
 from .methods import calibrate, method_names
 from .presets import MIN_HOLD
-from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
+from .recording import ImucalibWarning, Interval, Recording
 
 __all__ = ["DEFAULT_MODELS", "RANKED_BY", "compare", "even_folds", "rank", "tied_best"]
 
@@ -198,44 +199,48 @@ def compare(
 
         chosen = [m for m in chosen if m in ACCELEROMETER_ONLY]
     fold_list = even_folds(len(intervals), folds)
-    rows = []
-    for name in chosen:
-        model = DEFAULT_MODELS.get(name)
-        row = {"method": name, "model": model, "ok": False, "reason": None, "verdict": None,
-               "cv_accelerometer_residual_rms": None, "cv_gyroscope_angle_error_mean_deg": None}
-        say(f"{name}: calibrating")
-
-        def fit(training, name=name, model=model, extra=None, magnetometer=False):
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", ImucalibWarning)
-                return calibrate(recording, method=name, model=model, gravity=gravity,
-                                 intervals=training, magnetometer=magnetometer, **(extra or {}))
-
-        try:
-            full = fit(intervals, magnetometer=magnetometer)
-            sel = full.fit.get("model_selection")
-            row["model"] = model or (sel["requested"] if sel else full.model)
-            if sel:
-                # the variant is chosen once on all poses; the folds refit that variant
-                row["model_selected"] = sel["selected"]
-                fit = partial(fit, model=sel["selected"], extra={"select": False})
-            row["fit"] = {k: v for k, v in full.fit.items() if isinstance(v, int | float)}
-            row["verdict"] = full.fit.get("verdict")
-            say(f"{name}: cross-validating on {len(fold_list)} held-out poses")
-            cv = leave_one_pose_out(recording, intervals, fit, gravity=gravity, folds=fold_list)
-        except (ValueError, np.linalg.LinAlgError) as exc:
-            row["reason"] = str(exc)
-            rows.append(row)
-            continue
-        row.update(ok=True, cv_accelerometer_residual_rms=cv["cv_accelerometer_residual_rms"],
-                   cv_gyroscope_angle_error_mean_deg=cv["cv_gyroscope_angle_error_mean_deg"],
-                   cv_folds=cv["folds"], cv_folds_skipped=len(cv["folds_skipped"]))
-        rows.append(row)
+    rows = [_method_row(recording, intervals, fold_list, name, gravity, magnetometer, say) for name in chosen]
     ranked, best = rank(rows)
     return {"static_intervals": len(intervals), "folds": len(fold_list), "best": best, "tied": tied_best(ranked),
             "ranked_by": RANKED_BY, "methods": ranked,
             "peers": [_score_peer(recording, intervals, fold_list, name, cal, gravity)
                       for name, cal in (peers or {}).items()]}
+
+
+def _method_row(recording: Recording, intervals: list[Interval], fold_list: list[int], name: str, gravity: float,
+                magnetometer: bool, say: Callable[[str], None]) -> dict:
+    """One method's row of :func:`compare`: its calibration on all poses, then cross-validated on ``fold_list``
+    (``ok`` False and the ``reason`` when it cannot calibrate the recording)."""
+    model = DEFAULT_MODELS.get(name)
+    row = {"method": name, "model": model, "ok": False, "reason": None, "verdict": None,
+           "cv_accelerometer_residual_rms": None, "cv_gyroscope_angle_error_mean_deg": None}
+    say(f"{name}: calibrating")
+
+    def fit(training, name=name, model=model, extra=None, magnetometer=False):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ImucalibWarning)
+            return calibrate(recording, method=name, model=model, gravity=gravity,
+                             intervals=training, magnetometer=magnetometer, **(extra or {}))
+
+    try:
+        full = fit(intervals, magnetometer=magnetometer)
+        sel = full.fit.method.model_selection
+        row["model"] = model or (sel["requested"] if sel else full.model)
+        if sel:
+            # the variant is chosen once on all poses; the folds refit that variant
+            row["model_selected"] = sel["selected"]
+            fit = partial(fit, model=sel["selected"], extra={"select": False})
+        row["fit"] = {k: v for k, v in full.fit.to_flat().items() if isinstance(v, int | float)}
+        row["verdict"] = full.fit.verdict.level
+        say(f"{name}: cross-validating on {len(fold_list)} held-out poses")
+        cv = leave_one_pose_out(recording, intervals, fit, gravity=gravity, folds=fold_list)
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        row["reason"] = str(exc)
+        return row
+    row.update(ok=True, cv_accelerometer_residual_rms=cv["cv_accelerometer_residual_rms"],
+               cv_gyroscope_angle_error_mean_deg=cv["cv_gyroscope_angle_error_mean_deg"],
+               cv_folds=cv["folds"], cv_folds_skipped=len(cv["folds_skipped"]))
+    return row
 
 
 def _score_peer(recording: Recording, intervals: list[Interval], folds: list[int], name: str, calibration,

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .fitreport import AccelerometerReport, FitReport, GyroscopeReport, SegmentationReport, ThermalReport, VerdictReport
 from .kinematics import IntervalIntegrator, angle_between, quat_to_matrix
 from .plans import next_poses
 from .recording import Interval, Recording
@@ -220,8 +221,8 @@ def gravity_direction_errors(calibration, recording: Recording,
 
 
 def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval],
-                gravity: float | None = None, *, integrator: IntervalIntegrator | None = None) -> dict:
-    """The ``fit`` entries of the calibration file (``docs/architecture.rst``).
+                gravity: float | None = None, *, integrator: IntervalIntegrator | None = None) -> FitReport:
+    """The fit report's figures every method gives (``docs/architecture.rst``).
 
     The poses' calibrated means (:func:`pose_specific_force`) are computed
     once and serve every figure that reads them.
@@ -242,9 +243,9 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
 
     Returns
     -------
-    dict
-        The ``fit`` entries: static poses, the residual and its noise floor, the gyroscope's angle errors, the
-        pose coverage and the next poses to record (``docs/architecture.rst`` names each).
+    FitReport
+        Static poses, the residual and its noise floor, the gyroscope's angle errors, the pose coverage and the
+        next poses to record (``docs/architecture.rst`` names each).
 
     Examples
     --------
@@ -256,43 +257,41 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
     >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
     >>> intervals, *_ = detect_intervals(sim.recording, sim.truth.gravity)
     >>> fit = fit_summary(sim.truth, sim.recording, intervals)
-    >>> fit["static_intervals"]
+    >>> fit.poses.static_intervals
     15
     >>> # the residual is below its noise floor: noise is all the truth leaves
-    >>> fit["accelerometer_residual_rms"] < fit["accelerometer_noise_floor"]
+    >>> fit.accelerometer.residual_rms < fit.accelerometer.noise_floor
     True
     """
     up = pose_specific_force(calibration, recording, intervals)
     res = gravity_residuals(calibration, recording, intervals, gravity, up=up)
-    out = {
-        "static_intervals": len(intervals),
-        "accelerometer_residual_rms": float(np.sqrt(np.mean(res**2))),
-        "intervals": [[int(iv.start), int(iv.stop)] for iv in intervals],  # sample indices [start, stop)
-    }
+    rms = float(np.sqrt(np.mean(res**2)))
+    acc = AccelerometerReport(residual_rms=rms)
+    gyro = GyroscopeReport()
     if len(intervals) >= 2 and recording.gyro is not None and calibration.gyroscope is not None:
         ang = np.degrees(gravity_direction_errors(calibration, recording, intervals, up=up, integrator=integrator))
-        out["gyroscope_angle_error_mean_deg"] = float(np.mean(ang))
-        out["gyroscope_angle_error_max_deg"] = float(np.max(ang))
+        gyro = GyroscopeReport(angle_error_mean_deg=float(np.mean(ang)), angle_error_max_deg=float(np.max(ang)))
     coverage, flags = pose_coverage(up)
     flags += gap_flags(recording, intervals)
     floor = gravity_noise_floor(calibration, recording, intervals)
     if floor > 0:
-        out["accelerometer_noise_floor"] = floor
-        ratio = out["accelerometer_residual_rms"] / floor
-        out["accelerometer_residual_to_noise"] = ratio
+        ratio = rms / floor
+        acc = acc.with_(noise_floor=floor, residual_to_noise=ratio)
         if ratio > 5:
             flags.append(f"the gravity-norm residual is {ratio:.0f}× what the sensor noise explains: the model "
                          "leaves structure (nonlinear scale factors? temperature drift?) or some poses were not "
                          "still; compare the model variants (imucalib compare)")
-    out["pose_coverage"] = coverage
+    poses = SegmentationReport(static_intervals=len(intervals),
+                               intervals=[[int(iv.start), int(iv.stop)] for iv in intervals],  # [start, stop)
+                               pose_coverage=coverage)
+    if flags:
+        poses = poses.with_(quality_flags=flags)
     # what to record next: the up-directions that most shrink the worst 1σ (imucalib.plans.next_poses)
-    out["next_poses"] = next_poses(up).tolist()
+    out = FitReport.of(poses, acc, gyro, VerdictReport(next_poses=next_poses(up).tolist()))
     if recording.temperature is not None and np.any(np.isfinite(recording.temperature)):
         # biases and scales of MEMS sensors drift with temperature: say where this calibration holds
         temp = recording.temperature[np.isfinite(recording.temperature)]
-        out["temperature_c"] = [float(temp.min()), float(temp.mean()), float(temp.max())]
-    if flags:
-        out["quality_flags"] = flags
+        out = out.add(ThermalReport(temperature_c=[float(temp.min()), float(temp.mean()), float(temp.max())]))
     return out
 
 

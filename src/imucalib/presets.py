@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["BLOCK_MULTIPLIER", "FALL_MIN_LENGTH", "FALL_THRESHOLD", "GYRO_MULTIPLIER", "GYRO_VARIANCE_WINDOW",
-           "MIN_HOLD", "MIN_INTERVAL", "MIN_INTERVALS", "MULTIPLIERS", "REST_FACTOR", "REST_MIN_SECONDS",
-           "REST_SHORTEST_SECONDS", "REST_TAP_DEG", "REST_TAP_HORIZON", "REST_TAP_SECONDS", "REST_WINDOW",
-           "STILL_N_SIGMA", "STILL_RATE", "STILL_WINDOW", "VALIDATE_MULTIPLIER", "VARIANCE_WINDOW", "hold_settings"]
+__all__ = ["BLOCK_MULTIPLIER", "FALL_MIN_LENGTH", "FALL_THRESHOLD", "FULL_MODEL_POSES", "GYRO_MIN_POSES",
+           "GYRO_MULTIPLIER", "GYRO_VARIANCE_WINDOW", "MIN_HOLD", "MIN_INTERVAL", "MIN_INTERVALS", "MULTIPLIERS",
+           "REST_FACTOR", "REST_MIN_SECONDS", "REST_SHORTEST_SECONDS", "REST_TAP_DEG", "REST_TAP_HORIZON",
+           "REST_TAP_SECONDS", "REST_WINDOW", "STILL_N_SIGMA", "STILL_RATE", "STILL_WINDOW", "VALIDATE_MIN_POSES",
+           "VALIDATE_MULTIPLIER", "VARIANCE_WINDOW", "hold_settings"]
 
 # ----------------------------------------------- the accelerometer variance detector (Tedaldi 2014)
 #: the shortest hold that is a pose [s]: imu_tk's users hold each pose 1–4 s, Tedaldi 2014's procedure 1–2 s
@@ -25,8 +26,15 @@ VARIANCE_WINDOW = 1.0
 MIN_INTERVAL = 1.0
 #: the threshold multipliers scanned, × the initial rest's variance norm (Tedaldi 2014's scan, k = 2 … 10)
 MULTIPLIERS = tuple(range(2, 11))
-#: the fewest static intervals the multiplier scan accepts
+#: the fewest static intervals the multiplier scan accepts, and zhang2021 takes (the initial rest included)
 MIN_INTERVALS = 10
+#: the fewest static poses from which tedaldi2014 fits the full linear accelerometer model (its 9 parameters;
+#: with fewer, the model they determine, :func:`imucalib.fit.accelerometer.fit_determined`)
+FULL_MODEL_POSES = 9
+#: the fewest static poses a gravity-direction fit of the gyroscope takes (:mod:`imucalib.fit.gyroscope`)
+GYRO_MIN_POSES = 4
+#: the fewest static poses (the initial rest included) a validation needs (:mod:`imucalib.validation`)
+VALIDATE_MIN_POSES = 2
 #: the fixed multiplier of a validation recording, too short for a scan (:mod:`imucalib.validation`)
 VALIDATE_MULTIPLIER = 6.0
 #: the fixed multiplier of the still part of a block (a recording made of blocks has no rotations to scan

@@ -20,12 +20,14 @@ matplotlib is an optional dependency (the ``plot`` extra: ``pip install ".[plot]
 
 from __future__ import annotations
 
+import html
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from .calibration import Calibration
+from .fitreport import FitReport
 from .io.atomic import atomic_path, atomic_write
 from .metrics import gravity_direction_errors, gravity_residuals
 from .recording import Interval, Recording
@@ -63,10 +65,10 @@ def reference_levels(calibration: Calibration) -> dict:
     """
     from .verdict import THRESHOLDS
 
-    fit = calibration.fit or {}
+    fit = calibration.fit
     acceptable, rejected = THRESHOLDS["gyro_error_floor_deg"]
-    return {"noise_floor": fit.get("accelerometer_noise_floor"), "angle_acceptable_deg": acceptable,
-            "angle_rejected_deg": rejected, "angle_predicted_deg": fit.get("gyroscope_angle_error_predicted_deg")}
+    return {"noise_floor": fit.accelerometer.noise_floor, "angle_acceptable_deg": acceptable,
+            "angle_rejected_deg": rejected, "angle_predicted_deg": fit.gyroscope.angle_error_predicted_deg}
 
 
 def _broken_at_gaps(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -242,9 +244,9 @@ def magnetometer_figure(calibration: Calibration):
     from .verdict import THRESHOLDS
 
     plt = _pyplot()
-    fit = calibration.fit or {}
-    norms = np.asarray(fit.get("magnetometer_field_norms") or [], float)
-    dips = np.asarray(fit.get("magnetometer_dips_deg") or [], float)
+    fit = calibration.fit
+    norms = np.asarray(fit.magnetometer.field_norms or [], float)
+    dips = np.asarray(fit.magnetometer.dips_deg or [], float)
     if norms.size == 0:
         raise ValueError("this calibration has no magnetometer figures per pose")
     unit = calibration.magnetometer.unit if calibration.magnetometer is not None else "normalised"
@@ -308,15 +310,13 @@ _VERDICT_COLOURS = {"accepted": ("#e6f4ea", "#1e7e34"), "suspect": ("#fff4e0", "
                     "rejected": ("#fdecea", "#c62828")}
 
 
-def _verdict_banner(fit: dict) -> str:
+def _verdict_banner(fit: FitReport) -> str:
     """The verdict and its reasons (then notes) as a coloured block; empty for a file without a verdict."""
-    import html
-
-    verdict = fit.get("verdict")
+    verdict = fit.verdict.level
     if verdict not in _VERDICT_COLOURS:
         return ""
-    reasons = "".join(f"<li>{html.escape(r)}</li>" for r in fit.get("verdict_reasons") or [])
-    notes = "".join(f"<li>{html.escape(n)}</li>" for n in fit.get("verdict_notes") or [])
+    reasons = "".join(f"<li>{html.escape(r)}</li>" for r in fit.verdict.reasons or [])
+    notes = "".join(f"<li>{html.escape(n)}</li>" for n in fit.verdict.notes or [])
     what = {"accepted": "no check found a problem", "suspect": "usable, but look at the reasons",
             "rejected": "do not use it: imucalib apply and export refuse it without --force"}[verdict]
     return (f"<div class='verdict verdict-{verdict}'><h2>Verdict: {verdict.upper()}</h2><p>{what}</p>"
@@ -381,28 +381,44 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
     of :func:`plot_fit` embedded as PNG when matplotlib and the recording
     are at hand. No external files or scripts.
     """
-    import base64
-    import html
-    import io
-
     cal = calibration
-    fit = cal.fit or {}
-    unc = fit.get("uncertainty") or {}
-    esc = html.escape
     title = title or f"imucalib calibration: {cal.method} ({cal.model})"
-    parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title><style>"
-             "body{font-family:system-ui,sans-serif;margin:2em;max-width:70em}"
-             "table{border-collapse:collapse;margin:1em 0}td,th{padding:.25em .8em;border-bottom:1px solid #ddd;"
-             "text-align:right;font-variant-numeric:tabular-nums}th{background:#f4f4f4}td:first-child,"
-             "th:first-child{text-align:left}.warn{background:#fff4e0;padding:.5em 1em;border-left:4px solid #e90}"
-             "img{max-width:100%}tr.sigma-large td{background:#fdecea}.sigma-large-mark{color:#c62828;"
-             "font-weight:bold}.verdict{padding:.6em 1.2em;border-left:8px solid;margin:1em 0}"
-             ".verdict h2{margin:.2em 0}" + "".join(f".verdict-{k}{{background:{bg};border-color:{fg}}}"
-                                                   f".verdict-{k} h2{{color:{fg}}}"
-                                                   for k, (bg, fg) in _VERDICT_COLOURS.items())
-             + "</style></head><body>", f"<h1>{esc(title)}</h1>", _verdict_banner(fit)]
+    parts = [_html_head(title), f"<h1>{html.escape(title)}</h1>", _verdict_banner(cal.fit)]
+    parts += _html_summary(cal, recording)
+    parts += _html_quality(cal)
+    parts += _html_coverage(cal, recording, intervals)
+    parts += [f"<p class='warn'>{html.escape(n)}</p>" for n in _html_notes(cal, notes)]
+    parts += _html_parameters(cal)
+    parts += _html_figures(cal, recording, intervals)
+    parts.append("<p><small>written by imucalib; the calibration file (JSON) holds the same numbers.</small></p>"
+                 "</body></html>")
+    path = Path(path)
+    with atomic_write(path, "w", encoding="utf-8") as fh:
+        fh.write("\n".join(parts))
+    return path
+
+
+def _html_head(title: str) -> str:
+    """The page's head: its title and style."""
+    esc = html.escape
+    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title><style>"
+            "body{font-family:system-ui,sans-serif;margin:2em;max-width:70em}"
+            "table{border-collapse:collapse;margin:1em 0}td,th{padding:.25em .8em;border-bottom:1px solid #ddd;"
+            "text-align:right;font-variant-numeric:tabular-nums}th{background:#f4f4f4}td:first-child,"
+            "th:first-child{text-align:left}.warn{background:#fff4e0;padding:.5em 1em;border-left:4px solid #e90}"
+            "img{max-width:100%}tr.sigma-large td{background:#fdecea}.sigma-large-mark{color:#c62828;"
+            "font-weight:bold}.verdict{padding:.6em 1.2em;border-left:8px solid;margin:1em 0}"
+            ".verdict h2{margin:.2em 0}" + "".join(f".verdict-{k}{{background:{bg};border-color:{fg}}}"
+                                                  f".verdict-{k} h2{{color:{fg}}}"
+                                                  for k, (bg, fg) in _VERDICT_COLOURS.items())
+            + "</style></head><body>")
+
+
+def _html_summary(cal: Calibration, recording: Recording | None) -> list[str]:
+    """The table of the method, gravity, units and the recording."""
+    esc, parts = html.escape, []
     units = cal.units
-    fit_why = (cal.fit or {}).get("gyroscope_not_calibrated") or "an accelerometer-only recording"
+    fit_why = cal.fit.gyroscope.not_calibrated or "an accelerometer-only recording"
     parts.append("<table><tr><th>item</th><th>value</th></tr>"
                  f"<tr><td>method / model</td><td>{esc(cal.method)} / {esc(cal.model)}</td></tr>"
                  f"<tr><td>gravity</td><td>{cal.gravity:.6g} m/s²</td></tr>"
@@ -416,29 +432,41 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
         parts.append(f"<tr><td>recording</td><td>{esc(', '.join(src) if isinstance(src, list) else str(src or '-'))}"
                      f": {len(recording)} samples, {recording.duration:.1f} s at {recording.rate:.4g} Hz</td></tr>")
     parts.append("</table>")
-    quality = [("static poses", fit.get("static_intervals"), "{:d}"),
-               ("‖a‖ − g RMS over the poses [m/s²]", fit.get("accelerometer_residual_rms"), "{:.3g}"),
-               ("… its white-noise floor [m/s²]", fit.get("accelerometer_noise_floor"), "{:.3g}"),
-               ("… residual / noise floor (≈ 1: only noise left)", fit.get("accelerometer_residual_to_noise"),
+    return parts
+
+
+def _html_quality(cal: Calibration) -> list[str]:
+    """The fit's figures (``docs/architecture.rst``), as a table."""
+    esc, fit, parts = html.escape, cal.fit, []
+    quality = [("static poses", fit.poses.static_intervals, "{:d}"),
+               ("‖a‖ − g RMS over the poses [m/s²]", fit.accelerometer.residual_rms, "{:.3g}"),
+               ("… its white-noise floor [m/s²]", fit.accelerometer.noise_floor, "{:.3g}"),
+               ("… residual / noise floor (≈ 1: only noise left)", fit.accelerometer.residual_to_noise,
                 "{:.2f}"),
-               ("gyroscope angle error, mean [deg]", fit.get("gyroscope_angle_error_mean_deg"), "{:.3g}"),
-               ("gyroscope angle error, max [deg]", fit.get("gyroscope_angle_error_max_deg"), "{:.3g}")]
-    if fit.get("temperature_c"):
-        quality.append(("temperature min / mean / max [°C]", fit["temperature_c"],
+               ("gyroscope angle error, mean [deg]", fit.gyroscope.angle_error_mean_deg, "{:.3g}"),
+               ("gyroscope angle error, max [deg]", fit.gyroscope.angle_error_max_deg, "{:.3g}")]
+    if fit.thermal.temperature_c:
+        quality.append(("temperature min / mean / max [°C]", fit.thermal.temperature_c,
                         "{0[0]:.1f} / {0[1]:.1f} / {0[2]:.1f}"))
     if cal.magnetometer is not None:
-        quality += [("magnetometer: field norm spread over the poses", fit.get("magnetometer_norm_spread"),
+        quality += [("magnetometer: field norm spread over the poses", fit.magnetometer.norm_spread,
                      "{:.2%}"),
-                    ("magnetometer: dip [deg]", fit.get("magnetometer_dip_deg"), "{:.2f}"),
-                    ("magnetometer: dip spread over the poses [deg]", fit.get("magnetometer_dip_spread_deg"),
+                    ("magnetometer: dip [deg]", fit.magnetometer.dip_deg, "{:.2f}"),
+                    ("magnetometer: dip spread over the poses [deg]", fit.magnetometer.dip_spread_deg,
                      "{:.3g}"),
                     ("magnetometer: direction error between poses, mean [deg]",
-                     fit.get("magnetometer_direction_error_mean_deg"), "{:.3g}"),
+                     fit.magnetometer.direction_error_mean_deg, "{:.3g}"),
                     ("magnetometer axes (accelerometer x, y, z =)", " ".join(cal.magnetometer.axes()[0]), "{}")]
     rows = "".join(f"<tr><td>{esc(k)}</td><td>{esc(f.format(v))}</td></tr>" for k, v, f in quality if v is not None)
     if rows:
         parts.append(f"<h2>Fit</h2><table><tr><th>figure</th><th>value</th></tr>{rows}</table>")
-    coverage = fit.get("pose_coverage")
+    return parts
+
+
+def _html_coverage(cal: Calibration, recording: Recording | None, intervals: Sequence[Interval] | None) -> list[str]:
+    """The poses' coverage of the directions, the poses on the sphere and the poses to record next."""
+    esc, fit, parts = html.escape, cal.fit, []
+    coverage = fit.poses.pose_coverage
     if isinstance(coverage, dict) and coverage:
         cells = "".join(f"<tr><td>{esc(axis)}</td><td>{lo:+.2f}</td><td>{hi:+.2f}</td>"
                         f"<td>{'yes' if hi >= 0.5 and lo <= -0.5 else 'NO'}</td></tr>"
@@ -447,7 +475,7 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
                      "(+1: the axis straight up, −1: straight down); each axis should be held both up and down "
                      "(within 60°).</p><table class='coverage'><tr><th>axis</th><th>min</th><th>max</th>"
                      f"<th>up and down</th></tr>{cells}</table>")
-    nxt = fit.get("next_poses") or []
+    nxt = fit.verdict.next_poses or []
     up = None
     if recording is not None and intervals:
         from .metrics import interval_means
@@ -461,15 +489,25 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
                      "frame (blue dots; equal-area views of the z-up and z-down halves of the sphere)"
                      + (", and the poses that would most shrink the worst 1σ, numbered in the order to record "
                         f"them (red):</p><ol>{said}</ol>" if nxt else ".</p>"))
-    all_notes = list(notes) + [f"quality flag: {f}" for f in fit.get("quality_flags", [])]
-    if fit.get("uncertainty_unavailable"):
-        all_notes.append(f"errors not available: {fit['uncertainty_unavailable']}")
-    if isinstance(fit.get("model_selection"), dict):
-        sel = fit["model_selection"]
+    return parts
+
+
+def _html_notes(cal: Calibration, notes: Sequence[str]) -> list[str]:
+    """The run's warnings, the quality flags, why errors are missing, the model selection."""
+    fit = cal.fit
+    all_notes = list(notes) + [f"quality flag: {f}" for f in fit.poses.quality_flags or []]
+    if fit.uncertainty.unavailable:
+        all_notes.append(f"errors not available: {fit.uncertainty.unavailable}")
+    if isinstance(fit.method.model_selection, dict):
+        sel = fit.method.model_selection
         all_notes.append(f"model selection ({sel.get('criterion')}): requested {sel.get('requested')}, "
                          f"returned {sel.get('selected')}")
-    for n in all_notes:
-        parts.append(f"<p class='warn'>{esc(n)}</p>")
+    return all_notes
+
+
+def _html_parameters(cal: Calibration) -> list[str]:
+    """Every parameter estimated or not zero, with its unit and 1σ error."""
+    esc, unc, parts = html.escape, cal.fit.uncertainty.sigma or {}, []
     parts.append("<h2>Parameters</h2><p>The model's terms that were estimated or are not zero. A 1σ error "
                  "larger than the value itself (marked <span class='sigma-large-mark'>σ &gt; |value|</span>) means "
                  "the data did not determine the term.</p><table><tr><th>parameter</th><th>value</th>"
@@ -494,6 +532,15 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
         for axis, v in zip("xyz", cal.lever_arm, strict=True):
             parts.append(row(f"lever_arm.{axis}", float(v), unc.get(f"lever_arm.{axis}"), ".6g"))
     parts.append("</table>")
+    return parts
+
+
+def _html_figures(cal: Calibration, recording: Recording | None, intervals: Sequence[Interval] | None) -> list[str]:
+    """The fit figure (with the recording), the magnetometer's and the temperature model's, embedded as PNG."""
+    import base64
+    import io
+
+    esc, fit, parts = html.escape, cal.fit, []
     if recording is not None and intervals:
         try:
             buf = io.BytesIO()
@@ -512,7 +559,7 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
         except ValueError as exc:  # matplotlib missing
             parts.append(f"<p class='warn'>{esc(str(exc))}</p>")
     for heading, draw, ok in (("Magnetometer", magnetometer_figure, cal.magnetometer is not None
-                               and bool(fit.get("magnetometer_field_norms"))),
+                               and bool(fit.magnetometer.field_norms)),
                               ("Temperature", thermal_figure, cal.thermal is not None)):
         if not ok:
             continue
@@ -523,9 +570,5 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
             parts.append(f"<h2>{heading}</h2><img alt='{heading.lower()}' src='data:image/png;base64,{data}'>")
         except ValueError as exc:  # matplotlib missing
             parts.append(f"<p class='warn'>{esc(str(exc))}</p>")
-    parts.append("<p><small>written by imucalib; the calibration file (JSON) holds the same numbers.</small></p>"
-                 "</body></html>")
-    path = Path(path)
-    with atomic_write(path, "w", encoding="utf-8") as fh:
-        fh.write("\n".join(parts))
-    return path
+    return parts
+

@@ -263,7 +263,7 @@ class Store:
     >>> _ = run_batch(folder / "manifest.csv", folder / "fleet.sqlite", workers=1)
     >>> with Store(folder / "fleet.sqlite", readonly=True) as store:
     ...     cal, record = store.get("imu1")
-    ...     store.devices(), cal.method, cal.fit["verdict"]
+    ...     store.devices(), cal.method, cal.fit.verdict.level
     (['imu1'], 'tedaldi2014', 'accepted')
     """
 

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .fitreport import FitReport, ThermalReport, UncertaintyReport, VerdictReport
 from .recording import ImucalibWarning, Interval, Recording
 
 __all__ = ["POSSIBLE_C", "REFERENCE_C", "SIGNIFICANCE", "ThermalModel", "at_temperature", "calibrate_ramp",
@@ -154,7 +155,7 @@ class ThermalModel:
 
 
 def _fit_temperature(t, number: int) -> float:
-    """The temperature [°C] of a calibration's ``fit["temperature_c"]``: a number, or its recording's
+    """The temperature [°C] of a calibration's ``fit.thermal.temperature_c``: a number, or its recording's
     ``[lowest, mean, highest]``; a ValueError naming calibration ``number`` for anything else."""
     if t is None or t == []:
         raise ValueError(f"calibration {number} has no temperature: it was made from a recording without a "
@@ -425,8 +426,8 @@ def combine(calibrations: list, *, reference_c: float = REFERENCE_C, max_order: 
     Parameters
     ----------
     calibrations : list of Calibration
-        Same method, model and units, each with ``fit["temperature_c"]`` (its recording's temperature) and
-        ``fit["uncertainty"]`` (the 1σ weights).
+        Same method, model and units, each with ``fit.thermal.temperature_c`` (its recording's temperature) and
+        ``fit.uncertainty.sigma`` (the 1σ weights).
     reference_c : float
         ``T₀`` [°C].
     max_order : int
@@ -465,7 +466,7 @@ def combine(calibrations: list, *, reference_c: float = REFERENCE_C, max_order: 
         raise ValueError(f"a thermal model needs calibrations at two or more temperatures; got {len(calibrations)}")
     temps = []
     for i, cal in enumerate(calibrations):
-        temps.append(_fit_temperature((cal.fit or {}).get("temperature_c"), i + 1))
+        temps.append(_fit_temperature(cal.fit.thermal.temperature_c, i + 1))
         if cal.thermal is not None:
             raise ValueError(f"calibration {i + 1} already follows temperature; combine calibrations made at one "
                              "temperature each")
@@ -481,7 +482,7 @@ def combine(calibrations: list, *, reference_c: float = REFERENCE_C, max_order: 
     coefficients, covariance, decisions, base, base_sigma = {}, {}, {}, {}, {}
     for n in names:
         y = values[n]
-        s = np.array([((c.fit or {}).get("uncertainty") or {}).get(n) or np.nan for c in calibrations], float)
+        s = np.array([(c.fit.uncertainty.sigma or {}).get(n) or np.nan for c in calibrations], float)
         if not np.all(np.isfinite(s) & (s > 0)):
             base[n] = float(np.mean(y))  # no 1σ to judge a slope by: kept constant, said so
             decisions[n] = {"order": 0, "reason": "no 1σ in every calibration: kept constant (the mean)"}
@@ -493,18 +494,18 @@ def combine(calibrations: list, *, reference_c: float = REFERENCE_C, max_order: 
         if order >= 1:
             coefficients[n], covariance[n] = _padded(coef, cov, order)
     points = [{"temperature_c": t, "values": {n: float(values[n][i]) for n in names},
-               "sigmas": {n: ((c.fit or {}).get("uncertainty") or {}).get(n) for n in names}}
+               "sigmas": {n: (c.fit.uncertainty.sigma or {}).get(n) for n in names}}
               for i, (t, c) in enumerate(zip(temps, calibrations, strict=True))]
     model = ThermalModel(reference_c=reference_c, coefficients=coefficients, covariance=covariance,
                          range_c=(min(temps), max(temps)), points=points, source="combined")
     levels = ("accepted", "suspect", "rejected")
-    worst = max(((c.fit or {}).get("verdict") or "accepted" for c in calibrations), key=levels.index)
+    worst = max((c.fit.verdict.level or "accepted" for c in calibrations), key=levels.index)
     reasons = [f"the calibration at {t:.1f} °C: {r}" for t, c in zip(temps, calibrations, strict=True)
-               for r in (c.fit or {}).get("verdict_reasons") or []]
-    fit = {"verdict": worst, "verdict_reasons": reasons, "verdict_notes": [],
-           "thermal_decisions": decisions, "temperature_c": [min(temps), reference_c, max(temps)],
-           "combined_from": len(calibrations),
-           "uncertainty": {**((first.fit or {}).get("uncertainty") or {}), **base_sigma}}
+               for r in c.fit.verdict.reasons or []]
+    fit = FitReport.of(VerdictReport(level=worst, reasons=reasons, notes=[]),
+                       ThermalReport(decisions=decisions, temperature_c=[min(temps), reference_c, max(temps)],
+                                     combined_from=len(calibrations)),
+                       UncertaintyReport(sigma={**(first.fit.uncertainty.sigma or {}), **base_sigma}))
     out = first.with_(fit=fit, thermal=model).with_parameters(base)
     return out, decisions
 
@@ -710,7 +711,7 @@ def calibrate_ramp(run, recording: Recording, *, reference_c: float = REFERENCE_
             if cal.gyroscope is None and "gyroscope" in sensors:  # accelerometer-only: its slopes alone
                 sensors = ("accelerometer",)
                 free = _without_gyroscope(slopes, sds, free)
-            intervals = [Interval(int(a), int(b)) for a, b in (cal.fit or {}).get("intervals") or []]
+            intervals = [Interval(int(a), int(b)) for a, b in cal.fit.poses.intervals or []]
             if len(intervals) < 8:
                 raise ValueError(f"the temperature slopes need at least 8 static poses over the warm-up; "
                                  f"got {len(intervals)}")
@@ -727,7 +728,7 @@ def calibrate_ramp(run, recording: Recording, *, reference_c: float = REFERENCE_
             slopes[n] = 0.0
     kept = {n: v for n, v in slopes.items() if v}
     model = _kept_model(kept, sds, temp, reference_c)
-    unc = dict((cal.fit or {}).get("uncertainty") or {})
+    unc = dict(cal.fit.uncertainty.sigma or {})
     unc.update({f"thermal.{n}.slope": float(sds[n]) for n in kept})
-    return cal.with_(thermal=model, fit={**cal.fit, "uncertainty": unc, "temperature_model": "linear",
-                                         "thermal_slopes_left_out": sorted(set(slopes) - set(kept))})
+    return cal.with_(thermal=model, fit=cal.fit.add(
+        UncertaintyReport(sigma=unc), ThermalReport(model="linear", slopes_left_out=sorted(set(slopes) - set(kept)))))

@@ -24,8 +24,9 @@ import warnings
 import numpy as np
 
 from .calibration import Calibration
+from .fitreport import FitReport
 from .metrics import fit_summary, gap_flags
-from .presets import MIN_HOLD, VALIDATE_MULTIPLIER, hold_settings
+from .presets import MIN_HOLD, VALIDATE_MIN_POSES, VALIDATE_MULTIPLIER, hold_settings
 from .recording import ImucalibWarning, Interval, Recording
 from .segment import gyro_still, initial_rest, static_at, still_intervals
 from .thermal import compensate
@@ -37,8 +38,6 @@ __all__ = ["MIN_POSES", "RAW_KEYS", "THRESHOLD_MULTIPLIER", "VALIDATION_KEYS", "
 #: the fit figures compared between the new recording and the calibration's own
 VALIDATION_KEYS = ("accelerometer_residual_rms", "gyroscope_angle_error_mean_deg",
                    "gyroscope_angle_error_max_deg", "temperature_c")
-#: the fit figures on the new recording the verdict rests on, besides :data:`VALIDATION_KEYS`
-_FIGURES = ("accelerometer_noise_floor", "accelerometer_residual_to_noise")
 #: the raw readings' figures on the new recording (the identity calibration, physical units only:
 #: :mod:`imucalib.verdict.raw`), beside the calibrated ``accelerometer_residual_rms`` and
 #: ``gyroscope_angle_error_mean_deg``
@@ -46,7 +45,7 @@ RAW_KEYS = ("accelerometer_residual_rms_raw", "gyroscope_angle_error_mean_deg_ra
 #: the accelerometer detector's threshold, in multiples of the initial rest's variance norm
 THRESHOLD_MULTIPLIER = VALIDATE_MULTIPLIER
 #: the fewest static poses (the initial rest included) a validation needs
-MIN_POSES = 2
+MIN_POSES = VALIDATE_MIN_POSES
 
 
 def find_poses(calibration: Calibration, recording: Recording, *, init_static: float | None = None,
@@ -154,7 +153,7 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
     """
     gravity = gravity or calibration.gravity
     calibration.check_units(recording)
-    then = calibration.fit or {}
+    then = calibration.fit
     own = calibration.is_own_session(recording)
     # a calibration that follows temperature: the recording compensated to its reference temperature, then
     # judged with the calibration there (thermal.py, T2)
@@ -172,14 +171,27 @@ def validate(calibration: Calibration, recording: Recording, gravity: float | No
         warnings.warn(note, ImucalibWarning, stacklevel=2)
     # the checks apply to this recording: the calibration's own fit (its poses, turns, errors) is left behind
     verdict = assess(calibration.with_(gravity=gravity, fit=fit), recording, poses, purpose="validate")
-    verdict["verdict_notes"] += gap_flags(recording, poses)  # their rotations' angle errors are unreliable
-    figures = {k: fit.get(k) for k in (*VALIDATION_KEYS, *_FIGURES)}
-    gyro = {k: verdict.pop(k, None) for k in ("gyroscope_angle_error_predicted_deg", "gyroscope_error_to_noise")}
-    raw = {k: verdict.pop(k, None) for k in RAW_KEYS}
-    return {"method": calibration.method, "gravity": gravity, **verdict,
-            "static_intervals": fit["static_intervals"], **figures, **gyro, **raw,
-            "at_calibration": {k: then.get(k) for k in ("static_intervals", *VALIDATION_KEYS, *_FIGURES, *gyro,
-                                                        *RAW_KEYS)},
-            "ratios": {k: _ratio(figures[k], then.get(k))
+    figures, before = _figures(fit.add(verdict)), _figures(then)
+    reliable = verdict.gyroscope.angle_error_reliable_mean_deg
+    return {"method": calibration.method, "gravity": gravity, "verdict": verdict.verdict.level,
+            "verdict_reasons": verdict.verdict.reasons,
+            # the gaps' rotations' angle errors are unreliable
+            "verdict_notes": verdict.verdict.notes + gap_flags(recording, poses),
+            **({} if reliable is None else {"gyroscope_angle_error_reliable_mean_deg": reliable}),
+            **figures, "at_calibration": before,
+            "ratios": {k: _ratio(figures[k], before[k])
                        for k in (*VALIDATION_KEYS[:3], "accelerometer_residual_to_noise")},
-            "own_recording": own, "intervals": fit["intervals"]}
+            "own_recording": own, "intervals": fit.poses.intervals}
+
+
+def _figures(report: FitReport) -> dict:
+    """The figures a validation compares, by name: the poses, :data:`VALIDATION_KEYS`, the noise floor, the
+    gyroscope against its noise and :data:`RAW_KEYS`."""
+    acc, gyro = report.accelerometer, report.gyroscope
+    return {"static_intervals": report.poses.static_intervals, "accelerometer_residual_rms": acc.residual_rms,
+            "gyroscope_angle_error_mean_deg": gyro.angle_error_mean_deg,
+            "gyroscope_angle_error_max_deg": gyro.angle_error_max_deg, "temperature_c": report.thermal.temperature_c,
+            "accelerometer_noise_floor": acc.noise_floor, "accelerometer_residual_to_noise": acc.residual_to_noise,
+            "gyroscope_angle_error_predicted_deg": gyro.angle_error_predicted_deg,
+            "gyroscope_error_to_noise": gyro.error_to_noise, "accelerometer_residual_rms_raw": acc.residual_rms_raw,
+            "gyroscope_angle_error_mean_deg_raw": gyro.angle_error_mean_deg_raw}

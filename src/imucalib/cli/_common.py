@@ -11,7 +11,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
-from ..constants import GRAVITY_RANGE, STANDARD_GRAVITY
+from ..constants import GRAVITY_RANGE, STANDARD_GRAVITY, earth_gravity_text
 from ..presets import MIN_HOLD
 from ..printable import printable
 from ..progress import Progress, stage_printer
@@ -58,7 +58,7 @@ def gravity_value(text: str) -> float:
     g = positive_float(text)
     if not GRAVITY_LIMITS[0] <= g <= GRAVITY_LIMITS[1]:
         raise argparse.ArgumentTypeError(f"{text} m/s^2 is not a gravity (expected {GRAVITY_LIMITS[0]:g}-"
-                                         f"{GRAVITY_LIMITS[1]:g} m/s^2; the Earth's is 9.78-9.83)")
+                                         f"{GRAVITY_LIMITS[1]:g} m/s^2; the Earth's is {earth_gravity_text()})")
     lo, hi = GRAVITY_RANGE
     if not lo <= g <= hi:
         show_warning(f"--gravity {text}: {g:g} m/s^2 is outside {lo}-{hi} m/s^2, the gravity on the Earth's "
@@ -285,20 +285,21 @@ def progress(enabled: bool) -> Callable[[str], None] | None:
     return stage_printer(enabled)
 
 
-def print_verdict(result: dict, headline: str, *, advise: bool = False) -> None:
-    """``headline``, then one line per reason of ``result["verdict_reasons"]``, then its notes indented further.
+def print_verdict(verdict, headline: str, *, advise: bool = False) -> None:
+    """``headline``, then one line per reason of ``verdict`` (a :class:`~imucalib.fitreport.VerdictReport`), then
+    its notes indented further.
 
     With ``advise``, a verdict other than accepted is followed by the poses to
-    record next (``result["next_poses"]``) in words.
+    record next (``verdict.next_poses``) in words.
     """
     print(headline)
-    for reason in result.get("verdict_reasons") or []:
+    for reason in verdict.reasons or []:
         print(f"  - {reason}")
-    if advise and result.get("verdict") != "accepted" and result.get("next_poses"):
+    if advise and verdict.level != "accepted" and verdict.next_poses:
         from ..plans import describe_poses
 
-        print(f"  record next: {describe_poses(result['next_poses'])}")
-    for note in result.get("verdict_notes") or []:
+        print(f"  record next: {describe_poses(verdict.next_poses)}")
+    for note in verdict.notes or []:
         print(f"      note: {note}")
 
 
@@ -307,9 +308,9 @@ def check_verdict(calibration, path, force: bool) -> None:
 
     A calibration without a verdict (a file from before verdicts) is used as it is.
     """
-    fit = calibration.fit or {}
-    verdict = fit.get("verdict")
-    reasons = "; ".join(fit.get("verdict_reasons") or []) or "no reason recorded"
+    fit = calibration.fit
+    verdict = fit.verdict.level
+    reasons = "; ".join(fit.verdict.reasons or []) or "no reason recorded"
     if verdict == "rejected" and not force:
         raise CliError(f"the calibration in {path} was rejected when it was made: {reasons}. Calibrate again, "
                        "or pass --force to use it all the same")
@@ -371,7 +372,6 @@ def load_calibration(path: str, recording, gravity: float | None):
     if not str(path).endswith(".calib"):
         return Calibration.load(path)
     from ..export.imutk import from_imutk, imutk_pair
-    from ..recording import STANDARD_GRAVITY
 
     acc, gyro = imutk_pair(path)
     return from_imutk(acc, gyro if recording.gyro is not None else None, acc_unit=recording.acc_unit,

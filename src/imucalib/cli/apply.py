@@ -40,7 +40,7 @@ def cmd_apply(args: argparse.Namespace) -> int:
     refuse_overwriting_inputs([args.output], [args.calibration, *args.data])
     cal = Calibration.load(args.calibration)
     check_verdict(cal, args.calibration, args.force)
-    verdict = (cal.fit or {}).get("verdict")
+    verdict = cal.fit.verdict.level
     if args.poses:
         return _apply_table(args, cal, verdict)
     if _is_bag(args) and Path(args.output).suffix.lower() != ".csv":

@@ -47,7 +47,7 @@ def print_calibration(cal: Calibration) -> None:
     """The calibration for a person: every parameter, with ± its 1σ error where the method gives one."""
     import numpy as np
 
-    unc = (cal.fit or {}).get("uncertainty") or {}
+    unc = cal.fit.uncertainty.sigma or {}
 
     def pm(name: str, value: float, fmt: str = ".7g") -> str:
         s = unc.get(name)
@@ -71,7 +71,7 @@ def print_calibration(cal: Calibration) -> None:
             ("accelerometer", a, ua, "m/s^2", "a = T_a · f(u − b)"),
             ("gyroscope", g, ug, "rad/s", "ω = T_g · f(u − b − G·a)")):
         if t is None:
-            why = (cal.fit or {}).get("gyroscope_not_calibrated") or "an accelerometer-only recording"
+            why = cal.fit.gyroscope.not_calibrated or "an accelerometer-only recording"
             print(f"{prefix}: none ({why})")
             continue
         print(f"{prefix}  {formula}")
@@ -90,7 +90,7 @@ def print_calibration(cal: Calibration) -> None:
                                                for ax, v in zip("xyz", cal.lever_arm, strict=True)))
     if cal.fit:
         print("fit:")
-        for k, v in cal.fit.items():
+        for k, v in cal.fit.to_flat().items():  # as the file holds them
             if k in VERDICT_KEYS:
                 continue  # printed first, by cmd_calibrate
             if k == "intervals":
@@ -183,7 +183,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         cal.save(args.output)
     # turntable aggregates and pose tables have no samples
     rec = None if args.poses or hasattr(data, "positions_acc") else getattr(data, "recording", data)
-    ivs = [Interval(a, b) for a, b in cal.fit.get("intervals", [])]
+    ivs = [Interval(a, b) for a, b in cal.fit.poses.intervals or []]
     if args.plot:
         from ..report import plot_fit
 
@@ -196,20 +196,20 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
         html_report(cal, args.report, recording=rec, intervals=ivs,
                     notes=[str(w.message) for w in caught if issubclass(w.category, ImucalibWarning)])
-    verdict = cal.fit.get("verdict")
+    verdict = cal.fit.verdict.level
     code = EXIT_REJECTED if verdict == "rejected" else 0
     if code:
         print("imucalib calibrate: the calibration is rejected"
               + (f"; {args.output} is written all the same, marked \"rejected\" in fit.verdict (apply and "
                  "export refuse it without --force)" if args.output else ""), file=sys.stderr)
         if args.json:
-            for reason in cal.fit.get("verdict_reasons", []):
+            for reason in cal.fit.verdict.reasons or []:
                 print(f"  - {reason}", file=sys.stderr)
     if args.json:
         print(cal.to_json())  # strict JSON, as in the file
         return code
     if verdict:
-        print_verdict(cal.fit, f"verdict: {verdict.upper()}", advise=True)
+        print_verdict(cal.fit.verdict, f"verdict: {verdict.upper()}", advise=True)
     print_calibration(cal)
     for done, what in ((args.output, "saved to"), (args.plot, "plot written to"),
                        (args.report, "report written to")):

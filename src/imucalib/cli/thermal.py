@@ -37,10 +37,10 @@ def cmd_thermal(args: argparse.Namespace) -> int:
         return print_json({"output": str(args.output), "reference_c": model.reference_c,
                            "range_c": list(model.range_c), "decisions": decisions,
                            "coefficients": {k: v.tolist() for k, v in model.coefficients.items()},
-                           "verdict": out.fit.get("verdict"), "verdict_reasons": out.fit.get("verdict_reasons")})
+                           "verdict": out.fit.verdict.level, "verdict_reasons": out.fit.verdict.reasons})
     temps = ", ".join(f"{p['temperature_c']:.1f}" for p in model.points)
     print(f"combined {len(cals)} calibrations made at {temps} °C around {model.reference_c:g} °C "
-          f"(verdict of the parts: {out.fit.get('verdict')})")
+          f"(verdict of the parts: {out.fit.verdict.level})")
     print(f"{'parameter':<32}{'order':>6}{'per °C':>14}{'per °C²':>14}{'slope/σ':>9}")
     for name, d in decisions.items():
         if not d["order"]:
@@ -51,7 +51,7 @@ def cmd_thermal(args: argparse.Namespace) -> int:
     constant = [n for n, d in decisions.items() if not d["order"]]
     if constant:
         print(f"constant (no slope beyond 3σ, or no 1σ to judge one): {len(constant)} parameters")
-    for reason in out.fit.get("verdict_reasons") or []:
+    for reason in out.fit.verdict.reasons or []:
         print(f"  - {reason}")
     print(f"wrote {args.output}" + (f" and {args.plot}" if args.plot else ""))
     return 0

@@ -34,6 +34,7 @@ HEADLINES = {"accepted": "verdict: ACCEPTED — the calibration holds on this re
 def cmd_validate(args: argparse.Namespace) -> int:
     """``imucalib validate``: :func:`imucalib.validation.validate`, the verdict first, then the figures."""
     from ..calibration import Calibration
+    from ..fitreport import VerdictReport
     from ..recording import Interval
     from ..validation import validate
 
@@ -56,7 +57,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if args.json:
         print_json(result)
         return code
-    print_verdict(result, HEADLINES[result["verdict"]])
+    print_verdict(VerdictReport(level=result["verdict"], reasons=result["verdict_reasons"],
+                                notes=result["verdict_notes"]), HEADLINES[result["verdict"]])
     if result["own_recording"]:
         print("note: this is the recording the calibration was made from (or a part of it), so these are its own "
               "figures again; validate it on a recording it was not made from")

@@ -194,7 +194,7 @@ def run_demo(folder: str | Path = "imucalib-demo", seed: int = 0, *, overwrite: 
     say("calibrating")
     cal = calibrate(rec)
     cal.save(out / "calib.json")
-    intervals = [Interval(a, b) for a, b in cal.fit["intervals"]]
+    intervals = [Interval(a, b) for a, b in cal.fit.poses.intervals]
     say("writing the report")
     html_report(cal, out / "report.html", recording=rec, intervals=intervals,
                 title=f"imucalib demo: the simulated session of seed {seed}")
@@ -205,7 +205,7 @@ def run_demo(folder: str | Path = "imucalib-demo", seed: int = 0, *, overwrite: 
     return DemoResult(
         seed=seed, folder=out, files=(out / "session", *(out / name for name in DEMO_FILES)),
         duration_s=float(rec.duration), rate_hz=float(rec.rate), poses=len(intervals), method=cal.method,
-        verdict=str(fit.get("verdict")), reasons=list(fit.get("verdict_reasons") or []),
-        residual_rms=fit.get("accelerometer_residual_rms"), noise_floor=fit.get("accelerometer_noise_floor"),
+        verdict=str(fit.verdict.level), reasons=list(fit.verdict.reasons or []),
+        residual_rms=fit.accelerometer.residual_rms, noise_floor=fit.accelerometer.noise_floor,
         before=_errors(_nominal(truth), truth, rec, intervals), after=_errors(cal, truth, rec, intervals),
         truth=_errors(truth, truth, rec, intervals), seconds=time.perf_counter() - t0)

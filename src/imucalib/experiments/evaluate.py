@@ -105,8 +105,9 @@ def _parameter_figures(truth: dict, ok: list[dict]) -> list[dict]:
 def _mean_metrics(ok: list[dict], baseline: str | None) -> dict:
     """The runs' mean figures, the Zhang 2021 tests' means and, with ``baseline``, the §IV-B reductions."""
     metrics: dict = {}
-    for key in ("accelerometer_residual_rms", "gyroscope_angle_error_mean_deg"):
-        vals = [r["fit"][key] for r in ok if key in r["fit"]]
+    for key, figure in (("accelerometer_residual_rms", lambda fit: fit.accelerometer.residual_rms),
+                        ("gyroscope_angle_error_mean_deg", lambda fit: fit.gyroscope.angle_error_mean_deg)):
+        vals = [figure(r["fit"]) for r in ok if figure(r["fit"]) is not None]
         if vals:
             metrics[key] = float(np.mean(vals))
     if all("tests" in r for r in ok):
@@ -203,6 +204,6 @@ def montecarlo(
     truth = session(scenario, rng=seed, **sim_options).truth.parameters()
     params = _parameter_figures(truth, ok)
     metrics = _mean_metrics(ok, baseline) if ok else {}
-    verdicts = {level: sum(r["fit"].get("verdict") == level for r in ok) for level in LEVELS}
+    verdicts = {level: sum(r["fit"].verdict.level == level for r in ok) for level in LEVELS}
     return {"scenario": scenario, "method": method, "model": model, "runs": runs,
             "parameters": params, "metrics": metrics, "verdicts": verdicts, "failures": failures}

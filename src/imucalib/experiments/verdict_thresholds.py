@@ -16,7 +16,7 @@ this records
   intervals the method used (:func:`imucalib.metrics.gravity_direction_errors`)
   and the ratio fitted/true of the means;
 * the normalised errors ``(estimate − truth)/σ`` of every parameter with a
-  finite σ in ``fit["uncertainty"]``; the gyroscope bias also against the bias
+  finite σ in ``fit.uncertainty.sigma``; the gyroscope bias also against the bias
   the session had on average over the static intervals (the truth is the bias at
   the start, and the bias drifts: the drift comes from a twin session of the same
   seed with the drift knobs at zero, which draws the same random numbers).
@@ -70,6 +70,11 @@ FIGURES = {
 }
 
 
+def _nan(value):
+    """``value``, or NaN for a figure the fit did not give."""
+    return float("nan") if value is None else value
+
+
 def _parameter_count(cal) -> int:
     """Accelerometer parameters as the verdict counts them (biases, scales, misalignment, nonlinear terms)."""
     acc = cal.accelerometer
@@ -83,7 +88,7 @@ def _cross_axis_deg(misalignment: np.ndarray) -> float:
 
 
 def _sigma_figures(cal) -> dict:
-    unc = cal.fit.get("uncertainty") or {}
+    unc = cal.fit.uncertainty.sigma or {}
     params = cal.parameters()
     rel, mis = [], []
     for name, s in unc.items():
@@ -125,16 +130,16 @@ def run_one(seed: int, methods: list[str], knobs: dict) -> dict:
             out["methods"][spec] = {"error": f"{type(exc).__name__}: {exc}"}
             continue
         fit = cal.fit
-        intervals = [Interval(int(a), int(b), "static") for a, b in fit["intervals"]]
+        intervals = [Interval(int(a), int(b), "static") for a, b in fit.poses.intervals]
         m, p = len(intervals), _parameter_count(cal)
-        ratio = fit.get("accelerometer_residual_to_noise", float("nan"))
+        ratio = _nan(fit.accelerometer.residual_to_noise)
         true_err = float(np.degrees(np.mean(gravity_direction_errors(truth, rec, intervals))))
-        fitted_err = fit.get("gyroscope_angle_error_mean_deg", float("nan"))
+        fitted_err = _nan(fit.gyroscope.angle_error_mean_deg)
         est = cal.parameters()
         scale_rel = {k: abs(est[k] / tp[k] - 1) for k in tp if ".scale." in k and "_" not in k.split(".")[1]}
         drift = _mean_drift(sim, twin, intervals)
         z, z_drift = {}, {}
-        for k, s in (fit.get("uncertainty") or {}).items():
+        for k, s in (fit.uncertainty.sigma or {}).items():
             if s is None or not np.isfinite(s) or s <= 0 or k not in tp or k not in est:
                 continue
             z[k] = (est[k] - tp[k]) / s
@@ -143,17 +148,17 @@ def run_one(seed: int, methods: list[str], knobs: dict) -> dict:
                 ref += float(drift["xyz".index(k[-1])])
             z_drift[k] = (est[k] - ref) / s
         rec_m = {
-            "verdict": fit["verdict"], "reasons": fit["verdict_reasons"], "converged": fit.get("converged"),
+            "verdict": fit.verdict.level, "reasons": fit.verdict.reasons, "converged": fit.method.converged,
             "seconds": time.perf_counter() - t0,
             "static_intervals": m,
-            "gyroscope_error_to_noise": fit.get("gyroscope_error_to_noise", float("nan")),
+            "gyroscope_error_to_noise": _nan(fit.gyroscope.error_to_noise),
             "gyroscope_angle_error_mean_deg": fitted_err,
-            "gyroscope_angle_error_max_deg": fit.get("gyroscope_angle_error_max_deg", float("nan")),
-            "gyroscope_angle_error_predicted_deg": fit.get("gyroscope_angle_error_predicted_deg", float("nan")),
-            "gyroscope_rest_rate_to_scatter": fit.get("gyroscope_rest_rate_to_scatter", float("nan")),
-            "gyroscope_rest_rate_max_deg_s": float(np.max(np.abs(fit.get("gyroscope_rest_rate_deg_s", np.nan)))),
+            "gyroscope_angle_error_max_deg": _nan(fit.gyroscope.angle_error_max_deg),
+            "gyroscope_angle_error_predicted_deg": _nan(fit.gyroscope.angle_error_predicted_deg),
+            "gyroscope_rest_rate_to_scatter": _nan(fit.gyroscope.rest_rate_to_scatter),
+            "gyroscope_rest_rate_max_deg_s": float(np.max(np.abs(_nan(fit.gyroscope.rest_rate_deg_s)))),
             "accelerometer_residual_to_noise": ratio,
-            "accelerometer_unvisited_sigma_to_noise": fit.get("accelerometer_unvisited_sigma_to_noise", float("nan")),
+            "accelerometer_unvisited_sigma_to_noise": _nan(fit.accelerometer.unvisited_sigma_to_noise),
             "residual_to_noise_normalised": ratio / np.sqrt((m - p) / m) if m > p else float("nan"),
             "poses_per_parameter": m / p,
             "acc_cross_axis_deg": _cross_axis_deg(cal.accelerometer.misalignment),

@@ -132,12 +132,12 @@ def demo(seed: int = 0, *, progress: Callable[[str], None] | None = None) -> dic
                "tedaldi2014": sequence_metrics(ted, sim.tests, lever_arm=full.lever_arm)}
     elapsed = time.perf_counter() - t0
     est = {"linear": lin.parameters(), "all": full.parameters()}
-    unc = full.fit.get("uncertainty", {})
+    unc = full.fit.uncertainty.sigma or {}
     rows = [{"name": k, "truth": v, "linear": est["linear"].get(k), "all": est["all"].get(k),
              "all_std": unc.get(k)} for k, v in sim.truth.parameters().items()]
     means = {eq: {name: float(np.mean(metrics[name][eq])) for name in ("tedaldi2014", "linear", "all")}
              for eq in ("eq34", "eq35")}
-    verdicts = {name: {"verdict": c.fit.get("verdict"), "reasons": c.fit.get("verdict_reasons", [])}
+    verdicts = {name: {"verdict": c.fit.verdict.level, "reasons": c.fit.verdict.reasons or []}
                 for name, c in (("tedaldi2014", ted), ("linear", lin), ("all", full))}
     return {
         "scenario": "zhang2021", "seed": seed, "seconds": round(elapsed, 3), "parameters": rows,

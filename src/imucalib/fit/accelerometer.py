@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..fitreport import AccelerometerReport, FitReport, UncertaintyReport
 from ..models import TriadModel
 from ..residuals import AccelLayout, GravityNorm, gravity_norm_residuals
 from ..solve import cholesky, errors_from_covariance, levenberg_marquardt, lstsq, scaled_inverse, solve
@@ -303,43 +304,42 @@ def _expand(shape: str | None) -> np.ndarray:
 
 
 def accelerometer_figures(acc: TriadModel, means: np.ndarray, gravity: float,
-                          which: tuple[str, int, str] | None) -> dict:
-    """The accelerometer's ``fit`` entries: its 1σ errors in ``uncertainty`` (:func:`accelerometer_errors`), or for
-    a model from :func:`fit_determined` (``which`` not None) :func:`determined_figures`."""
+                          which: tuple[str, int, str] | None) -> FitReport:
+    """The accelerometer's part of the fit report: its 1σ errors (:func:`accelerometer_errors`), or for a model
+    from :func:`fit_determined` (``which`` not None) :func:`determined_figures`."""
     if which is None:
-        return {"uncertainty": accelerometer_errors(acc, means, gravity)}
+        return FitReport.of(UncertaintyReport(sigma=accelerometer_errors(acc, means, gravity)))
     return determined_figures(acc, means, gravity, which)
 
 
 def determined_figures(acc: TriadModel, means: np.ndarray, gravity: float, which: tuple[str, int, str], *,
-                       weights: np.ndarray | None = None) -> dict:
-    """The ``fit`` entries of a model from :func:`fit_determined`: which model, what it leaves out, its 1σ errors.
+                       weights: np.ndarray | None = None) -> FitReport:
+    """The fit report's part of a model from :func:`fit_determined`: which model, what it leaves out, its 1σ errors.
 
-    ``accelerometer_model`` names the model; for a reduced one ``accelerometer_model_reduced`` says what the
-    poses do not determine. ``uncertainty`` holds the 1σ errors of the parameters fitted (the delta method
+    ``accelerometer.model`` names the model; for a reduced one ``accelerometer.model_reduced`` says what the
+    poses do not determine. ``uncertainty.sigma`` holds the 1σ errors of the parameters fitted (the delta method
     through ``E`` of :func:`pose_covariance`, each pose's own scatter), or, when the poses determine them exactly,
-    ``uncertainty_unavailable`` says so.
+    ``uncertainty.unavailable`` says so.
     """
     name, p, left = which
     m = means.shape[0]
     row = next(r for r in REDUCED_MODELS if r[0] == name)
-    out: dict = {"accelerometer_model": name}
+    figures = AccelerometerReport(model=name)
     if name != "linear":
-        out["accelerometer_model_reduced"] = (f"{m} static poses determine {p} accelerometer parameters: the model is "
-                                              f"reduced to {name}, leaving out {left}")
+        figures = figures.with_(model_reduced=f"{m} static poses determine {p} accelerometer parameters: the model "
+                                              f"is reduced to {name}, leaving out {left}")
     if m <= p:
-        out["uncertainty_unavailable"] = (f"accelerometer: the {m} poses determine its {p} parameters exactly, which "
-                                          "leaves no residual to estimate the noise from")
-        out["uncertainty"] = {}
-        return out
+        return FitReport.of(figures, UncertaintyReport(
+            unavailable=f"accelerometer: the {m} poses determine its {p} parameters exactly, which leaves no "
+                        "residual to estimate the noise from", sigma={}))
     lay = AccelLayout("upper", 1)
     expand = _expand(row[1])
     w = np.ones(m) if weights is None else np.asarray(weights, dtype=np.float64)
     r, j = gravity_norm_residuals(lay.pack(acc), lay, means, gravity, jacobian=True)
     se = errors_from_covariance(*pose_covariance(w[:, None] * j @ expand, w * r), transform=expand)
     fitted = np.any(expand != 0, axis=1)
-    out["uncertainty"] = {k: float(v) for k, v, f in zip(lay.names("accelerometer"), se, fitted, strict=True) if f}
-    return out
+    sigma = {k: float(v) for k, v, f in zip(lay.names("accelerometer"), se, fitted, strict=True) if f}
+    return FitReport.of(figures, UncertaintyReport(sigma=sigma))
 
 
 def accelerometer_covariance(acc: TriadModel, means: np.ndarray, gravity: float, *,

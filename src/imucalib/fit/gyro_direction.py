@@ -14,6 +14,7 @@ import numpy as np
 from ..kinematics import IntervalIntegrator, angle_between, quat_from_rotvec, quat_to_matrix
 from ..metrics import interval_means, rowwise, transition_bounds
 from ..models import AXES, TriadModel
+from ..presets import GYRO_MIN_POSES
 from ..recording import Interval, Recording
 from ..residuals import (
     AccelLayout,
@@ -25,7 +26,7 @@ from ..residuals import (
 from ..solve import levenberg_marquardt
 
 #: the fewest static poses a gravity-direction fit takes
-MIN_POSES = 4
+MIN_POSES = GYRO_MIN_POSES
 
 
 def _gyro_scale_guess(

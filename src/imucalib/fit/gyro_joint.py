@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..fitreport import GyroscopeReport
 from ..metrics import rowwise
 from ..models import AXES, TriadModel
 from ..recording import Interval, Recording
@@ -394,36 +395,37 @@ def _joint_covariance(j: np.ndarray, res: np.ndarray, n_rot: int, weights: np.nd
     return cov / np.outer(col, col), bad
 
 
-def _joint_at(recording, intervals, accelerometer, gyroscope, fit):
-    """The joint problem of a fit again, from its ``fit`` entries: static poses, weights, σ, θ, residuals, Jacobian."""
-    drift = fit.get("gyroscope_bias_drift_per_s")
+def _joint_at(recording, intervals, accelerometer, gyroscope, fitted: GyroscopeReport):
+    """The joint problem of a fit again, from its report: static poses, weights, σ, θ, residuals, Jacobian."""
+    drift = fitted.bias_drift_per_s
     static = static_gyro(recording, intervals, accelerometer, g_sensitivity=bool(np.any(gyroscope.g_sensitivity)),
                          drift=drift is not None)
     weights = np.ones(len(intervals) - 1)
-    weights[[int(k) for k in fit.get("rotations_left_out", {})]] = 0.0
-    sigma = float(fit["gyroscope_rotation_sigma_rad"])
+    weights[list(fitted.rotations_left_out or {})] = 0.0
+    sigma = float(fitted.rotation_sigma_rad)
     theta = np.concatenate([GyroLayout(True).pack(gyroscope), np.asarray(drift if drift is not None else [])])
     fun, jac, _, _ = joint_problem(recording, intervals, accelerometer, static, weights, sigma)
     return static, weights, sigma, theta, fun, jac
 
 
 def joint_errors_at(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
-                    gyroscope: TriadModel, fit: dict, *, acc_cov: np.ndarray | None = None,
+                    gyroscope: TriadModel, fitted: GyroscopeReport, *, acc_cov: np.ndarray | None = None,
                     acc_joint: tuple | None = None) -> dict[str, float]:
-    """The 1σ errors :func:`fit_gyroscope` gave a joint fit, again from a calibration's ``fit`` entries.
+    """The 1σ errors :func:`fit_gyroscope` gave a joint fit, again from its report (:meth:`GyroFit.report`,
+    a calibration's ``fit.gyroscope``).
 
     The static poses' regression is repeated with the choices the fit made
     (g-sensitivity, drift), the rotations left out and their noise
-    (``gyroscope_rotation_sigma_rad``) are the fit's. ``acc_joint``: as in
+    (``rotation_sigma_rad``) are the fit's. ``acc_joint``: as in
     :func:`joint_errors`.
     """
-    static, weights, sigma, theta, fun, jac = _joint_at(recording, intervals, accelerometer, gyroscope, fit)
+    static, weights, sigma, theta, fun, jac = _joint_at(recording, intervals, accelerometer, gyroscope, fitted)
     return joint_errors(recording, intervals, accelerometer, gyroscope, theta, jac, fun(theta), weights, sigma,
                         static, acc_cov=acc_cov, acc_joint=acc_joint) | static.errors
 
 
 def accelerometer_joint_step(recording: Recording, intervals: list[Interval], accelerometer: TriadModel,
-                             gyroscope: TriadModel, fit: dict, which, prior_var) -> np.ndarray:
+                             gyroscope: TriadModel, fitted: GyroscopeReport, which, prior_var) -> np.ndarray:
     """A Gauss–Newton step for accelerometer parameters the rotations determine along with the gyroscope.
 
     The rotations carry gravity from one pose to the next (Zhang 2021, eq. 14):
@@ -442,7 +444,7 @@ def accelerometer_joint_step(recording: Recording, intervals: list[Interval], ac
     variance ``prior_var`` per parameter (what a datasheet bounds; it
     decides only where the rotations do not). Returns ``δ``.
     """
-    static, weights, sigma, theta, fun, jac = _joint_at(recording, intervals, accelerometer, gyroscope, fit)
+    static, weights, sigma, theta, fun, jac = _joint_at(recording, intervals, accelerometer, gyroscope, fitted)
     which = [int(i) for i in which]
     j, r = jac(theta), fun(theta)
     n_rot = 3 * (len(intervals) - 1)

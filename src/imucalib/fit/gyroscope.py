@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..fitreport import GyroscopeReport
 from ..kinematics import IntervalIntegrator
 from ..metrics import interval_means, transition_bounds
 from ..models import AXES, TriadModel
@@ -125,18 +126,17 @@ class GyroFit:
     #: the integrator of the motions between the poses (for figures that integrate them again with the result)
     integrator: IntervalIntegrator | None = field(default=None, repr=False, compare=False)
 
-    def summary(self) -> dict:
-        """The ``fit`` entries that say how the gyroscope was fitted."""
-        out: dict = {"gyroscope_bias_source": self.bias_source,
-                     "gyroscope_g_sensitivity": "estimated" if np.any(self.model.g_sensitivity) else "none"}
+    def report(self) -> GyroscopeReport:
+        """The fit report's record of how the gyroscope was fitted."""
+        out = GyroscopeReport(bias_source=self.bias_source,
+                              g_sensitivity="estimated" if np.any(self.model.g_sensitivity) else "none")
         if self.drift is not None:
-            out["gyroscope_bias_drift_per_s"] = [float(x) for x in self.drift]
-            out["gyroscope_bias_drift_se_per_s"] = [float(x) for x in self.drift_se]
-            out["gyroscope_bias_time_s"] = float(self.t_ref)
+            out = out.with_(bias_drift_per_s=[float(x) for x in self.drift],
+                            bias_drift_se_per_s=[float(x) for x in self.drift_se], bias_time_s=float(self.t_ref))
         if self.rotation_sigma is not None:
-            out["gyroscope_rotation_sigma_rad"] = float(self.rotation_sigma)
+            out = out.with_(rotation_sigma_rad=float(self.rotation_sigma))
         if self.left_out:
-            out["rotations_left_out"] = {str(k): why for k, why in sorted(self.left_out.items())}
+            out = out.with_(rotations_left_out=dict(sorted(self.left_out.items())))
         return out
 
 

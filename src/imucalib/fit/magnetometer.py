@@ -71,6 +71,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..fitreport import MagnetometerReport
 from ..kinematics import IntervalIntegrator, quat_from_rotvec, quat_to_matrix
 from ..metrics import interval_means, transition_bounds
 from ..models import AXES, MagnetometerModel
@@ -92,10 +93,10 @@ _SYM = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 @dataclass(frozen=True)
 class MagnetometerFit:
-    """A fitted magnetometer: the model, its figures for ``Calibration.fit`` and the 1σ errors by name."""
+    """A fitted magnetometer: the model, its record of the fit report and the 1σ errors by name."""
 
     model: MagnetometerModel
-    figures: dict
+    figures: MagnetometerReport
     uncertainty: dict
     covariance: np.ndarray
 
@@ -221,7 +222,7 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
     >>> from imucalib.scenarios import session
     >>> sim = session("handheld", rng=1, rest=10, n_poses=14, magnetometer=True)
     >>> cal = calibrate(sim.recording, magnetometer=False)
-    >>> intervals = [Interval(a, b) for a, b in cal.fit["intervals"]]
+    >>> intervals = [Interval(a, b) for a, b in cal.fit.poses.intervals]
     >>> found = fit_magnetometer(sim.recording, intervals, cal)
     >>> found.model.bias.round(1), sim.truth.magnetometer.bias.round(1)
     (array([-86.6, -85.6, 107.3]), array([-86.6, -85.5, 107.4]))
@@ -258,21 +259,20 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
     invariants = None
     if not uniform:
         invariants = fit_invariants(mag_means, acc_means, calibration.accelerometer,
-                                    (calibration.fit or {}).get("uncertainty") or {}, theta[:13], scale[:13],
+                                    calibration.fit.uncertainty.sigma or {}, theta[:13], scale[:13],
                                     eq.unpack, min_pose, DRIFT_CHI2)
         theta, cov = invariants.theta, invariants.covariance
         use[:] = gyro_ok  # no rotation equations in this fit: every rotation the gyroscope kept is scored
     model, o, dip, drift = _model(eq.unpack(theta), recording.mag_unit, field)
     sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     figures = _figures(model, eq, theta, sd, dip, drift, hemisphere)
-    figures |= {
+    figures = figures.with_(
         # (I): whether the field was uniform over the poses, and what the fit held it to
-        "magnetometer_field_uniform": bool(uniform),
-        "magnetometer_field_scatter_chi2": field_chi2,
-        "magnetometer_field_error": None if invariants is None else invariants.field_error,
-        "magnetometer_accelerometer_shift_sigma": None if invariants is None
-        else invariants.accelerometer_shift_sigma,
-    }
+        field_uniform=bool(uniform),
+        field_scatter_chi2=field_chi2,
+        field_error=None if invariants is None else invariants.field_error,
+        accelerometer_shift_sigma=None if invariants is None else invariants.accelerometer_shift_sigma,
+    )
     return MagnetometerFit(model=model, figures=figures, uncertainty=_named_errors(cov, sd, o), covariance=cov)
 
 
@@ -311,7 +311,7 @@ def _starting_point(mag_means: np.ndarray, mag_moving: np.ndarray, up: np.ndarra
         raise ValueError(f"the magnetometer readings do not determine hard and soft iron: {exc}") from None
     use = np.ones(len(mag_means) - 1, bool)
     # the rotations the gyroscope's fit left out (a spike, a bump) are wrong here too: not in (M4)
-    left_out = [int(k) for k in (calibration.fit or {}).get("rotations_left_out") or {}]
+    left_out = list(calibration.fit.gyroscope.rotations_left_out or {})
     use[[k for k in left_out if 0 <= k < use.size]] = False
     gyro_ok = use.copy()
     o0 = alignment_from_rotations((mag_means - b0) @ s0, up, rot, use, hemisphere)
@@ -454,32 +454,31 @@ def _named_errors(cov: np.ndarray, sd: np.ndarray, o: np.ndarray) -> dict:
 
 
 def _figures(model: MagnetometerModel, eq: _PoseEquations, theta: np.ndarray, sd: np.ndarray, dip, drift,
-             hemisphere: str) -> dict:
-    """The ``magnetometer_…`` fit figures of the poses, the rotations and the drift (M5)."""
+             hemisphere: str) -> MagnetometerReport:
+    """The magnetometer's record of the fit report: the poses, the rotations and the drift (M5)."""
     p = theta.size
     s, use, min_pose = model.soft_iron, eq.use, eq.min_pose
     fig = pose_figures(model, eq.mag_means - np.outer(min_pose, drift), eq.up, eq.rot)
     err = fig["direction_errors_deg"][use]
     names, angle = model.axes()
-    return {
-        "magnetometer_poses": len(eq.mag_means),
-        "magnetometer_norm_spread": fig["norm_spread"],
-        "magnetometer_dip_deg": float(np.degrees(dip)),
-        "magnetometer_dip_spread_deg": fig["dip_spread_deg"],
-        "magnetometer_direction_error_mean_deg": float(err.mean()) if err.size else None,
-        "magnetometer_direction_error_max_deg": float(err.max()) if err.size else None,
-        "magnetometer_rotations_left_out": int(np.count_nonzero(~use)),
-        "magnetometer_axes": names,
-        "magnetometer_alignment_rotation_deg": angle if np.isfinite(angle) else None,
-        "magnetometer_hemisphere": hemisphere,
-        "magnetometer_field_norms": fig["norms"].tolist(),
-        "magnetometer_dips_deg": fig["dips_deg"].tolist(),
+    return MagnetometerReport(
+        poses=len(eq.mag_means),
+        norm_spread=fig["norm_spread"],
+        dip_deg=float(np.degrees(dip)),
+        dip_spread_deg=fig["dip_spread_deg"],
+        direction_error_mean_deg=float(err.mean()) if err.size else None,
+        direction_error_max_deg=float(err.max()) if err.size else None,
+        rotations_left_out=int(np.count_nonzero(~use)),
+        axes=names,
+        alignment_rotation_deg=angle if np.isfinite(angle) else None,
+        hemisphere=hemisphere,
+        field_norms=fig["norms"].tolist(),
+        dips_deg=fig["dips_deg"].tolist(),
         # (M5): raw units per minute, None when the poses show no drift; the bias is the one at the poses' mean time
-        "magnetometer_hard_iron_drift_per_min": drift.tolist() if p > 13 else None,
-        "magnetometer_hard_iron_drift_sigma_per_min": sd[13:16].tolist() if p > 13 else None,
-        "magnetometer_hard_iron_drift_over_session": float(np.linalg.norm(s @ drift) * np.ptp(min_pose))
-        if p > 13 else None,
-    }
+        hard_iron_drift_per_min=drift.tolist() if p > 13 else None,
+        hard_iron_drift_sigma_per_min=sd[13:16].tolist() if p > 13 else None,
+        hard_iron_drift_over_session=float(np.linalg.norm(s @ drift) * np.ptp(min_pose)) if p > 13 else None,
+    )
 
 
 def _carried_covariance(calibration, references, groups, theta, sigma, jac, cov) -> np.ndarray:
@@ -487,10 +486,10 @@ def _carried_covariance(calibration, references, groups, theta, sigma, jac, cov)
 
     The gravity directions and the rotations are inputs the fit holds fixed; to first order
     ``∂θ̂/∂x = −(JᵀJ)⁻¹ Jᵀ ∂r/∂x``, so each parameter ``x`` of the calibration with a 1σ in
-    ``fit["uncertainty"]`` adds ``σ_x² (∂θ̂/∂x)(∂θ̂/∂x)ᵀ`` (their correlations are not kept in the
+    ``fit.uncertainty.sigma`` adds ``σ_x² (∂θ̂/∂x)(∂θ̂/∂x)ᵀ`` (their correlations are not kept in the
     calibration file and are left out).
     """
-    unc = (calibration.fit or {}).get("uncertainty") or {}
+    unc = calibration.fit.uncertainty.sigma or {}
     values = calibration.parameters()
     extra = np.zeros_like(cov)
     base = np.concatenate([g / s for g, s in zip(groups(theta), sigma, strict=True)])

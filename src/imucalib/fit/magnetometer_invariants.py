@@ -47,7 +47,7 @@ horizontal magnitude (I2):
 (the third, along the horizontal perpendicular to ``m_i``, is taken up by
 ``ψ_i``). The accelerometer's parameters ``a`` enter through ``d_i``; they
 are fitted jointly, with the accelerometer's own estimate ``â`` and its 1σ
-``σ_a`` (``fit["uncertainty"]``) as their prior — the accelerometer's
+``σ_a`` (``fit.uncertainty.sigma``) as their prior — the accelerometer's
 equations, linearised, summarised by their solution and spread (their
 correlations are not kept in the calibration and are left out):
 

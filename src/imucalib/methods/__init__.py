@@ -133,8 +133,8 @@ def calibrate(
     Returns
     -------
     Calibration
-        With ``fit["verdict"]`` (``accepted``, ``suspect`` or ``rejected``) and
-        ``fit["verdict_reasons"]`` (:mod:`imucalib.verdict`).
+        With ``fit.verdict.level`` (``accepted``, ``suspect`` or ``rejected``) and
+        ``fit.verdict.reasons`` (:mod:`imucalib.verdict`).
 
     Raises
     ------
@@ -153,9 +153,9 @@ def calibrate(
     >>> from imucalib.scenarios import session
     >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
     >>> cal = calibrate(sim.recording)
-    >>> cal.method, cal.fit["verdict"]
+    >>> cal.method, cal.fit.verdict.level
     ('tedaldi2014', 'accepted')
-    >>> calibrate(sim.recording, method="ellipsoid").fit["verdict"]
+    >>> calibrate(sim.recording, method="ellipsoid").fit.verdict.level
     'accepted'
     >>> calibrate(sim.recording, method="no_such_method")
     Traceback (most recent call last):
@@ -165,13 +165,13 @@ def calibrate(
     cal = _calibrate(data, method=method or DEFAULT_METHOD, model=model, gravity=gravity, **options)
     recording = _recording_or_none(data)
     _note_inverted_rest(cal, recording)
-    if (method is None and model is None and cal.fit.get("verdict") == "rejected" and recording is not None
-            and recording.gyro is not None and six_faces_only(recording, cal.fit.get("intervals") or [])):
+    if (method is None and model is None and cal.fit.verdict.level == "rejected" and recording is not None
+            and recording.gyro is not None and six_faces_only(recording, cal.fit.poses.intervals or [])):
         try:
             faces = _calibrate(data, method="ferraris", model=None, gravity=gravity, **options)
         except ValueError:
             return cal
-        if faces.fit.get("verdict") != "rejected":
+        if faces.fit.verdict.level != "rejected":
             warnings.warn(f"the static poses are only the six faces (the Ferraris procedure): {DEFAULT_METHOD} "
                           "cannot determine the accelerometer's nine parameters from six orientations (its "
                           "calibration was rejected), so it was calibrated with ferraris, which takes the faces' "
@@ -184,7 +184,7 @@ def _note_inverted_rest(cal: Calibration, recording: Recording | None) -> None:
     """A warning when the calibrated initial rest reads −g on z (:mod:`imucalib.upright`: the sign convention)."""
     from ..upright import inverted_rest_note
 
-    intervals = (cal.fit or {}).get("intervals") or []
+    intervals = cal.fit.poses.intervals or []
     note = inverted_rest_note(cal, recording, intervals[0]) if recording is not None and intervals else None
     if note is not None:
         warnings.warn(note, ImucalibWarning, stacklevel=3)
@@ -285,9 +285,9 @@ def with_magnetometer(calibration: Calibration, recording: Recording, *, field: 
     """``calibration`` with the magnetometer of ``recording`` calibrated on its static poses.
 
     Runs :func:`~imucalib.fit.magnetometer.fit_magnetometer` on the poses in
-    ``calibration.fit["intervals"]``. When the magnetometer cannot be
+    ``calibration.fit.poses.intervals``. When the magnetometer cannot be
     calibrated (too few poses, readings that do not determine an ellipsoid),
-    the calibration is returned without it and ``fit["magnetometer_error"]``
+    the calibration is returned without it and ``fit.magnetometer.error``
     says why (the verdict then makes it suspect); a bad option is an error.
 
     Parameters
@@ -322,28 +322,26 @@ def with_magnetometer(calibration: Calibration, recording: Recording, *, field: 
     >>> cal.magnetometer is None
     True
     >>> cal = with_magnetometer(cal, sim.recording)
-    >>> cal.magnetometer.unit, round(cal.fit["magnetometer_direction_error_mean_deg"], 2)
+    >>> cal.magnetometer.unit, round(cal.fit.magnetometer.direction_error_mean_deg, 2)
     ('normalised', 0.05)
     """
     from ..fit.magnetometer import fit_magnetometer
+    from ..fitreport import MagnetometerReport, UncertaintyReport
     from ..recording import Interval
 
     if hemisphere not in ("north", "south"):
         raise ValueError(f"the magnetic hemisphere must be 'north' or 'south'; got {hemisphere!r}")
     if field is not None and not (field > 0 and field < 1000):
         raise ValueError(f"the local field magnitude is a number of µT (25-65 on Earth's surface); got {field!r}")
-    fit = dict(calibration.fit or {})
-    intervals = [Interval(int(a), int(b)) for a, b in fit.get("intervals") or []]
+    fit = calibration.fit
+    intervals = [Interval(int(a), int(b)) for a, b in fit.poses.intervals or []]
     if calibration.gyroscope is None or recording.gyro is None:
-        fit["magnetometer_error"] = ("its reference directions are carried from pose to pose by the gyroscope, and "
-                                     "this calibration has none")
-        return calibration.with_(fit=fit)
+        why = "its reference directions are carried from pose to pose by the gyroscope, and this calibration has none"
+        return calibration.with_(fit=fit.add(MagnetometerReport(error=why)))
     try:
         mag = fit_magnetometer(recording, intervals, calibration, hemisphere=hemisphere, field=field)
     except ValueError as exc:
-        fit["magnetometer_error"] = str(exc)
-        return calibration.with_(fit=fit)
+        return calibration.with_(fit=fit.add(MagnetometerReport(error=str(exc))))
     units = {**calibration.units, "magnetometer": {"raw": recording.mag_unit, "calibrated": mag.model.unit}}
-    fit.update(mag.figures)
-    fit["uncertainty"] = {**(fit.get("uncertainty") or {}), **mag.uncertainty}
-    return calibration.with_(magnetometer=mag.model, units=units, fit=fit)
+    sigma = UncertaintyReport(sigma={**(fit.uncertainty.sigma or {}), **mag.uncertainty})
+    return calibration.with_(magnetometer=mag.model, units=units, fit=fit.add(mag.figures, sigma))

@@ -8,7 +8,7 @@ for the richest linear model the poses determine
 with upper-triangular ``T_a`` from nine poses spread over the sphere, else a
 scale and a bias per axis (six poses, as the six-position method calibrates,
 Ru 2022 §3.1), else a sphere; a reduced model is said in
-``fit["accelerometer_model_reduced"]`` and makes the verdict suspect.
+``fit.accelerometer.model_reduced`` and makes the verdict suspect.
 
 **Weights.** Where the table gives each pose's spread ``σ`` (and the samples
 ``n``), pose ``k``'s residual is weighted by ``1/σ_r,k``, the standard error
@@ -24,7 +24,7 @@ exceeds 1: the scale factor of the Particle Data Group's averages
 since a hand's tremor correlates a pose's samples and ``σ/√n`` is then a lower
 bound. Without ``σ`` every pose is weighted alike and the 1σ errors come from
 the residuals' scatter (:func:`imucalib.fit.accelerometer.determined_figures`:
-the HC3 sandwich, or the common scatter of a thin table); ``fit["accelerometer_weights"]``
+the HC3 sandwich, or the common scatter of a thin table); ``fit.accelerometer.weights``
 says which.
 
 **The verdict** is the one every calibration gets (:func:`imucalib.verdict.assess`),
@@ -37,7 +37,7 @@ coverage of each axis up and down, the raw ``|a|`` against gravity, plausibility
 **The gyroscope** is not calibrated: a table of poses holds no rotation, and its
 scales and misalignment are measured only by rotations. Where the table gives
 the gyroscope's means, their mean over the poses is reported as the rate at rest
-(``fit["gyroscope_rest_mean"]``, raw units, with the standard error of that mean
+(``fit.gyroscope.rest_mean``, raw units, with the standard error of that mean
 over the poses): the gyroscope's bias plus the Earth's rotation (at most
 7.3e-5 rad/s) where the sensor was still. It is not put into the calibration,
 whose gyroscope section would need scales the table cannot give.
@@ -51,6 +51,14 @@ import numpy as np
 
 from ..calibration import Calibration
 from ..fit.accelerometer import REDUCED_MODELS, determined_figures, fit_determined, fit_sphere, reduced_expansion
+from ..fitreport import (
+    AccelerometerReport,
+    FitReport,
+    GyroscopeReport,
+    SegmentationReport,
+    UncertaintyReport,
+    VerdictReport,
+)
 from ..io.posetable import PoseTable
 from ..metrics import pose_coverage
 from ..plans import next_poses
@@ -123,7 +131,7 @@ def calibrate_pose_table(table: PoseTable, *, gravity: float) -> Calibration:
     >>> cal = calibrate_pose_table(table, gravity=9.81)
     >>> cal.accelerometer.scale.round(4), cal.accelerometer.bias.round(4)  # 9.81 / 1.02, 0.03
     (array([9.6176, 9.6176, 9.6176]), array([0.03, 0.03, 0.03]))
-    >>> cal.gyroscope is None, cal.fit["verdict"]
+    >>> cal.gyroscope is None, cal.fit.verdict.level
     (True, 'accepted')
     """
     means = np.asarray(table.acc, dtype=np.float64)
@@ -142,56 +150,57 @@ def calibrate_pose_table(table: PoseTable, *, gravity: float) -> Calibration:
     else:
         model, residuals, which = fit_determined(means, gravity)
     name, p, _ = which
-    fit: dict = {"static_intervals": m, "accelerometer_model": name}
+    rms = float(np.sqrt(np.mean(residuals**2)))
+    acc = AccelerometerReport(model=name, residual_rms=rms)
     if weighted:
-        fit |= _weighted_figures(model, means, gravity, which, 1.0 / sigma_r)
         floor = float(np.sqrt(np.mean(sigma_r**2)))
-        fit["accelerometer_weights"] = "1/σ of each pose's |a| from the table's σ/√n (delta method)"
+        fit = FitReport.of(_weighted_figures(model, means, gravity, which, 1.0 / sigma_r), acc.with_(
+            weights="1/σ of each pose's |a| from the table's σ/√n (delta method)", noise_floor=floor,
+            residual_to_noise=rms / floor))
     else:
-        fit |= determined_figures(model, means, gravity, which)
         floor = float(np.sqrt(residuals @ residuals / (m - p))) if m > p else 0.0
         why = ("the table gives no σ" if mean_sigma is None else "the table's σ is zero in some pose")
-        fit["accelerometer_weights"] = (f"{why}: every pose weighted alike, the 1σ errors from the residuals' "
-                                        "scatter, and the residual not judged against the sensor's noise")
-    rms = float(np.sqrt(np.mean(residuals**2)))
-    fit["accelerometer_residual_rms"] = rms
-    if weighted:
-        fit["accelerometer_noise_floor"] = floor
-        fit["accelerometer_residual_to_noise"] = rms / floor
+        fit = FitReport.of(determined_figures(model, means, gravity, which), acc.with_(
+            weights=f"{why}: every pose weighted alike, the 1σ errors from the residuals' scatter, and the "
+                    "residual not judged against the sensor's noise"))
     cal = Calibration(accelerometer=model, gyroscope=None, gravity=gravity, method=METHOD_NAME, model="linear",
                       units={"accelerometer": {"raw": table.acc_unit, "calibrated": "m/s^2"}})
     up = cal.accelerometer_si(means)
     coverage, flags = pose_coverage(up)
-    fit["pose_coverage"] = coverage
-    fit["next_poses"] = next_poses(up).tolist()
-    if flags:
-        fit["quality_flags"] = flags
-    fit["gyroscope_not_calibrated"] = "a table of averaged poses holds no rotation, which the gyroscope's scales need"
-    if table.gyro is not None:
-        fit["gyroscope_rest_mean"] = np.mean(table.gyro, axis=0).tolist()
-        fit["gyroscope_rest_mean_sigma"] = (np.std(table.gyro, axis=0, ddof=1) / np.sqrt(m)).tolist() \
-            if m > 1 else [float("nan")] * 3
-        fit["gyroscope_rest_mean_unit"] = table.gyro_unit
-        fit["gyroscope_not_calibrated"] += (f"; the mean of the poses' gyroscope means (its bias where the sensor "
-                                            f"was still) is gyroscope_rest_mean [{table.gyro_unit}]")
+    poses = SegmentationReport(static_intervals=m, pose_coverage=coverage)
+    fit = fit.add(poses.with_(quality_flags=flags) if flags else poses, _table_gyroscope(table, m),
+                  VerdictReport(next_poses=next_poses(up).tolist()))
     cal = cal.with_(fit=fit)
     verdict = assess(cal, poses=TablePoses(cal, table, tuple(range(m)), means, up, floor))
     # how the table was read and weighted, where it did not say: notes beside the verdict's
-    verdict["verdict_notes"] = [*table.notes, *([] if weighted else [fit["accelerometer_weights"]]),
-                                *verdict["verdict_notes"]]
-    return cal.with_(fit={**fit, **verdict})
+    notes = [*table.notes, *([] if weighted else [fit.accelerometer.weights]), *verdict.verdict.notes]
+    return cal.with_(fit=fit.add(verdict, VerdictReport(notes=notes)))
+
+
+def _table_gyroscope(table: PoseTable, m: int) -> GyroscopeReport:
+    """Why a pose table's gyroscope is not calibrated, and the mean of its ``m`` poses' gyroscope means when it has
+    them."""
+    why = "a table of averaged poses holds no rotation, which the gyroscope's scales need"
+    if table.gyro is None:
+        return GyroscopeReport(not_calibrated=why)
+    return GyroscopeReport(
+        rest_mean=np.mean(table.gyro, axis=0).tolist(),
+        rest_mean_sigma=(np.std(table.gyro, axis=0, ddof=1) / np.sqrt(m)).tolist() if m > 1 else [float("nan")] * 3,
+        rest_mean_unit=table.gyro_unit,
+        not_calibrated=f"{why}; the mean of the poses' gyroscope means (its bias where the sensor was still) is "
+                       f"gyroscope_rest_mean [{table.gyro_unit}]")
 
 
 def _weighted_figures(model, means: np.ndarray, gravity: float, which: tuple[str, int, str],
-                      weights: np.ndarray) -> dict:
+                      weights: np.ndarray) -> FitReport:
     """``accelerometer_model_reduced`` and ``uncertainty`` of the weighted fit (module docstring: ``(JᵀWJ)⁻¹``
     scaled by the reduced χ² where it exceeds 1)."""
     name, p, left = which
     m = len(means)
-    out: dict = {}
+    acc, unc = AccelerometerReport(), UncertaintyReport()
     if name != REDUCED_MODELS[0][0]:
-        out["accelerometer_model_reduced"] = (f"{m} static poses determine {p} accelerometer parameters: the model "
-                                              f"is reduced to {name}, leaving out {left}")
+        acc = acc.with_(model_reduced=f"{m} static poses determine {p} accelerometer parameters: the model "
+                                      f"is reduced to {name}, leaving out {left}")
     lay = AccelLayout("upper", 1)
     expand = reduced_expansion(name)
     r, j = gravity_norm_residuals(lay.pack(model), lay, means, gravity, jacobian=True)
@@ -200,16 +209,16 @@ def _weighted_figures(model, means: np.ndarray, gravity: float, which: tuple[str
     cov = inv / np.outer(col, col)
     if m > p:
         chi2 = float(rw @ rw) / (m - p)
-        out["accelerometer_reduced_chi2"] = chi2
+        acc = acc.with_(reduced_chi2=chi2)
         cov *= max(1.0, chi2)
     else:  # nothing to check the table's σ against: the errors are the σ propagated, the verdict told so
-        out["uncertainty_unavailable"] = (f"accelerometer: the {m} poses determine its {p} parameters exactly, "
-                                          "which leaves no residual to check the table's σ against (the 1σ are "
-                                          "its σ/√n propagated)")
+        unc = unc.with_(unavailable=f"accelerometer: the {m} poses determine its {p} parameters exactly, "
+                                    "which leaves no residual to check the table's σ against (the 1σ are "
+                                    "its σ/√n propagated)")
     se = errors_from_covariance(cov, bad, transform=expand)
     fitted = np.any(expand != 0, axis=1)
-    out["uncertainty"] = {k: float(v) for k, v, f in zip(lay.names("accelerometer"), se, fitted, strict=True) if f}
-    return out
+    sigma = {k: float(v) for k, v, f in zip(lay.names("accelerometer"), se, fitted, strict=True) if f}
+    return FitReport.of(acc, unc.with_(sigma=sigma))
 
 
 @dataclass(frozen=True)

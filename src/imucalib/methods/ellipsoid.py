@@ -10,7 +10,8 @@ between them together (:func:`imucalib.fit.gyroscope.fit_gyroscope`: Zhang
 
 from __future__ import annotations
 
-from ..calibration import Calibration, units_of
+from ..assembly import POSES_IN_BLOCKS, assemble
+from ..calibration import Calibration
 from ..fit.accelerometer import (
     accelerometer_covariance,
     accelerometer_figures,
@@ -20,7 +21,7 @@ from ..fit.accelerometer import (
 )
 from ..fit.gyroscope import fit_gyroscope
 from ..methodinfo import MethodInfo, Option
-from ..metrics import fit_summary, interval_means
+from ..metrics import interval_means
 from ..presets import MIN_HOLD
 from ..segment import no_usable_rotations, pose_blocks, static_poses, unreliable_transitions
 
@@ -56,7 +57,7 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     a recording in blocks (no motion recorded between its poses), or one whose
     rotations are all unreliable (:func:`imucalib.segment.no_usable_rotations`),
     leaves the gyroscope uncalibrated and says why in
-    ``fit["gyroscope_not_calibrated"]``.
+    ``fit.gyroscope.not_calibrated``.
 
     Parameters
     ----------
@@ -103,19 +104,10 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     gyro_fit = None if recording.gyro is None or blocks or why_not else fit_gyroscope(  # none without rotations
         recording, intervals, acc, exclude=exclude, acc_cov=accelerometer_covariance(acc, means, gravity, which=which))
     gyro, gyro_errors = (gyro_fit.model, gyro_fit.errors) if gyro_fit is not None else (None, {})
-    cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="ellipsoid",
-                      model="linear", units=units_of(recording))
-    fit = fit_summary(cal, recording, intervals, gravity)
-    if gyro_fit is not None:
-        fit |= gyro_fit.summary()
+    # why_not: nothing to fit the gyroscope to, the accelerometer's calibration, and why
+    not_calibrated = POSES_IN_BLOCKS if blocks and recording.gyro is not None else why_not
     # first-order errors of the gravity-norm fit at this solution (the algebraic fit is close to it)
-    if blocks and recording.gyro is not None:
-        fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
-                                           "the rotations that calibrate the gyroscope were not recorded")
-    elif why_not:  # nothing to fit the gyroscope to: the accelerometer's calibration, and why
-        fit["gyroscope_not_calibrated"] = why_not
-        if exclude:
-            fit["rotations_left_out"] = {str(k): w for k, w in sorted(exclude.items())}
-    fit |= accelerometer_figures(acc, means, gravity, which)
-    fit["uncertainty"] = fit["uncertainty"] | gyro_errors
-    return cal.with_(fit=fit)
+    figures = [accelerometer_figures(acc, means, gravity, which)]
+    return assemble("ellipsoid", recording, intervals, acc, gyro, gravity=gravity, uncertainty=gyro_errors,
+                    figures=figures if gyro_fit is None else [gyro_fit.report(), *figures],
+                    not_calibrated=not_calibrated, left_out=exclude)

@@ -36,11 +36,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..calibration import Calibration, units_of
+from ..assembly import assemble
+from ..calibration import Calibration
 from ..fit.accelerometer import faces_full, full_from_sensitivity, mean_variance
 from ..fit.gyroscope import fit_known_turns, rough_scale
+from ..fitreport import GyroscopeReport, SegmentationReport
 from ..methodinfo import MethodInfo, Option
-from ..metrics import fit_summary, interval_means
+from ..metrics import interval_means
 from ..presets import MIN_HOLD, hold_settings
 from ..recording import Interval, Recording
 from ..segment import (
@@ -439,7 +441,7 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
     >>> cal = ferraris.calibrate(sim.recording, gravity=sim.truth.gravity)
     >>> (cal.gyroscope.scale / sim.truth.gyroscope.scale).round(3)
     array([1.   , 1.001, 1.   ])
-    >>> cal.fit["sections"]  # the faces and turns were found in the recording
+    >>> cal.fit.poses.sections  # the faces and turns were found in the recording
     'found'
     """
     if not np.isfinite(angle) or angle <= 0:
@@ -484,16 +486,13 @@ def calibrate(recording, *, gravity: float, intervals=None, angle: float = 360.0
                          "and after (or give the sections with --sections)")
     gyro = fit_known_turns(recording, {i: [(tr.start, tr.stop, tr.sign) for tr in turns[i]] for i in range(3)},
                            theta, b_g, g_sens, acc.forward(recording.acc))
-    cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="ferraris",
-                      model="linear", units=units_of(recording))
-    fit = fit_summary(cal, recording, intervals, gravity)
-    fit["faces"] = {name: [faces[k].start, faces[k].stop] for k, name in enumerate(FACE_NAMES)}
-    fit["turns"] = {("x", "y", "z")[i]: len(turns[i]) for i in range(3)}
-    fit["turn_angle_deg"] = float(angle)
-    fit["turn_sections"] = [tr.to_dict() for i in range(3) for tr in turns[i]]
-    fit["sections"] = "given" if sections is not None else "found"
-    fit["uncertainty"] = closed_form_errors(recording, faces, turns, theta, acc.forward(recording.acc), gravity,
-                                            gyro.scale, rest=None if sections is not None else rest)
-    # the bias is the six faces' mean: with a drifting bias, the bias at their mean time
-    fit["gyroscope_bias_time_s"] = float(np.mean([np.mean(recording.t[iv.slice]) for iv in faces]))
-    return cal.with_(fit=fit)
+    figures = [
+        SegmentationReport(faces={name: [faces[k].start, faces[k].stop] for k, name in enumerate(FACE_NAMES)},
+                           sections="given" if sections is not None else "found"),
+        GyroscopeReport(turns={("x", "y", "z")[i]: len(turns[i]) for i in range(3)}, turn_angle_deg=float(angle),
+                        turn_sections=[tr.to_dict() for i in range(3) for tr in turns[i]],
+                        # the bias is the six faces' mean: with a drifting bias, the bias at their mean time
+                        bias_time_s=float(np.mean([np.mean(recording.t[iv.slice]) for iv in faces])))]
+    return assemble("ferraris", recording, intervals, acc, gyro, gravity=gravity, figures=figures,
+                    uncertainty=closed_form_errors(recording, faces, turns, theta, acc.forward(recording.acc),
+                                                   gravity, gyro.scale, rest=None if sections is not None else rest))

@@ -22,7 +22,7 @@ directions before and after, about the rotation axis). Then either
 * ``"dynamic"`` — ``[ω̄_ik T_k, −T_k] [k_i, k_i b_i]ᵀ = Δθ_ik`` solved by least
   squares for ``k_i`` and ``b_i`` together (eqs. 19–21).
 
-``fit["uncertainty"]``: the accelerometer's 1σ errors from the gravity-norm
+``fit.uncertainty.sigma``: the accelerometer's 1σ errors from the gravity-norm
 residuals' Jacobian at the solution (as :mod:`.tedaldi2014`), the
 gyroscope's from each axis's least-squares regression over its turns (NaN
 with as many turns as unknowns).
@@ -39,12 +39,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..calibration import Calibration, units_of
+from ..assembly import assemble
+from ..calibration import Calibration
 from ..conventions import from_qureshi, to_qureshi
 from ..fit.accelerometer import accelerometer_errors, newton_backtracking, six_position
 from ..fit.gyroscope import fit_measured_rotations, rotation_angles
+from ..fitreport import GyroscopeReport, MethodReport
 from ..methodinfo import MethodInfo, Option
-from ..metrics import fit_summary, interval_means
+from ..metrics import interval_means
 from ..models import TriadModel
 from ..presets import MIN_HOLD
 from ..segment import find_faces, static_poses
@@ -131,11 +133,8 @@ def calibrate(recording, *, gravity: float, intervals=None, gyroscope: str = "st
     rotations = rotation_angles(recording, intervals, acc, rest_bias)
     k, b, gyro_errors, rejected = fit_measured_rotations(rotations, rest_bias, gyroscope)
     gyro = TriadModel(scale=k, bias=b, shape="full")
-    cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="qureshi2017",
-                      model="linear", units=units_of(recording))
-    fit = fit_summary(cal, recording, intervals, gravity)
-    fit.update(newton_iterations=info["newton_iterations"], gyroscope_approach=gyroscope,
-               rotations_used=[sum(r["axis"] == i for r in rotations) - rejected[i] for i in range(3)],
-               rotations_rejected=rejected, qureshi_X=to_qureshi(acc).tolist(),
-               uncertainty=accelerometer_errors(acc, means, gravity) | gyro_errors)
-    return cal.with_(fit=fit)
+    figures = [MethodReport(newton_iterations=info["newton_iterations"], qureshi_X=to_qureshi(acc).tolist()),
+               GyroscopeReport(approach=gyroscope, rotations_rejected=rejected,
+                               rotations_used=[sum(r["axis"] == i for r in rotations) - rejected[i] for i in range(3)])]
+    return assemble("qureshi2017", recording, intervals, acc, gyro, gravity=gravity, figures=figures,
+                    uncertainty=accelerometer_errors(acc, means, gravity) | gyro_errors)

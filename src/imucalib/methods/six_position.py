@@ -15,7 +15,7 @@ hold that face and the method says which faces are missing. A face a few
 degrees off its axis is corrected for its tilt (measured by the
 directions the calibration gives, to a fixed point;
 :func:`imucalib.fit.accelerometer.six_position`), which eq. 9 as
-printed is not; ``fit["faces_tilt_deg"]`` says by how much. The gyroscope
+printed is not; ``fit.poses.faces_tilt_deg`` says by how much. The gyroscope
 comes from the static poses and the rotations between them together
 (:func:`imucalib.fit.gyroscope.fit_gyroscope`: the poses' means fix the bias,
 the rotations' gravity directions the scales and misalignment; the review
@@ -41,12 +41,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..calibration import Calibration, units_of
+from ..assembly import POSES_IN_BLOCKS, assemble
+from ..calibration import Calibration
 from ..fit.accelerometer import accelerometer_covariance as full_covariance
 from ..fit.accelerometer import fit_determined, mean_variance, six_position
 from ..fit.gyroscope import accelerometer_joint_step, fit_gyroscope, joint_errors_at
+from ..fitreport import AccelerometerReport, SegmentationReport, UncertaintyReport
 from ..methodinfo import MethodInfo, Option
-from ..metrics import fit_summary, interval_means
+from ..metrics import interval_means
 from ..presets import MIN_HOLD
 from ..segment import FACE_NAMES, find_faces, pose_blocks, static_poses, unreliable_transitions
 
@@ -166,7 +168,7 @@ def _with_misalignment(recording, intervals, acc, exclude, up, down, means, face
         for _ in range(MISALIGNMENT_STEPS):
             if gyro_fit.bias_source != "joint":
                 return acc, fit_gyroscope(recording, intervals, acc, exclude=exclude), False
-            step = accelerometer_joint_step(recording, intervals, acc, gyro_fit.model, gyro_fit.summary(),
+            step = accelerometer_joint_step(recording, intervals, acc, gyro_fit.model, gyro_fit.report(),
                                             MISALIGNMENT, prior)
             t[0, 1] += step[0]
             t[0, 2] += step[1]
@@ -246,27 +248,21 @@ def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15
         if estimated:
             acc, cos_up, cos_down = _faces(up, down, means, faces, gravity, acc.misalignment)
             gyro_fit.errors = joint_errors_at(
-                recording, intervals, acc, gyro_fit.model, gyro_fit.summary(),
+                recording, intervals, acc, gyro_fit.model, gyro_fit.report(),
                 acc_cov=accelerometer_covariance(recording, intervals, faces, acc, gravity),
                 acc_joint=(MISALIGNMENT, np.full(len(MISALIGNMENT), CROSS_AXIS**2 / 3)))
         else:
             gyro_fit = fit_gyroscope(recording, intervals, acc, exclude=exclude,
                                      acc_cov=accelerometer_covariance(recording, intervals, faces, acc, gravity))
     gyro, gyro_errors = (gyro_fit.model, gyro_fit.errors) if gyro_fit is not None else (None, {})
-    cal = Calibration(accelerometer=acc, gyroscope=gyro, gravity=gravity, method="six_position",
-                      model="linear", units=units_of(recording))
-    fit = fit_summary(cal, recording, intervals, gravity)
-    if gyro_fit is not None:
-        fit |= gyro_fit.summary()
-    if blocks and recording.gyro is not None:
-        fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
-                                           "the rotations that calibrate the gyroscope were not recorded")
-    fit["accelerometer_misalignment"] = ("estimated from the rotations with the gyroscope" if estimated else
-                                         "held at zero (eqs. 8-9): no rotations to measure it")
-    fit["faces"] = {name: int(i) for name, i in zip(FACE_NAMES, faces, strict=True)}
-    fit["faces_tilt_deg"] = {name: float(np.degrees(np.arccos(np.clip(c, -1, 1))))
-                             for name, c in zip(FACE_NAMES, np.concatenate([cos_up, cos_down]), strict=True)}
-    fit["uncertainty"] = gyro_errors
-    fit["uncertainty_unavailable"] = ("accelerometer: the six faces determine its biases and scales exactly "
-                                      "(eqs. 8-9), which leaves no residual to estimate the noise from")
-    return cal.with_(fit=fit)
+    figures = [
+        AccelerometerReport(misalignment="estimated from the rotations with the gyroscope" if estimated else
+                            "held at zero (eqs. 8-9): no rotations to measure it"),
+        SegmentationReport(faces={name: int(i) for name, i in zip(FACE_NAMES, faces, strict=True)},
+                           faces_tilt_deg={name: float(np.degrees(np.arccos(np.clip(c, -1, 1)))) for name, c
+                                           in zip(FACE_NAMES, np.concatenate([cos_up, cos_down]), strict=True)}),
+        UncertaintyReport(unavailable="accelerometer: the six faces determine its biases and scales exactly "
+                                      "(eqs. 8-9), which leaves no residual to estimate the noise from")]
+    return assemble("six_position", recording, intervals, acc, gyro, gravity=gravity, uncertainty=gyro_errors,
+                    figures=figures if gyro_fit is None else [gyro_fit.report(), *figures],
+                    not_calibrated=POSES_IN_BLOCKS if blocks and recording.gyro is not None else None)

@@ -33,7 +33,9 @@ from collections.abc import Callable, Iterable
 
 import numpy as np
 
+from ..assembly import POSES_IN_BLOCKS, assemble, rest_seconds
 from ..calibration import Calibration, units_of
+from ..constants import STANDARD_GRAVITY
 from ..fit.accelerometer import (
     accelerometer_covariance,
     accelerometer_errors,
@@ -42,10 +44,11 @@ from ..fit.accelerometer import (
     fit_gravity_norm,
 )
 from ..fit.gyroscope import errors_at, fit_gyroscope, joint_errors_at, static_gyro
+from ..fitreport import AccelerometerReport, SegmentationReport
 from ..methodinfo import MethodInfo, Option
-from ..metrics import fit_summary, interval_means
-from ..presets import MIN_HOLD, MULTIPLIERS
-from ..recording import STANDARD_GRAVITY, Interval, Recording
+from ..metrics import interval_means
+from ..presets import FULL_MODEL_POSES, MIN_HOLD, MULTIPLIERS
+from ..recording import Interval, Recording
 from ..segment import detect_intervals, no_usable_rotations, pose_blocks, unreliable_transitions
 
 METHOD = MethodInfo(
@@ -75,8 +78,6 @@ METHOD = MethodInfo(
 
 __all__ = ["calibrate", "uncertainty"]
 
-MIN_INTERVALS = 9
-
 
 def uncertainty(recording: Recording, intervals: list[Interval], calibration: Calibration) -> dict[str, float]:
     """1σ standard errors of the linear model's parameters, by name (as in :meth:`Calibration.parameters`).
@@ -89,17 +90,17 @@ def uncertainty(recording: Recording, intervals: list[Interval], calibration: Ca
     came from the static poses, :func:`imucalib.fit.gyroscope.static_gyro`, which
     also gives the g-sensitivity's). The gyroscope's errors treat the
     accelerometer's as fixed. NaN where the data cannot determine a parameter.
-    :func:`calibrate` stores the same figures in ``fit["uncertainty"]``.
+    :func:`calibrate` stores the same figures in ``fit.uncertainty.sigma``.
     """
     acc, gyro = calibration.accelerometer, calibration.gyroscope
-    fit = calibration.fit or {}
+    fitted = calibration.fit.gyroscope
     out = accelerometer_errors(acc, interval_means(recording.acc, intervals), calibration.gravity)
     weights = np.ones(len(intervals) - 1)
-    weights[[int(k) for k in fit.get("rotations_left_out", {})]] = 0.0
+    weights[list(fitted.rotations_left_out or {})] = 0.0
     acc_cov = accelerometer_covariance(acc, interval_means(recording.acc, intervals), calibration.gravity)
-    if fit.get("gyroscope_bias_source") == "joint":
-        return out | joint_errors_at(recording, intervals, acc, gyro, fit, acc_cov=acc_cov)
-    estimated = fit.get("gyroscope_bias_source") == "fit"
+    if fitted.bias_source == "joint":
+        return out | joint_errors_at(recording, intervals, acc, gyro, fitted, acc_cov=acc_cov)
+    estimated = fitted.bias_source == "fit"
     static = static_gyro(recording, intervals, acc, g_sensitivity=bool(np.any(gyro.g_sensitivity)), drift=False)
     return (out | errors_at(recording, intervals, acc, gyro, estimated, weights=weights,
                             bias_cov=None if estimated else static.bias_cov, acc_cov=acc_cov) | static.errors)
@@ -146,8 +147,7 @@ def calibrate(
         leave it out as Tedaldi 2014 does (False), or keep it where the poses
         support it ("auto", :func:`imucalib.fit.gyroscope.static_gyro`).
     intervals : list of Interval, optional
-        Static intervals to use instead of detecting them (the first one is
-        then taken as the initial rest).
+        Static intervals to use instead of detecting them (the first one is then taken as the initial rest).
     progress : callable, optional
         Called with a short message at each stage.
 
@@ -155,11 +155,10 @@ def calibrate(
     -------
     Calibration
         ``fit`` holds the figures every method gives (``docs/architecture.rst``) plus ``threshold_multiplier`` and
-        ``initial_rest_seconds``. Without a gyroscope (accelerometer-only
-        recording), without rotations recorded (poses in blocks), or when no
-        rotation is reliable (:func:`imucalib.segment.no_usable_rotations`:
-        saturated, spiking or gapped rotations are left out), the calibration
-        has no gyroscope and ``fit["gyroscope_not_calibrated"]`` says why.
+        ``initial_rest_seconds``. Without a gyroscope (accelerometer-only recording), without rotations recorded
+        (poses in blocks), or when no rotation is reliable (:func:`imucalib.segment.no_usable_rotations`:
+        saturated, spiking or gapped rotations are left out), the calibration has no gyroscope and
+        ``fit.gyroscope.not_calibrated`` says why.
 
     Examples
     --------
@@ -172,7 +171,7 @@ def calibrate(
     >>> cal = tedaldi2014.calibrate(sim.recording, gravity=sim.truth.gravity)
     >>> (cal.accelerometer.scale / sim.truth.accelerometer.scale).round(3)
     array([1., 1., 1.])
-    >>> len(cal.fit["intervals"]), cal.fit["threshold_multiplier"]  # the rest and the 14 poses
+    >>> len(cal.fit.poses.intervals), cal.fit.poses.threshold_multiplier  # the rest and the 14 poses
     (15, 7.0)
     """
     say = progress or (lambda msg: None)
@@ -183,47 +182,61 @@ def calibrate(
             window=window, min_interval=min_interval,
         )
     else:
-        intervals = [iv for iv in intervals if iv.kind == "static"]
-        mult, rest = float("nan"), intervals[0]
-        if len(intervals) >= MIN_INTERVALS:
-            acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
+        intervals, mult, rest, acc_model = _given(recording, intervals, gravity)
     means = interval_means(recording.acc, intervals)
-    which = reduced = None
-    if len(intervals) < MIN_INTERVALS:  # few poses: the model they determine (the full one from 9 spread poses)
-        acc_model, _, which = fit_determined(means, gravity)
-    else:
-        reduced = undetermined_misalignment(acc_model, means, gravity, recording)
-        if reduced:  # a misalignment the poses do not determine is held at none rather than guessed
-            acc_model, _, which = fit_determined(means, gravity, richest="scale and bias per axis")
-    if recording.gyro is None or pose_blocks(recording) is not None:  # no gyroscope, or no rotations recorded
-        return _accelerometer_alone(recording, intervals, acc_model, which, gravity, mult, rest, reduced=reduced)
-    exclude = unreliable_transitions(recording, intervals)
-    why = no_usable_rotations(intervals, exclude)
-    if why:  # nothing to fit the gyroscope to: the accelerometer's calibration, and why
+    acc_model, which, reduced = _determined(recording, means, gravity,
+                                            acc_model if len(intervals) >= FULL_MODEL_POSES else None)
+    blocks = recording.gyro is None or pose_blocks(recording) is not None  # no gyroscope, or no rotations recorded
+    exclude = {} if blocks else unreliable_transitions(recording, intervals)
+    why = None if blocks else no_usable_rotations(intervals, exclude)
+    if blocks or why:  # nothing to fit the gyroscope to: the accelerometer's calibration, and why
         return _accelerometer_alone(recording, intervals, acc_model, which, gravity, mult, rest, why, exclude,
                                     reduced=reduced)
     say("calibrating the gyroscope")
     acc_cov = accelerometer_covariance(acc_model, means, gravity, which=which)
     gyro = fit_gyroscope(recording, intervals, acc_model, estimate_bias=estimate_gyro_bias,
                          g_sensitivity=gyro_g_sensitivity, acc_cov=acc_cov, exclude=exclude)
-    gyro_model, gyro_errors = gyro.model, gyro.errors
-    cal = Calibration(
-        accelerometer=acc_model,
-        gyroscope=gyro_model,
-        gravity=gravity,
-        method="tedaldi2014",
-        model="linear",
-        units=units_of(recording),
-    )
-    fit = fit_summary(cal, recording, intervals, gravity, integrator=gyro.integrator)
-    fit["threshold_multiplier"] = mult
-    fit |= gyro.summary()
-    fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
-    fit |= accelerometer_figures(acc_model, means, gravity, which)
+    return assemble("tedaldi2014", recording, intervals, acc_model, gyro.model, gravity=gravity,
+                    integrator=gyro.integrator, uncertainty=gyro.errors,
+                    figures=_figures(recording, intervals, acc_model, which, gravity, mult, rest, reduced,
+                                     gyro.report()))
+
+
+def _figures(recording: Recording, intervals: list[Interval], acc_model, which, gravity: float, mult: float,
+             rest: Interval, reduced: str | None, *records) -> list:
+    """The method's own records of the fit report: the detector's threshold, the rest, ``records``, the
+    accelerometer's figures and why its model is reduced."""
+    means = interval_means(recording.acc, intervals)
+    out = [SegmentationReport(threshold_multiplier=mult), *records, rest_seconds(recording, rest),
+           accelerometer_figures(acc_model, means, gravity, which)]
     if reduced:
-        fit["accelerometer_model_reduced"] = reduced
-    fit["uncertainty"] = fit["uncertainty"] | gyro_errors
-    return cal.with_(fit=fit)
+        out.append(AccelerometerReport(model_reduced=reduced))
+    return out
+
+
+def _given(recording: Recording, intervals: list[Interval], gravity: float) -> tuple:
+    """The static intervals given, as :func:`detect_intervals` returns those it finds (no detector threshold,
+    the first interval the rest, the full linear model only from :data:`FULL_MODEL_POSES` poses)."""
+    intervals = [iv for iv in intervals if iv.kind == "static"]
+    acc_model = None
+    if len(intervals) >= FULL_MODEL_POSES:
+        acc_model, _ = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
+    return intervals, float("nan"), intervals[0], acc_model
+
+
+def _determined(recording: Recording, means: np.ndarray, gravity: float, acc_model) -> tuple:
+    """The accelerometer model the poses determine: ``acc_model`` (the full linear model, None for fewer than
+    :data:`FULL_MODEL_POSES` poses), or the reduced one of :func:`fit_determined`, with which it is (None: the full
+    one) and why its misalignment is held at none (None: it is not)."""
+    if acc_model is None:  # few poses: the model they determine (the full one from 9 spread poses)
+        acc_model, _, which = fit_determined(means, gravity)
+        return acc_model, which, None
+    reduced = undetermined_misalignment(acc_model, means, gravity, recording)
+    if not reduced:
+        return acc_model, None, None
+    # a misalignment the poses do not determine is held at none rather than guessed
+    acc_model, _, which = fit_determined(means, gravity, richest="scale and bias per axis")
+    return acc_model, which, reduced
 
 
 def undetermined_misalignment(acc_model, means: np.ndarray, gravity: float, recording: Recording) -> str | None:
@@ -239,7 +252,7 @@ def undetermined_misalignment(acc_model, means: np.ndarray, gravity: float, reco
 
     figures = accelerometer_figures(acc_model, means, gravity, None)
     cal = Calibration(accelerometer=acc_model, gyroscope=None, gravity=gravity, units=units_of(recording))
-    terms = [c.text.split(":")[0].split(".")[-1] for c in worse_than_nominal(cal, figures.get("uncertainty", {}),
+    terms = [c.text.split(":")[0].split(".")[-1] for c in worse_than_nominal(cal, figures.uncertainty.sigma or {},
                                                                              cal.parameters())
              if ".misalignment." in c.text.split(":")[0]]
     if not terms:
@@ -255,20 +268,7 @@ def _accelerometer_alone(recording: Recording, intervals: list[Interval], acc_mo
     """The accelerometer part of the method: a calibration with no gyroscope, for an accelerometer-only
     recording, one whose poses were recorded as separate blocks (no rotations between them), or one whose
     rotations were all left out as unreliable (``why``; ``left_out``: the rotations, and why)."""
-    means = interval_means(recording.acc, intervals)
-    cal = Calibration(accelerometer=acc_model, gyroscope=None, gravity=gravity, method="tedaldi2014", model="linear",
-                      units=units_of(recording))
-    fit = fit_summary(cal, recording, intervals, gravity)
-    fit["threshold_multiplier"] = mult
-    fit["initial_rest_seconds"] = float(recording.t[rest.stop - 1] - recording.t[rest.start])
-    if why:
-        fit["gyroscope_not_calibrated"] = why
-        if left_out:
-            fit["rotations_left_out"] = {str(k): w for k, w in sorted(left_out.items())}
-    elif recording.gyro is not None:
-        fit["gyroscope_not_calibrated"] = ("the poses were recorded as separate blocks, with no motion between them: "
-                                           "the rotations that calibrate the gyroscope were not recorded")
-    fit |= accelerometer_figures(acc_model, means, gravity, which)
-    if reduced:
-        fit["accelerometer_model_reduced"] = reduced
-    return cal.with_(fit=fit)
+    not_calibrated = why or (POSES_IN_BLOCKS if recording.gyro is not None else None)
+    return assemble("tedaldi2014", recording, intervals, acc_model, None, gravity=gravity,
+                    not_calibrated=not_calibrated, left_out=left_out if why else None,
+                    figures=_figures(recording, intervals, acc_model, which, gravity, mult, rest, reduced))

@@ -18,7 +18,7 @@ Model (eqs. 2, 6): ``f = C_a (K_a1 N + K_a2 N² + K_a3 N³ + ∇)``,
   Figs. 4–5 comparison.
 
 All minimisations are Levenberg–Marquardt (:func:`imucalib.solve.levenberg_marquardt`)
-with analytic Jacobians, on parameters scaled to order one. ``fit["uncertainty"]``
+with analytic Jacobians, on parameters scaled to order one. ``fit.uncertainty.sigma``
 holds 1σ errors from each fit's Jacobian and residuals
 (:func:`imucalib.solve.standard_errors`); the plan's 15 positions exactly
 determine the accelerometer's 15 parameters, so its errors are not available
@@ -32,6 +32,7 @@ import numpy as np
 
 from ..calibration import Calibration
 from ..constants import DEG, EARTH_RATE, G0, MICRO_G
+from ..fitreport import FitReport, MethodReport, UncertaintyReport
 from ..methodinfo import MethodInfo, Option
 from ..models import TriadModel
 from ..solve import levenberg_marquardt, standard_errors
@@ -192,13 +193,14 @@ def calibrate(session, *, gravity: float | None = None, initial: str = "estimate
             ("gyroscope", sol_b, scales_b, ["output_bias"])):
         names = [f"{prefix}.{k}.{c}" for k in keys for c in (low if k == "misalignment" else "xyz")]
         unc.update(zip(names, standard_errors(sol.jac, sol.fun) * scales, strict=True))
-    fit = {"positions": int(na.shape[0]), "turn_pairs": int(ns.shape[0]),
-           "accelerometer_cost": float(sol_a.cost), "gyroscope_cost": float(sol_g.cost),
-           "bias_cost": float(sol_b.cost),
-           "converged": bool(sol_a.success and sol_g.success and sol_b.success),
-           "uncertainty": {k: float(v) for k, v in unc.items()}}
+    method = MethodReport(positions=int(na.shape[0]), turn_pairs=int(ns.shape[0]),
+                          accelerometer_cost=float(sol_a.cost), gyroscope_cost=float(sol_g.cost),
+                          bias_cost=float(sol_b.cost),
+                          converged=bool(sol_a.success and sol_g.success and sol_b.success))
+    sigma = UncertaintyReport(sigma={k: float(v) for k, v in unc.items()})
     if not np.isfinite(unc["accelerometer.scale.x"]):
-        fit["uncertainty_unavailable"] = (f"accelerometer: {na.shape[0]} positions for 15 parameters leave no "
-                                          "degrees of freedom to estimate the noise from the residuals")
+        sigma = sigma.with_(unavailable=f"accelerometer: {na.shape[0]} positions for 15 parameters leave no "
+                                        "degrees of freedom to estimate the noise from the residuals")
+    fit = FitReport.of(method, sigma)
     return Calibration(accelerometer=acc, gyroscope=gyro, gravity=g, method="wang2019",
                        model="wang2019", fit=fit)

@@ -194,7 +194,7 @@ class Recorder:
         if self.poses and self.rest is not None:
             self.final = self._calibrate(self.n)
             if self.final is not None:
-                verdict, reasons = self.final.fit.get("verdict"), list(self.final.fit.get("verdict_reasons") or [])
+                verdict, reasons = self.final.fit.verdict.level, list(self.final.fit.verdict.reasons or [])
         self.emit({"event": "end", "lines": self.line_no, "samples": self.n, "bad_lines": self.bad,
                    "gaps": self.gaps, "rest_restarts": self.restarts, "left_out_before_rest": self.dropped_before_rest,
                    "poses": len(self.poses), "complete": self.complete, "t": self._time(self.n - 1),
@@ -621,7 +621,7 @@ class Recorder:
         if self.format.gyro_unit == "counts":
             self.scale = float(np.mean(np.abs(cal.gyroscope.scale)))
         self._update_directions()
-        if cal.fit.get("verdict") == "accepted":
+        if cal.fit.verdict.level == "accepted":
             self.complete = True
             self.emit({"event": "complete", "poses": len(self.poses), "sample": m - 1, "samples": m,
                        "t": self._time(m - 1), "method": self.method, "verdict": "accepted",
@@ -631,11 +631,11 @@ class Recorder:
     def _next(self, sample: int, up: np.ndarray) -> None:
         from ..plans import describe_direction, next_poses
 
-        reasons = (self.trial.fit.get("verdict_reasons") or []) if self.trial is not None else []
+        reasons = (self.trial.fit.verdict.reasons or []) if self.trial is not None else []
         if self.method in FACE_METHODS:  # these take the six faces only: the next pose is one of them
             nxt = next_poses(self.directions, candidates=np.vstack([np.eye(3), -np.eye(3)]))
-        elif self.trial is not None and self.trial.fit.get("next_poses"):
-            nxt = np.asarray(self.trial.fit["next_poses"])
+        elif self.trial is not None and self.trial.fit.verdict.next_poses:
+            nxt = np.asarray(self.trial.fit.verdict.next_poses)
         else:
             nxt = next_poses(self.directions)
         self.suggestion = nxt[0]

@@ -402,7 +402,7 @@ def no_usable_rotations(intervals: list[Interval], left_out: dict[int, str]) -> 
     rotation between them that is not ``left_out`` (index ``k``: from pose
     ``k`` to ``k+1`` → why, :func:`unreliable_transitions`). Without them a
     method that calibrates both sensors calibrates the accelerometer alone and
-    says why (``fit["gyroscope_not_calibrated"]``); a fit on a few rotations
+    says why (``fit.gyroscope.not_calibrated``); a fit on a few rotations
     runs, and its verdict judges whether they determine the gyroscope.
     """
     from ..fit.gyroscope import MIN_POSES

@@ -72,6 +72,7 @@ import numpy as np
 from ..constants import GRAVITY_RANGE
 from ..fit.accelerometer import REDUCED_MODELS, fit_sphere
 from ..fit.magnetometer import WEAK_DIP_DEG
+from ..fitreport import FitReport, GyroscopeReport, VerdictReport
 from ..methodinfo import needing
 from ..metrics import transition_bounds
 from ..recording import Interval, Recording
@@ -320,8 +321,8 @@ def plausibility(calibration) -> list[Check]:
     []
     """
     out = []
-    fit = calibration.fit or {}
-    if fit.get("converged") is False:
+    fit = calibration.fit
+    if fit.method.converged is False:
         out.append(Check(2, "the solver did not converge: these parameters are not a minimum of the fit"))
     for sensor, model in (("accelerometer", calibration.accelerometer), ("gyroscope", calibration.gyroscope)):
         if model is None:  # an accelerometer-only calibration
@@ -352,7 +353,7 @@ def plausibility(calibration) -> list[Check]:
 
 def _accelerometer_parameters(calibration) -> int:
     reduced = {name: p for name, _, p, _ in REDUCED_MODELS if name != "linear"}
-    name = (calibration.fit or {}).get("accelerometer_model")
+    name = calibration.fit.accelerometer.model
     if name in reduced:  # a model reduced to what the poses determine (fit.accelerometer.fit_determined)
         return reduced[name]
     acc = calibration.accelerometer
@@ -370,10 +371,10 @@ def _redundancy(calibration, fitted: bool = True) -> list[Check]:
     exactly (``six_position``, ``ferraris``: no redundancy to count, no over-fit to find) is judged on the
     residual over its poses as well, by the same limits: ``calibrate`` and ``validate`` on the same data agree.
     """
-    fit = calibration.fit or {}
+    fit = calibration.fit
     out = []
-    m = fit.get("static_intervals")
-    exact = "accelerometer" in str(fit.get("uncertainty_unavailable", "")) or calibration.method in needing(
+    m = fit.poses.static_intervals
+    exact = "accelerometer" in str(fit.uncertainty.unavailable or "") or calibration.method in needing(
         "six faces")
     if not m:
         return out
@@ -385,7 +386,7 @@ def _redundancy(calibration, fitted: bool = True) -> list[Check]:
         out.append(Check(2 if per <= lim[1] else 1,
                          f"{m} static poses for {p} accelerometer parameters ({per:.2g} per parameter, at least "
                          f"{lim[0]:g} wanted): the fit can follow the noise; record more poses"))
-    ratio = fit.get("accelerometer_residual_to_noise")
+    ratio = fit.accelerometer.residual_to_noise
     if ratio is not None and np.isfinite(ratio):
         level = grade(ratio, THRESHOLDS["residual_to_noise_high"])
         if level:
@@ -401,7 +402,7 @@ def _redundancy(calibration, fitted: bool = True) -> list[Check]:
     return out
 
 
-def _gyroscope(calibration, found: Poses) -> tuple[list[Check], dict]:
+def _gyroscope(calibration, found: Poses) -> tuple[list[Check], GyroscopeReport]:
     """The gyroscope's gravity-direction error between poses against what the sensor noise alone predicts.
 
     Judged on every rotation whose integration the data allow (:func:`imucalib.segment.unreliable_transitions`
@@ -410,20 +411,21 @@ def _gyroscope(calibration, found: Poses) -> tuple[list[Check], dict]:
     ``calibrate`` and ``validate`` judge the same rotations of the same data by the same limits.
     """
     recording, intervals = found.recording, found.intervals
-    fit = calibration.fit or {}
-    if fit.get("gyroscope_angle_error_mean_deg") is None or len(intervals) < 2:
-        return [], {}
+    fit = calibration.fit
+    if fit.gyroscope.angle_error_mean_deg is None or len(intervals) < 2:
+        return [], GyroscopeReport()
     pred = predicted_error_of(found, None)
     errors = found.direction_errors
-    left = {int(k) for k in fit.get("rotations_left_out", {})}
+    left_out = fit.gyroscope.rotations_left_out or {}
+    left = set(left_out)
     faulty = unreliable_transitions(recording, intervals)
     judged = np.array([k not in faulty for k in range(len(pred))])
-    figures: dict = {}
+    figures = GyroscopeReport()
     out = []
     if left:
         kept = np.array([k not in left for k in range(len(pred))])
         if np.any(kept):
-            figures["gyroscope_angle_error_kept_mean_deg"] = float(np.degrees(np.mean(errors[kept])))
+            figures = figures.with_(angle_error_kept_mean_deg=float(np.degrees(np.mean(errors[kept]))))
         if len(left) > len(pred) / 3:
             out.append(Check(1, f"{len(left)} of the {len(pred)} rotations between poses were left out of the "
                                 "gyroscope fit (notes below say why): the rest may not cover every axis well"))
@@ -431,9 +433,9 @@ def _gyroscope(calibration, found: Poses) -> tuple[list[Check], dict]:
         mean_deg = float(np.degrees(np.mean(errors[judged])))
         pred_deg = float(np.degrees(np.mean(pred[judged])))
         ratio = mean_deg / pred_deg if pred_deg > 0 else float("inf")
-        figures |= {"gyroscope_angle_error_predicted_deg": pred_deg, "gyroscope_error_to_noise": ratio}
+        figures = figures.with_(angle_error_predicted_deg=pred_deg, error_to_noise=ratio)
         if faulty:
-            figures["gyroscope_angle_error_reliable_mean_deg"] = mean_deg
+            figures = figures.with_(angle_error_reliable_mean_deg=mean_deg)
         floor = THRESHOLDS["gyro_error_floor_deg"]
         level = min(grade(ratio, THRESHOLDS["gyro_error_to_noise"]), grade(mean_deg, floor))
         over = (f" over the {int(np.sum(judged))} rotations without saturated samples, spikes or gaps"
@@ -443,13 +445,13 @@ def _gyroscope(calibration, found: Poses) -> tuple[list[Check], dict]:
                                     f"(mean{over}), {ratio:.3g}× the {pred_deg:.2g}° the sensor noise alone "
                                     f"predicts for these rotations (limit {THRESHOLDS['gyro_error_to_noise'][0]:g}×): "
                                     "the gyroscope calibration does not explain the rotations"))
-    for k, why in sorted(fit.get("rotations_left_out", {}).items(), key=lambda kv: int(kv[0])):
-        out.append(Check(0, f"the rotation from pose {int(k) + 1} to {int(k) + 2} was left out of the gyroscope "
+    for k, why in sorted(left_out.items()):
+        out.append(Check(0, f"the rotation from pose {k + 1} to {k + 2} was left out of the gyroscope "
                             f"fit: {why}"))
     return out, figures
 
 
-def _rest_rate(found: Poses) -> tuple[list[Check], dict]:
+def _rest_rate(found: Poses) -> tuple[list[Check], GyroscopeReport]:
     """The calibrated gyroscope at rest against what the poses' scatter allows.
 
     Per axis, the mean calibrated rate over the static poses ``r̄`` (each pose
@@ -460,15 +462,14 @@ def _rest_rate(found: Poses) -> tuple[list[Check], dict]:
     that. Below ``rest_rate_floor_deg_s`` the figure is not a reason.
     """
     if len(found.intervals) < 4:
-        return [], {}
+        return [], GyroscopeReport()
     w = np.degrees(rest_rates_of(found))
     m = w.shape[0]
     mean = w.mean(axis=0)
     se = w.std(axis=0, ddof=1) / np.sqrt(m)
     z = np.divide(np.abs(mean), se, out=np.full(3, np.inf), where=se > 0)
     z[(mean == 0)] = 0.0
-    figures = {"gyroscope_rest_rate_deg_s": [float(x) for x in mean],
-               "gyroscope_rest_rate_to_scatter": float(z.max())}
+    figures = GyroscopeReport(rest_rate_deg_s=[float(x) for x in mean], rest_rate_to_scatter=float(z.max()))
     levels = [min(grade(float(z[j]), THRESHOLDS["rest_rate_to_scatter"]),
                   grade(float(abs(mean[j])), THRESHOLDS["rest_rate_floor_deg_s"])) for j in range(3)]
     j = int(np.argmax(levels))
@@ -482,11 +483,11 @@ def _rest_rate(found: Poses) -> tuple[list[Check], dict]:
 
 def _rotations_used(calibration, intervals: list[Interval]) -> list[Check]:
     """Enough rotations for the gyroscope's parameters: two direction components per rotation kept."""
-    fit = calibration.fit or {}
-    if "gyroscope_bias_source" not in fit or len(intervals) < 2:  # not a fit over the rotations between poses
+    fit = calibration.fit
+    if fit.gyroscope.bias_source is None or len(intervals) < 2:  # not a fit over the rotations between poses
         return []
     n = len(intervals) - 1
-    kept = n - len(fit.get("rotations_left_out") or {})
+    kept = n - len(fit.gyroscope.rotations_left_out or {})
     per = 2 * kept / GYRO_ROTATION_PARAMETERS
     lim = THRESHOLDS["rotations_per_parameter"]
     level = 2 if per <= lim[1] else 1 if per < lim[0] else 0
@@ -500,9 +501,9 @@ def _rotations_used(calibration, intervals: list[Interval]) -> list[Check]:
 
 
 def _known_turns(calibration, recording: Recording) -> list[Check]:
-    fit = calibration.fit or {}
-    turns = fit.get("turn_sections")
-    angle = fit.get("turn_angle_deg")
+    fit = calibration.fit
+    turns = fit.gyroscope.turn_sections
+    angle = fit.gyroscope.turn_angle_deg
     if not turns or not angle:
         return []
     out = []
@@ -526,7 +527,7 @@ def _known_turns(calibration, recording: Recording) -> list[Check]:
 
 
 def _usefulness(calibration) -> list[Check]:
-    unc = (calibration.fit or {}).get("uncertainty") or {}
+    unc = calibration.fit.uncertainty.sigma or {}
     out = []
     params = calibration.parameters()
     for name, s in unc.items():
@@ -596,14 +597,14 @@ def worse_than_nominal(calibration, unc: dict, params: dict) -> list[Check]:
 def _gyroscope_bias_drift(calibration) -> list[Check]:
     """A note on how far the gyroscope bias drifted over the session, when the fit found it drifting.
 
-    From ``fit["gyroscope_bias_drift_over_session_deg_s"]``
+    From ``fit.gyroscope.bias_drift_over_session_deg_s``
     (:func:`imucalib.calibration.with_bias_session`): the calibrated rate at
     rest the drift adds to the stored (constant) bias's at the session's start
     and end. Never a reason: the fit models the drift, and ``apply`` corrects
     the calibrated session with it; the note tells that another recording's
     bias is off by as much unless taken from a rest of its own.
     """
-    ends = (calibration.fit or {}).get("gyroscope_bias_drift_over_session_deg_s")
+    ends = calibration.fit.gyroscope.bias_drift_over_session_deg_s
     if ends is None:
         return []
     start, end = (np.asarray(row, dtype=float) for row in ends)
@@ -616,32 +617,32 @@ def _gyroscope_bias_drift(calibration) -> list[Check]:
 
 
 def _magnetometer(calibration) -> list[Check]:
-    fit = calibration.fit or {}
-    if fit.get("magnetometer_error"):
-        return [Check(1, f"the magnetometer was not calibrated: {fit['magnetometer_error']}")]
-    if calibration.magnetometer is None or "magnetometer_norm_spread" not in fit:
+    fit = calibration.fit
+    if fit.magnetometer.error:
+        return [Check(1, f"the magnetometer was not calibrated: {fit.magnetometer.error}")]
+    mag = fit.magnetometer
+    if calibration.magnetometer is None or mag.norm_spread is None:
         return []
     out = []
-    figures = (("magnetometer_norm_spread", "mag_norm_spread", "the calibrated field's norm varies by {:.2g} % "
+    figures = ((mag.norm_spread, "mag_norm_spread", "the calibrated field's norm varies by {:.2g} % "
                 "over the poses (limit {:g} %): the field is not uniform (iron nearby) or the poses are wrong", 100),
-               ("magnetometer_dip_spread_deg", "mag_dip_spread_deg", "the field's angle to gravity varies by {:.2g}° "
+               (mag.dip_spread_deg, "mag_dip_spread_deg", "the field's angle to gravity varies by {:.2g}° "
                 "over the poses (limit {:g}°): the magnetometer's axes do not follow the accelerometer's", 1),
-               ("magnetometer_direction_error_mean_deg", "mag_direction_error_deg", "the field direction turns "
+               (mag.direction_error_mean_deg, "mag_direction_error_deg", "the field direction turns "
                 "{:.2g}° away from what the gyroscope says between poses (limit {:g}°)", 1))
-    for key, limit, text, factor in figures:
-        value = fit.get(key)
+    for value, limit, text, factor in figures:
         if value is None or not np.isfinite(value):
             continue
         level = grade(value, THRESHOLDS[limit])
         if level:
             out.append(Check(level, text.format(factor * value, factor * THRESHOLDS[limit][level - 1])))
-    drift = fit.get("magnetometer_hard_iron_drift_over_session")
+    drift = fit.magnetometer.hard_iron_drift_over_session
     if drift is not None:
         level = int(drift > THRESHOLDS["mag_norm_spread"][0])
         out.append(Check(level, f"the magnetometer's hard iron drifted by {100 * drift:.2g} % of the field over the "
                                 "poses (fitted: the calibration holds its value at the poses' mean time); used at "
                                 "another time it will be off by as much (let the sensor warm up, keep currents away)"))
-    dip = fit.get("magnetometer_dip_deg")
+    dip = fit.magnetometer.dip_deg
     if dip is not None and abs(dip) < WEAK_DIP_DEG:
         out.append(Check(1, f"the field's dip is {dip:.1f}°, near the magnetic equator: whether the magnetometer's "
                             "axes are reflected cannot be told from these data (the sign follows --mag-hemisphere)"))
@@ -655,7 +656,16 @@ CALIBRATED_FIGURES = ("accelerometer_residual_rms", "accelerometer_residual_to_n
                       "gyroscope_rest_rate_deg_s", "temperature_c")
 
 
-def _non_finite(calibration, figures: dict) -> list[Check]:
+def _calibrated_figures(report: FitReport) -> dict:
+    """The :data:`CALIBRATED_FIGURES` of ``report``, by name."""
+    acc, gyro = report.accelerometer, report.gyroscope
+    return {"accelerometer_residual_rms": acc.residual_rms, "accelerometer_residual_to_noise": acc.residual_to_noise,
+            "gyroscope_angle_error_mean_deg": gyro.angle_error_mean_deg,
+            "gyroscope_angle_error_max_deg": gyro.angle_error_max_deg, "gyroscope_error_to_noise": gyro.error_to_noise,
+            "gyroscope_rest_rate_deg_s": gyro.rest_rate_deg_s, "temperature_c": report.thermal.temperature_c}
+
+
+def _non_finite(calibration, figures: FitReport) -> list[Check]:
     """A rejection when a parameter or a figure of the calibrated data is NaN or infinite.
 
     A comparison with NaN is false, so no other limit trips on one: a scale of
@@ -664,9 +674,7 @@ def _non_finite(calibration, figures: dict) -> list[Check]:
     available) passes.
     """
     bad = [name for name, v in calibration.parameters().items() if not np.isfinite(v)]
-    found = {**(calibration.fit or {}), **figures}
-    for name in CALIBRATED_FIGURES:
-        value = found.get(name)
+    for name, value in _calibrated_figures(calibration.fit.add(figures)).items():
         values = value if isinstance(value, list | tuple) else [value]
         numbers = [v for v in values if isinstance(v, float | int | np.number) and not isinstance(v, bool)]
         if numbers and not np.all(np.isfinite(np.asarray(numbers, dtype=float))):
@@ -678,7 +686,7 @@ def _non_finite(calibration, figures: dict) -> list[Check]:
 
 
 def assess(calibration, recording: Recording | None = None, intervals: list[Interval] | None = None, *,
-           purpose: str = "calibrate", poses=None) -> dict:
+           purpose: str = "calibrate", poses=None) -> FitReport:
     """Every check on ``calibration`` (with the recording it was made from, when there is one).
 
     ``purpose="validate"`` judges a calibration on a recording it was not
@@ -696,7 +704,7 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     recording : Recording, optional
         The recording it was made from (or, for ``purpose="validate"``, the one it is checked on).
     intervals : list of Interval, optional
-        The static poses of ``recording``; by default ``calibration.fit["intervals"]``.
+        The static poses of ``recording``; by default ``calibration.fit.poses.intervals``.
     purpose : {"calibrate", "validate"}
         What the verdict is for (above).
     poses : Poses, optional
@@ -704,10 +712,10 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
 
     Returns
     -------
-    dict
-        ``{"verdict": …, "verdict_reasons": [...], "verdict_notes": [...], **figures}``: the verdict is the worst
-        level among the checks (``accepted``, ``suspect`` or ``rejected``); reasons are the sentences of the suspect
-        and rejecting ones, notes the rest; the figures are those the checks rest on.
+    FitReport
+        Its :class:`~imucalib.fitreport.VerdictReport` (``level``, ``reasons``, ``notes``) and the figures the
+        checks rest on: the verdict is the worst level among the checks (``accepted``, ``suspect`` or
+        ``rejected``); reasons are the sentences of the suspect and rejecting ones, notes the rest.
 
     Examples
     --------
@@ -720,24 +728,24 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     >>> from imucalib.verdict import assess
     >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
     >>> intervals, *_ = detect_intervals(sim.recording, sim.truth.gravity)
-    >>> assess(sim.truth, sim.recording, intervals)["verdict"]
+    >>> assess(sim.truth, sim.recording, intervals).verdict.level
     'accepted'
     >>> acc = sim.truth.accelerometer
     >>> off = sim.truth.with_(accelerometer=acc.with_(scale=1.1 * acc.scale))
     >>> off = off.with_(fit=fit_summary(off, sim.recording, intervals))
-    >>> found = assess(off, sim.recording, intervals)
-    >>> found["verdict"], found["verdict_reasons"][0]
+    >>> found = assess(off, sim.recording, intervals).verdict
+    >>> found.level, found.reasons[0]
     ('rejected', 'the gravity-norm residual is 520× the white-noise floor (limit 8×): ...')
     """
     if purpose not in ("calibrate", "validate"):
         raise ValueError(f"purpose must be 'calibrate' or 'validate'; got {purpose!r}")
     fitted = purpose == "calibrate"
-    fit = calibration.fit or {}
-    if intervals is None and fit.get("intervals"):
-        intervals = [Interval(int(a), int(b), "static") for a, b in fit["intervals"]]
+    fit = calibration.fit
+    if intervals is None and fit.poses.intervals:
+        intervals = [Interval(int(a), int(b), "static") for a, b in fit.poses.intervals]
     intervals = intervals or []
     checks: list[Check] = []
-    figures: dict = {}
+    figures = FitReport()
     # the poses' figures several checks read (their means, noise, rates at rest), each computed once
     found = poses if poses is not None else None if recording is None else Poses(calibration, recording, intervals)
     if recording is not None:  # the inputs first: a wrong time base or unit explains everything after it
@@ -750,35 +758,35 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
         if found is not None:
             coverage_checks, unvisited_figures = unvisited_checks(calibration, found)
             checks += coverage_checks
-            figures |= unvisited_figures
+            figures = figures.add(unvisited_figures)
         if calibration.gyroscope is not None:
             checks += _rotations_used(calibration, intervals)
-    if fit.get("accelerometer_model_reduced"):
-        checks.append(Check(1, f"{fit['accelerometer_model_reduced']}: record more poses, in directions spread over "
+    if fit.accelerometer.model_reduced:
+        checks.append(Check(1, f"{fit.accelerometer.model_reduced}: record more poses, in directions spread over "
                                "the sphere, for the full model"))
     if calibration.gyroscope is None:
-        why = fit.get("gyroscope_not_calibrated") or "no gyroscope (an accelerometer-only recording)"
+        why = fit.gyroscope.not_calibrated or "no gyroscope (an accelerometer-only recording)"
         checks.append(Check(0, f"{why}; the calibration has no gyroscope, and the gyroscope checks are skipped"))
     elif recording is not None:
         gyro_checks, gyro_figures = _gyroscope(calibration, found)
         checks += gyro_checks
-        figures |= gyro_figures
+        figures = figures.add(gyro_figures)
         if fitted:
             rest_checks, rest_figures = _rest_rate(found)
             checks += rest_checks
-            figures |= rest_figures
+            figures = figures.add(rest_figures)
         checks += _known_turns(calibration, recording)
     if calibration.gyroscope is not None:
         checks += _gyroscope_bias_drift(calibration)
     raw, raw_figures = raw_checks(calibration, found, fitted)  # never worse than the raw readings (verdict.raw)
     checks += raw
-    figures |= raw_figures
+    figures = figures.add(raw_figures)
     checks += _magnetometer(calibration)
     checks += _non_finite(calibration, figures)
     level = max((c.level for c in checks), default=0)
-    return {"verdict": LEVELS[level],
-            "verdict_reasons": [c.text for c in sorted(checks, key=lambda c: -c.level) if c.level > 0],
-            "verdict_notes": [c.text for c in checks if c.level == 0], **figures}
+    return figures.add(VerdictReport(level=LEVELS[level],
+                                     reasons=[c.text for c in sorted(checks, key=lambda c: -c.level) if c.level > 0],
+                                     notes=[c.text for c in checks if c.level == 0]))
 
 
 def with_verdict(calibration, recording: Recording | None = None, intervals: list[Interval] | None = None):
@@ -791,7 +799,7 @@ def with_verdict(calibration, recording: Recording | None = None, intervals: lis
     recording : Recording, optional
         The recording it was made from.
     intervals : list of Interval, optional
-        Its static poses; by default ``calibration.fit["intervals"]``.
+        Its static poses; by default ``calibration.fit.poses.intervals``.
 
     Returns
     -------
@@ -806,7 +814,7 @@ def with_verdict(calibration, recording: Recording | None = None, intervals: lis
     >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
     >>> intervals, *_ = detect_intervals(sim.recording, sim.truth.gravity)
     >>> judged = with_verdict(sim.truth, sim.recording, intervals)
-    >>> judged.fit["verdict"], judged.fit["verdict_reasons"]
+    >>> judged.fit.verdict.level, judged.fit.verdict.reasons
     ('accepted', [])
     """
-    return calibration.with_(fit={**(calibration.fit or {}), **assess(calibration, recording, intervals)})
+    return calibration.with_(fit=calibration.fit.add(assess(calibration, recording, intervals)))

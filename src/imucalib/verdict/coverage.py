@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..fit.accelerometer import REDUCED_MODELS, accelerometer_covariance, pose_covariance
+from ..fitreport import AccelerometerReport
 from ..recording import Interval, Recording
 from ..residuals import AccelLayout, gravity_norm_residuals
 from ..solve import covariance
@@ -34,7 +35,7 @@ def _accelerometer_covariances(calibration, means: np.ndarray, floor: float
     """The accelerometer's parameter layout and two covariances of the gravity-norm fit at ``means``.
 
     The fit's: the covariance the methods' 1σ come from (:func:`imucalib.fit.accelerometer.pose_covariance`,
-    each pose's scatter from its own residual; a reduced model, ``fit["accelerometer_model"]``, has none on
+    each pose's scatter from its own residual; a reduced model, ``fit.accelerometer.model``, has none on
     the terms it holds). The noise's: ``floor² (JᵀJ)⁻¹`` of the model with every term
     (:func:`imucalib.solve.covariance`, the Gauss–Markov covariance of least squares with pose errors of
     variance ``floor²``): each pose mean's white noise alone, the least any pose carries, with the terms a
@@ -49,7 +50,7 @@ def _accelerometer_covariances(calibration, means: np.ndarray, floor: float
     layout = AccelLayout("upper", order)
     r, j = gravity_norm_residuals(layout.pack(acc), layout, means, g, jacobian=True)
     if order == 1:
-        name = (calibration.fit or {}).get("accelerometer_model")
+        name = calibration.fit.accelerometer.model
         row = next((r for r in REDUCED_MODELS if r[0] == name and name != "linear"), None)
         fitted = accelerometer_covariance(acc, means, g, which=None if row is None else (row[0], row[2], row[3]))
     else:
@@ -134,7 +135,7 @@ def _unvisited_sigma(found: Poses) -> dict | None:
             "direction": u[k].tolist(), "unvisited": float(np.mean(far))}
 
 
-def unvisited_checks(calibration, poses: Poses) -> tuple[list[Check], dict]:
+def unvisited_checks(calibration, poses: Poses) -> tuple[list[Check], AccelerometerReport]:
     """Rejected when, in a direction no pose visited, the fit's own 1σ of ``|a|`` is what ``validate`` rejects.
 
     The limits are ``validate``'s (:data:`THRESHOLDS` ``["residual_to_noise_high"]``): a calibration whose
@@ -146,12 +147,12 @@ def unvisited_checks(calibration, poses: Poses) -> tuple[list[Check], dict]:
     above the floor, so the reduced model would fail the same test.
     """
     if calibration.accelerometer is None:
-        return [], {}
+        return [], AccelerometerReport()
     found = _unvisited_sigma(poses)
     if found is None:
-        return [], {}
+        return [], AccelerometerReport()
     # a JSON number, or None where a parameter the poses do not determine moves |a| there (an infinite 1σ)
-    figures = {"accelerometer_unvisited_sigma_to_noise": found["ratio"] if np.isfinite(found["ratio"]) else None}
+    figures = AccelerometerReport(unvisited_sigma_to_noise=found["ratio"] if np.isfinite(found["ratio"]) else None)
     limits = THRESHOLDS["residual_to_noise_high"]
     level = grade(found["ratio"], limits)
     if not level:

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..fitreport import AccelerometerReport, FitReport, GyroscopeReport
 from ..metrics import gravity_direction_errors
 from ..models import TriadModel
 from .base import NOMINAL, Check, Poses
@@ -113,7 +114,7 @@ def compare_with_raw(found: Poses) -> RawComparison:
     >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
     >>> readings = sim.truth.apply(sim.recording)
     >>> cal = calibrate(readings)
-    >>> intervals = [Interval(a, b) for a, b in cal.fit["intervals"]]
+    >>> intervals = [Interval(a, b) for a, b in cal.fit.poses.intervals]
     >>> found = compare_with_raw(Poses(cal, readings, intervals))
     >>> found.residual_rms < found.residual_rms_raw
     True
@@ -147,7 +148,7 @@ def compare_with_raw(found: Poses) -> RawComparison:
                          tuple(skipped))
 
 
-def raw_checks(calibration, found: Poses | None, fitted: bool = True) -> tuple[list[Check], dict]:
+def raw_checks(calibration, found: Poses | None, fitted: bool = True) -> tuple[list[Check], FitReport]:
     """Rejected when the calibration leaves ``|a| − g`` or the gyroscope's gravity-direction error larger than
     the raw readings do (:func:`compare_with_raw`); a note when the readings are counts.
 
@@ -158,18 +159,18 @@ def raw_checks(calibration, found: Poses | None, fitted: bool = True) -> tuple[l
     ``gyroscope_angle_error_mean_deg``, the calibrated ones over the same poses and every rotation).
     """
     if found is None or not found.intervals:
-        return [], {}
+        return [], FitReport()
     c = compare_with_raw(found)
-    figures: dict = {}
+    figures = FitReport()
     worse = []
     if c.residual_rms_raw is not None:
-        figures["accelerometer_residual_rms_raw"] = c.residual_rms_raw
+        figures = figures.add(AccelerometerReport(residual_rms_raw=c.residual_rms_raw))
         if c.residual_rms > c.residual_rms_raw:
             ratio = c.residual_rms / c.residual_rms_raw if c.residual_rms_raw > 0 else np.inf
             worse.append(f"|a| − g RMS over the {c.poses} poses is {c.residual_rms:.3g} m/s² calibrated against "
                          f"{c.residual_rms_raw:.3g} m/s² raw ({ratio:.3g}×)")
     if c.angle_error_mean_deg_raw is not None:
-        figures["gyroscope_angle_error_mean_deg_raw"] = c.angle_error_mean_deg_raw
+        figures = figures.add(GyroscopeReport(angle_error_mean_deg_raw=c.angle_error_mean_deg_raw))
         if c.angle_error_mean_deg > c.angle_error_mean_deg_raw:
             ratio = c.angle_error_mean_deg / c.angle_error_mean_deg_raw if c.angle_error_mean_deg_raw > 0 else np.inf
             worse.append(f"the gravity-direction error over all {c.rotations} rotations between poses (those left "
