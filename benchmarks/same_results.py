@@ -106,6 +106,8 @@ def main() -> None:
         print(json.dumps({"saved": args.save, "calibrations": sorted(docs)}))
         return
     stored = json.loads(Path(args.compare).read_text(encoding="utf-8"))
+    for doc in stored.values():  # a set stored with the format's version (as older scripts wrote it)
+        doc.pop("format_version", None)
     diff = differences(stored, docs)
     print(json.dumps({"compared": sorted(docs), "rtol": RTOL, "atol": ATOL, "same": not diff,
                       "differences": diff[:50]}))
