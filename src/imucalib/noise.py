@@ -1,15 +1,36 @@
-"""Allan deviation and the noise parameters read from it (Ru 2022, §2.2; IEEE Std 952).
+r"""Allan deviation and the noise parameters read from it (Ru 2022, §2.2; IEEE Std 952).
 
-For a rate signal ``x`` sampled at ``f_s`` and cluster time ``τ = m/f_s``, the
-overlapping Allan variance is computed from the integrated signal
-``θ_k = Σ_{i<k} x_i / f_s``::
+The definitions are the standard ones of IEEE Std 952 (Annex C, the Allan
+variance and its noise terms), labelled (A1)–(A4) here. For a rate signal
+``x`` of ``N`` samples at ``f_s`` and cluster time ``τ = m/f_s``, the
+overlapping Allan variance is computed from the integrated signal (its mean
+taken out first, which the second differences cancel):
 
-    σ²(τ) = Σ_k (θ_{k+2m} − 2θ_{k+m} + θ_k)² / (2 τ² (N − 2m))
+.. math::
+
+    \theta_k = \frac{1}{f_s} \sum_{i<k} x_i, \qquad
+    \sigma^2(\tau) = \frac{1}{2 \tau^2 (N + 1 - 2m)} \sum_{k=0}^{N-2m}
+    \bigl(\theta_{k+2m} - 2\theta_{k+m} + \theta_k\bigr)^2 \qquad \text{(A1)}
+
+(``θ_0 … θ_N``: the sum has ``N + 1 − 2m`` terms).
 
 On a log–log plot, white noise (angle/velocity random walk ``N``) has slope
 −½ with ``σ(τ) = N/√τ`` (read at ``τ = 1`` s), bias instability ``B`` is the flat
 minimum, ``σ_min ≈ 0.664 B``, and rate random walk ``K`` has slope +½ with
-``σ(τ) = K √(τ/3)``.
+``σ(τ) = K √(τ/3)``; the three together:
+
+.. math::
+
+    \sigma^2(\tau) = \frac{N^2}{\tau} + \frac{2 \ln 2}{\pi} B^2 + \frac{K^2 \tau}{3} \qquad \text{(A2)}
+
+The relative 1σ of a deviation from ``K_c = N/m`` clusters, and the χ²
+confidence interval of one from ``ν`` degrees of freedom (IEEE Std 952,
+Annex C; NIST SP 1065, §5.3):
+
+.. math::
+
+    \delta(\tau) = \frac{1}{\sqrt{2 (K_c - 1)}} \qquad \text{(A3)}, \qquad
+    \hat\sigma^2 \sim \sigma^2 \chi^2_\nu / \nu \qquad \text{(A4)}
 
 A term is a figure only where the curve shows its slope within the
 confidence its number of clusters gives, and only when the clusters there
@@ -73,16 +94,16 @@ def allan_deviation(x: np.ndarray, rate: float, taus: np.ndarray | None = None,
     # the cache, in place, and are squared and summed by einsum rather than a BLAS dot product, whose
     # threads only contend on a shared machine (benchmarks/bench_allan.py)
     theta = np.zeros((x.shape[1], n + 1))
-    np.cumsum((x - x.mean(axis=0)).T, axis=1, out=theta[:, 1:])
+    np.cumsum((x - x.mean(axis=0)).T, axis=1, out=theta[:, 1:])  # eq. (A1): θ_k
     theta /= rate
     out = np.empty((m.size, x.shape[1]))
     for j, th in enumerate(theta):
         for i, mm in enumerate(m):
-            d = th[2 * mm :] - th[mm:-mm]  # θ_{k+2m} − 2θ_{k+m} + θ_k
+            d = th[2 * mm :] - th[mm:-mm]  # eq. (A1): θ_{k+2m} − 2θ_{k+m} + θ_k
             d -= th[mm:-mm]
             d += th[: -2 * mm]
             tau = mm / rate
-            out[i, j] = np.sqrt(np.einsum("i,i->", d, d) / (2 * tau**2 * d.size))
+            out[i, j] = np.sqrt(np.einsum("i,i->", d, d) / (2 * tau**2 * d.size))  # eq. (A1)
     taus_used = m / rate
     return taus_used, (out[:, 0] if squeeze else out)
 
@@ -94,7 +115,7 @@ CONFIDENCE = 2.0
 #: the slope may differ from the term's own by this much beyond its confidence (the neighbouring terms' share)
 SLOPE_TOLERANCE = 0.1
 #: σ(τ) of bias instability on its flat floor, ``σ = √(2 ln 2 / π) B`` (IEEE Std 952, Table C.1)
-FLOOR = np.sqrt(2 * np.log(2) / np.pi)  # 0.664
+FLOOR = np.sqrt(2 * np.log(2) / np.pi)  # eq. (A2): 0.664
 
 #: a term's figure is stated only when, at ``CONFIDENCE``, it lies within this fraction of the truth
 FIGURE_PRECISION = 0.2
@@ -114,7 +135,7 @@ def allan_confidence(taus: np.ndarray, rate: float, samples: int) -> np.ndarray:
     freedom), so ``δ`` is on the safe side.
     """
     clusters = samples / np.maximum(np.round(np.asarray(taus, dtype=float) * rate), 1)
-    return 1 / np.sqrt(2 * np.maximum(clusters - 1, 1e-12))
+    return 1 / np.sqrt(2 * np.maximum(clusters - 1, 1e-12))  # eq. (A3)
 
 
 def allan_dof(taus: np.ndarray, rate: float, samples: int, term: str) -> np.ndarray:
@@ -184,7 +205,7 @@ def chi2_limits(dof: np.ndarray, confidence: float = CONFIDENCE) -> tuple[np.nda
 
     dof = np.asarray(dof, dtype=float)
     p = norm.sf(confidence)
-    return np.sqrt(dof / chi2.isf(p, dof)), np.sqrt(dof / chi2.ppf(p, dof))
+    return np.sqrt(dof / chi2.isf(p, dof)), np.sqrt(dof / chi2.ppf(p, dof))  # eq. (A4)
 
 
 def local_slopes(taus: np.ndarray, adev: np.ndarray, delta: np.ndarray,
@@ -229,10 +250,12 @@ def _bounds(taus: np.ndarray, adev: np.ndarray, delta: np.ndarray, rate: float, 
     # a bound is the least over many cluster times): the 1σ of its reading and the χ² upper limit of σ
     dof = {name: np.minimum(allan_dof(taus, rate, n, name), 0.5 / delta**2) for name in _SLOPES}
     rel = {name: 1 / np.sqrt(2 * nu) for name, nu in dof.items()}
-    upper = {name: adev * chi2_limits(nu)[1][:, None] for name, nu in dof.items()}
+    upper = {name: adev * chi2_limits(nu)[1][:, None] for name, nu in dof.items()}  # eq. (A4)
     out = {name: np.full(k, np.nan) for name in _SLOPES}
+    # eq. (A2): N ≤ σ⁺ √τ
     out["white_noise_density_bound"] = np.min(upper["white_noise_density"] * np.sqrt(taus)[:, None], axis=0)
-    out["bias_instability_bound"] = np.min(upper["bias_instability"], axis=0) / FLOOR
+    out["bias_instability_bound"] = np.min(upper["bias_instability"], axis=0) / FLOOR  # eq. (A2): B ≤ σ⁺ / 0.664
+    # eq. (A2): K ≤ σ⁺ √(3/τ)
     out["random_walk_bound"] = np.min(upper["random_walk"] * np.sqrt(3 / taus)[:, None], axis=0)
     return rel, out
 
@@ -260,7 +283,7 @@ def _read_column(out: dict, j: int, taus: np.ndarray, adev: np.ndarray, delta: n
     for _ in range(2):
         kk = np.nan_to_num(out["random_walk"][j])
         nn = np.nan_to_num(out["white_noise_density"][j])
-        own = {"white_noise_density": s2 - kk**2 * taus / 3, "random_walk": s2 - nn**2 / taus}
+        own = {"white_noise_density": s2 - kk**2 * taus / 3, "random_walk": s2 - nn**2 / taus}  # eq. (A2)
         for name, scale in (("white_noise_density", taus), ("random_walk", 3 / taus)):
             r = region[name] & (own[name] > 0)
             if not r.any():
@@ -283,7 +306,7 @@ def _read_column(out: dict, j: int, taus: np.ndarray, adev: np.ndarray, delta: n
         r = np.nonzero(region["bias_instability"])[0]
         i = r[np.argmin(adev[r])]
         nn, kk = read["white_noise_density"], read["random_walk"]  # their shares, stated or not
-        floor2 = s2[i] - nn**2 / taus[i] - kk**2 * taus[i] / 3
+        floor2 = s2[i] - nn**2 / taus[i] - kk**2 * taus[i] / 3  # eq. (A2)
         if floor2 > 2 * CONFIDENCE * delta[i] * s2[i]:  # the relative 1σ of σ² is 2δ
             out["bias_instability"][j] = np.sqrt(floor2) / FLOOR
 

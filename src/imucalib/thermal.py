@@ -1,13 +1,17 @@
-"""Calibrations that follow the sensor's temperature.
+r"""Calibrations that follow the sensor's temperature.
 
 A MEMS sensor's biases move with temperature more than any other error
 calibrated here (a consumer gyroscope's by ~0.02–0.05 °/s per °C, an
 accelerometer's by ~0.3–1 mg per °C), its scale factors by ~0.01–0.03 %/°C
 (Ru 2022, §2 lists thermal drift among the deterministic errors to calibrate).
 A :class:`ThermalModel` makes chosen parameters polynomials in the temperature
-``T`` around a reference ``T₀``::
+``T`` around a reference ``T₀`` (these equations are this project's, derived
+here; (T3) and (T4) are the gravity-norm and rest equations of Zhang 2021,
+eqs. (10) and (11), with temperature-dependent biases and scales):
 
-    p(T) = c₀ + c₁ (T − T₀) + c₂ (T − T₀)²                                   (T1)
+.. math::
+
+    p(T) = c_0 + c_1 (T - T_0) + c_2 (T - T_0)^2 \qquad \text{(T1)}
 
 with ``c₀`` the calibration's own value of ``p`` (the calibration *is* the
 model at ``T₀``). Two ways to make one:
@@ -15,7 +19,16 @@ model at ``T₀``). Two ways to make one:
 * :func:`combine` — calibrations made at several temperatures, each with its
   1σ, fitted by weighted least squares per parameter. The order is chosen by
   the data: the highest (2, then 1) whose top term exceeds 3σ of its own in
-  that fit; the others stay constant (the weighted mean). So
+  that fit; the others stay constant (the weighted mean). With ``p_j ± σ_j``
+  the calibrations' values at ``T_j`` and ``x_j = T_j − T₀``:
+
+  .. math::
+
+      \hat{\mathbf c} = \arg\min_{\mathbf c} \sum_j
+      \Bigl(\frac{p_j - \sum_{l=0}^{m} c_l x_j^l}{\sigma_j}\Bigr)^2, \qquad
+      m = \max\{m \le 2 : |\hat c_m| > 3\, \sigma(\hat c_m)\} \qquad \text{(T5)}
+
+  So
   biases, scales and misalignments follow temperature where the calibrations'
   uncertainties say they move, and nowhere else.
 * :func:`calibrate_ramp` — one session during a warm-up, calibrated directly
@@ -25,10 +38,25 @@ model at ``T₀``). Two ways to make one:
   the poses' means, which read only the bias and the g-sensitivity at rest,
   eq. (T4), its scales with the gravity directions of Zhang 2021, eq. (14)),
   the recording is compensated (T2) and the method runs again, until the
-  slopes stop changing.
+  slopes stop changing. With ``ΔT_i = T_i − T₀`` the temperature of static
+  pose ``i``, ``ū_i`` its raw mean, ``c`` the bias slopes and ``s`` the
+  relative scale slopes (``⊙`` element by element):
+
+  .. math::
+
+      \bigl\lVert \mathbf T\, \mathrm{diag}\bigl(\mathbf k \odot (1 + \mathbf s\, \Delta T_i)\bigr)
+      (\bar{\mathbf u}_i - \mathbf b - \mathbf c\, \Delta T_i) \bigr\rVert = g \qquad \text{(T3)}
+
+      \bar{\mathbf u}_{g,i} - \mathbf G\, \mathbf a_i = \mathbf b_g + \mathbf c_g\, \Delta T_i \qquad \text{(T4)}
 
 **Compensation** (T2). For a linear model ``a = T K (u − b)`` at each
-sample's temperature, the readings ``u′ = b₀ + (T₀K₀)⁻¹ T(T) K(T) (u − b(T))``
+sample's temperature, the readings
+
+.. math::
+
+    \mathbf u' = \mathbf b_0 + (\mathbf T_0 \mathbf K_0)^{-1}\, \mathbf T(T)\, \mathbf K(T)\,
+    \bigl(\mathbf u - \mathbf b(T)\bigr) \qquad \text{(T2)}
+
 give exactly the same calibrated values through the model at ``T₀``; for the
 gyroscope ``G a`` is taken out and put back around the same map. So applying
 a thermal calibration is compensating the recording and applying the
@@ -121,13 +149,13 @@ class ThermalModel:
     def deltas(self, temperature) -> dict[str, np.ndarray]:
         """Each parameter's change from its value at ``T₀`` at ``temperature`` (scalar or (N,))."""
         dt = np.asarray(temperature, dtype=float) - self.reference_c
-        return {name: c[0] * dt + c[1] * dt * dt for name, c in self.coefficients.items()}
+        return {name: c[0] * dt + c[1] * dt * dt for name, c in self.coefficients.items()}  # eq. (T1) less c₀
 
     def sigma(self, name: str, temperature: float) -> float:
         """The model's own 1σ of ``name`` at ``temperature``."""
         cov = np.asarray(self.covariance.get(name, np.zeros((3, 3))), dtype=float)
         dt = float(temperature) - self.reference_c
-        v = np.array([1.0, dt, dt * dt])
+        v = np.array([1.0, dt, dt * dt])  # eq. (T1)
         return float(np.sqrt(max(v @ cov @ v, 0.0)))
 
     def to_dict(self) -> dict:
@@ -187,6 +215,7 @@ def evaluate(calibration, temperature: float):
                          f"(its {calibration.model} model, {'no gyroscope, ' if calibration.gyroscope is None else ''}"
                          "its misalignment shape): the file is damaged or was edited; combine the calibrations "
                          "again (imucalib thermal)")
+    # eq. (T1)
     return calibration.with_(thermal=None).with_parameters({k: values[k] + float(v) for k, v in deltas.items()})
 
 
@@ -239,7 +268,7 @@ def _per_sample(base, model: ThermalModel, prefix: str, temperature: np.ndarray)
             varies = True
     if varies and not base.is_linear:
         raise ValueError("a nonlinear scale-factor model follows temperature through its biases only")
-    tk = t * scale[:, None, :] if varies else None
+    tk = t * scale[:, None, :] if varies else None  # eq. (T2): T(T) K(T)
     return bias, tk
 
 
@@ -301,6 +330,7 @@ def compensate(calibration, recording: Recording) -> tuple:
         a_si = base.accelerometer.forward(acc)
         g = base.gyroscope.g_sensitivity
         ga = a_si @ g.T if np.any(g) else 0.0
+        # eq. (T2), G a out and back
         gyro = _map(gyro - ga, base.gyroscope, *_per_sample(base.gyroscope, model, "gyroscope", temp)) + ga
     out = Recording(t=recording.t, acc=acc, gyro=gyro, acc_unit=recording.acc_unit, gyro_unit=recording.gyro_unit,
                     temperature=recording.temperature, extra=dict(recording.extra),
@@ -314,7 +344,7 @@ def _map(u: np.ndarray, base, bias: np.ndarray, tk: np.ndarray | None) -> np.nda
     x = u - bias
     if tk is not None:
         tk0 = base.misalignment * base.scale[None, :]
-        x = np.linalg.solve(tk0, np.einsum("nij,nj->ni", tk, x).T).T
+        x = np.linalg.solve(tk0, np.einsum("nij,nj->ni", tk, x).T).T  # eq. (T2)
     return x + base.bias
 
 
@@ -338,7 +368,7 @@ def decompensate(calibration, raw_reference: tuple[np.ndarray, np.ndarray], temp
         x = u0 - ga - tri.bias
         if tk is not None:
             tk0 = tri.misalignment * tri.scale[None, :]
-            x = np.linalg.solve(tk, (x @ tk0.T)[..., None])[..., 0]
+            x = np.linalg.solve(tk, (x @ tk0.T)[..., None])[..., 0]  # eq. (T2) inverted
         out.append(x + bias + ga)
     return out[0], out[1]
 
@@ -360,7 +390,7 @@ def _polyfit(x: np.ndarray, y: np.ndarray, s: np.ndarray, order: int) -> tuple[n
     """Weighted LS of ``y`` on ``[1, x, x²][:order+1]``: coefficients, their covariance, χ²."""
     a = np.vander(x, order + 1, increasing=True)
     w = 1.0 / s
-    coef, *_ = np.linalg.lstsq(a * w[:, None], y * w, rcond=None)
+    coef, *_ = np.linalg.lstsq(a * w[:, None], y * w, rcond=None)  # eq. (T5)
     cov = np.linalg.pinv((a * w[:, None]).T @ (a * w[:, None]))
     chi2 = float(np.sum(((a @ coef - y) * w) ** 2))
     dof = len(x) - order - 1
@@ -395,7 +425,7 @@ def _significant_order(x: np.ndarray, y: np.ndarray, s: np.ndarray, order_max: i
     for m in range(order_max, 0, -1):  # the highest order whose own top term is significant
         c_m, cov_m, _ = _polyfit(x, y, s, m)
         z = abs(c_m[m]) / np.sqrt(cov_m[m, m]) if cov_m[m, m] > 0 else np.inf
-        if z > SIGNIFICANCE:
+        if z > SIGNIFICANCE:  # eq. (T5): the highest significant order
             coef, cov, order = c_m, cov_m, m
             break
     return coef, cov, order
@@ -515,7 +545,7 @@ def _accelerometer_slopes(calibration, acc_means: np.ndarray, temps: np.ndarray)
     """(T3) on the static poses: bias slopes [raw/°C] and, for a linear model, relative scale slopes [1/°C].
 
     ``‖T diag(k (1 + s ΔT_i)) (u_i − b − c ΔT_i)‖ = g`` fitted with ``T``, ``k``, ``b`` (the gravity-norm
-    model of Tedaldi 2014, eq. 10) free beside the slopes, so the model cannot soak up a slope;
+    model of Tedaldi 2014, Zhang 2021, eq. 10 unsquared) free beside the slopes, so the model cannot soak up a slope;
     returns ``(c, σ_c, s, σ_s)``. A nonlinear model gets bias slopes only.
     """
     from scipy.optimize import least_squares
@@ -532,10 +562,10 @@ def _accelerometer_slopes(calibration, acc_means: np.ndarray, temps: np.ndarray)
 
     def res(th):
         model = model_of(th)
-        x = acc_means - np.outer(temps, th[m:m + 3])
+        x = acc_means - np.outer(temps, th[m:m + 3])  # eq. (T3): ū_i − c ΔT_i
         if linear:
-            x = (x - model.bias) * (1.0 + np.outer(temps, th[m + 3:m + 6])) + model.bias
-        return np.linalg.norm(model.forward(x), axis=1) - g
+            x = (x - model.bias) * (1.0 + np.outer(temps, th[m + 3:m + 6])) + model.bias  # eq. (T3): k (1 + s ΔT_i)
+        return np.linalg.norm(model.forward(x), axis=1) - g  # eq. (T3)
 
     start = layout.pack(tri) if linear else tri.bias
     n = m + (6 if linear else 3)
@@ -561,11 +591,11 @@ def _gyroscope_slopes(calibration, recording: Recording, intervals: list[Interva
     gyro_means = interval_means(recording.gyro, intervals)
     gyro_g = calibration.gyroscope.g_sensitivity
     if np.any(gyro_g):
-        gyro_means = gyro_means - calibration.accelerometer.forward(acc_means) @ gyro_g.T
+        gyro_means = gyro_means - calibration.accelerometer.forward(acc_means) @ gyro_g.T  # eq. (T4): ū_g − G a
     a = np.column_stack([np.ones_like(temps), temps])
     bias_slope, bias_sd = np.empty(3), np.empty(3)
     for k in range(3):
-        coef, *_ = np.linalg.lstsq(a, gyro_means[:, k], rcond=None)
+        coef, *_ = np.linalg.lstsq(a, gyro_means[:, k], rcond=None)  # eq. (T4)
         r = gyro_means[:, k] - a @ coef
         c = np.linalg.pinv(a.T @ a) * (r @ r / max(len(temps) - 2, 1))
         bias_slope[k], bias_sd[k] = coef[1], np.sqrt(max(c[1, 1], 0.0))

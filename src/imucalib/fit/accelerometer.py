@@ -32,7 +32,16 @@ __all__ = ["REDUCED_MODELS", "GravityNormFit", "accelerometer_covariance", "acce
 
 
 def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:
-    """Centre and one common scale from a sphere fit (≥ 4 well-spread poses).
+    r"""Centre and one common scale from a sphere fit (≥ 4 well-spread poses).
+
+    The norm equation of the static accelerometer (Ru 2022, eq. 10,
+    ``‖a‖² = g²``) with ``a = k (u − b)``, one scale ``k`` for the three axes:
+
+    .. math::
+
+        \lVert \mathbf u_k - \mathbf b \rVert^2 = \rho^2
+        \iff 2\, \mathbf u_k^\top \mathbf b + (\rho^2 - \lVert \mathbf b \rVert^2) = \lVert \mathbf u_k \rVert^2,
+        \qquad k = g / \rho
 
     ``‖u − b‖² = ρ²`` is linear in ``(b, ρ² − ‖b‖²)``; the scale is ``g / ρ``.
     """
@@ -42,13 +51,13 @@ def fit_sphere(raw: np.ndarray, gravity: float) -> TriadModel:
     mu = raw.mean(axis=0)
     s = np.abs(raw - mu).max() or 1.0
     z = (raw - mu) / s
-    design = np.column_stack([2 * z, np.ones(len(z))])
+    design = np.column_stack([2 * z, np.ones(len(z))])  # Ru 2022, eq. (10) as a sphere, linear in (b, ρ² − ‖b‖²)
     sol = lstsq(design, np.sum(z * z, axis=1))
     c = sol[:3]
     rho2 = sol[3] + c @ c
     if not rho2 > 0:
         raise ValueError("the static poses do not determine a sphere (too few directions)")
-    k = gravity / (np.sqrt(rho2) * s)
+    k = gravity / (np.sqrt(rho2) * s)  # k = g / ρ
     return TriadModel(scale=np.full(3, k), bias=mu + s * c, shape="upper")
 
 
@@ -78,7 +87,26 @@ def fit_ellipsoid(raw: np.ndarray, gravity: float) -> TriadModel:
 
 
 def _ellipsoid(raw: np.ndarray, gravity: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``T`` (3, 3), ``k1`` and ``b`` of :func:`fit_ellipsoid` (which see), not yet checked as a model."""
+    r"""``T`` (3, 3), ``k1`` and ``b`` of :func:`fit_ellipsoid` (which see), not yet checked as a model.
+
+    The norm equation of the static accelerometer (Ru 2022, eq. 10, ``‖a‖² =
+    g²``) with the linear model ``a = T K (u − b)`` is a quadric in the raw
+    readings (``K = diag(k1)``); fitted algebraically as a general quadric in
+    the centred, scaled readings ``z``, then factored (the ellipsoid methods
+    of Ru 2022, §3.2.2 (2)):
+
+    .. math::
+
+        (\mathbf u - \mathbf b)^\top \mathbf Q\, (\mathbf u - \mathbf b) = g^2, \qquad
+        \mathbf Q = (\mathbf T \mathbf K)^\top (\mathbf T \mathbf K) \qquad \text{(E1)}
+
+        \mathbf z^\top \mathbf A\, \mathbf z + 2\, \mathbf v^\top \mathbf z = 1, \qquad
+        \mathbf c = -\mathbf A^{-1} \mathbf v, \qquad
+        \mathbf Q = \frac{g^2}{(1 + \mathbf c^\top \mathbf A\, \mathbf c)\, s^2}\, \mathbf A \qquad \text{(E2)}
+
+    with ``b = μ + s c`` (``μ`` the readings' mean, ``s`` their largest
+    deviation from it), and ``T K`` the upper-triangular Cholesky factor of ``Q``.
+    """
     raw = np.asarray(raw, dtype=np.float64)
     if raw.ndim != 2 or raw.shape[1] != 3:
         raise ValueError(f"raw must have shape (M, 3); got {raw.shape}")
@@ -102,15 +130,15 @@ def _ellipsoid(raw: np.ndarray, gravity: float) -> tuple[np.ndarray, np.ndarray,
     np.multiply(x2, y, out=design[3])
     np.multiply(x2, w, out=design[4])
     np.multiply(y2, w, out=design[5])
-    p = lstsq(design.T, np.ones(len(z)))
+    p = lstsq(design.T, np.ones(len(z)))  # eq. (E2): zᵀ A z + 2 vᵀ z = 1
     a = np.array([[p[0], p[3], p[4]], [p[3], p[1], p[5]], [p[4], p[5], p[2]]])
     v = p[6:9]
     try:
-        c = -solve(a, v)
+        c = -solve(a, v)  # eq. (E2): the centre
     except np.linalg.LinAlgError:
         raise ValueError("the static poses do not determine an ellipsoid (singular quadric)") from None
     kappa = 1.0 + c @ a @ c
-    q = a * (gravity**2 / kappa) / s**2  # (u − b)ᵀ Q (u − b) = g² in raw units
+    q = a * (gravity**2 / kappa) / s**2  # eq. (E2): (u − b)ᵀ Q (u − b) = g² in raw units
     try:
         lower = cholesky(q)
     except np.linalg.LinAlgError:
@@ -118,11 +146,11 @@ def _ellipsoid(raw: np.ndarray, gravity: float) -> tuple[np.ndarray, np.ndarray,
             "the static poses do not determine an ellipsoid (the fitted quadric is not "
             "positive definite): record poses spread over all directions"
         ) from None
-    tk = lower.T  # upper triangular, (T K)ᵀ (T K) = Q
+    tk = lower.T  # eq. (E1): upper triangular, (T K)ᵀ (T K) = Q
     k = tk.diagonal().copy()
     t = _EYE3.copy()  # the strict upper triangle of T K / k (each + 0.0, as np.triu(·, 1) + I forms it), unit diagonal
     t[_UPPER] += (tk / k[None, :])[_UPPER]
-    bias = mu + s * c
+    bias = mu + s * c  # eq. (E2): b = μ + s c
     if not (_ALL(np.isfinite(t), axis=None) and _ALL(np.isfinite(k)) and _ALL(np.isfinite(bias))):
         raise ValueError("the static poses do not determine an ellipsoid (not finite)")
     return t, k, bias
@@ -469,7 +497,17 @@ def six_position(up: np.ndarray, down: np.ndarray, gravity: float, *, cos_up: np
 
 
 def faces_full(faces: np.ndarray, gravity: float, *, bias: str = "axis") -> TriadModel:
-    """Ferraris 1995: ``S_a e_i = (ū₊ᵢ − ū₋ᵢ)/(2g)`` and the bias from the faces.
+    r"""Ferraris 1995: ``S_a e_i = (ū₊ᵢ − ū₋ᵢ)/(2g)`` and the bias from the faces.
+
+    The six-face method of Ferraris et al. 1995 with the sensitivity model
+    ``u = S_a a + b``, written here in this module's symbols (the paper's
+    equations are not in the project's paper set, so they go unnumbered):
+
+    .. math::
+
+        \mathbf S_a \mathbf e_i = \frac{\bar{\mathbf u}_{+i} - \bar{\mathbf u}_{-i}}{2 g}, \qquad
+        b_i = \frac{\bar u_{+i,i} + \bar u_{-i,i}}{2}, \qquad
+        \mathbf T_a\, \mathrm{diag}(\mathbf k) = \mathbf S_a^{-1}
 
     ``faces`` holds the raw means of +x, +y, +z, −x, −y, −z. The cube's faces
     define the frame, so the misalignment is full: ``T_a diag(k) = S_a⁻¹``.
@@ -477,9 +515,9 @@ def faces_full(faces: np.ndarray, gravity: float, *, bias: str = "axis") -> Tria
     a face's tilt enters to second order; ``"mean"``: the mean of the six faces
     (what ``imucal`` does), where it enters to first order.
     """
-    s_a = (faces[:3] - faces[3:]).T / (2 * gravity)  # columns S_a e_i
+    s_a = (faces[:3] - faces[3:]).T / (2 * gravity)  # Ferraris 1995: columns S_a e_i
     if bias == "axis":
-        b = (faces[np.arange(3), np.arange(3)] + faces[3 + np.arange(3), np.arange(3)]) / 2
+        b = (faces[np.arange(3), np.arange(3)] + faces[3 + np.arange(3), np.arange(3)]) / 2  # Ferraris 1995: b_i
     elif bias == "mean":
         b = faces.mean(axis=0)
     else:
@@ -489,7 +527,7 @@ def faces_full(faces: np.ndarray, gravity: float, *, bias: str = "axis") -> Tria
 
 def full_from_sensitivity(s: np.ndarray, bias: np.ndarray, **extra) -> TriadModel:
     """``u = S x + b`` as the canonical ``x = T diag(k) (u − b)``: ``T diag(k) = S⁻¹``, ``T_ii = 1``."""
-    m = np.linalg.inv(s)
+    m = np.linalg.inv(s)  # Ferraris 1995: T_a diag(k) = S_a⁻¹
     k = np.diag(m).copy()
     t = m / k[None, :]
     np.fill_diagonal(t, 1.0)  # m_ii / m_ii, exactly one
@@ -497,12 +535,22 @@ def full_from_sensitivity(s: np.ndarray, bias: np.ndarray, **extra) -> TriadMode
 
 
 def qureshi_cost(x: np.ndarray, means: np.ndarray, gravity: float):
-    """G(X) (eq. 11), its gradient and its Hessian (exact, analytic)."""
+    r"""G(X) (eq. 11), its gradient and its Hessian (exact, analytic).
+
+    Qureshi 2017, eqs. (7), (8) and (11), with ``X = (b, k, k_xy, k_xz, k_yz)``
+    and ``M = K T`` upper triangular (diagonal ``k``, then ``k_xy``, ``k_xz``,
+    ``k_yz`` above it), over the ``N`` poses' means ``Ā_k``:
+
+    .. math::
+
+        h(\bar A_k, X) = \mathbf M\, (\bar A_k - B) \quad (8), \qquad
+        G(X) = \sum_{k=1}^{N} \bigl( \lVert h(\bar A_k, X) \rVert^2 - \lVert g \rVert^2 \bigr)^2 \quad (11)
+    """
     b, k, kxy, kxz, kyz = x[:3], x[3:6], x[6], x[7], x[8]
-    m = np.array([[k[0], kxy, kxz], [0.0, k[1], kyz], [0.0, 0.0, k[2]]])
+    m = np.array([[k[0], kxy, kxz], [0.0, k[1], kyz], [0.0, 0.0, k[2]]])  # eq. (7): K T from X
     d = means - b  # (N, 3)
     h = d @ m.T  # eq. (8)
-    r = np.sum(h * h, axis=1) - gravity**2
+    r = np.sum(h * h, axis=1) - gravity**2  # eq. (11): ‖h‖² − ‖g‖², each pose
     # ∂h/∂X for each sample: (N, 3, 9)
     n = means.shape[0]
     dh = np.zeros((n, 3, 9))
@@ -521,7 +569,7 @@ def qureshi_cost(x: np.ndarray, means: np.ndarray, gravity: float):
         # h_i = Σ_j M_ij (u_j − b_j): ∂²h_i/∂M_ij∂b_j = −1
         d2r[:, p, j] += -2 * h[:, i]
         d2r[:, j, p] += -2 * h[:, i]
-    value = float(r @ r)
+    value = float(r @ r)  # eq. (11)
     grad = 2 * dr.T @ r
     hess = 2 * (dr.T @ dr + np.einsum("n,npq->pq", r, d2r))
     return value, grad, hess
@@ -529,7 +577,15 @@ def qureshi_cost(x: np.ndarray, means: np.ndarray, gravity: float):
 
 def newton_backtracking(x0: np.ndarray, means: np.ndarray, gravity: float, *, max_iter: int = 100,
                         tol: float = 1e-14) -> tuple[np.ndarray, int]:
-    """Minimise eq. (11) by Newton's method with an Armijo backtracking line search (eq. 12).
+    r"""Minimise eq. (11) by Newton's method with an Armijo backtracking line search (eq. 12).
+
+    Qureshi 2017, eqs. (10) and (12), the step length ``t`` halved until the
+    Armijo condition holds (the line search the paper leaves to its ref. [15]):
+
+    .. math::
+
+        \hat X = \arg\min_X G(X) \quad (10), \qquad
+        X_k = X_{k-1} - t\, \bigl(\nabla^2 G(X)\bigr)^{-1} \nabla G(X) \quad (12)
 
     Where the Hessian is not positive definite the step falls back to steepest
     descent. Returns the minimiser and the number of iterations.
@@ -541,12 +597,12 @@ def newton_backtracking(x0: np.ndarray, means: np.ndarray, gravity: float, *, ma
         gs, hs = grad * scale, hess * scale[:, None] * scale[None, :]
         try:
             c = np.linalg.cholesky(hs)
-            step = -np.linalg.solve(c.T, np.linalg.solve(c, gs))
+            step = -np.linalg.solve(c.T, np.linalg.solve(c, gs))  # eq. (12): −(∇²G)⁻¹ ∇G
         except np.linalg.LinAlgError:
             step = -gs
         t = 1.0
         while True:  # backtracking: sufficient decrease (Armijo, c = 1e-4), halving t
-            trial = x + t * step * scale
+            trial = x + t * step * scale  # eq. (12)
             if qureshi_cost(trial, means, gravity)[0] <= value + 1e-4 * t * (gs @ step) or t < 1e-12:
                 break
             t *= 0.5

@@ -1,8 +1,31 @@
-"""The gravity-direction problem of the gyroscope fit: the rotations between static poses.
+r"""The gravity-direction problem of the gyroscope fit: the rotations between static poses.
 
 The transitions' rates and the poses' gravity directions (:class:`Transitions`), the residuals of the
 direction each rotation carries (Zhang 2021, eq. 14; Tedaldi 2014) and their solve, the first guesses of the
 scale (:func:`rough_scale`) and the check of the axes' order and signs (:func:`axes_disagreement`).
+
+With ``ā_k`` the calibrated accelerometer's mean at pose ``k`` and ``R_k`` the attitude change over the motion
+before it, integrated (RK4, :mod:`imucalib.kinematics`) from the rates of the linear model of Zhang 2021,
+eqs. (5)–(6) with this project's bias sign, the residuals are eq. (14)'s with unit directions (with the
+body-to-reference ``R`` of :mod:`imucalib.kinematics`, Zhang's ``R_{k−1,k}`` is ``R_kᵀ``):
+
+.. math::
+
+    \boldsymbol\omega = \mathbf M\, (\mathbf u_g - \mathbf b_g - \mathbf G\, \mathbf a), \quad
+    \mathbf M = \mathbf T_g\, \mathrm{diag}(\mathbf k_1) \quad \text{(5), (6)}, \qquad
+    \mathbf d_k = \frac{\bar{\mathbf a}_k}{\lVert \bar{\mathbf a}_k \rVert}, \qquad
+    \mathbf r_k = w_k \bigl(\mathbf d_k - \mathbf R_k^\top \mathbf d_{k-1}\bigr) \quad (14)
+
+The first guess of a common scale ``k`` takes each motion as one rotation about its integrated raw rate
+``Φ_i = ∫(u − b) dt`` by ``k‖Φ_i‖`` (this project's, derived here; Rodrigues' formula for ``R``):
+
+.. math::
+
+    k = \arg\min_k \sum_i \bigl\lVert \mathbf d_i' - \mathbf R(k \boldsymbol\Phi_i)^\top \mathbf d_i \bigr\rVert^2
+    \qquad \text{(R1)}
+
+    \mathbf R(\theta \mathbf n)^\top \mathbf d = \mathbf d \cos\theta - (\mathbf n \times \mathbf d) \sin\theta
+    + \mathbf n (\mathbf n \cdot \mathbf d)(1 - \cos\theta) \qquad \text{(R2)}
 """
 
 from __future__ import annotations
@@ -52,7 +75,7 @@ def _gyro_scale_guess(
     for i, (a, b) in enumerate(zip(starts, stops, strict=True)):
         v = rowwise(np.subtract, gyro[a:b], bias)
         dt = t[a + 1:b + 1] - t[a:b]
-        phi_vec[i] = dt @ v
+        phi_vec[i] = dt @ v  # Φ_i = ∫(u − b) dt
         path[i] = dt @ np.sqrt(np.einsum("ij,ij->i", v, v))
     theta = angle_between(gravity_dirs[:, 0], gravity_dirs[:, 1])
     ok = (theta > np.radians(10)) & (path > 0)
@@ -62,7 +85,7 @@ def _gyro_scale_guess(
         raise ValueError("the gyroscope does not move between the static poses")
     k0 = float(np.median(theta[ok] / path[ok]))
     ks = k0 * np.geomspace(0.3, 30.0, 600)
-    return float(ks[int(np.argmin(_single_rotation_costs(phi_vec, gravity_dirs, ks)))])
+    return float(ks[int(np.argmin(_single_rotation_costs(phi_vec, gravity_dirs, ks)))])  # eq. (R1)
 
 
 def _single_rotation_costs(phi: np.ndarray, gravity_dirs: np.ndarray, ks: np.ndarray) -> np.ndarray:
@@ -82,7 +105,7 @@ def _single_rotation_costs(phi: np.ndarray, gravity_dirs: np.ndarray, ks: np.nda
     across = np.einsum("ij,ij->i", g1, np.cross(n, g0))
     angle = ks[:, None] * norm[None, :]
     terms = np.einsum("ij,ij->i", g1, g1) + np.einsum("ij,ij->i", g0, g0) - 2 * c
-    return np.sum(terms[None, :] - 2 * (along * np.cos(angle) - across * np.sin(angle)), axis=1)
+    return np.sum(terms[None, :] - 2 * (along * np.cos(angle) - across * np.sin(angle)), axis=1)  # eqs. (R1), (R2)
 
 
 #: every order and sign of three axes: (permutation, signs), the identity first
@@ -95,7 +118,7 @@ def _direction_errors(phi: np.ndarray, gravity_dirs: np.ndarray, ks: np.ndarray)
     by the rotation ``exp(k Φ_i)`` (the single-rotation approximation of :func:`_gyro_scale_guess`), at the
     ``k`` of ``ks`` that fits them best."""
     best = ks[int(np.argmin(_single_rotation_costs(phi, gravity_dirs, ks)))]
-    pred = np.einsum("kji,kj->ki", quat_to_matrix(quat_from_rotvec(best * phi)), gravity_dirs[:, 0])
+    pred = np.einsum("kji,kj->ki", quat_to_matrix(quat_from_rotvec(best * phi)), gravity_dirs[:, 0])  # eq. (R1)
     return angle_between(pred, gravity_dirs[:, 1])
 
 
@@ -116,7 +139,7 @@ def axes_disagreement(recording: Recording, intervals: list[Interval], accelerom
     if len(intervals) < 3:
         return None
     acc = accelerometer.forward(interval_means(recording.acc, intervals))
-    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
+    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)  # d_k of eq. (14)
     pairs = np.stack([dirs[:-1], dirs[1:]], axis=1)
     starts, stops = transition_bounds(intervals)
     phi = np.zeros((len(starts), 3))
@@ -158,7 +181,7 @@ def rough_scale(recording: Recording, intervals: list[Interval], accelerometer: 
                 bias: np.ndarray) -> float:
     """A common gyroscope scale [rad/s per raw unit] good to a few per cent, from the rotations between poses."""
     acc = accelerometer.forward(interval_means(recording.acc, intervals))
-    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
+    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)  # d_k of eq. (14)
     return _gyro_scale_guess(recording.gyro, bias, recording.t, *transition_bounds(intervals), dirs)
 
 
@@ -254,7 +277,7 @@ def _readings(recording: Recording, samples: np.ndarray, accelerometer: TriadMod
         g = np.asarray(g_sensitivity).T
         for a in range(0, samples.size, READ_CHUNK):
             part = samples[a : a + READ_CHUNK]
-            raw[a : a + part.size] -= accelerometer.forward(recording.acc[part]) @ g
+            raw[a : a + part.size] -= accelerometer.forward(recording.acc[part]) @ g  # eq. (5): u − G a
     return raw
 
 
@@ -271,7 +294,7 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
     """
     tr = Transitions(recording, intervals) if transitions is None else transitions
     acc = accelerometer.forward(tr.acc_means())
-    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
+    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)  # d_k of eq. (14)
     integrator = tr.integrator
     raw = tr.readings(accelerometer, g_sensitivity)  # only those the integration reads
     layout = GyroLayout(estimate_bias)
@@ -288,12 +311,12 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
 
     def rates_at(th):
         m, b = split(th)
-        return rowwise(np.subtract, raw, b) @ m.T
+        return rowwise(np.subtract, raw, b) @ m.T  # eq. (5): M (u − G a − b)
 
     def fun(th, directions=None):
         q = tr.attitudes(key(th), lambda: rates_at(th))
-        r = gravity_direction_residuals(None, lambda _: q, dirs if directions is None else directions)
-        return r if w is None else r * w
+        r = gravity_direction_residuals(None, lambda _: q, dirs if directions is None else directions)  # eq. (14)
+        return r if w is None else r * w  # eq. (14): w_k
 
     def jac(th):
         m, b = split(th)

@@ -1,5 +1,27 @@
-"""The joint gyroscope fit: the static poses and the rotations between them in one cost (:func:`joint_problem`),
+r"""The joint gyroscope fit: the static poses and the rotations between them in one cost (:func:`joint_problem`),
 its solve and its error bars (:func:`joint_errors`), and the accelerometer's step of the joint fit.
+
+The rates are Zhang 2021's linear model, eqs. (5)–(6), with this project's bias sign and the bias drifting
+linearly in time (``τ = t − t_ref``); the cost joins, as Zhang 2021's global cost (21) joins its (11) and (14),
+each kept rotation's gravity-direction error (14) over the rotations' noise ``σ_rot`` and each static pose's
+mean reading (11) over its standard error ``se_k`` (:mod:`imucalib.fit.gyro_static`, (S1)):
+
+.. math::
+
+    \boldsymbol\omega = \mathbf M\, (\mathbf u - \mathbf b - \mathbf d\, \tau - \mathbf G\, \mathbf a)
+    \quad \text{(5), (6)}
+
+    \mathbf r^\mathrm{rot}_k = \frac{w_k}{\sigma_\mathrm{rot}}
+    \bigl(\mathbf d_k - \mathbf R_k^\top \mathbf d_{k-1}\bigr) \quad (14), \qquad
+    r^\mathrm{st}_{k,i} = \frac{\bar u_{k,i} - (\mathbf G \mathbf a_k)_i - b_i - d_i\, (t_k - t_\mathrm{ref})}
+    {se_{k,i}} \quad (11)
+
+and the rotations' noise is re-estimated from the kept rotations' errors ``e_k = ‖d_k − R_kᵀ d_{k−1}‖``, two
+components each, ``p = 9`` parameters of ``M``:
+
+.. math::
+
+    \sigma_\mathrm{rot}^2 = \frac{\sum_k e_k^2}{2 n_\mathrm{kept} - p} \qquad \text{(J1)}
 """
 
 from __future__ import annotations
@@ -47,15 +69,15 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
     """
     tr = Transitions(recording, intervals) if transitions is None else transitions
     acc = static.accel if static.accel is not None else accelerometer.forward(tr.acc_means())
-    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)
+    dirs = acc / np.linalg.norm(acc, axis=1, keepdims=True)  # d_k of eq. (14)
     integrator = tr.integrator
     g_sens = static.g_sensitivity
     raw = tr.readings(accelerometer, g_sens)
     tau = recording.t[integrator.samples] - static.t_ref
     with_d = static.drift is not None
     size = 15 if with_d else 12
-    w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
-    target = static.means - (0.0 if g_sens is None else static.accel @ np.asarray(g_sens).T)
+    w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot  # eq. (14): w_k / σ_rot
+    target = static.means - (0.0 if g_sens is None else static.accel @ np.asarray(g_sens).T)  # eq. (11): ū_k − G a_k
     se = np.sqrt(static.variances)
     dt_pose = static.times - static.t_ref
 
@@ -72,14 +94,14 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
         v = rowwise(np.subtract, raw, b)
         for a in range(0, len(v), READ_CHUNK):  # τ d: each sample's τ repeated for the three axes, a chunk at a time
             part = v[a : a + READ_CHUNK]
-            part -= rowwise(np.multiply, np.repeat(tau[a : a + READ_CHUNK], 3).reshape(-1, 3), dr)
+            part -= rowwise(np.multiply, np.repeat(tau[a : a + READ_CHUNK], 3).reshape(-1, 3), dr)  # eq. (5): − d τ
         return v
 
     def fun(th):
         m, b, dr = split(th)
-        q = tr.attitudes(key(th), lambda: readings_at(th) @ m.T)
-        r_rot = gravity_direction_residuals(None, lambda _: q, dirs) * w
-        r_st = (target - b - dt_pose[:, None] * dr) / se
+        q = tr.attitudes(key(th), lambda: readings_at(th) @ m.T)  # eq. (5): ω = M (u − G a − b − d τ)
+        r_rot = gravity_direction_residuals(None, lambda _: q, dirs) * w  # eq. (14)
+        r_st = (target - b - dt_pose[:, None] * dr) / se  # eq. (11)
         return np.concatenate([r_rot, r_st.ravel()])
 
     def jac(th, with_g: bool = False):
@@ -161,7 +183,7 @@ def _rotation_sigma(e: np.ndarray, weights: np.ndarray, p: int) -> float:
     """Per-component noise [rad] of the kept rotations' direction errors ``e``: two components each, ``p`` fitted."""
     kept = np.asarray(weights) > 0
     dof = max(2 * int(np.count_nonzero(kept)) - p, 1)
-    s = float(np.sqrt(np.sum(e[kept] ** 2) / dof))
+    s = float(np.sqrt(np.sum(e[kept] ** 2) / dof))  # eq. (J1)
     return s if s > 0 else 1e-12
 
 
@@ -219,7 +241,7 @@ def joint_errors(recording, intervals, accelerometer, model, theta, jac_fun, res
     j_acc = None
     if which or (acc_cov is not None and not undetermined):
         j_acc = np.zeros((j.shape[0], lay.size))
-        w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot
+        w = np.repeat(np.asarray(weights, dtype=float), 3) / sigma_rot  # eq. (14): w_k / σ_rot
         j_acc[:n_rot] = direction_acc_jacobian(recording, intervals, accelerometer, model, transitions) * w[:, None]
     n_joint = len(which)
     if n_joint:

@@ -1,5 +1,32 @@
-"""The gyroscope's bias at rest from the static poses (:func:`static_gyro`): the poses' mean rates by a
-random-effects regression, with the bias's drift and the g-sensitivity."""
+r"""The gyroscope's bias at rest from the static poses (:func:`static_gyro`): the poses' mean rates by a
+random-effects regression, with the bias's drift and the g-sensitivity.
+
+At rest the gyroscope reads its bias and the g-sensitivity's share (Zhang 2021, eq. 11, with this project's
+bias sign), here with the bias drifting linearly in time; with ``ū_k`` pose ``k``'s mean reading, ``a_k`` its
+calibrated specific force, ``t_k`` its mean time, ``s_k²`` its samples' variance and ``n_k`` their number, one
+axis at a time (the regressor row ``x_k`` holds 1, ``t_k − t_ref`` and ``a_k`` as chosen):
+
+.. math::
+
+    \bar u_k = b + d\, (t_k - t_\mathrm{ref}) + \mathbf G_{i\cdot}\, \mathbf a_k + e_k, \qquad
+    e_k \sim \mathcal N\bigl(0,\; v_k + \tau^2\bigr), \quad v_k = \frac{s_k^2}{n_k - 1}
+    \qquad \text{(S1)}
+
+    \hat{\mathbf c} = (\mathbf X^\top \mathbf W \mathbf X)^{+} \mathbf X^\top \mathbf W \bar{\mathbf u},
+    \quad \mathbf W = \mathrm{diag}\Bigl(\frac{1}{v_k + \tau^2}\Bigr), \qquad
+    \sum_k \frac{(\bar u_k - \mathbf x_k \hat{\mathbf c})^2}{v_k + \tau^2} = M - p
+    \qquad \text{(S2)}
+
+(``τ² = 0`` when the left side is already below ``M − p`` at zero; Paule & Mandel 1982), and of the fits with
+and without ``G`` and ``d`` the one of the least Bayesian information criterion over the three axes
+(``n = 3M``, ``p`` counting 3 per coefficient and the 3 ``τ²``):
+
+.. math::
+
+    \mathrm{BIC} = -2 \ln L + p \ln n, \qquad
+    \ln L = -\frac12 \sum_k \Bigl( \ln\bigl(2\pi (v_k + \tau^2)\bigr)
+    + \frac{(\bar u_k - \mathbf x_k \hat{\mathbf c})^2}{v_k + \tau^2} \Bigr) \qquad \text{(S3)}
+"""
 
 from __future__ import annotations
 
@@ -43,12 +70,12 @@ def _regression_solve(x: np.ndarray, u: np.ndarray, v: np.ndarray, tau2: float):
 
     The covariance is the pseudo-inverse of ``xᵀ W x`` (``np.linalg.pinv``, relative cut-off 1e-15).
     """
-    w = 1.0 / (v + tau2)
+    w = 1.0 / (v + tau2)  # eq. (S2): W
     xw = x * w[:, None]
     cov = np.linalg.pinv(x.T @ xw)
-    c = cov @ (xw.T @ u)
+    c = cov @ (xw.T @ u)  # eq. (S2)
     r = u - x @ c
-    return c, cov, float(np.add.reduce(w * r * r)), r
+    return c, cov, float(np.add.reduce(w * r * r)), r  # eq. (S2): χ²
 
 
 def _weighted_regressions(problems: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> list[tuple]:
@@ -84,9 +111,9 @@ def _weighted_regressions(problems: list[tuple[np.ndarray, np.ndarray, np.ndarra
             mid = 0.5 * (lo + hi)
             w = 1.0 / (v + mid[:, None])
             xw = x * w[:, :, None]
-            c = np.linalg.pinv(xt @ xw) @ (np.swapaxes(xw, 1, 2) @ uc)
+            c = np.linalg.pinv(xt @ xw) @ (np.swapaxes(xw, 1, 2) @ uc)  # eq. (S2)
             r = u - (x @ c)[:, :, 0]
-            above = np.add.reduce(w * r * r, axis=1) > dof
+            above = np.add.reduce(w * r * r, axis=1) > dof  # eq. (S2): χ² against M − p
             lo = np.where(active & above, mid, lo)
             hi = np.where(active & ~above, mid, hi)
             active &= ~(hi - lo <= 1e-10 * hi)
@@ -98,7 +125,7 @@ def _weighted_regressions(problems: list[tuple[np.ndarray, np.ndarray, np.ndarra
     for (x, u, v), f, t in zip(problems, first, tau2, strict=True):
         c, cov, _, r = f if t == 0.0 else _regression_solve(x, u, v, t)
         var = v + t
-        loglik = -0.5 * float(np.sum(np.log(2 * np.pi * var) + r * r / var))
+        loglik = -0.5 * float(np.sum(np.log(2 * np.pi * var) + r * r / var))  # eq. (S3): ln L
         out.append((c, cov, t, np.array([loglik])))
     return out
 
@@ -125,7 +152,7 @@ def _pose_statistics(recording: Recording, intervals: list[Interval], accelerome
     times = np.array([float(np.mean(recording.t[iv.slice])) for iv in intervals])
     t_ref = float(np.mean(times))
     # each pose's variance over its samples' count less one
-    v = np.array([np.var(recording.gyro[iv.slice], axis=0) / max(len(iv) - 1, 1) for iv in intervals])
+    v = np.array([np.var(recording.gyro[iv.slice], axis=0) / max(len(iv) - 1, 1) for iv in intervals])  # eq. (S1): v_k
     v = np.maximum(v, 1e-300)  # a quantised constant reading: no noise at all
     return u, a, times, t_ref, v
 
@@ -144,14 +171,14 @@ def _candidate_fits(u: np.ndarray, a: np.ndarray, times: np.ndarray, t_ref: floa
         for with_d in opts_d:
             if with_d and m <= 5:
                 continue
-            cols = [np.ones(m)] + ([times - t_ref] if with_d else []) + ([*a.T] if with_g else [])
+            cols = [np.ones(m)] + ([times - t_ref] if with_d else []) + ([*a.T] if with_g else [])  # eq. (S1): x_k
             fits[with_g, with_d] = np.column_stack(cols)
     regressions = _weighted_regressions([(x, u[:, j], v[:, j]) for x in fits.values() for j in range(3)])
     for i, (key, x) in enumerate(list(fits.items())):
         per_axis = regressions[3 * i : 3 * i + 3]
         loglik = sum(float(f[3][0]) for f in per_axis)
         n, p = 3 * m, 3 * x.shape[1] + 3
-        fits[key] = (-2 * loglik + p * np.log(n), x, per_axis)
+        fits[key] = (-2 * loglik + p * np.log(n), x, per_axis)  # eq. (S3)
     if not fits:  # too few poses for what was asked: the plain mean
         x = np.ones((m, 1))
         fits[False, False] = (0.0, x, [_weighted_regression(x, u[:, j], v[:, j]) for j in range(3)])
@@ -183,7 +210,7 @@ def static_gyro(recording: Recording, intervals: list[Interval], accelerometer: 
     """
     u, a, times, t_ref, v = _pose_statistics(recording, intervals, accelerometer)
     fits = _candidate_fits(u, a, times, t_ref, v, g_sensitivity, drift)
-    with_g, with_d = min(fits, key=lambda k: fits[k][0])
+    with_g, with_d = min(fits, key=lambda k: fits[k][0])  # eq. (S3): the least BIC
     _, x, per_axis = fits[with_g, with_d]
     coef = np.column_stack([f[0] for f in per_axis])  # (p, 3)
     covs = [f[1] for f in per_axis]

@@ -1,4 +1,19 @@
-"""Gyroscope estimators: building blocks the methods compose.
+r"""Gyroscope estimators: building blocks the methods compose.
+
+The gyroscope's model is Zhang 2021's, eqs. (5)–(6), linear and with this
+project's bias sign (:mod:`imucalib.models`), ``M = T_g diag(k1)``; the
+rotation ``R_k`` from pose ``k − 1`` to pose ``k``, integrated from these
+rates (:mod:`imucalib.kinematics`), carries the unit gravity direction ``d``
+the calibrated accelerometer measures at one pose onto the next (Zhang 2021,
+eqs. (12)–(14); with the body-to-reference ``R`` of :mod:`imucalib.kinematics`
+its ``R_{k−1,k}`` is ``R_kᵀ``):
+
+.. math::
+
+    \boldsymbol\omega = \mathbf M\, (\mathbf u_g - \mathbf b_g - \mathbf G\, \mathbf a)
+    \quad \text{(5), (6)}, \qquad
+    L = \sum_{k=2}^{M} \bigl\lVert \mathbf d_k - \mathbf R_k^\top \mathbf d_{k-1} \bigr\rVert^2
+    \quad (14)
 
 * :func:`fit_gravity_direction` — ``T_g``, ``k1`` (and ``b_g``) from the gravity
   direction carried by the integrated rates from one static pose to the next
@@ -243,7 +258,21 @@ def gyroscope_errors(theta: np.ndarray, jac: np.ndarray, res: np.ndarray, layout
 def rotation_angles(recording, intervals, acc_model: TriadModel, bias: np.ndarray, *,
                     axis_tolerance: float = 20.0, min_tilt: float = 45.0,
                     max_angle: float = 170.0) -> list[dict]:
-    """Rotations between consecutive static poses: axis, accelerometer angle, mean raw rate, duration."""
+    r"""Rotations between consecutive static poses: axis, accelerometer angle, mean raw rate, duration.
+
+    The angle is the tilt change the calibrated accelerometer measures
+    (Qureshi 2017, appendix, eqs. 23–28: ``tan θ = g_X′ / √(g² − g_X′²)`` for a
+    turn about a horizontal axis), written here for any pair of unit gravity
+    directions ``g₀``, ``g₁`` and the turn's axis ``e`` (the body turns by
+    ``+θ`` about ``e``, so gravity turns by ``−θ``), and the turn's axis is
+    the one of the largest integrated raw rate:
+
+    .. math::
+
+        \theta = -\operatorname{atan2}\bigl((\mathbf g_0 \times \mathbf g_1) \cdot \mathbf e,\;
+        \mathbf g_0 \cdot \mathbf g_1\bigr), \qquad
+        i = \arg\max_j \Bigl| \int (u_j - b_j)\, dt \Bigr|
+    """
     a = acc_model.forward(interval_means(recording.acc, intervals))
     u = a / np.linalg.norm(a, axis=1, keepdims=True)
     starts, stops = transition_bounds(intervals)
@@ -252,7 +281,7 @@ def rotation_angles(recording, intervals, acc_model: TriadModel, bias: np.ndarra
         raw = recording.gyro[s0 : s1 + 1]
         t = recording.t[s0 : s1 + 1]
         total = np.trapezoid(raw - bias, t, axis=0)
-        i = int(np.argmax(np.abs(total)))
+        i = int(np.argmax(np.abs(total)))  # the turn's axis: the largest ∫(u − b) dt
         e = np.zeros(3)
         e[i] = 1.0
         off_axis = np.degrees(np.arccos(np.clip(abs(total[i]) / np.linalg.norm(total), 0, 1)))
@@ -261,19 +290,30 @@ def rotation_angles(recording, intervals, acc_model: TriadModel, bias: np.ndarra
             continue
         # body turns by +θ about e ⇒ gravity turns by −θ: θ = −atan2((g₀ × g₁)·e, g₀·g₁)
         # (the tilt change of eqs. 23–28 about a horizontal axis)
-        theta = -np.arctan2(np.cross(u[k], u[k + 1]) @ e, u[k] @ u[k + 1])
+        theta = -np.arctan2(np.cross(u[k], u[k + 1]) @ e, u[k] @ u[k + 1])  # eqs. (23)–(28), any tilt
         if abs(theta) > np.radians(max_angle):  # ±180° is ambiguous: the sign flips with noise
             continue
         duration = float(t[-1] - t[0])
         out.append({"axis": i, "angle": float(theta), "mean_rate": float(np.mean(raw[:, i])),
                     "duration": duration,
-                    "mean_rate_trapezoid": float(np.trapezoid(raw[:, i], t) / duration)})
+                    "mean_rate_trapezoid": float(np.trapezoid(raw[:, i], t) / duration)})  # ω̄_ik of eq. (16)
     return out
 
 
 def fit_known_turns(recording: Recording, turns: dict[int, list[tuple[int, int, int]]], angle: float,
                     bias: np.ndarray, g_sensitivity: np.ndarray, acc_si: np.ndarray) -> TriadModel:
-    """Ferraris 1995: ``S_g e_i = ± (∫(u_g − b_g − G a) dt) / θ`` over the turns about axis ``i``.
+    r"""Ferraris 1995: ``S_g e_i = ± (∫(u_g − b_g − G a) dt) / θ`` over the turns about axis ``i``.
+
+    The turn-table method of Ferraris et al. 1995 with the sensitivity model
+    ``u_g = S_g ω + b_g + G a`` (the paper's equations are not in the
+    project's paper set, so they go unnumbered), the ``n_i`` turns about axis
+    ``i`` by the known angle ``θ``, each with its sign ``s_j``, averaged:
+
+    .. math::
+
+        \mathbf S_g \mathbf e_i = \frac{1}{n_i} \sum_{j=1}^{n_i} \frac{s_j}{\theta}
+        \int_{t_{j,0}}^{t_{j,1}} (\mathbf u_g - \mathbf b_g - \mathbf G \mathbf a)\, dt, \qquad
+        \mathbf T_g\, \mathrm{diag}(\mathbf k) = \mathbf S_g^{-1}
 
     ``turns`` maps each axis to its turns ``(start, stop, sign)``; ``angle`` is
     the known angle θ [rad]; ``acc_si`` the calibrated specific force of every
@@ -285,14 +325,33 @@ def fit_known_turns(recording: Recording, turns: dict[int, list[tuple[int, int, 
         for s0, s1, sign in turns[i]:
             t = recording.t[s0 : s1 + 1]
             u = recording.gyro[s0 : s1 + 1] - bias - acc_si[s0 : s1 + 1] @ g_sensitivity.T
-            cols.append(sign * np.trapezoid(u, t, axis=0) / angle)
-        s_g[:, i] = np.mean(cols, axis=0)
+            cols.append(sign * np.trapezoid(u, t, axis=0) / angle)  # Ferraris 1995: ∫(u − b − G a) dt / θ
+        s_g[:, i] = np.mean(cols, axis=0)  # Ferraris 1995: S_g e_i
     return full_from_sensitivity(s_g, bias, g_sensitivity=g_sensitivity)
 
 
 def fit_measured_rotations(rotations: list[dict], rest_bias: np.ndarray, approach: str
                            ) -> tuple[np.ndarray, np.ndarray, dict[str, float], list[int]]:
-    """Per-axis gyroscope scale (and bias) from turns the accelerometer measured (Qureshi 2017).
+    r"""Per-axis gyroscope scale (and bias) from turns the accelerometer measured (Qureshi 2017).
+
+    Qureshi 2017, eqs. (15)–(21): the model ``ω = K (ω^s − B)`` (15), a turn
+    ``k`` about axis ``i`` by the measured angle ``Δθ_ik`` (:func:`rotation_angles`)
+    at the mean raw rate ``ω̄_ik`` over its duration ``T_k``:
+
+    .. math::
+
+        \Delta\theta_{ik} = k_i (\bar\omega_{ik} - b_i) T_k \quad (17), \qquad
+        k_i = \frac{\Delta\theta_{ik}}{(\bar\omega_{ik} - b_i) T_k} \quad (18)
+
+        \mathbf A = \begin{bmatrix} \bar\omega_{i1} T_1 & -T_1 \\ \vdots & \vdots \\
+        \bar\omega_{in} T_n & -T_n \end{bmatrix}, \quad
+        \mathbf x = \begin{bmatrix} k_i \\ k_i b_i \end{bmatrix}, \quad
+        \mathbf b = \begin{bmatrix} \Delta\theta_{i1} \\ \vdots \\ \Delta\theta_{in} \end{bmatrix}
+        \quad (19), \qquad
+        \mathbf A^\top \mathbf A\, \mathbf x = \mathbf A^\top \mathbf b \quad (21)
+
+    (the static approach's eq. (18) over several turns in least squares:
+    ``k_i = Σ x_k Δθ_ik / Σ x_k²``, ``x_k = (ω̄_ik − b_i) T_k``).
 
     ``"static"``: ``b`` is ``rest_bias`` and ``k_i = Δθ_ik / ((ω̄_ik − b_i) T_k)``
     (eq. 18), combined over the turns about axis ``i`` by least squares;
@@ -318,7 +377,7 @@ def fit_measured_rotations(rotations: list[dict], rest_bias: np.ndarray, approac
         theta = np.array([r["angle"] for r in rows])
         tk = np.array([r["duration"] for r in rows])
         wbar = np.array([r["mean_rate_trapezoid"] for r in rows])
-        k_each = theta / ((wbar - rest_bias[i]) * tk)
+        k_each = theta / ((wbar - rest_bias[i]) * tk)  # eq. (18), each turn
         good = np.abs(k_each / np.median(k_each) - 1) < 0.1
         if np.count_nonzero(good) < need:
             raise ValueError(f"the turns about the {AXES[i]} axis disagree (eq. 18 scales "
@@ -327,12 +386,12 @@ def fit_measured_rotations(rotations: list[dict], rest_bias: np.ndarray, approac
         rejected[i] = int(np.count_nonzero(~good))
         if approach == "static":
             x = (wbar - rest_bias[i]) * tk  # eq. (18) for each rotation, least squares over them
-            k[i] = float(x @ theta / (x @ x))
+            k[i] = float(x @ theta / (x @ x))  # eq. (18) in least squares
             errors[f"gyroscope.scale.{AXES[i]}"] = float(standard_errors(x[:, None], k[i] * x - theta)[0])
         else:
             a_mat = np.column_stack([wbar * tk, -tk])  # eq. (19)
             sol = np.linalg.solve(a_mat.T @ a_mat, a_mat.T @ theta)  # eq. (21)
-            k[i], b[i] = sol[0], sol[1] / sol[0]
+            k[i], b[i] = sol[0], sol[1] / sol[0]  # eq. (19): x = (k_i, k_i b_i)
             to_kb = np.array([[1.0, 0.0], [-sol[1] / sol[0] ** 2, 1.0 / sol[0]]])  # (k, k·b) → (k, b)
             se = standard_errors(a_mat, a_mat @ sol - theta, transform=to_kb)
             errors[f"gyroscope.scale.{AXES[i]}"], errors[f"gyroscope.bias.{AXES[i]}"] = map(float, se)

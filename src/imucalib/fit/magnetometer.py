@@ -1,34 +1,55 @@
-"""Magnetometer: hard and soft iron, and the field expressed in the accelerometer's frame.
+r"""Magnetometer: hard and soft iron, and the field expressed in the accelerometer's frame.
 
 The magnetometer is calibrated after the accelerometer and the gyroscope, from
 the same static poses and the rotations between them, with the model of
-:class:`~imucalib.models.MagnetometerModel`::
+:class:`~imucalib.models.MagnetometerModel`:
 
-    m = F · O · S · (u − b)                                                  (M1)
+.. math::
+
+    \mathbf m = F\, \mathbf O\, \mathbf S\, (\mathbf u - \mathbf b) \qquad \text{(M1)}
 
 The Earth's field ``h`` is constant in the world frame while the sensor is
 turned by hand, so three sets of equations hold (the multi-position approach of
 Särkkä et al. 2017 and the magnetometer-aided calibration reviewed in Ru 2022,
 §4.2 (3), written here for this model):
 
-* **norm** — ``‖S (u_i − b)‖ = 1`` for every pose ``i`` (and every sample while
-  moving): hard and soft iron make the readings an ellipsoid, ``S`` and ``b``
-  map it onto the unit sphere;                                             (M2)
-* **dip** — ``d_iᵀ n_i = −sin δ`` with ``d_i`` the calibrated gravity direction
-  (the accelerometer's unit specific force at rest, pointing up), ``n_i =
-  O S (u_i − b) / ‖·‖`` and ``δ`` the field's dip below the horizontal: the
-  angle between field and gravity does not change from pose to pose;      (M3)
-* **rotation** — ``n_{k+1} = R_kᵀ n_k`` with ``R_k`` the attitude change from
-  pose ``k`` to ``k+1`` integrated from the calibrated gyroscope, exactly as the
-  gravity direction is carried in Zhang 2021, eq. (14).                   (M4)
+* **norm** — for every pose ``i`` (and every sample while moving) hard and soft
+  iron make the readings an ellipsoid, ``S`` and ``b`` map it onto the unit
+  sphere:
+
+  .. math::
+
+      \lVert \mathbf S\, (\mathbf u_i - \mathbf b) \rVert = 1 \qquad \text{(M2)}
+
+* **dip** — the angle between field and gravity does not change from pose to
+  pose, with ``d_i`` the calibrated gravity direction (the accelerometer's unit
+  specific force at rest, pointing up) and ``δ`` the field's dip below the
+  horizontal:
+
+  .. math::
+
+      \mathbf d_i^\top \mathbf n_i = -\sin\delta, \qquad
+      \mathbf n_i = \frac{\mathbf O\, \mathbf S\, (\mathbf u_i - \mathbf b)}
+      {\lVert \mathbf S\, (\mathbf u_i - \mathbf b) \rVert} \qquad \text{(M3)}
+
+* **rotation** — with ``R_k`` the attitude change from pose ``k`` to ``k+1``
+  integrated from the calibrated gyroscope, exactly as the gravity direction is
+  carried in Zhang 2021, eq. (14):
+
+  .. math::
+
+      \mathbf n_{k+1} = \mathbf R_k^\top \mathbf n_k \qquad \text{(M4)}
 
 The hard iron of a real die may drift while the session lasts (the die warms
-up; currents on the board change): ``b(t) = b + ḃ (t − t̄)`` with ``t̄`` the
-poses' mean time. Unmodelled, a drift of 3 µT over a few minutes in a 48 µT
-field spreads the calibrated field's norm by 1 % and its dip by 0.7° over the
-poses. The joint fit adds ``ḃ`` and keeps it only where the poses show it (its
-χ² against its own covariance beyond the 99.9 % point of χ²(3)); ``b`` is
-then the hard iron at ``t̄``.                                             (M5)
+up; currents on the board change). Unmodelled, a drift of 3 µT over a few
+minutes in a 48 µT field spreads the calibrated field's norm by 1 % and its dip
+by 0.7° over the poses. The joint fit adds ``ḃ`` and keeps it only where the
+poses show it (its χ² against its own covariance beyond the 99.9 % point of
+χ²(3)); ``b`` is then the hard iron at ``t̄``, the poses' mean time:
+
+.. math::
+
+    \mathbf b(t) = \mathbf b + \dot{\mathbf b}\, (t - \bar t) \qquad \text{(M5)}
 
 All of (M2)–(M5) assume one uniform field, each pose's reading differing from
 it by the readings' noise. Where the poses' field norms scatter far beyond that
@@ -114,7 +135,7 @@ def soft_iron_from_ellipsoid(raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ``raw`` (N, 3) are readings spread over directions (N ≥ 9). ``S`` is the
     symmetric square root of the fitted quadric ``(u − b)ᵀ Q (u − b) = 1``.
     """
-    tri = fit_ellipsoid(raw, 1.0)  # (u − b)ᵀ (T K)ᵀ (T K) (u − b) = 1
+    tri = fit_ellipsoid(raw, 1.0)  # eq. (M2): (u − b)ᵀ (T K)ᵀ (T K) (u − b) = 1
     tk = tri.misalignment @ np.diag(tri.scale)
     q = tk.T @ tk
     w, v = np.linalg.eigh(q)
@@ -131,9 +152,9 @@ def alignment_from_rotations(s: np.ndarray, up: np.ndarray, rot: np.ndarray, use
     """
     rows = []
     eye = np.eye(3)
-    for k in np.nonzero(use)[0]:  # (L s_{k+1})_a − (R_kᵀ L s_k)_a = 0
+    for k in np.nonzero(use)[0]:  # eq. (M4): (L s_{k+1})_a − (R_kᵀ L s_k)_a = 0
         rows.append(np.hstack([np.kron(eye, s[k + 1][None, :]) - np.kron(rot[k].T, s[k][None, :]), np.zeros((3, 1))]))
-    for i in range(s.shape[0]):  # d_iᵀ L s_i − κ = 0
+    for i in range(s.shape[0]):  # eq. (M3): d_iᵀ L s_i − κ = 0
         rows.append(np.hstack([np.kron(up[i][None, :], s[i][None, :]), [[-1.0]]]))
     a = np.vstack(rows)
     x = np.linalg.svd(a)[2][-1]
@@ -173,8 +194,8 @@ def pose_figures(model: MagnetometerModel, mag_means: np.ndarray, up: np.ndarray
     m = model.forward(mag_means)
     norm = np.linalg.norm(m, axis=1)
     n = m / norm[:, None]
-    dip = np.degrees(np.arcsin(np.clip(-np.einsum("ij,ij->i", up, n), -1.0, 1.0)))
-    pred = np.einsum("kji,kj->ki", rot, n[:-1])
+    dip = np.degrees(np.arcsin(np.clip(-np.einsum("ij,ij->i", up, n), -1.0, 1.0)))  # eq. (M3)
+    pred = np.einsum("kji,kj->ki", rot, n[:-1])  # eq. (M4)
     err = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", pred, n[1:]), -1.0, 1.0)))
     return {"norm_spread": float(np.std(norm) / np.mean(norm)), "dip_deg": float(np.mean(dip)),
             "dip_spread_deg": float(np.std(dip)), "direction_errors_deg": err,
@@ -315,9 +336,9 @@ def _starting_point(mag_means: np.ndarray, mag_moving: np.ndarray, up: np.ndarra
     use[[k for k in left_out if 0 <= k < use.size]] = False
     gyro_ok = use.copy()
     o0 = alignment_from_rotations((mag_means - b0) @ s0, up, rot, use, hemisphere)
-    n0 = (mag_means - b0) @ s0 @ o0.T
+    n0 = (mag_means - b0) @ s0 @ o0.T  # eq. (M1), F = 1
     n0 /= np.linalg.norm(n0, axis=1, keepdims=True)
-    dip0 = float(np.arcsin(np.clip(-np.mean(np.einsum("ij,ij->i", up, n0)), -1, 1)))
+    dip0 = float(np.arcsin(np.clip(-np.mean(np.einsum("ij,ij->i", up, n0)), -1, 1)))  # eq. (M3)
     return b0, s0, use, gyro_ok, o0, dip0
 
 
@@ -340,13 +361,14 @@ class _PoseEquations:
         up = self.up if up is None else up
         rot = self.rot if rot is None else rot
         b, s, o, dip, drift = self.unpack(th)
-        v = (self.mag_means - b - np.outer(self.min_pose, drift)) @ s
+        v = (self.mag_means - b - np.outer(self.min_pose, drift)) @ s  # eq. (M5), (M1): S (u − b(t))
         norm = np.linalg.norm(v, axis=1)
-        n = v @ o.T / norm[:, None]
-        r_norm = norm - 1.0
+        n = v @ o.T / norm[:, None]  # eq. (M3): n_i
+        r_norm = norm - 1.0  # eq. (M2)
+        # eq. (M2), (M5)
         r_move = np.linalg.norm((self.mag_moving - b - np.outer(self.min_move, drift)) @ s, axis=1) - 1.0
-        r_dip = np.einsum("ij,ij->i", up, n) + np.sin(dip)
-        r_rot = (n[1:] - np.einsum("kji,kj->ki", rot, n[:-1]))[self.use].ravel()
+        r_dip = np.einsum("ij,ij->i", up, n) + np.sin(dip)  # eq. (M3)
+        r_rot = (n[1:] - np.einsum("kji,kj->ki", rot, n[:-1]))[self.use].ravel()  # eq. (M4)
         return r_norm, r_move, r_dip, r_rot
 
     def solve(self, theta, scale, sigma):
@@ -458,7 +480,7 @@ def _figures(model: MagnetometerModel, eq: _PoseEquations, theta: np.ndarray, sd
     """The magnetometer's record of the fit report: the poses, the rotations and the drift (M5)."""
     p = theta.size
     s, use, min_pose = model.soft_iron, eq.use, eq.min_pose
-    fig = pose_figures(model, eq.mag_means - np.outer(min_pose, drift), eq.up, eq.rot)
+    fig = pose_figures(model, eq.mag_means - np.outer(min_pose, drift), eq.up, eq.rot)  # eq. (M5)
     err = fig["direction_errors_deg"][use]
     names, angle = model.axes()
     return MagnetometerReport(

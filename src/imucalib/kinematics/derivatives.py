@@ -6,7 +6,12 @@ import numpy as np
 
 
 def five_point_derivative(x: np.ndarray, dt: float) -> np.ndarray:
-    """Time derivative by the five-point stencil (Zhang 2021, eq. 20).
+    r"""Time derivative by the five-point stencil (Zhang 2021, eq. 20).
+
+    .. math::
+
+        \dot x_k = \frac{x_{k-2}}{12\Delta t} - \frac{2 x_{k-1}}{3\Delta t}
+        + \frac{2 x_{k+1}}{3\Delta t} - \frac{x_{k+2}}{12\Delta t} \qquad (20)
 
     ``ẋ_k = (x_{k-2} − 8x_{k-1} + 8x_{k+1} − x_{k+2}) / (12·dt)``; the two
     samples at each end use second-order one-sided/central differences.

@@ -257,7 +257,7 @@ class IntervalIntegrator:
             b = min(n, a + RK4_CHUNK)
             chunk = rates[a : b + 1].T.copy()  # the rates component-first, a chunk at a time
             constants = None if self._rk4_constants is None else [c[a:b] for c in self._rk4_constants]
-            s[:, a:b] = rk4_soa(chunk[:, :-1], chunk[:, 1:], self._pair_dt[a:b], constants)
+            s[:, a:b] = rk4_soa(chunk[:, :-1], chunk[:, 1:], self._pair_dt[a:b], constants)  # eqs. (Q2), (Q3)
         s[:, n] = IDENTITY
         return s
 
@@ -271,7 +271,7 @@ class IntervalIntegrator:
         idx = flat[real]
         rates = np.asarray(rates, dtype=np.float64)
         w0, w1 = rates.take(idx, axis=0).T.copy(), rates.take(idx + 1, axis=0).T.copy()
-        out[:, real] = rk4_soa(w0, w1, self._pair_dt[idx])
+        out[:, real] = rk4_soa(w0, w1, self._pair_dt[idx])  # eqs. (Q2), (Q3)
         return out.reshape((4, *gather.shape))
 
     def _block_chunks(self):

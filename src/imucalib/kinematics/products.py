@@ -35,6 +35,7 @@ def _qmul_soa(p: np.ndarray, q: np.ndarray, out: np.ndarray | None = None) -> np
     t = np.empty(out.shape[1:])
     w, x, y, z = out
     mul = np.multiply
+    # the Hamilton product ⊗ of (Q1)
     mul(pw, qw, out=w)
     w -= mul(px, qx, out=t)
     w -= mul(py, qy, out=t)
@@ -85,7 +86,7 @@ def weighted_rotations_soa(q: np.ndarray, weight: np.ndarray, out: np.ndarray | 
         p = {"xx": x * x, "yy": y * y, "zz": z * z, "xy": x * y, "wz": w * z, "xz": x * z, "wy": w * y,
              "yz": y * z, "wx": w * x}
         weight_ab = weight[..., a:b]
-        for i, j, u, op, v in entries:  # each entry times its weight, written once into its place
+        for i, j, u, op, v in entries:  # Zhang 2021, eq. (13): each entry times its weight, written once into its place
             op(p[u], p[v], out=t)
             mul(t, 2, out=t)
             if i == j:
@@ -144,8 +145,8 @@ def rk4_soa(w0: np.ndarray, w1: np.ndarray, h: np.ndarray | float, constants: tu
     t = np.empty(shape)
     axb = _cross_into(a, b, np.empty((3, *shape)), t)
     minus_half, half, quarter, half_hh, sixth = rk4_constants(h) if constants is None else constants
-    k3s = mul(minus_half, bb)  # −h/2 B·B
-    k2s = mul(minus_half, ab)  # −h/2 A·B
+    k3s = mul(minus_half, bb)  # eq. (Q2): K3: −h/2 B·B
+    k2s = mul(minus_half, ab)  # eq. (Q2): K2: −h/2 A·B
     k2v = mul(half, axb)
     k2v += b
     k3v = mul(quarter, ab)
@@ -154,7 +155,7 @@ def rk4_soa(w0: np.ndarray, w1: np.ndarray, h: np.ndarray | float, constants: tu
     cross = _cross_into(axb, b, np.empty((3, *shape)), t)
     cross *= quarter
     k3v += cross
-    v = mul(h, k3v)
+    v = mul(h, k3v)  # eq. (Q2): K4
     k4s = np.einsum("i...,i...->...", v, c)
     np.negative(k4s, out=k4s)
     k4v = mul(half_hh, bb)
@@ -166,11 +167,11 @@ def rk4_soa(w0: np.ndarray, w1: np.ndarray, h: np.ndarray | float, constants: tu
     k2s += mul(2.0, k3s, out=k3s)
     k2s += k4s
     k2s *= sixth
-    np.add(1.0, k2s, out=out[0])
+    np.add(1.0, k2s, out=out[0])  # eq. (Q3): S_k
     a += mul(2.0, k2v, out=k2v)
     a += mul(2.0, k3v, out=k3v)
     a += k4v
-    mul(sixth, a, out=out[1:])
+    mul(sixth, a, out=out[1:])  # eq. (Q3): S_k
     return out
 
 
@@ -192,7 +193,7 @@ def rk4_step_factors(w0: np.ndarray, w1: np.ndarray, dt: np.ndarray | float) -> 
     w0 = np.asarray(w0, dtype=np.float64)
     w1 = np.asarray(w1, dtype=np.float64)
     h = np.asarray(dt, dtype=np.float64)
-    s = rk4_soa(np.moveaxis(w0, -1, 0), np.moveaxis(w1, -1, 0), h)
+    s = rk4_soa(np.moveaxis(w0, -1, 0), np.moveaxis(w1, -1, 0), h)  # eqs. (Q2), (Q3)
     return np.moveaxis(s, 0, -1)
 
 

@@ -15,6 +15,7 @@ def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     return np.stack(
         [
+            # the Hamilton product ⊗ of (Q1): (p_w q_w − p·q, p_w q + q_w p + p × q)
             pw * qw - px * qx - py * qy - pz * qz,
             pw * qx + px * qw + py * qz - pz * qy,
             pw * qy - px * qz + py * qw + pz * qx,
@@ -41,6 +42,7 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     q = quat_normalize(q)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     r = np.empty(q.shape[:-1] + (3, 3))
+    # Zhang 2021, eq. (13), entry by entry
     r[..., 0, 0] = 1 - 2 * (y * y + z * z)
     r[..., 0, 1] = 2 * (x * y - w * z)
     r[..., 0, 2] = 2 * (x * z + w * y)

@@ -1,11 +1,38 @@
-"""Static intervals: the accelerometer variance detector of Tedaldi 2014 with its threshold-multiplier scan,
+r"""Static intervals: the accelerometer variance detector of Tedaldi 2014 with its threshold-multiplier scan,
 gated by the gyroscope, and the gyroscope-norm detector of Zhang 2021 (eq. 22).
 
 The accelerometer detector follows Tedaldi et al. (ICRA 2014) as summarised in the static/dynamic interval
 detection fragment (§2): an initial rest of ``T_init`` seconds gives the noise level; a sliding window computes
 the per-axis variance of the accelerometer and the norm of that variance vector; samples whose norm is below
 ``multiplier × (variance norm of the initial rest)`` are static; static runs shorter than a minimum length are
-dropped.
+dropped. Neither the fragment nor this project's papers number these equations; they are written here, with
+``var_{t_w}`` the population variance over the window of ``t_w`` seconds centred on ``t`` (truncated at the
+record's ends, :func:`imucalib.segment.windows.moving_variance`) and ``k`` the threshold multiplier:
+
+.. math::
+
+    \varsigma(t) = \bigl\lVert \bigl(\mathrm{var}_{t_w}(u_x), \mathrm{var}_{t_w}(u_y),
+    \mathrm{var}_{t_w}(u_z)\bigr) \bigr\rVert, \qquad
+    \varsigma_\mathrm{init} = \bigl\lVert \mathrm{var}_{T_\mathrm{init}}(\mathbf u) \bigr\rVert
+    \qquad \text{(D1)}
+
+    t \text{ static} \iff \varsigma(t) < k\, \varsigma_\mathrm{init} \qquad \text{(D2)}
+
+Tedaldi 2014's scan runs (D2) at each ``k`` of a list and keeps the one whose intervals the accelerometer's
+gravity-norm model fits best, the mean squared residual of :func:`imucalib.fit.accelerometer.fit_gravity_norm`
+over the ``M_k`` intervals found at ``k``:
+
+.. math::
+
+    k^\ast = \arg\min_k \frac{1}{M_k} \sum_{i=1}^{M_k} r_i(k)^2 \qquad \text{(D3)}
+
+The gyroscope detector is Zhang 2021's, eq. (22), with the bias ``b`` the initial rest's mean and the threshold
+``n ζ_init`` of its Sec. IV-A (``ζ_init`` the variance of the norm over the initial rest):
+
+.. math::
+
+    \zeta(t) = \mathrm{var}_{t_w}\Bigl(\sqrt{(\omega_x^t)^2 + (\omega_y^t)^2 + (\omega_z^t)^2}\Bigr)
+    \quad (22), \qquad t \text{ static} \iff \zeta(t) < n\, \zeta_\mathrm{init}
 """
 
 from __future__ import annotations
@@ -80,7 +107,7 @@ def detect_static(
         Non-overlapping static intervals in time order.
     """
     stat = variance_norm(acc, window) if statistic is None else statistic
-    return runs(stat < threshold, min_length)
+    return runs(stat < threshold, min_length)  # eq. (D2)
 
 
 def motion_between(static: list[Interval]) -> list[Interval]:
@@ -99,9 +126,9 @@ def gyro_norm_variance(recording: Recording, rest: Interval, window: float) -> t
     variance over a centred window of ``window`` seconds.
     """
     bias = recording.gyro[rest.slice].mean(axis=0)
-    norm = np.linalg.norm(recording.gyro - bias, axis=1)
+    norm = np.linalg.norm(recording.gyro - bias, axis=1)  # eq. (22): ‖u_g − b‖
     win = max(int(round(window * recording.rate)) | 1, 3)
-    return norm, moving_variance(norm, win)[:, 0]
+    return norm, moving_variance(norm, win)[:, 0]  # eq. (22): ζ(t)
 
 
 def detect_static_gyro(
@@ -112,7 +139,7 @@ def detect_static_gyro(
     multiplier: float = GYRO_MULTIPLIER,
     min_interval: float = MIN_INTERVAL,
 ) -> list[Interval]:
-    """Static intervals by the gyroscope detector of Zhang 2021, eq. (22).
+    r"""Static intervals by the gyroscope detector of Zhang 2021, eq. (22).
 
     ``ζ(t) = var_{t_w}(‖u_g − b‖)``, the variance of the bias-free raw
     gyroscope norm over a centred window of ``window`` seconds, is compared
@@ -122,6 +149,16 @@ def detect_static_gyro(
     shorter than ``min_interval`` seconds are dropped. Like the paper's, this
     detector would take a perfectly steady turn for rest; the accelerometer
     detector (:func:`detect_static`) would not.
+
+    Notes
+    -----
+    Zhang 2021, eq. (22) and the threshold of its Sec. IV-A, with ``u_g`` the
+    raw gyroscope readings and ``b`` their mean over the initial rest:
+
+    .. math::
+
+        \zeta(t) = \mathrm{var}_{t_w}\bigl(\lVert \mathbf u_g - \mathbf b \rVert\bigr) \quad (22),
+        \qquad t \text{ static} \iff \zeta(t) < n\, \zeta_\mathrm{init}
 
     Parameters
     ----------
@@ -160,9 +197,10 @@ def detect_static_gyro(
     """
     rate = recording.rate
     norm, zeta = gyro_norm_variance(recording, rest, window)  # eq. (22)
-    zeta_init = float(np.var(norm[rest.slice]))
+    zeta_init = float(np.var(norm[rest.slice]))  # Zhang 2021, Sec. IV-A: ζ_init
     if zeta_init <= 0:
         raise ValueError("the initial rest has zero gyroscope noise: eq. (22) cannot set a threshold")
+    # Zhang 2021, Sec. IV-A: ζ(t) < n ζ_init
     return runs(zeta < multiplier * zeta_init, max(int(round(min_interval * rate)), 2))
 
 
@@ -177,7 +215,7 @@ def detect_intervals(
     min_interval: float | None = None,
     gyro_gate: bool = True,
 ) -> tuple[list[Interval], float, Interval, TriadModel]:
-    """Static intervals by the Tedaldi 2014 detector with the multiplier scan, still for the gyroscope too.
+    r"""Static intervals by the Tedaldi 2014 detector with the multiplier scan, still for the gyroscope too.
 
     The accelerometer variance detector with the multiplier scan (Tedaldi 2014,
     as summarised in the interval-detection fragment, §2) runs first; with
@@ -204,6 +242,21 @@ def detect_intervals(
     threshold gives :data:`MIN_INTERVALS` intervals, the scan takes the one
     that gives the most for which an accelerometer model is determined
     (:func:`imucalib.fit.accelerometer.fit_determined`).
+
+    Notes
+    -----
+    The detector of Tedaldi 2014 (the interval-detection fragment, §2; the
+    equations unnumbered there, labelled as in :mod:`imucalib.segment.detect`):
+    the norm of the per-axis accelerometer variance over a centred window,
+    against ``k`` times its value over the initial rest, at each ``k`` of
+    ``multipliers``, keeping the ``k`` whose ``M_k`` intervals the gravity-norm
+    model fits best:
+
+    .. math::
+
+        \varsigma(t) = \bigl\lVert \mathrm{var}_{t_w}(\mathbf u) \bigr\rVert \quad \text{(D1)}, \qquad
+        t \text{ static} \iff \varsigma(t) < k\, \varsigma_\mathrm{init} \quad \text{(D2)}, \qquad
+        k^\ast = \arg\min_k \frac{1}{M_k} \sum_{i=1}^{M_k} r_i(k)^2 \quad \text{(D3)}
 
     Parameters
     ----------
@@ -276,7 +329,7 @@ def _scan(recording: Recording, gravity: float, init_static: float | None, multi
     again with the gyroscope's gate."""
     long_window = max(window, VARIANCE_WINDOW)
     win = odd_window(long_window, recording.rate)
-    stat = variance_norm(recording.acc, win)  # formed once: the initial rest's search reads it too
+    stat = variance_norm(recording.acc, win)  # eq. (D1): formed once: the initial rest's search reads it too
     if init_static is None and win == odd_window(REST_WINDOW, recording.rate):
         rest = find_initial_rest(recording, statistic=stat)
     else:
@@ -405,7 +458,7 @@ def detector_runs(detector: tuple, thresholds: list[float], still: np.ndarray | 
 
 def detector_settings(rest_acc: np.ndarray, rate: float, window: float, min_interval: float):
     """The accelerometer detector's base level (the rest's variance norm), window and shortest run [samples]."""
-    base = float(np.linalg.norm(np.var(rest_acc, axis=0)))
+    base = float(np.linalg.norm(np.var(rest_acc, axis=0)))  # eq. (D1): ς_init
     if base <= 0:
         raise ValueError(
             "the initial rest has zero accelerometer variance (quantised or synthetic "
@@ -442,7 +495,7 @@ class StillDetector:
                  min_interval: float = 1.0) -> None:
         rest_acc = np.asarray(rest_acc, dtype=np.float64)
         self.base, self.window, self.min_length = detector_settings(rest_acc, rate, window, min_interval)
-        self.threshold = multiplier * self.base
+        self.threshold = multiplier * self.base  # eq. (D2): k ς_init
         self.stream = VarianceNormStream(self.window, rest_acc.mean(axis=0))
         self.intervals: list[Interval] = []  # the static intervals ended so far, in time order
 
@@ -498,7 +551,7 @@ def static_runs(stat: np.ndarray, thresholds: list[float], min_length: int) -> l
     kind = np.int16 if levels_at.size < 1 << 14 else np.intp
     below = np.zeros(stat.shape[0], dtype=kind)
     for t in levels_at:
-        below += stat < t
+        below += stat < t  # eq. (D2) at each threshold
     padded = np.full(stat.shape[0] + 2, levels_at.size + 1, dtype=kind)
     np.subtract(levels_at.size, below, out=padded[1:-1])
     change = np.flatnonzero(padded[1:] != padded[:-1])
@@ -526,7 +579,7 @@ def scan_thresholds(detector: tuple, gravity: float, recording: Recording, multi
     means = IntervalMeans(recording.acc)
     fits: dict[tuple, tuple | None] = {}  # thresholds that give the same intervals give the same fit
     multipliers = list(multipliers)
-    found = detector_runs(detector, [mult * base for mult in multipliers], still)
+    found = detector_runs(detector, [mult * base for mult in multipliers], still)  # eq. (D2) at each k
     for mult, intervals in zip(multipliers, found, strict=True):
         tried.append((mult, len(intervals)))
         if len(intervals) < MIN_INTERVALS:
@@ -538,11 +591,11 @@ def scan_thresholds(detector: tuple, gravity: float, recording: Recording, multi
             except ValueError:
                 fits[key] = None
             else:
-                fits[key] = (float(res @ res) / len(res), model)  # the score: per residual
+                fits[key] = (float(res @ res) / len(res), model)  # eq. (D3): the score: per residual
         if fits[key] is None:
             continue
         score, model = fits[key]
-        if best is None or score < best[0]:
+        if best is None or score < best[0]:  # eq. (D3): the k of the least score
             best = (score, mult, intervals, model)
     if best is None:
         # fewer intervals than the full model wants at every threshold: the most that determine a model

@@ -1,5 +1,29 @@
-"""Where the gyroscope says the sensor is still: the gate that keeps turns about the vertical and settling
-hands out of the poses the accelerometer finds."""
+r"""Where the gyroscope says the sensor is still: the gate that keeps turns about the vertical and settling
+hands out of the poses the accelerometer finds.
+
+The gate is this project's (neither Tedaldi 2014 nor the interval-detection fragment has one; derived here).
+With ``u`` the raw gyroscope readings, ``b`` and ``σ`` their mean and per-axis standard deviation over the
+initial rest, ``m(t)`` the mean of ``u − b`` over the centred window of ``n`` samples, ``s`` a rough scale
+[rad/s per raw unit] and ``r`` the rate limit [rad/s]:
+
+.. math::
+
+    \ell = \max\Bigl(\frac{r}{|s|},\; n_\sigma \frac{\lVert \boldsymbol\sigma \rVert}{\sqrt n}\Bigr)
+    \qquad \text{(G1)}
+
+    \text{outside the candidate poses:} \quad \lVert \mathbf m(t) \rVert < \ell \qquad \text{(G2)}
+
+    \text{inside pose } P: \quad \lVert \mathbf m(t) - \operatorname{med}_{P} \mathbf m \rVert < \ell
+    \ \text{ and } \ \lVert \mathbf m(t) \rVert < c\, \ell \qquad \text{(G3)}
+
+and two consecutive poses, the last sample of the first at ``t_a`` and the first of the second at ``t_b``
+(``T = t_b − t_a``), are one when the mean rate between them is small (trapezoidal rule):
+
+.. math::
+
+    \frac{1}{T} \Bigl\lVert \int_{t_a}^{t_b} (\mathbf u - \mathbf b)\, dt \Bigr\rVert < f\, \ell
+    \qquad \text{(G4)}
+"""
 
 from __future__ import annotations
 
@@ -63,8 +87,8 @@ def still_settings(recording: Recording, rest: Interval, scale: float, rate_limi
     bias = column_means(raw)
     dev = rowwise(np.subtract, raw, bias)
     std = np.sqrt(column_means(np.multiply(dev, dev, out=dev)))
-    noise = float(np.linalg.norm(std)) / np.sqrt(n)
-    return n // 2, bias, max(rate_limit / abs(scale), n_sigma * noise)
+    noise = float(np.linalg.norm(std)) / np.sqrt(n)  # eq. (G1): ‖σ‖ / √n
+    return n // 2, bias, max(rate_limit / abs(scale), n_sigma * noise)  # eq. (G1)
 
 
 def still_outside(gyro: np.ndarray, settings: tuple, intervals: list[Interval], still: np.ndarray) -> None:
@@ -76,7 +100,7 @@ def still_outside(gyro: np.ndarray, settings: tuple, intervals: list[Interval], 
     for a in range(0, gyro.shape[0], BLOCK):  # block by block: no (N, 3) moving mean is kept
         b = min(a + BLOCK, gyro.shape[0])
         m = rowwise(np.subtract, moving_mean_rows(gyro, half, a, b, keep=outside[a:b]), bias)
-        still[a:b][outside[a:b]] = np.sqrt(np.einsum("ij,ij->i", m, m)) < limit
+        still[a:b][outside[a:b]] = np.sqrt(np.einsum("ij,ij->i", m, m)) < limit  # eq. (G2)
 
 
 def still_inside(gyro: np.ndarray, settings: tuple, intervals: list[Interval], still: np.ndarray,
@@ -133,12 +157,12 @@ def _still_group(gyro: np.ndarray, shifted: np.ndarray | None, settings: tuple, 
         part /= float(width)
     rowwise(np.add, m, ref, out=m)  # the first sample back, as moving_mean_rows adds it, then the bias off
     rowwise(np.subtract, m, bias, out=m)
-    ok = np.sqrt(np.einsum("ij,ij->i", m, m)) < offset_factor * limit
+    ok = np.sqrt(np.einsum("ij,ij->i", m, m)) < offset_factor * limit  # eq. (G3): ‖m‖ < c ℓ
     box = np.maximum.reduceat(m, first, axis=0) - np.minimum.reduceat(m, first, axis=0)
     inside = np.sqrt(np.einsum("ij,ij->i", box, box)) < (1.0 - SCREEN_MARGIN) * limit
     for k in np.flatnonzero(~inside).tolist():
         mk = m[first[k]:first[k] + lengths[k]]
-        ok[first[k]:first[k] + lengths[k]] &= np.linalg.norm(mk - medians(mk.T.copy()), axis=1) < limit
+        ok[first[k]:first[k] + lengths[k]] &= np.linalg.norm(mk - medians(mk.T.copy()), axis=1) < limit  # eq. (G3)
     for iv, o in zip(intervals, first.tolist(), strict=True):
         still[iv.slice] = ok[o:o + len(iv)]
     return bool(ok.all())
@@ -168,8 +192,8 @@ def join_blips(recording: Recording, intervals: list[Interval], settings: tuple,
         span = float(t[b] - t[a])
         if span <= longest and b > a:
             u = np.asarray(gyro[a:b + 1], dtype=np.float64) - bias
-            turned = np.linalg.norm(0.5 * (u[1:] + u[:-1]).T @ np.diff(t[a:b + 1]))  # trapezoidal rule
-            if turned < factor * limit * span:
+            turned = np.linalg.norm(0.5 * (u[1:] + u[:-1]).T @ np.diff(t[a:b + 1]))  # eq. (G4): trapezoidal rule
+            if turned < factor * limit * span:  # eq. (G4)
                 out[-1] = Interval(last.start, iv.stop, last.kind)
                 continue
         out.append(iv)

@@ -1,8 +1,22 @@
-"""The windowed statistics the segmentation stages share, block by block over any recording's length.
+r"""The windowed statistics the segmentation stages share, block by block over any recording's length.
 
 Runs of a mask, the moving variance and its norm (the statistic of the Tedaldi 2014 detector, offline and
 sample by sample), the moving mean, and the exact per-pose means and medians the detectors compare with
 numpy's own (the same numbers, fewer operations).
+
+Over the window ``W_i = [max(i − h, 0), min(i + h + 1, N))`` of ``|W_i|`` samples centred on sample ``i``
+(``h`` the half window; truncated at the record's ends), from running sums ``C`` of the samples less a centre
+``c`` (``C_0 = 0``, ``C_j = Σ_{l<j} (x_l − c)``), the moving mean and the population variance, and the norm of
+the per-axis variance that is the statistic (D1) of :mod:`imucalib.segment.detect`:
+
+.. math::
+
+    \bar x_i = c + \frac{C_{\max W_i + 1} - C_{\min W_i}}{|W_i|} \qquad \text{(W1)}
+
+    \mathrm{var}_i(x) = \mathrm E_{W_i}\bigl[(x - c)^2\bigr] - \mathrm E_{W_i}[x - c]^2 \qquad \text{(W2)}
+
+    \varsigma_i = \bigl\lVert \bigl(\mathrm{var}_i(x_1), \mathrm{var}_i(x_2), \mathrm{var}_i(x_3)\bigr)
+    \bigr\rVert \qquad \text{(D1)}
 """
 
 from __future__ import annotations
@@ -113,7 +127,7 @@ def window_diff(c: np.ndarray, a: int, b: int, lo: int, half: int, n: int, out: 
     if m1 <= m0:
         m0 = m1 = b
     inner = out[m0 - a : m1 - a]
-    np.subtract(c[m0 + half + 1 - lo : m1 + half + 1 - lo], c[m0 - half - lo : m1 - half - lo], out=inner)
+    np.subtract(c[m0 + half + 1 - lo : m1 + half + 1 - lo], c[m0 - half - lo : m1 - half - lo], out=inner)  # eq. (W1)
     if mean:
         inner /= float(2 * half + 1)
     for s, e in ((a, m0), (m1, b)):
@@ -141,9 +155,9 @@ def block_variance(x: np.ndarray, centre: np.ndarray, a: int, b: int, lo: int, h
     np.square(seg, out=seg)
     np.cumsum(seg, axis=0, out=c2[1:])
     n = x.shape[0]
-    mean = window_diff(c1, a, b, lo, half, n, out=seg[: b - a], mean=True)  # E[x] (seg is done with)
-    var = window_diff(c2, a, b, lo, half, n, out=c1[: b - a], mean=True)  # E[x²] (c1 is done with)
-    var -= np.multiply(mean, mean, out=mean)
+    mean = window_diff(c1, a, b, lo, half, n, out=seg[: b - a], mean=True)  # eq. (W2): E[x] (seg is done with)
+    var = window_diff(c2, a, b, lo, half, n, out=c1[: b - a], mean=True)  # eq. (W2): E[x²] (c1 is done with)
+    var -= np.multiply(mean, mean, out=mean)  # eq. (W2)
     return np.maximum(var, 0.0, out=var)
 
 
@@ -206,7 +220,7 @@ def variance_norm_rows(x: np.ndarray, centre: np.ndarray, half: int, a: int, b: 
         anchor = s - s % BLOCK
         e = min(anchor + BLOCK, b)
         var = block_variance(x, centre, s, e, max(anchor - half, 0), min(e + half, n), half)
-        out[s - a:e - a] = np.sqrt(np.einsum("ij,ij->i", var, var))
+        out[s - a:e - a] = np.sqrt(np.einsum("ij,ij->i", var, var))  # eq. (D1)
         s = e
 
 
@@ -301,12 +315,12 @@ def moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray 
         c[0] = 0.0
         np.cumsum(rowwise(np.subtract, x[lo:hi], ref), axis=0, out=c[1:])
         if keep is None:
-            part = window_diff(c, s, e, lo, half, n, out=out[s - a:e - a], mean=True)
+            part = window_diff(c, s, e, lo, half, n, out=out[s - a:e - a], mean=True)  # eq. (W1)
         else:
             rows = np.nonzero(keep[s - a:e - a])[0] + s
             wlo, whi = np.maximum(rows - half, 0) - lo, np.minimum(rows + half + 1, n) - lo
             part = out[done:done + rows.size]
-            np.subtract(c[whi], c[wlo], out=part)
+            np.subtract(c[whi], c[wlo], out=part)  # eq. (W1)
             part /= (whi - wlo)[:, None]
             done += rows.size
         if not shifted:
