@@ -5,15 +5,16 @@ Every module of :mod:`imucalib.methods` declares itself once, at module level::
     METHOD = MethodInfo(name=..., summary=..., needs=..., models=..., options=(Option(...), ...), paper=...)
 
 :func:`declared` reads those declarations from the modules' source (the declaration holds literals only),
-so that the command line's ``--method`` choices and help, ``compare``'s candidates, ``plan``, batch's
-manifest checks and the README's table of methods come from them without importing numpy; the registry
-(:data:`imucalib.methods.METHODS`) is built from the same declarations, and a test checks that what is
-read here is what the imported modules hold.
+so that the modules below the methods (the verdict) and the command line's ``--method`` choices and help,
+``compare``'s candidates, ``plan``, batch's manifest checks and the README's table of methods have them
+without importing numpy. The registry (:data:`imucalib.methods.METHODS`) imports the modules themselves
+and holds the declarations they define; a test checks that what is read here is what they hold.
 """
 
 from __future__ import annotations
 
 import ast
+import tokenize
 from collections import namedtuple
 from functools import cache
 from pathlib import Path
@@ -111,18 +112,33 @@ def _value(node: ast.expr):
     return ast.literal_eval(node)
 
 
+def _statement(lines: list[str], start: int) -> str:
+    """The statement that begins at ``lines[start]``: up to the token that closes its first bracket.
+
+    Read token by token (:mod:`tokenize`), so brackets inside strings and comments do not count.
+    """
+    depth = 0
+    source = iter(line + "\n" for line in lines[start:])
+    for token in tokenize.generate_tokens(lambda: next(source, "")):
+        if token.type == tokenize.OP and token.string in "([{":
+            depth += 1
+        elif token.type == tokenize.OP and token.string in ")]}":
+            depth -= 1
+            if depth == 0:
+                return "\n".join(lines[start:start + token.end[0] - 1]) + "\n" + lines[start + token.end[0] - 1]
+    raise SyntaxError("unclosed bracket")
+
+
 def read_declaration(path: Path) -> MethodInfo | None:
     """The ``METHOD = MethodInfo(...)`` statement of the module at ``path``, or None when it has none."""
     lines = path.read_text(encoding="utf-8").splitlines()
     start = next((i for i, line in enumerate(lines) if line.startswith("METHOD = MethodInfo(")), None)
     if start is None:
         return None
-    stop = next((i for i in range(start, len(lines)) if lines[i] == ")"), None)  # the declaration's closing line
     try:
-        tree = ast.parse("\n".join(lines[start:stop + 1 if stop is not None else len(lines)]))
-    except SyntaxError:
-        raise ValueError(f"{path}: the METHOD declaration does not parse; it ends with a line holding only ')'") \
-            from None
+        tree = ast.parse(_statement(lines, start))
+    except (SyntaxError, tokenize.TokenError):
+        raise ValueError(f"{path}: the METHOD declaration does not parse") from None
     return _value(tree.body[0].value)
 
 

@@ -12,49 +12,45 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
+from types import ModuleType
 from typing import Any
 
 from ..calibration import Calibration, with_bias_session
 from ..io.posetable import PoseTable
-from ..methodinfo import DEFAULT_METHOD, MethodInfo, accelerometer_only, declared
+from ..methodinfo import DEFAULT_METHOD, MethodInfo
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Recording
 from ..thermal import calibrate_ramp, compensate
 from ..verdict import check_rate, with_verdict
+from . import ellipsoid, ferraris, qureshi2017, six_position, tedaldi2014, wang2019, zhang2021
 
 __all__ = ["ACCELEROMETER_ONLY", "METHODS", "apply_to_table", "calibrate", "method_names", "six_faces_only",
            "with_magnetometer"]
 
 
-def _runner(info: MethodInfo) -> Callable[..., Calibration]:
-    """callable(data, *, model, gravity, **options) → Calibration: the module of ``info`` run on ``data``."""
-
-    def run(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
-        import importlib
-
-        if len(info.models) == 1 and model not in (None, info.default_model):
-            raise ValueError(f"{info.name} fits the {info.default_model} model only; got model={model!r}")
-        module = importlib.import_module(f"{__name__}.{info.name}")
-        if "turntable aggregates" in info.needs:
-            if not hasattr(data, "positions_acc"):
-                raise ValueError(f"{info.name} needs turntable data (static position means and clockwise/"
-                                 "counter-clockwise turn integrals), as the wang2019 scenario provides; "
-                                 "it does not run on a free-hand recording")
-        else:
-            data = _recording_of(data)
-        if len(info.models) > 1:
-            options = {**options, "model": model or info.default_model}
-        return module.calibrate(data, gravity=gravity, **_accepted(module.calibrate, options))
-
-    return run
+#: method name → its module (``module.METHOD`` its declaration, ``module.calibrate`` the method itself)
+METHODS: dict[str, ModuleType] = {module.METHOD.name: module for module in (
+    tedaldi2014, ellipsoid, ferraris, qureshi2017, six_position, wang2019, zhang2021)}
 
 
-#: method name → callable(data, *, model, gravity, **options) → Calibration, from each module's declaration
-#: (:data:`METHOD`, read by :func:`imucalib.methodinfo.declared`)
-METHODS: dict[str, Callable[..., Calibration]] = {name: _runner(info) for name, info in declared().items()}
+def _run(module: ModuleType, data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
+    """``module.calibrate`` on ``data`` (the recording of a session, or its turntable aggregates) with ``options``."""
+    info: MethodInfo = module.METHOD
+    if len(info.models) == 1 and model not in (None, info.default_model):
+        raise ValueError(f"{info.name} fits the {info.default_model} model only; got model={model!r}")
+    if "turntable aggregates" in info.needs:
+        if not hasattr(data, "positions_acc"):
+            raise ValueError(f"{info.name} needs turntable data (static position means and clockwise/"
+                             "counter-clockwise turn integrals), as the wang2019 scenario provides; "
+                             "it does not run on a free-hand recording")
+    else:
+        data = _recording_of(data)
+    if len(info.models) > 1:
+        options = {**options, "model": model or info.default_model}
+    return module.calibrate(data, gravity=gravity, **_accepted(module.calibrate, options))
 
 
 #: the methods that calibrate an accelerometer-only recording (no gyroscope section in the calibration)
-ACCELEROMETER_ONLY = accelerometer_only()
+ACCELEROMETER_ONLY = tuple(sorted(name for name, module in METHODS.items() if module.METHOD.accelerometer_only))
 
 
 def method_names() -> list[str]:
@@ -194,7 +190,7 @@ def _calibrate(data, *, method: str, model: str | None, gravity: float, **option
     if isinstance(data, PoseTable):
         return _calibrate_table(data, method, model, gravity, options)
     try:
-        fn = METHODS[method]
+        module = METHODS[method]
     except KeyError:
         raise ValueError(
             f"unknown method {method!r}; choose one of {', '.join(method_names())}"
@@ -220,10 +216,10 @@ def _calibrate(data, *, method: str, model: str | None, gravity: float, **option
     if temperature_model == "linear":
         if recording is None:
             raise ValueError("a temperature model is fitted on a recording of samples with a temperature column")
-        cal = calibrate_ramp(lambda rec: fn(rec, model=model, gravity=gravity, **options), recording)
+        cal = calibrate_ramp(lambda rec: _run(module, rec, model=model, gravity=gravity, **options), recording)
         recording = compensate(cal, recording)[1]  # the checks below see the recording at the reference temperature
     else:
-        cal = fn(data, model=model, gravity=gravity, **options)
+        cal = _run(module, data, model=model, gravity=gravity, **options)
     if recording is not None and recording.mag is not None and mag_options.get("magnetometer", True):
         cal = with_magnetometer(cal, recording, field=mag_options.get("mag_field"),
                                 hemisphere=mag_options.get("mag_hemisphere", "north"))
