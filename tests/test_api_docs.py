@@ -1,6 +1,7 @@
 """The API page's functions are documented as numpydoc has it, and their Examples run.
 
-Every ``autofunction``/``automethod`` of ``docs/api.rst`` has a Parameters section (unless it takes none) and a
+Every ``autofunction``/``automethod`` of ``docs/api.rst`` (and every method's ``calibrate``, which the page's
+``.. method-functions::`` lists from the registry, ``docs/methodlist.py``) has a Parameters section (unless it takes none) and a
 Returns (or Yields) section; :data:`UNDOCUMENTED` (empty: every one has them) may only shrink. Every Examples
 section on the page runs as a doctest.
 """
@@ -15,6 +16,8 @@ from pathlib import Path
 
 import pytest
 
+from imucalib.methods import METHODS
+
 API = Path(__file__).resolve().parents[1] / "docs" / "api.rst"
 
 #: functions on the API page still without a Parameters or a Returns section (none left)
@@ -25,6 +28,9 @@ def api_functions() -> list[tuple[str, object]]:
     """``(name, function)`` of every autofunction and automethod of the API page, in order."""
     out, module = [], None
     for line in API.read_text(encoding="utf-8").splitlines():
+        if line.strip() == ".. method-functions::":  # one autofunction per method of the registry
+            out.extend((f"{module.__name__}.calibrate", module.calibrate) for module in METHODS.values())
+            continue
         m = re.match(r"\.\. currentmodule:: (\S+)", line)
         if m:
             module = m.group(1)
@@ -59,6 +65,9 @@ def _sections(obj) -> tuple[bool, bool]:
 
 def test_the_api_page_lists_functions():
     assert len(FUNCTIONS) >= 50
+    names = [name for name, _ in FUNCTIONS]
+    assert len(names) == len(set(names)), "an object listed twice on the API page"
+    assert {f"imucalib.methods.{name}.calibrate" for name in METHODS} <= set(names)
     assert {name for name, _ in FUNCTIONS} >= UNDOCUMENTED  # a name gone from the page leaves the list too
 
 
