@@ -1,9 +1,9 @@
 """The API page's functions are documented as numpydoc has it, and their Examples run.
 
 Every ``autofunction``/``automethod`` of ``docs/api.rst`` (and every method's ``calibrate``, which the page's
-``.. method-functions::`` lists from the registry, ``docs/methodlist.py``) has a Parameters section (unless it takes none) and a
-Returns (or Yields) section; :data:`UNDOCUMENTED` (empty: every one has them) may only shrink. Every Examples
-section on the page runs as a doctest.
+``.. method-functions::`` lists from the registry, ``docs/methodlist.py``) has a Parameters section (unless it
+takes none) and a Returns (or Yields) section; :data:`UNDOCUMENTED` (empty: every one has them) may only
+shrink. Every Examples section on the page runs as a doctest.
 """
 
 from __future__ import annotations

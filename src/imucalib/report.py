@@ -20,6 +20,9 @@ matplotlib is an optional dependency (the ``plot`` extra: ``pip install ".[plot]
 
 from __future__ import annotations
 
+import base64
+import html
+import io
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -27,7 +30,9 @@ import numpy as np
 
 from .calibration import Calibration
 from .io.atomic import atomic_path, atomic_write
-from .metrics import gravity_direction_errors, gravity_residuals
+from .metrics import gravity_direction_errors, gravity_residuals, interval_means
+from .noise import allan_deviation, noise_parameters
+from .plans import describe_direction
 from .recording import Interval, Recording
 
 __all__ = ["coverage_svg", "fit_figure", "html_report", "magnetometer_figure", "parameter_unit", "plot_allan",
@@ -36,10 +41,10 @@ __all__ = ["coverage_svg", "fit_figure", "html_report", "magnetometer_figure", "
 
 def _pyplot():
     try:
-        import matplotlib
+        import matplotlib  # optional: pip install imucalib[plot]
 
         matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # optional: pip install imucalib[plot]
     except ImportError:
         raise ValueError('plots need matplotlib: pip install ".[plot]" (or matplotlib)') from None
     return plt
@@ -61,7 +66,7 @@ def reference_levels(calibration: Calibration) -> dict:
     below which the verdict never calls the gyroscope suspect, and above which
     (with an error beyond the noise) it rejects it; what the noise alone predicts.
     """
-    from .verdict import THRESHOLDS
+    from .verdict import THRESHOLDS  # imucalib.verdict costs 37 ms at start-up
 
     fit = calibration.fit or {}
     acceptable, rejected = THRESHOLDS["gyro_error_floor_deg"]
@@ -169,8 +174,6 @@ def plot_allan(recording: Recording, path: str | Path) -> Path:
     ``K√(τ/3)`` where the curve shows them (:func:`imucalib.noise.noise_parameters`;
     the legend gives '<bound' for the others).
     """
-    from .noise import allan_deviation, noise_parameters
-
     plt = _pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
     colors = ("tab:red", "tab:green", "tab:blue")
@@ -239,7 +242,7 @@ def magnetometer_figure(calibration: Calibration):
     Both must be the same in every pose (fit/magnetometer.py, eqs. M2 and M3): the dashed lines are
     the mean ± the spread at which the verdict calls the calibration suspect.
     """
-    from .verdict import THRESHOLDS
+    from .verdict import THRESHOLDS  # imucalib.verdict costs 37 ms at start-up
 
     plt = _pyplot()
     fit = calibration.fit or {}
@@ -310,8 +313,6 @@ _VERDICT_COLOURS = {"accepted": ("#e6f4ea", "#1e7e34"), "suspect": ("#fff4e0", "
 
 def _verdict_banner(fit: dict) -> str:
     """The verdict and its reasons (then notes) as a coloured block; empty for a file without a verdict."""
-    import html
-
     verdict = fit.get("verdict")
     if verdict not in _VERDICT_COLOURS:
         return ""
@@ -381,10 +382,6 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
     of :func:`plot_fit` embedded as PNG when matplotlib and the recording
     are at hand. No external files or scripts.
     """
-    import base64
-    import html
-    import io
-
     cal = calibration
     fit = cal.fit or {}
     unc = fit.get("uncertainty") or {}
@@ -450,12 +447,8 @@ def html_report(calibration: Calibration, path: str | Path, *, recording: Record
     nxt = fit.get("next_poses") or []
     up = None
     if recording is not None and intervals:
-        from .metrics import interval_means
-
         up = cal.accelerometer_si(interval_means(recording.acc, intervals))
     if up is not None or nxt:
-        from .plans import describe_direction
-
         said = "".join(f"<li>{esc(describe_direction(u))}</li>" for u in nxt)
         parts.append(coverage_svg(up, nxt) + "<p class='caption'>The up-direction of every pose in the sensor "
                      "frame (blue dots; equal-area views of the z-up and z-down halves of the sphere)"

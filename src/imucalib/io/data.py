@@ -104,7 +104,7 @@ def read_data(
     """
     if poses:
         return _pose_table(paths, reader, acc_unit, gyro_unit)
-    from .readers import is_frame
+    from .readers import is_frame  # imucalib.io.readers costs 174 ms at start-up
 
     if is_frame(paths):
         paths = [paths]  # a pandas DataFrame: read as one CSV file, never a session
@@ -112,11 +112,11 @@ def read_data(
         paths = [paths]
     paths = list(paths)
     if paths and not is_frame(paths[0]) and is_session_directory(paths, reader):
-        from .session import read_session
+        from .session import read_session  # imucalib.io.session costs 152 ms at start-up
 
         return read_session(paths[0])
-    from .magnetometer import attach_magnetometer
-    from .readers import read
+    from .magnetometer import attach_magnetometer  # imucalib.io.magnetometer costs 108 ms at start-up
+    from .readers import read  # imucalib.io.readers costs 174 ms at start-up
 
     source = paths[0] if len(paths) == 1 and is_frame(paths[0]) else paths
     rec = read(source, reader=reader, columns=columns, acc_unit=acc_unit, gyro_unit=gyro_unit, rate=rate,
@@ -124,7 +124,7 @@ def read_data(
     if mag_topic is not None:
         if rec.metadata.get("reader") != "rosbag":
             raise ValueError("a magnetometer topic (--mag-topic) applies to ROS bags")
-        from .rosbag import add_magnetic_field
+        from .rosbag import add_magnetic_field  # imucalib.io.rosbag costs 71 ms at start-up
 
         return add_magnetic_field(rec, paths[0], mag_topic)
     return attach_magnetometer(rec, mag_unit)
@@ -132,7 +132,7 @@ def read_data(
 
 def _pose_table(paths, reader: str | None, acc_unit: str | None, gyro_unit: str | None):
     """:func:`read_data` of a table of averaged poses: one text file."""
-    from .posetable import read_pose_table
+    from .posetable import read_pose_table  # imucalib.io.posetable costs 126 ms at start-up
 
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
     if len(paths) != 1 or not isinstance(paths[0], str | Path):

@@ -10,18 +10,25 @@ given here take precedence.
 
 from __future__ import annotations
 
+import inspect
 import warnings
 from collections.abc import Callable
 from types import ModuleType
 from typing import Any
 
+import numpy as np
+
 from ..calibration import Calibration, with_bias_session
+from ..fit.magnetometer import fit_magnetometer
 from ..io.posetable import PoseTable
 from ..methodinfo import DEFAULT_METHOD, MethodInfo
-from ..recording import STANDARD_GRAVITY, ImucalibWarning, Recording
+from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 from ..thermal import calibrate_ramp, compensate
+from ..upright import inverted_rest_note
 from ..verdict import check_rate, with_verdict
 from . import ellipsoid, ferraris, qureshi2017, six_position, tedaldi2014, wang2019, zhang2021
+from ._pose_table import METHOD_NAME, calibrate_pose_table
+from ._pose_table import apply_to_table as _table_apply
 
 __all__ = ["ACCELEROMETER_ONLY", "METHODS", "apply_to_table", "calibrate", "method_names", "six_faces_only",
            "with_magnetometer"]
@@ -72,8 +79,6 @@ def method_names() -> list[str]:
 
 def _accepted(fn: Callable, options: dict) -> dict:
     """``options`` without ``progress`` when ``fn`` does not report progress."""
-    import inspect
-
     if "progress" in options and "progress" not in inspect.signature(fn).parameters:
         options = {k: v for k, v in options.items() if k != "progress"}
     return options
@@ -152,8 +157,6 @@ def calibrate(
 
 def _note_inverted_rest(cal: Calibration, recording: Recording | None) -> None:
     """A warning when the calibrated initial rest reads −g on z (:mod:`imucalib.upright`: the sign convention)."""
-    from ..upright import inverted_rest_note
-
     intervals = (cal.fit or {}).get("intervals") or []
     note = inverted_rest_note(cal, recording, intervals[0]) if recording is not None and intervals else None
     if note is not None:
@@ -172,8 +175,6 @@ def six_faces_only(recording: Recording, intervals, *, within_deg: float = 30.0)
     ±x, ±y or ±z (raw axes: a MEMS sensor's misalignment and the table's tilt are a few degrees). The initial
     rest is one of the poses.
     """
-    import numpy as np
-
     if len(intervals) < 6:
         return False
     means = np.array([recording.acc[int(a):int(b)].mean(axis=0) for a, b in intervals])
@@ -230,8 +231,6 @@ def _calibrate(data, *, method: str, model: str | None, gravity: float, **option
 
 def _calibrate_table(table: PoseTable, method: str, model: str | None, gravity: float, options: dict) -> Calibration:
     """:func:`calibrate` of a pose table: its own recipe, which takes no method, model variant or option."""
-    from ._pose_table import METHOD_NAME, calibrate_pose_table
-
     if method not in (DEFAULT_METHOD, METHOD_NAME):
         raise ValueError(f"a table of averaged poses is calibrated by the gravity-norm fit of its pose means "
                          f"(method {METHOD_NAME!r}); {method} calibrates a recording of samples")
@@ -245,9 +244,7 @@ def _calibrate_table(table: PoseTable, method: str, model: str | None, gravity: 
 
 def apply_to_table(calibration: Calibration, table: PoseTable):
     """A table of averaged poses corrected by ``calibration``: a ``CalibratedTable`` (``acc``, ``gyro``, ``notes``)."""
-    from ._pose_table import apply_to_table as apply
-
-    return apply(calibration, table)
+    return _table_apply(calibration, table)
 
 
 def with_magnetometer(calibration: Calibration, recording: Recording, *, field: float | None = None,
@@ -281,9 +278,6 @@ def with_magnetometer(calibration: Calibration, recording: Recording, *, field: 
     ValueError
         For a bad option (``hemisphere``, ``field``).
     """
-    from ..fit.magnetometer import fit_magnetometer
-    from ..recording import Interval
-
     if hemisphere not in ("north", "south"):
         raise ValueError(f"the magnetic hemisphere must be 'north' or 'south'; got {hemisphere!r}")
     if field is not None and not (field > 0 and field < 1000):

@@ -64,7 +64,7 @@ from ..calibration import Calibration, units_of
 from ..fit.accelerometer import GravityNormFit, accelerometer_covariance, gravity_norm_fit
 from ..fit.gyroscope import GyroFit, fit_gyroscope
 from ..kinematics import IntervalIntegrator, five_point_derivative, quat_to_matrix, segmented_five_point, skew
-from ..methodinfo import MethodInfo, Option
+from ..methodinfo import MethodInfo, Option, accelerometer_only
 from ..metrics import fit_summary, interval_means, transition_bounds
 from ..models import AXES, TriadModel, misalignment_entries
 from ..presets import MIN_HOLD
@@ -869,8 +869,6 @@ def calibrate(
         intervals than the fit needs, or an initial rest with zero noise.
     """
     if recording.gyro is None:
-        from ..methodinfo import accelerometer_only
-
         raise ValueError("zhang2021 calibrates the gyroscope with the accelerometer and this recording is "
                          f"accelerometer-only; the methods that take it are {', '.join(accelerometer_only())}")
     say = progress or (lambda msg: None)

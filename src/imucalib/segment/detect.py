@@ -15,6 +15,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from ..fit.accelerometer import fit_determined, fit_gravity_norm
+from ..fit.gyroscope import axes_disagreement, rough_scale
 from ..metrics import interval_means
 from ..models import TriadModel
 from ..presets import (
@@ -249,8 +250,6 @@ def detect_intervals(
     detector = make_detector(recording, rest, window, min_interval, statistic=stat)
     intervals, mult, model = scan_thresholds(detector, gravity, recording, multipliers, window + min_interval, None)
     if gyro_gate and recording.gyro is not None:  # an accelerometer-only recording has no gate
-        from ..fit.gyroscope import axes_disagreement, rough_scale
-
         bias = column_means(recording.gyro[rest.slice])  # recording.gyro[rest.slice].mean(axis=0), bit for bit
         try:
             scale = rough_scale(recording, intervals, model, bias)
