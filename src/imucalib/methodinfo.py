@@ -14,7 +14,6 @@ and holds the declarations they define; a test checks that what is read here is 
 from __future__ import annotations
 
 import ast
-import tokenize
 from collections import namedtuple
 from functools import cache
 from pathlib import Path
@@ -112,21 +111,21 @@ def _value(node: ast.expr):
     return ast.literal_eval(node)
 
 
-def _statement(lines: list[str], start: int) -> str:
-    """The statement that begins at ``lines[start]``: up to the token that closes its first bracket.
+def _statement(lines: list[str], start: int) -> ast.Module:
+    """The statement that begins at ``lines[start]``, parsed (the first of the module parsed from that line on).
 
-    Read token by token (:mod:`tokenize`), so brackets inside strings and comments do not count.
+    The statement opens a bracket on its first line, so a run of lines that stops inside it leaves the bracket
+    (or a string) open and does not parse: a line holding ``)`` inside a string does not end it. The runs
+    tried first end on a line that begins with ``)`` (how a declaration laid out one keyword a line closes),
+    then on any line holding one.
     """
-    depth = 0
-    source = iter(line + "\n" for line in lines[start:])
-    for token in tokenize.generate_tokens(lambda: next(source, "")):
-        if token.type == tokenize.OP and token.string in "([{":
-            depth += 1
-        elif token.type == tokenize.OP and token.string in ")]}":
-            depth -= 1
-            if depth == 0:
-                return "\n".join(lines[start:start + token.end[0] - 1]) + "\n" + lines[start + token.end[0] - 1]
-    raise SyntaxError("unclosed bracket")
+    ends = [k for k in range(start, len(lines)) if lines[k].startswith(")")]
+    for stop in [*ends, *(k for k in range(start, len(lines)) if ")" in lines[k])]:
+        try:
+            return ast.parse("\n".join(lines[start:stop + 1]))
+        except SyntaxError:
+            continue
+    raise SyntaxError("the statement does not end")
 
 
 def read_declaration(path: Path) -> MethodInfo | None:
@@ -136,8 +135,8 @@ def read_declaration(path: Path) -> MethodInfo | None:
     if start is None:
         return None
     try:
-        tree = ast.parse(_statement(lines, start))
-    except (SyntaxError, tokenize.TokenError):
+        tree = _statement(lines, start)
+    except SyntaxError:
         raise ValueError(f"{path}: the METHOD declaration does not parse") from None
     return _value(tree.body[0].value)
 

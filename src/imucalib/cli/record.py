@@ -7,7 +7,6 @@ import json
 import os
 import sys
 import tempfile
-import webbrowser
 from pathlib import Path
 
 from ..io.atomic import move_into_place, output_target, refuse_overwriting_inputs, temporary_prefix
@@ -241,6 +240,8 @@ def cmd_record(args: argparse.Namespace) -> int:
 
     page = None
     if args.view:
+        import webbrowser  # 10 ms, on imucalib --help's start-up too (it loads this module)
+
         from ..record.view import LiveView  # imucalib.record.view costs 155 ms at start-up
 
         page = LiveView(port=args.view_port)
