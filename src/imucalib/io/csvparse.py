@@ -73,7 +73,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .errors import ReaderError
-from .expansion import open_gzip
+from .expansion import open_gzip  # its decompressed text bounded (a decompression bomb is refused)
 
 if TYPE_CHECKING:
     import hashlib

@@ -29,8 +29,6 @@ from .columns import map_columns as _map_columns
 from .columns import not_number as _not_number
 from .errors import ReaderError
 from .matvars import assemble as assemble_mat
-from .phone import PhoneFile, check_specific_force, identify, sensor_logger_header
-from .rosbag import is_rosbag, read_rosbag
 from .stamps import TIME_UNITS, datetime_cells, note_held_samples, read_dated, repair_coarse, to_seconds
 from .stamps import check_increasing as _check_time
 from .stamps import guess_unit as _infer_time_unit
@@ -155,6 +153,7 @@ def read(
         if ignored:
             raise ReaderError(f"a ROS bag's sensor_msgs/Imu fixes the fields, units and time; "
                               f"{', '.join(ignored)} cannot be set")
+        from .rosbag import read_rosbag  # imported when a bag is met (the note at the top): 12 ms at start-up
 
         rec = read_rosbag(paths[0], topic=topic, progress=progress)
     elif topic is not None:
@@ -243,6 +242,8 @@ def _flags_over_header(paths: Sequence[Path], reader: str, rec: Recording, acc_u
 
 def _is_rosbag(path: Path) -> bool:
     """:func:`.rosbag.is_rosbag`, its module imported on first use."""
+    from .rosbag import is_rosbag  # imported when a folder is met (the note at the top): 12 ms at start-up
+
     return is_rosbag(path)
 
 
@@ -1085,6 +1086,8 @@ def _phone_specs(paths: Sequence[Path]) -> list[PhoneFile] | None:
     Sensor Logger's files share one header; when a file's name does not say which
     sensor it holds, the order decides (accelerometer first, as for imu_tk).
     """
+    from .phone import PhoneFile, identify, sensor_logger_header  # imported when a phone's file is met (top note)
+
     specs = []
     for i, path in enumerate(paths):
         names = _head_names(path)
@@ -1105,6 +1108,8 @@ def _phone_specs(paths: Sequence[Path]) -> list[PhoneFile] | None:
 
 def _read_phone(paths: Sequence[Path], acc_unit, gyro_unit, time_unit) -> Recording:
     """A phone app's accelerometer and gyroscope files, merged onto the accelerometer's time base."""
+    from .phone import check_specific_force  # imported when a phone's file is met (the note at the top)
+
     specs = _phone_specs(paths)
     if specs is None:
         raise ReaderError(f"{paths[0]}, {paths[1]}: not a pair of phone-app files (phyphox's or Sensor "
