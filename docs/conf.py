@@ -11,7 +11,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "src"))  # the code next to these pages, installed or not
-sys.path.insert(0, str(HERE))  # figures.py
+sys.path.insert(0, str(HERE))  # figures.py, methodlist.py
 
 import imucalib  # noqa: E402
 
@@ -27,6 +27,7 @@ extensions = [
     "sphinx-mathjax-offline",  # MathJax served from _static/mathjax: the formulas render offline
     "numpydoc",
     "figures",
+    "methodlist",  # the API page's list of the methods' calibrate functions, from the registry
 ]
 
 exclude_patterns = ["_build", "_generated/*.py", "examples"]

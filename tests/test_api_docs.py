@@ -1,7 +1,8 @@
 """The API page's objects are documented as numpydoc has it, with Examples that run.
 
-Every ``autofunction``/``automethod`` of ``docs/api.rst`` has a Parameters section (unless it takes none) and a
-Returns (or Yields) section; :data:`UNDOCUMENTED` (empty: every one has them) may only shrink. Every
+Every ``autofunction``/``automethod`` of ``docs/api.rst`` (and every method's ``calibrate``, which the page's
+``.. method-functions::`` lists from the registry, ``docs/methodlist.py``) has a Parameters section (unless it
+takes none) and a Returns (or Yields) section; :data:`UNDOCUMENTED` (empty: every one has them) may only shrink. Every
 ``autofunction``, ``automethod``, ``autoclass`` and ``autoexception`` of the page (``autodata`` entries are
 constants, exempt) has an Examples section, and every Examples section runs as a doctest: a failing example
 fails its test. An exception an example shows being raised is listed in the Raises section of the function
@@ -17,6 +18,8 @@ import re
 from pathlib import Path
 
 import pytest
+
+from imucalib.methods import METHODS
 
 API = Path(__file__).resolve().parents[1] / "docs" / "api.rst"
 
@@ -40,6 +43,9 @@ def api_objects(kinds: tuple[str, ...] = ("autofunction", "automethod", "autocla
     """``(name, object)`` of every directive of the API page among ``kinds``, in order."""
     out, module = [], None
     for line in API.read_text(encoding="utf-8").splitlines():
+        if line.strip() == ".. method-functions::":  # one autofunction per method of the registry
+            out.extend((f"{module.__name__}.calibrate", module.calibrate) for module in METHODS.values())
+            continue
         m = re.match(r"\.\. currentmodule:: (\S+)", line)
         if m:
             module = m.group(1)
@@ -81,6 +87,9 @@ def _sections(obj) -> tuple[bool, bool]:
 def test_the_api_page_lists_functions_and_classes():
     assert len(FUNCTIONS) >= 50
     assert len(OBJECTS) - len(FUNCTIONS) >= 25  # the classes and exceptions
+    names = [name for name, _ in FUNCTIONS]
+    assert len(names) == len(set(names)), "an object listed twice on the API page"
+    assert {f"imucalib.methods.{name}.calibrate" for name in METHODS} <= set(names)
     assert {name for name, _ in FUNCTIONS} >= UNDOCUMENTED  # a name gone from the page leaves the list too
 
 

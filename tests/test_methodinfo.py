@@ -53,6 +53,7 @@ def test_the_registry_is_built_from_the_declarations():
     from imucalib.methods import ACCELEROMETER_ONLY, METHODS, method_names
 
     assert list(METHODS) == NAMES and method_names() == sorted(NAMES)
+    assert all(module.METHOD == declared()[name] and callable(module.calibrate) for name, module in METHODS.items())
     assert set(ACCELEROMETER_ONLY) == {n for n, i in declared().items() if i.accelerometer_only}
     assert needing("six faces") == ("ferraris", "six_position")
     assert needing("turntable aggregates") == ("wang2019",)
@@ -84,3 +85,12 @@ def test_a_bad_declaration_is_refused(tmp_path):
     path.write_text('import os\n\nMETHOD = MethodInfo(\n    name="m",\n    summary="s",\n    needs=(os.sep,),\n)\n')
     with pytest.raises(ValueError):
         methodinfo.read_declaration(path)
+
+
+def test_a_declaration_is_read_to_its_closing_bracket_whatever_its_layout(tmp_path):
+    path = tmp_path / "m.py"
+    path.write_text('METHOD = MethodInfo(name="m", summary="""a summary\n)\n(""",\n    needs=("gyroscope",),'
+                    ' models=("linear",), options=(Option("k", 2.0, "s", "a (bracket"),), paper="p")  # )\n'
+                    "X = (\n)\n")
+    info = methodinfo.read_declaration(path)
+    assert info.summary == "a summary\n)\n(" and info.options[0].default == 2.0 and info.paper == "p"

@@ -12,12 +12,26 @@ with :func:`validate` and :func:`compare` beside them, and :class:`Calibration` 
 A table of averaged poses, one row per orientation, is read by ``imucalib.read("poses.csv", poses=True)``
 (a :class:`PoseTable`) and its accelerometer calibrated by the same ``imucalib.calibrate(table)``.
 The names below are imported on first use (PEP 562), so that ``import imucalib``
-and the command line's start-up stay light: a command imports only what it runs.
+and the command line's start-up stay light: a command imports only what it runs; the same names are
+imported under ``TYPE_CHECKING`` for type checkers and editors (go-to-definition from ``imucalib.calibrate``
+reaches :func:`imucalib.methods.calibrate`, and from there each method's module).
 """
 
 from __future__ import annotations
 
 import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # what _LAZY imports on first use, for type checkers and editors
+    from .calibration import Calibration
+    from .comparison import compare
+    from .io.posetable import PoseTable
+    from .methodinfo import DEFAULT_METHOD
+    from .methods import calibrate
+    from .models import TriadModel
+    from .reading import read
+    from .recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
+    from .validation import validate
 
 __all__ = [
     "Calibration",

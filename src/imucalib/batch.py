@@ -85,12 +85,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from .calibration import check_device
 from .io.atomic import refuse_overwriting_inputs
 from .io.errors import ReaderError
 from .io.inputs import check_input_path, check_text, path_kind
 from .io.rosbag import is_rosbag
-from .methodinfo import DEFAULT_METHOD
-from .recording import STANDARD_GRAVITY
+from .methodinfo import DEFAULT_METHOD, declared
+from .recording import STANDARD_GRAVITY, ImucalibWarning
 from .rowerrors import EXCERPT_CHARS, heads_of, row_message
 from .store import Store, canonical_json, check_store_path, instant_key, parse_time
 
@@ -258,8 +259,6 @@ def _positive(text: str, what: str) -> float:
 def _row(cells: dict[str, str], line: int, base: Path, methods: Sequence[str],
          schemes: frozenset[str] | None = frozenset()) -> Row:
     """One manifest line checked into a :class:`Row` (ValueError naming the column on a bad entry)."""
-    from .calibration import check_device
-
     device = cells.get("device", "")
     if not device:
         raise ValueError("device is empty")
@@ -349,7 +348,6 @@ def _check_header(path: Path, header: list[str], number: int) -> None:
 def _manifest_rows(path: Path, header: list[str], numbers: list[int], table: list[list[str]],
                    schemes) -> tuple[list[Row], list[str]]:
     """The manifest's rows, each checked, and the problems of those that are not (:func:`read_manifest`)."""
-    from .methodinfo import declared
 
     base = path.resolve().parent
     methods = declared()
@@ -439,7 +437,7 @@ def _check_content(path: Path, reader: str | None) -> None:
     """The checks a text reader makes of a regular file's first kilobytes (:func:`~.io.inputs.check_text`:
     binary, sparse, UTF-16 or compressed in another way), before the whole file is hashed: a 100 GB sparse file
     is refused in milliseconds, as ``imucalib calibrate`` refuses it."""
-    from .io.readers import guess_reader
+    from .io.readers import guess_reader  # imucalib.io.readers costs 24 ms at start-up
 
     if not path.is_file():
         return
@@ -466,7 +464,7 @@ def _hash_path(path: Path) -> tuple[str, int]:
 def _fetch(url: str, directory: Path) -> Path:
     """A local copy of the fsspec URL ``url`` in ``directory``, under its own name."""
     try:
-        import fsspec
+        import fsspec  # optional: pip install imucalib[cluster]
     except ImportError:
         raise ValueError(f"{url}: reading URLs needs fsspec (pip install fsspec, or the cluster extra: "
                          'pip install "imucalib[cluster]")') from None
@@ -508,9 +506,8 @@ def run_row(task: dict) -> dict:
         ``skipped`` when its files' hash is in ``task["skip"]``; ``failed`` on any error, and when the
         calibration's verdict is ``rejected`` (its calibration is returned all the same).
     """
-    from .methods import calibrate
-    from .reading import read as read_data
-    from .recording import ImucalibWarning
+    from .methods import calibrate  # imucalib.methods costs 96 ms at start-up
+    from .reading import read as read_data  # with the methods: read there where a row runs
 
     t0 = time.perf_counter()
     row: Row = task["row"]
@@ -598,11 +595,11 @@ def dask_client(scheduler: str, workers: int | None = None) -> Iterator[Any]:
     """A Dask ``Client``: of a new ``LocalCluster`` (``scheduler="local"``, ``workers`` single-threaded
     processes, default one per core, listening on 127.0.0.1 only), or of the scheduler at an address."""
     try:
-        from distributed import Client, LocalCluster
+        from distributed import Client, LocalCluster  # optional: pip install imucalib[cluster]
     except ImportError:
         raise BatchError('--scheduler needs Dask distributed: pip install "imucalib[cluster]"') from None
     if scheduler == "local":
-        import dask
+        import dask  # optional: pip install imucalib[cluster]
 
         n = workers if workers is not None else (os.cpu_count() or 1)
         # Dask's nannies start their workers with MALLOC_TRIM_THRESHOLD_=65536, which sends every array

@@ -42,9 +42,10 @@ import numpy as np
 
 from .constants import STANDARD_GRAVITY
 from .crossval import leave_one_pose_out
-from .methods import calibrate, method_names
+from .methods import ACCELEROMETER_ONLY, calibrate, method_names
 from .presets import MIN_HOLD
 from .recording import ImucalibWarning, Interval, Recording
+from .segment import detect_intervals
 
 __all__ = ["DEFAULT_MODELS", "RANKED_BY", "compare", "even_folds", "rank", "tied_best"]
 
@@ -187,16 +188,12 @@ def compare(
     >>> found["best"], [(m["method"], m["rank"], m["verdict"]) for m in found["methods"]]
     ('tedaldi2014', [('tedaldi2014', 1, 'accepted'), ('ellipsoid', 2, 'accepted')])
     """
-    from .segment import detect_intervals
-
     say = progress or (lambda msg: None)
     if intervals is None:
         intervals = detect_intervals(recording, gravity, init_static=init_static, min_hold=min_hold)[0]
     intervals = list(intervals)
     chosen = list(methods) if methods is not None else method_names()
     if recording.gyro is None and methods is None:  # an accelerometer-only recording: the methods that take it
-        from .methods import ACCELEROMETER_ONLY
-
         chosen = [m for m in chosen if m in ACCELEROMETER_ONLY]
     fold_list = even_folds(len(intervals), folds)
     rows = [_method_row(recording, intervals, fold_list, name, gravity, magnetometer, say) for name in chosen]

@@ -5,10 +5,10 @@ Every module of :mod:`imucalib.methods` declares itself once, at module level::
     METHOD = MethodInfo(name=..., summary=..., needs=..., models=..., options=(Option(...), ...), paper=...)
 
 :func:`declared` reads those declarations from the modules' source (the declaration holds literals only),
-so that the command line's ``--method`` choices and help, ``compare``'s candidates, ``plan``, batch's
-manifest checks and the README's table of methods come from them without importing numpy; the registry
-(:data:`imucalib.methods.METHODS`) is built from the same declarations, and a test checks that what is
-read here is what the imported modules hold.
+so that the modules below the methods (the verdict) and the command line's ``--method`` choices and help,
+``compare``'s candidates, ``plan``, batch's manifest checks and the README's table of methods have them
+without importing numpy. The registry (:data:`imucalib.methods.METHODS`) imports the modules themselves
+and holds the declarations they define; a test checks that what is read here is what they hold.
 """
 
 from __future__ import annotations
@@ -111,18 +111,33 @@ def _value(node: ast.expr):
     return ast.literal_eval(node)
 
 
+def _statement(lines: list[str], start: int) -> ast.Module:
+    """The statement that begins at ``lines[start]``, parsed (the first of the module parsed from that line on).
+
+    The statement opens a bracket on its first line, so a run of lines that stops inside it leaves the bracket
+    (or a string) open and does not parse: a line holding ``)`` inside a string does not end it. The runs
+    tried first end on a line that begins with ``)`` (how a declaration laid out one keyword a line closes),
+    then on any line holding one.
+    """
+    ends = [k for k in range(start, len(lines)) if lines[k].startswith(")")]
+    for stop in [*ends, *(k for k in range(start, len(lines)) if ")" in lines[k])]:
+        try:
+            return ast.parse("\n".join(lines[start:stop + 1]))
+        except SyntaxError:
+            continue
+    raise SyntaxError("the statement does not end")
+
+
 def read_declaration(path: Path) -> MethodInfo | None:
     """The ``METHOD = MethodInfo(...)`` statement of the module at ``path``, or None when it has none."""
     lines = path.read_text(encoding="utf-8").splitlines()
     start = next((i for i, line in enumerate(lines) if line.startswith("METHOD = MethodInfo(")), None)
     if start is None:
         return None
-    stop = next((i for i in range(start, len(lines)) if lines[i] == ")"), None)  # the declaration's closing line
     try:
-        tree = ast.parse("\n".join(lines[start:stop + 1 if stop is not None else len(lines)]))
+        tree = _statement(lines, start)
     except SyntaxError:
-        raise ValueError(f"{path}: the METHOD declaration does not parse; it ends with a line holding only ')'") \
-            from None
+        raise ValueError(f"{path}: the METHOD declaration does not parse") from None
     return _value(tree.body[0].value)
 
 

@@ -81,7 +81,7 @@ class Progress:
             bar = is_tty
         if bar:
             try:
-                from tqdm import tqdm
+                from tqdm import tqdm  # optional: pip install imucalib[progress]
             except ImportError:  # the optional extra is not installed: plain lines instead
                 tqdm = None
             if tqdm is not None:

@@ -61,7 +61,7 @@ class ImucalibWarning(UserWarning):
 def require_pandas(what: str):
     """The pandas module, or a ValueError saying which extra installs it."""
     try:
-        import pandas
+        import pandas  # optional: pip install imucalib[pandas]
     except ImportError:
         raise ValueError(f'{what} needs pandas: pip install "imucalib[pandas]" (or pandas)') from None
     return pandas

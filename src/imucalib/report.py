@@ -20,7 +20,9 @@ matplotlib is an optional dependency (the ``plot`` extra: ``pip install ".[plot]
 
 from __future__ import annotations
 
+import base64
 import html
+import io
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -29,7 +31,9 @@ import numpy as np
 from .calibration import Calibration
 from .fitreport import FitReport
 from .io.atomic import atomic_path, atomic_write
-from .metrics import gravity_direction_errors, gravity_residuals
+from .metrics import gravity_direction_errors, gravity_residuals, interval_means
+from .noise import allan_deviation, noise_parameters
+from .plans import describe_direction
 from .recording import Interval, Recording
 
 __all__ = ["coverage_svg", "fit_figure", "html_report", "magnetometer_figure", "parameter_unit", "plot_allan",
@@ -38,10 +42,10 @@ __all__ = ["coverage_svg", "fit_figure", "html_report", "magnetometer_figure", "
 
 def _pyplot():
     try:
-        import matplotlib
+        import matplotlib  # optional: pip install imucalib[plot]
 
         matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # optional: pip install imucalib[plot]
     except ImportError:
         raise ValueError('plots need matplotlib: pip install ".[plot]" (or matplotlib)') from None
     return plt
@@ -63,7 +67,7 @@ def reference_levels(calibration: Calibration) -> dict:
     below which the verdict never calls the gyroscope suspect, and above which
     (with an error beyond the noise) it rejects it; what the noise alone predicts.
     """
-    from .verdict import THRESHOLDS
+    from .verdict import THRESHOLDS  # imucalib.verdict costs 37 ms at start-up
 
     fit = calibration.fit
     acceptable, rejected = THRESHOLDS["gyro_error_floor_deg"]
@@ -171,8 +175,6 @@ def plot_allan(recording: Recording, path: str | Path) -> Path:
     ``K√(τ/3)`` where the curve shows them (:func:`imucalib.noise.noise_parameters`;
     the legend gives '<bound' for the others).
     """
-    from .noise import allan_deviation, noise_parameters
-
     plt = _pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
     colors = ("tab:red", "tab:green", "tab:blue")
@@ -241,7 +243,7 @@ def magnetometer_figure(calibration: Calibration):
     Both must be the same in every pose (fit/magnetometer.py, eqs. M2 and M3): the dashed lines are
     the mean ± the spread at which the verdict calls the calibration suspect.
     """
-    from .verdict import THRESHOLDS
+    from .verdict import THRESHOLDS  # imucalib.verdict costs 37 ms at start-up
 
     plt = _pyplot()
     fit = calibration.fit
@@ -478,12 +480,8 @@ def _html_coverage(cal: Calibration, recording: Recording | None, intervals: Seq
     nxt = fit.verdict.next_poses or []
     up = None
     if recording is not None and intervals:
-        from .metrics import interval_means
-
         up = cal.accelerometer_si(interval_means(recording.acc, intervals))
     if up is not None or nxt:
-        from .plans import describe_direction
-
         said = "".join(f"<li>{esc(describe_direction(u))}</li>" for u in nxt)
         parts.append(coverage_svg(up, nxt) + "<p class='caption'>The up-direction of every pose in the sensor "
                      "frame (blue dots; equal-area views of the z-up and z-down halves of the sphere)"
@@ -537,8 +535,6 @@ def _html_parameters(cal: Calibration) -> list[str]:
 
 def _html_figures(cal: Calibration, recording: Recording | None, intervals: Sequence[Interval] | None) -> list[str]:
     """The fit figure (with the recording), the magnetometer's and the temperature model's, embedded as PNG."""
-    import base64
-    import io
 
     esc, fit, parts = html.escape, cal.fit, []
     if recording is not None and intervals:

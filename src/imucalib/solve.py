@@ -185,58 +185,13 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], np.ndarray], jac: Callable[[
 #: the smallest positive normal double (``np.finfo(float).tiny``)
 _TINY = np.finfo(float).tiny
 
-try:  # the gufuncs behind np.linalg.cholesky and np.linalg.solve, called without their wrappers
-    from numpy.linalg import _umath_linalg
-    _CHOLESKY, _SOLVE = _umath_linalg.cholesky_lo, _umath_linalg.solve1
-except (ImportError, AttributeError):  # pragma: no cover - a numpy without them: the public functions
-    _CHOLESKY = _SOLVE = None
-try:
-    _LSTSQ = _umath_linalg.lstsq
-except (NameError, AttributeError):  # pragma: no cover - numpy < 2 names it otherwise
-    _LSTSQ = None
-_EPS = np.finfo(float).eps
 _MAX = np.maximum.reduce
 
 
-def _private_routines_agree() -> bool:
-    """Whether the gufuncs called directly give the public functions' numbers on a small problem (a numpy whose
-    private routines changed falls back to the public functions rather than to other numbers)."""
-    a = np.array([[4.0, 1.0, 0.5], [1.0, 3.0, 0.25], [0.5, 0.25, 2.0]])
-    b = np.array([1.0, -2.0, 0.5])
-    tall = np.vstack([a, [0.1, 0.2, 0.3]])
-    try:
-        with np.errstate(call=lambda *_: None, invalid="call", over="ignore", divide="ignore", under="ignore"):
-            same = (_CHOLESKY is None or (np.array_equal(_CHOLESKY(a, signature="d->d"), np.linalg.cholesky(a))
-                                          and np.array_equal(_SOLVE(a, b, signature="dd->d"), np.linalg.solve(a, b))))
-            if _LSTSQ is not None:
-                got = _LSTSQ(tall, np.append(b, 1.0)[:, None], _EPS * 4, signature="ddd->ddid")[0][:, 0]
-                same = same and np.array_equal(got, np.linalg.lstsq(tall, np.append(b, 1.0), rcond=None)[0])
-    except Exception:  # noqa: BLE001 - any failure of a private routine means: use the public ones
-        return False
-    return bool(same)
-
-
-if not _private_routines_agree():  # pragma: no cover - a numpy whose private routines differ
-    _CHOLESKY = _SOLVE = _LSTSQ = None
-
-
-def _lstsq_error(kind: str, flag: int) -> None:
-    raise np.linalg.LinAlgError("SVD did not converge in Linear Least Squares")
-
-
 def lstsq(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.linalg.lstsq(a, b, rcond=None)[0]`` for a float64 ``a`` (M, N), M ≥ 1, and ``b`` (M,).
-
-    The same LAPACK driver (``gelsd``) on the same arrays with the same
-    ``rcond`` (``eps · max(M, N)``), called through numpy's gufunc without the
-    wrapper's overhead; ``LinAlgError`` where the SVD does not converge.
-    """
-    m, n = a.shape
-    if _LSTSQ is None or m == 0:  # pragma: no cover
-        return np.linalg.lstsq(a, b, rcond=None)[0]
-    with np.errstate(call=_lstsq_error, invalid="call", over="ignore", divide="ignore", under="ignore"):
-        x = _LSTSQ(a, b[:, None], _EPS * max(n, m), signature="ddd->ddid")[0]
-    return x[:, 0].copy()
+    """``np.linalg.lstsq(a, b, rcond=None)[0]``: the least-squares solution of a float64 ``a`` (M, N) and ``b`` (M,)
+    (LAPACK ``gelsd``, ``rcond`` = ``eps · max(M, N)``); ``LinAlgError`` where the SVD does not converge."""
+    return np.linalg.lstsq(a, b, rcond=None)[0]
 
 
 def _norm(v: np.ndarray) -> float:
@@ -251,44 +206,26 @@ def _eye(n: int) -> np.ndarray:
     return eye
 
 
-def _linalg_error(kind: str, flag: int) -> None:
-    raise np.linalg.LinAlgError("the matrix is not positive definite, or singular")
-
-
 def cholesky(m: np.ndarray) -> np.ndarray:
-    """``np.linalg.cholesky(m)`` of a float64 (P, P) ``m``: its gufunc called directly, ``LinAlgError`` where
-    ``m`` is not positive definite."""
-    if _CHOLESKY is None:  # pragma: no cover
-        return np.linalg.cholesky(m)
-    with np.errstate(call=_linalg_error, invalid="call", over="ignore", divide="ignore", under="ignore"):
-        return _CHOLESKY(m, signature="d->d")
+    """``np.linalg.cholesky(m)`` of a float64 (P, P) ``m``; ``LinAlgError`` where ``m`` is not positive definite."""
+    return np.linalg.cholesky(m)
 
 
 def solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.linalg.solve(a, b)`` of a float64 (P, P) ``a`` and a (P,) ``b`` (LAPACK ``gesv``): its gufunc called
-    directly, ``LinAlgError`` where ``a`` is singular."""
-    if _SOLVE is None:  # pragma: no cover
-        return np.linalg.solve(a, b)
-    with np.errstate(call=_linalg_error, invalid="call", over="ignore", divide="ignore", under="ignore"):
-        return _SOLVE(a, b, signature="dd->d")
+    """``np.linalg.solve(a, b)`` of a float64 (P, P) ``a`` and a (P,) ``b`` (LAPACK ``gesv``); ``LinAlgError``
+    where ``a`` is singular."""
+    return np.linalg.solve(a, b)
 
 
 def _solve_damped(a: np.ndarray, g: np.ndarray, lam: float) -> np.ndarray:
     """``(A + λI) δ = −g`` by Cholesky, ``A + λI = C Cᵀ``: ``δ = C⁻ᵀ (C⁻¹ (−g))``; least squares where it fails.
 
-    The triangular systems are solved by LAPACK's general solver, as ``np.linalg.solve`` does; the gufuncs
-    behind ``np.linalg.cholesky`` and ``np.linalg.solve`` are called directly (the same routines on the same
-    arrays, under the error state those functions set), which saves their wrappers' overhead.
+    The triangular systems are solved by LAPACK's general solver (``np.linalg.solve``).
     """
     m = a + lam * _eye(a.shape[0])
     try:
-        if _CHOLESKY is None:  # pragma: no cover
-            c = np.linalg.cholesky(m)
-            return np.linalg.solve(c.T, np.linalg.solve(c, -g))
-        with np.errstate(call=_linalg_error, invalid="call", over="ignore", divide="ignore", under="ignore"):
-            c = _CHOLESKY(m, signature="d->d")
-            y = _SOLVE(c, -g, signature="dd->d")
-            return _SOLVE(c.T, y, signature="dd->d")
+        c = np.linalg.cholesky(m)
+        return np.linalg.solve(c.T, np.linalg.solve(c, -g))
     except np.linalg.LinAlgError:
         return np.linalg.lstsq(m, -g, rcond=None)[0]
 

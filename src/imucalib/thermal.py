@@ -74,6 +74,7 @@ import numpy as np
 
 from .fitreport import FitReport, ThermalReport, UncertaintyReport, VerdictReport
 from .recording import ImucalibWarning, Interval, Recording
+from .residuals import AccelLayout, GyroLayout
 
 __all__ = ["POSSIBLE_C", "REFERENCE_C", "SIGNIFICANCE", "ThermalModel", "at_temperature", "calibrate_ramp",
            "combine", "compensate", "decompensate", "evaluate", "thermal_parameters"]
@@ -548,9 +549,8 @@ def _accelerometer_slopes(calibration, acc_means: np.ndarray, temps: np.ndarray)
     model of Tedaldi 2014, Zhang 2021, eq. 10 unsquared) free beside the slopes, so the model cannot soak up a slope;
     returns ``(c, σ_c, s, σ_s)``. A nonlinear model gets bias slopes only.
     """
-    from scipy.optimize import least_squares
+    from scipy.optimize import least_squares  # scipy.optimize costs 264 ms at start-up
 
-    from .residuals import AccelLayout
 
     tri, g = calibration.accelerometer, calibration.gravity
     linear = tri.is_linear
@@ -582,11 +582,10 @@ def _accelerometer_slopes(calibration, acc_means: np.ndarray, temps: np.ndarray)
 def _gyroscope_slopes(calibration, recording: Recording, intervals: list[Interval], acc_means, temps,
                       reference_c: float) -> tuple:
     """(T4) bias slopes from the poses' means and (Zhang 2021, eq. 14) relative scale slopes, with 1σ."""
-    from scipy.optimize import least_squares
+    from scipy.optimize import least_squares  # scipy.optimize costs 264 ms at start-up
 
-    from .fit.gyroscope import gravity_direction_problem
-    from .metrics import interval_means
-    from .residuals import GyroLayout
+    from .fit.gyroscope import gravity_direction_problem  # imucalib.fit.gyroscope costs 44 ms at start-up
+    from .metrics import interval_means  # imucalib.metrics costs 25 ms at start-up
 
     gyro_means = interval_means(recording.gyro, intervals)
     gyro_g = calibration.gyroscope.g_sensitivity

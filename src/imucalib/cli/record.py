@@ -9,6 +9,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from ..io.atomic import move_into_place, output_target, refuse_overwriting_inputs, temporary_prefix
+from . import calibration
 from ._common import CliError, add_gravity_option, add_method_option, normalise_argv, positive_float
 
 __all__ = ["register", "cmd_record"]
@@ -103,8 +105,8 @@ class RichView:
     """A live terminal view (rich): the rest countdown, poses held, coverage, the next pose, the last warnings."""
 
     def __init__(self, out, *, bell: bool = False) -> None:
-        from rich.console import Console
-        from rich.live import Live
+        from rich.console import Console  # optional: pip install imucalib[live]
+        from rich.live import Live  # optional: pip install imucalib[live]
 
         self.console = Console(file=out)
         self.out, self.bell = out, bell
@@ -114,7 +116,7 @@ class RichView:
         self.live.start()
 
     def _render(self):
-        from rich.table import Table
+        from rich.table import Table  # optional: pip install imucalib[live]
 
         s = self.state
         table = Table(title="imucalib record", show_header=False, expand=False)
@@ -181,8 +183,6 @@ class EventLog:
     """
 
     def __init__(self, target: str | None) -> None:
-        from ..io.atomic import output_target, temporary_prefix
-
         self.target = target
         self.fh = None
         self.tmp = None
@@ -215,8 +215,6 @@ class EventLog:
         self.fh.close()
         self.fh = None
         if self.tmp is not None:
-            from ..io.atomic import move_into_place
-
             move_into_place(self.tmp, self.path)
 
 
@@ -235,7 +233,6 @@ def _live_page(args: argparse.Namespace):
 def _calibrate_session(args: argparse.Namespace, path) -> int:
     """``imucalib calibrate`` of the session just written (``--calibrate``), with the recording's options; its
     exit code (2, said here, on an error: the verdict stays the last line)."""
-    from . import calibration
 
     parser = argparse.ArgumentParser(prog="imucalib")
     calibration.register(parser.add_subparsers(dest="command"))
@@ -258,8 +255,7 @@ def _calibrate_session(args: argparse.Namespace, path) -> int:
 
 def cmd_record(args: argparse.Namespace) -> int:
     """``imucalib record``: :func:`imucalib.record.record` with a live view, the events, then calibrate."""
-    from ..io.atomic import output_target, refuse_overwriting_inputs
-    from ..record import Recorder, SessionWriter, open_source, record
+    from ..record import Recorder, SessionWriter, open_source, record  # imucalib.record costs 83 ms at start-up
 
     refuse_overwriting_inputs([args.output, args.events if args.events != "-" else None, args.calibrate],
                               [args.source[len("serial:"):].split("?")[0]] if args.source.startswith("serial:")

@@ -12,12 +12,15 @@ from __future__ import annotations
 
 import os
 import traceback
+import warnings
 from collections.abc import Callable
 
 import numpy as np
 
 from ..batch import execute
 from ..calibration import Calibration
+from ..methods import calibrate
+from ..scenarios import session
 from ..verdict import LEVELS
 from .zhang2021 import reductions, sequence_metrics
 
@@ -61,10 +64,7 @@ def parameter_errors(estimate: Calibration, truth: Calibration) -> dict[str, flo
 # ------------------------------------------------------------ Monte Carlo
 def _one_run(args) -> dict:
     scenario, method, model, seed, baseline, sim_options, method_options = args
-    import warnings
 
-    from ..methods import calibrate
-    from ..scenarios import session
 
     try:
         sim = session(scenario, rng=seed, **sim_options)
@@ -187,8 +187,6 @@ def montecarlo(
     >>> study["parameters"][0]["name"], sorted(study["parameters"][0])
     ('accelerometer.misalignment.xy', ['mean', 'name', 'rms_error', 'std', 'truth'])
     """
-    from ..scenarios import session
-
     if runs < 1:
         raise ValueError(f"runs must be ≥ 1; got {runs}")
     if scheduler is None:

@@ -6,6 +6,8 @@ The sessions are :mod:`imucalib.scenarios.qureshi2017`'s; the method is
 
 from __future__ import annotations
 
+from concurrent.futures import ProcessPoolExecutor
+
 import numpy as np
 
 from ..methods.qureshi2017 import calibrate as qureshi_calibrate
@@ -40,8 +42,6 @@ def montecarlo(runs: int = 20, *, seed: int = 0, workers: int = 1) -> dict:
         raise ValueError(f"runs must be at least 1; got {runs}")
     seeds = [seed + i for i in range(runs)]
     if workers > 1:
-        from concurrent.futures import ProcessPoolExecutor
-
         with ProcessPoolExecutor(workers) as ex:
             results = list(ex.map(_mc_run, seeds))
     else:

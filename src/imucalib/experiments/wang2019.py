@@ -8,6 +8,8 @@ the other: :func:`montecarlo` gives the RMS errors in the units of Tables 2–3 
 
 from __future__ import annotations
 
+from concurrent.futures import ProcessPoolExecutor
+
 import numpy as np
 
 from ..calibration import Calibration
@@ -96,8 +98,6 @@ def montecarlo(runs: int = 500, *, turntable_error: str = "3arcsec", seed: int =
         raise ValueError(f"runs must be at least 1; got {runs}")
     jobs = [(seed + i, turntable_error, initial, noise, dwell_s) for i in range(runs)]
     if workers > 1:
-        from concurrent.futures import ProcessPoolExecutor
-
         with ProcessPoolExecutor(workers) as ex:
             results = list(ex.map(_mc_run, jobs, chunksize=8))
     else:

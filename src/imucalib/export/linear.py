@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..calibration import Calibration
+from ..models import TriadModel
 from ..recording import STANDARD_GRAVITY
 
 __all__ = ["ExportError", "LinearForm", "gyroscope_part", "linear_form", "rotation_times_triangular",
@@ -94,7 +95,6 @@ def gyroscope_part(calibration: Calibration, what: str) -> tuple[Calibration, st
     """
     if calibration.gyroscope is not None:
         return calibration, None
-    from ..models import TriadModel
 
     identity = calibration.with_(gyroscope=TriadModel(scale=[1.0, 1.0, 1.0], shape="full"),
                                  units={**calibration.units, "gyroscope": {"raw": "rad/s", "calibrated": "rad/s"}})

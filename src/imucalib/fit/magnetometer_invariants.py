@@ -163,7 +163,7 @@ def fit_invariants(mag_means: np.ndarray, acc_means: np.ndarray, accelerometer, 
         The poses' times [min] from their mean: the hard iron's drift (M5) is tried, and kept where its χ²
         exceeds ``drift_chi2_limit``.
     """
-    from scipy.optimize import least_squares
+    from scipy.optimize import least_squares  # scipy.optimize costs 422 ms at start-up
 
     values = accelerometer.parameters("accelerometer")
     names = [n for n, sd in acc_sigma.items() if n in values and sd is not None and np.isfinite(sd) and sd > 0]

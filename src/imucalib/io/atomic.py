@@ -42,6 +42,8 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import gzip
+import io
 import os
 import shutil
 import stat
@@ -257,9 +259,6 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
 @contextlib.contextmanager
 def _gzip_writer(raw: IO, path: Path, mode: str, encoding: str | None, newline: str | None) -> Iterator[IO]:
     """A gzip stream into the open binary file ``raw`` (text or binary by ``mode``), finished on success."""
-    import gzip
-    import io
-
     gz = gzip.GzipFile(filename=path.name[:-3], mode="wb", fileobj=raw, mtime=0)
     fh = io.TextIOWrapper(gz, encoding=encoding, newline=newline) if mode == "w" else gz
     yield fh

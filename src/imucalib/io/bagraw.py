@@ -204,7 +204,7 @@ def rosbag2_sqlite(path: Path) -> tuple[list[BagConnection], list[Path]] | None:
     """Topics (with their message counts) and SQLite files of an uncompressed rosbag2 directory, from its
     ``metadata.yaml``; None when it is another kind (or ``ruamel.yaml``, which rosbags brings, is missing)."""
     try:
-        from ruamel.yaml import YAML
+        from ruamel.yaml import YAML  # optional: its absence is handled here
 
         info = YAML(typ="safe").load((path / "metadata.yaml").read_text(encoding="utf-8"))
         info = info["rosbag2_bagfile_information"]

@@ -58,6 +58,9 @@ truncated or corrupt stream is a :class:`~.errors.ReaderError`.
 from __future__ import annotations
 
 import contextlib
+import csv
+import gzip
+import hashlib
 import io
 import re
 import warnings
@@ -70,6 +73,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .errors import ReaderError
+from .expansion import open_gzip  # its decompressed text bounded (a decompression bomb is refused)
 from .fixedcells import fixed_chunk
 
 if TYPE_CHECKING:
@@ -125,9 +129,7 @@ def open_binary(path: Path) -> Iterator[io.BufferedIOBase]:
         with path.open("rb") as f:
             yield f
         return
-    import gzip
 
-    from .expansion import open_gzip  # its decompressed text bounded (a decompression bomb is refused)
 
     try:
         with open_gzip(path) as f:
@@ -281,8 +283,6 @@ class Layout:
 def split_cells(line: str, sep: str | None) -> list[str]:
     """The cells of one line, stripped of blanks and of the quotes around a quoted cell."""
     if '"' in line and sep is not None:
-        import csv
-
         cells = next(csv.reader([line], delimiter=sep, skipinitialspace=True), [])
         return [c.strip() for c in cells]
     return [c.strip().strip('"') for c in (line.split(sep) if sep else line.split())]
@@ -375,8 +375,6 @@ def digest() -> hashlib.blake2b:
     7, pandas' parser). A CRC (4× faster) would catch accidents as well but
     can be forged by whoever rewrites the file.
     """
-    import hashlib
-
     return hashlib.blake2b(digest_size=16)
 
 
@@ -406,7 +404,7 @@ def engine_for(layout: Layout) -> str:
 def pandas_available() -> bool:
     """Whether pandas can be imported (the ``pandas`` extra)."""
     try:
-        import pandas  # noqa: F401
+        import pandas  # noqa: F401  # optional: pip install imucalib[pandas]
     except ImportError:
         return False
     return True
@@ -575,7 +573,7 @@ def _numpy_chunk(data: bytes, layout: Layout, kinds: list) -> dict[int, np.ndarr
 
 
 def _pandas_chunk(data: bytes, layout: Layout, kinds: list) -> dict[int, np.ndarray]:
-    import pandas as pd
+    import pandas as pd  # optional: pip install imucalib[pandas]
 
     used = [j for j, k in enumerate(kinds) if k is not None]
     dtypes = {j: {"float": np.float64, "int": np.int64, "text": object}[kinds[j]] for j in used}

@@ -30,6 +30,7 @@ Where the budget is counted:
 
 from __future__ import annotations
 
+import bz2
 import contextlib
 import gzip
 import os
@@ -180,21 +181,19 @@ def _count_zlib(f, nbytes: int, budget: Budget) -> None:
 def _decompressors(name: str) -> Callable[[], object] | None:
     """A factory of incremental decompressors (``decompress(data, max_length)``, ``eof``) for a chunk codec."""
     if name == "bz2":
-        import bz2
-
         return bz2.BZ2Decompressor
     if name == "lz4":
         try:
-            from lz4.frame import LZ4FrameDecompressor
+            from lz4.frame import LZ4FrameDecompressor  # optional: its absence is handled here
         except ImportError:
             return None
         return LZ4FrameDecompressor
     if name == "zstd":
         try:
-            from compression.zstd import ZstdDecompressor
+            from compression.zstd import ZstdDecompressor  # optional: its absence is handled here
         except ImportError:
             try:
-                from backports.zstd import ZstdDecompressor
+                from backports.zstd import ZstdDecompressor  # optional: its absence is handled here
             except ImportError:
                 return None
         return ZstdDecompressor

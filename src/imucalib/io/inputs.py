@@ -35,6 +35,7 @@ import numpy as np
 
 from ..recording import ImucalibWarning, Recording
 from . import csvparse
+from .columns import parse_columns
 from .errors import ReaderError
 
 __all__ = ["check_against_header", "check_distinct_columns", "check_input_path", "check_magnitudes", "check_text",
@@ -142,7 +143,6 @@ def check_distinct_columns(columns: Sequence[str] | None) -> None:
     (the entries checked first: :func:`.columns.parse_columns`)."""
     if columns is None:
         return
-    from .columns import parse_columns
 
     seen: dict[str, str] = {}
     for field, c in parse_columns(columns).items():

@@ -299,7 +299,7 @@ def _flags_over_header(paths: Sequence[Path], reader: str, rec: Recording, acc_u
 
 def _is_rosbag(path: Path) -> bool:
     """:func:`.rosbag.is_rosbag`, its module imported on first use."""
-    from .rosbag import is_rosbag
+    from .rosbag import is_rosbag  # imported when a folder is met (the note at the top): 12 ms at start-up
 
     return is_rosbag(path)
 

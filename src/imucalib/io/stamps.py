@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..recording import ImucalibWarning
+from ..recording import ImucalibWarning, require_pandas
 from .errors import ReaderError
 
 __all__ = ["IMU_RATES", "TIME_UNITS", "Repair", "check_increasing", "datetime_cells", "guess_unit", "read_dated",
@@ -235,8 +235,6 @@ def read_dated(path: Path, *, skiprows: int, sep: str | None, dated: Sequence[in
     The readers read such a file as a DataFrame (its stamps become nanoseconds, as a DataFrame's datetimes
     do); that needs pandas, and the rows need a header to name their columns.
     """
-    from ..recording import require_pandas
-
     if not has_header:
         raise ReaderError(f"{path}: the rows begin with a date and time but have no header naming the columns: "
                           "add one, or pass --columns -,AX,AY,AZ,GX,GY,GZ (0-based indices) and --rate HZ to "

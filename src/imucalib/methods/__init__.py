@@ -10,51 +10,54 @@ given here take precedence.
 
 from __future__ import annotations
 
+import inspect
 import warnings
 from collections.abc import Callable
+from types import ModuleType
 from typing import Any
 
+import numpy as np
+
 from ..calibration import Calibration, with_bias_session
+from ..fit.magnetometer import fit_magnetometer
 from ..io.posetable import PoseTable
-from ..methodinfo import DEFAULT_METHOD, MethodInfo, accelerometer_only, declared
-from ..recording import STANDARD_GRAVITY, ImucalibWarning, Recording
+from ..methodinfo import DEFAULT_METHOD, MethodInfo
+from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
 from ..thermal import calibrate_ramp, compensate
+from ..upright import inverted_rest_note
 from ..verdict import check_rate, with_verdict
+from . import ellipsoid, ferraris, qureshi2017, six_position, tedaldi2014, wang2019, zhang2021
+from ._pose_table import METHOD_NAME, calibrate_pose_table
+from ._pose_table import apply_to_table as _table_apply
 
 __all__ = ["ACCELEROMETER_ONLY", "METHODS", "apply_to_table", "calibrate", "method_names", "six_faces_only",
            "with_magnetometer"]
 
 
-def _runner(info: MethodInfo) -> Callable[..., Calibration]:
-    """callable(data, *, model, gravity, **options) → Calibration: the module of ``info`` run on ``data``."""
-
-    def run(data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
-        import importlib
-
-        if len(info.models) == 1 and model not in (None, info.default_model):
-            raise ValueError(f"{info.name} fits the {info.default_model} model only; got model={model!r}")
-        module = importlib.import_module(f"{__name__}.{info.name}")
-        if "turntable aggregates" in info.needs:
-            if not hasattr(data, "positions_acc"):
-                raise ValueError(f"{info.name} needs turntable data (static position means and clockwise/"
-                                 "counter-clockwise turn integrals), as the wang2019 scenario provides; "
-                                 "it does not run on a free-hand recording")
-        else:
-            data = _recording_of(data)
-        if len(info.models) > 1:
-            options = {**options, "model": model or info.default_model}
-        return module.calibrate(data, gravity=gravity, **_accepted(module.calibrate, options))
-
-    return run
+#: method name → its module (``module.METHOD`` its declaration, ``module.calibrate`` the method itself)
+METHODS: dict[str, ModuleType] = {module.METHOD.name: module for module in (
+    tedaldi2014, ellipsoid, ferraris, qureshi2017, six_position, wang2019, zhang2021)}
 
 
-#: method name → callable(data, *, model, gravity, **options) → Calibration, from each module's declaration
-#: (:data:`METHOD`, read by :func:`imucalib.methodinfo.declared`)
-METHODS: dict[str, Callable[..., Calibration]] = {name: _runner(info) for name, info in declared().items()}
+def _run(module: ModuleType, data, *, model: str | None, gravity: float, **options: Any) -> Calibration:
+    """``module.calibrate`` on ``data`` (the recording of a session, or its turntable aggregates) with ``options``."""
+    info: MethodInfo = module.METHOD
+    if len(info.models) == 1 and model not in (None, info.default_model):
+        raise ValueError(f"{info.name} fits the {info.default_model} model only; got model={model!r}")
+    if "turntable aggregates" in info.needs:
+        if not hasattr(data, "positions_acc"):
+            raise ValueError(f"{info.name} needs turntable data (static position means and clockwise/"
+                             "counter-clockwise turn integrals), as the wang2019 scenario provides; "
+                             "it does not run on a free-hand recording")
+    else:
+        data = _recording_of(data)
+    if len(info.models) > 1:
+        options = {**options, "model": model or info.default_model}
+    return module.calibrate(data, gravity=gravity, **_accepted(module.calibrate, options))
 
 
 #: the methods that calibrate an accelerometer-only recording (no gyroscope section in the calibration)
-ACCELEROMETER_ONLY = accelerometer_only()
+ACCELEROMETER_ONLY = tuple(sorted(name for name, module in METHODS.items() if module.METHOD.accelerometer_only))
 
 
 def method_names() -> list[str]:
@@ -76,8 +79,6 @@ def method_names() -> list[str]:
 
 def _accepted(fn: Callable, options: dict) -> dict:
     """``options`` without ``progress`` when ``fn`` does not report progress."""
-    import inspect
-
     if "progress" in options and "progress" not in inspect.signature(fn).parameters:
         options = {k: v for k, v in options.items() if k != "progress"}
     return options
@@ -182,7 +183,6 @@ def calibrate(
 
 def _note_inverted_rest(cal: Calibration, recording: Recording | None) -> None:
     """A warning when the calibrated initial rest reads −g on z (:mod:`imucalib.upright`: the sign convention)."""
-    from ..upright import inverted_rest_note
 
     intervals = cal.fit.poses.intervals or []
     note = inverted_rest_note(cal, recording, intervals[0]) if recording is not None and intervals else None
@@ -202,8 +202,6 @@ def six_faces_only(recording: Recording, intervals, *, within_deg: float = 30.0)
     ±x, ±y or ±z (raw axes: a MEMS sensor's misalignment and the table's tilt are a few degrees). The initial
     rest is one of the poses.
     """
-    import numpy as np
-
     if len(intervals) < 6:
         return False
     means = np.array([recording.acc[int(a):int(b)].mean(axis=0) for a, b in intervals])
@@ -220,7 +218,7 @@ def _calibrate(data, *, method: str, model: str | None, gravity: float, **option
     if isinstance(data, PoseTable):
         return _calibrate_table(data, method, model, gravity, options)
     try:
-        fn = METHODS[method]
+        module = METHODS[method]
     except KeyError:
         raise ValueError(
             f"unknown method {method!r}; choose one of {', '.join(method_names())}"
@@ -246,10 +244,10 @@ def _calibrate(data, *, method: str, model: str | None, gravity: float, **option
     if temperature_model == "linear":
         if recording is None:
             raise ValueError("a temperature model is fitted on a recording of samples with a temperature column")
-        cal = calibrate_ramp(lambda rec: fn(rec, model=model, gravity=gravity, **options), recording)
+        cal = calibrate_ramp(lambda rec: _run(module, rec, model=model, gravity=gravity, **options), recording)
         recording = compensate(cal, recording)[1]  # the checks below see the recording at the reference temperature
     else:
-        cal = fn(data, model=model, gravity=gravity, **options)
+        cal = _run(module, data, model=model, gravity=gravity, **options)
     if recording is not None and recording.mag is not None and mag_options.get("magnetometer", True):
         cal = with_magnetometer(cal, recording, field=mag_options.get("mag_field"),
                                 hemisphere=mag_options.get("mag_hemisphere", "north"))
@@ -260,8 +258,6 @@ def _calibrate(data, *, method: str, model: str | None, gravity: float, **option
 
 def _calibrate_table(table: PoseTable, method: str, model: str | None, gravity: float, options: dict) -> Calibration:
     """:func:`calibrate` of a pose table: its own recipe, which takes no method, model variant or option."""
-    from ._pose_table import METHOD_NAME, calibrate_pose_table
-
     if method not in (DEFAULT_METHOD, METHOD_NAME):
         raise ValueError(f"a table of averaged poses is calibrated by the gravity-norm fit of its pose means "
                          f"(method {METHOD_NAME!r}); {method} calibrates a recording of samples")
@@ -275,9 +271,7 @@ def _calibrate_table(table: PoseTable, method: str, model: str | None, gravity: 
 
 def apply_to_table(calibration: Calibration, table: PoseTable):
     """A table of averaged poses corrected by ``calibration``: a ``CalibratedTable`` (``acc``, ``gyro``, ``notes``)."""
-    from ._pose_table import apply_to_table as apply
-
-    return apply(calibration, table)
+    return _table_apply(calibration, table)
 
 
 def with_magnetometer(calibration: Calibration, recording: Recording, *, field: float | None = None,
@@ -325,9 +319,7 @@ def with_magnetometer(calibration: Calibration, recording: Recording, *, field: 
     >>> cal.magnetometer.unit, round(cal.fit.magnetometer.direction_error_mean_deg, 2)
     ('normalised', 0.05)
     """
-    from ..fit.magnetometer import fit_magnetometer
     from ..fitreport import MagnetometerReport, UncertaintyReport
-    from ..recording import Interval
 
     if hemisphere not in ("north", "south"):
         raise ValueError(f"the magnetic hemisphere must be 'north' or 'south'; got {hemisphere!r}")

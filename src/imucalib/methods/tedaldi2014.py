@@ -50,6 +50,7 @@ from ..metrics import interval_means
 from ..presets import FULL_MODEL_POSES, MIN_HOLD, MULTIPLIERS
 from ..recording import Interval, Recording
 from ..segment import detect_intervals, no_usable_rotations, pose_blocks, unreliable_transitions
+from ..verdict import worse_than_nominal
 
 METHOD = MethodInfo(
     name="tedaldi2014",
@@ -248,8 +249,6 @@ def undetermined_misalignment(acc_model, means: np.ndarray, gravity: float, reco
     accelerometer is then fitted with a scale and a bias per axis (:func:`fit_determined`), and the verdict
     asks for the poses that would determine the full model.
     """
-    from ..verdict import worse_than_nominal
-
     figures = accelerometer_figures(acc_model, means, gravity, None)
     cal = Calibration(accelerometer=acc_model, gyroscope=None, gravity=gravity, units=units_of(recording))
     terms = [c.text.split(":")[0].split(".")[-1] for c in worse_than_nominal(cal, figures.uncertainty.sigma or {},

@@ -79,7 +79,7 @@ from ..fit.zhang_cost import (
 )
 from ..fitreport import FitReport, GyroscopeReport, MethodReport
 from ..kinematics import five_point_derivative, segmented_five_point
-from ..methodinfo import MethodInfo, Option
+from ..methodinfo import MethodInfo, Option, accelerometer_only
 from ..metrics import interval_means
 from ..models import TriadModel
 from ..presets import MIN_HOLD, MIN_INTERVALS
@@ -424,8 +424,6 @@ def calibrate(
     array([1., 1., 1.])
     """
     if recording.gyro is None:
-        from ..methodinfo import accelerometer_only
-
         raise ValueError("zhang2021 calibrates the gyroscope with the accelerometer and this recording is "
                          f"accelerometer-only; the methods that take it are {', '.join(accelerometer_only())}")
     say = progress or (lambda msg: None)

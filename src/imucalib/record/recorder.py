@@ -19,6 +19,7 @@ import numpy as np
 
 from ..constants import STANDARD_GRAVITY
 from ..methodinfo import DEFAULT_METHOD, declared, needing
+from ..models import TriadModel
 from ..recording import Interval, Recording
 from .guidance import FACES, angle_deg, checklist, held_before, turn_vector, up_directions
 from .lines import LineFormat, RowCheck, TooLong, clean_head_line, garbled
@@ -366,7 +367,7 @@ class Recorder:
     # ------------------------------------------------------------ rest
     def _rest_block(self, a: int, m: int) -> bool:
         """Count the rest down over ``[a, m)``; True once it is complete (the detector started)."""
-        from ..segment import StillDetector
+        from ..segment import StillDetector  # imucalib.segment costs 43 ms at start-up
 
         need = int(np.ceil(self.rest_seconds * self.rate))
         t = self._times(a, m)
@@ -393,7 +394,7 @@ class Recorder:
 
     def _moved(self, m: int) -> float | None:
         """Where the sensor first moved in ``[0, m)`` [s], by the offline rest finder; None when still."""
-        from ..segment import SHORTEST_REST, find_initial_rest
+        from ..segment import SHORTEST_REST, find_initial_rest  # imucalib.segment costs 43 ms at start-up
 
         if m < SHORTEST_REST * self.rate:
             return None
@@ -483,7 +484,7 @@ class Recorder:
     # ----------------------------------------------------------- poses
     def _holding(self, m: int) -> None:
         """While a pose is held: how long, its direction, how far from the suggestion, whether already held."""
-        from ..plans import describe_direction
+        from ..plans import describe_direction  # imucalib.plans costs 22 ms at start-up
 
         run = self._current_run()
         if run is None or run.start == 0 or run.stop - run.start < 2:
@@ -524,8 +525,8 @@ class Recorder:
         return {"g": 1.0, "m/s^2": self.gravity}.get(self.format.acc_unit, self.gravity)
 
     def _interval(self, iv: Interval, m: int) -> None:
-        from ..metrics import pose_coverage
-        from ..plans import describe_direction
+        from ..metrics import pose_coverage  # imucalib.metrics costs 23 ms at start-up
+        from ..plans import describe_direction  # imucalib.plans costs 22 ms at start-up
 
         if iv.start == 0:  # the rest, still held when the detector started
             return
@@ -570,9 +571,8 @@ class Recorder:
         return [self.rest, *self.poses]
 
     def _wobble(self, iv: Interval, k: int, m: int) -> None:
-        from ..fit.gyroscope import rough_scale
-        from ..models import TriadModel
-        from ..segment import gyro_still
+        from ..fit.gyroscope import rough_scale  # imucalib.fit.gyroscope costs 42 ms at start-up
+        from ..segment import gyro_still  # imucalib.segment costs 43 ms at start-up
 
         bias = self._means_gyro_bias()
         if self.scale is None and len(self.poses) >= 3:
@@ -598,7 +598,7 @@ class Recorder:
                        every=0.0, pose=k)
 
     def _calibrate(self, stop: int):
-        from ..methods import calibrate
+        from ..methods import calibrate  # imucalib.methods costs 118 ms at start-up
 
         try:
             with warnings.catch_warnings():
@@ -610,7 +610,7 @@ class Recorder:
             return None
 
     def _try_calibration(self, m: int) -> None:
-        from ..segment import MIN_INTERVALS
+        from ..segment import MIN_INTERVALS  # imucalib.segment costs 43 ms at start-up
 
         if len(self.poses) + 1 < (7 if self.method in FACE_METHODS else MIN_INTERVALS):
             return
@@ -629,7 +629,7 @@ class Recorder:
                                   "recording (Ctrl-C or end the stream) or add poses"})
 
     def _next(self, sample: int, up: np.ndarray) -> None:
-        from ..plans import describe_direction, next_poses
+        from ..plans import describe_direction, next_poses  # imucalib.plans costs 22 ms at start-up
 
         reasons = (self.trial.fit.verdict.reasons or []) if self.trial is not None else []
         if self.method in FACE_METHODS:  # these take the six faces only: the next pose is one of them

@@ -21,8 +21,9 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..io.atomic import move_into_place, output_target
 from .lines import LineSplitter
-from .recorder import Recorder
+from .recorder import HEAD_LINES, Recorder
 from .sources import Source, SourceGone, as_source
 
 __all__ = ["SessionWriter", "RecordResult", "record", "check_session_output"]
@@ -37,8 +38,6 @@ def check_session_output(output: str | Path, *, force: bool = False, resume: boo
     ``OSError`` for what :mod:`imucalib.io.atomic` refuses, and for a FIFO or
     device.
     """
-    from ..io.atomic import output_target
-
     if str(output).endswith(".partial"):
         raise ValueError(f"-o {output}: name the finished file; {output}.partial is written while recording")
     target, stream = output_target(output)
@@ -134,7 +133,6 @@ class SessionWriter:
             return self.partial
         if not self.partial.exists():
             return self.output
-        from ..io.atomic import move_into_place
 
         move_into_place(self.partial, self.output)
         return self.output
@@ -249,7 +247,6 @@ def _not_a_table(recorder: Recorder, writer: SessionWriter, exc: ValueError, mor
 
 def _resume(writer: SessionWriter, recorder: Recorder) -> None:
     """The recorder fed the unfinished session's lines again (already in the file: not written twice)."""
-    from .recorder import HEAD_LINES
 
     if len(writer.resumed) < HEAD_LINES:
         writer.finish(rename=False)

@@ -16,7 +16,9 @@ import json
 import os
 import select
 import socket
+import sys
 import time
+import urllib.request
 from collections.abc import Iterator
 from urllib.parse import parse_qs, urlsplit
 
@@ -87,7 +89,7 @@ class SerialSource(Source):
         self.port, self.name = port, name
 
     def read(self, timeout: float) -> bytes | None:
-        import serial
+        import serial  # optional: pip install imucalib[serial]
 
         try:
             self.port.timeout = timeout
@@ -158,8 +160,6 @@ def open_source(spec: str, *, stdin=None) -> Iterator[Source]:
     'ReadlineSource'
     """
     if spec == "-":
-        import sys
-
         if stdin is not None:
             yield as_source(stdin)
             return
@@ -294,8 +294,6 @@ class PhyphoxStream(Source):
         self._started = False
 
     def _get(self, path: str):
-        import urllib.request
-
         with urllib.request.urlopen(self.base + path, timeout=self.timeout) as r:  # noqa: S310 (a local device)
             body = r.read(MAX_JSON_BYTES + 1)
         if len(body) > MAX_JSON_BYTES:

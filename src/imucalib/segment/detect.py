@@ -42,6 +42,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from ..fit.accelerometer import fit_determined, fit_gravity_norm
+from ..fit.gyroscope import axes_disagreement, rough_scale
 from ..metrics import interval_means
 from ..models import TriadModel
 from ..presets import (
@@ -347,7 +348,6 @@ def _gyro_gated(recording: Recording, gravity: float, rest: Interval, detector, 
     """The scan again without the samples where the gyroscope is not still (:func:`detect_intervals`):
     ``(intervals, multiplier, model)``, those of the scan without the gate (``ungated``) when the gate finds
     the same or leaves too few poses."""
-    from ..fit.gyroscope import axes_disagreement, rough_scale
 
     intervals, mult, model = ungated
     bias = recording.gyro[rest.slice].mean(axis=0)

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..fit.accelerometer import fit_determined, fit_sphere
+from ..fit.gyroscope import MIN_POSES
 from ..metrics import interval_means, transition_bounds
 from ..models import TriadModel
 from ..presets import STILL_WINDOW
@@ -405,8 +406,6 @@ def no_usable_rotations(intervals: list[Interval], left_out: dict[int, str]) -> 
     says why (``fit.gyroscope.not_calibrated``); a fit on a few rotations
     runs, and its verdict judges whether they determine the gyroscope.
     """
-    from ..fit.gyroscope import MIN_POSES
-
     n = max(len(intervals) - 1, 0)
     if len(intervals) < MIN_POSES:
         return (f"the gyroscope was not calibrated: {len(intervals)} static pose{'' if len(intervals) == 1 else 's'} "
