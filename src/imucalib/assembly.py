@@ -70,6 +70,22 @@ def assemble(method: str, recording: Recording, intervals: Sequence[Interval], a
     Calibration
         With ``fit`` holding the figures every method gives, then ``figures``, the 1σ errors and why the
         gyroscope was not calibrated.
+
+    Examples
+    --------
+    A method's ending, here with the simulation's true models in place of fitted ones (no verdict yet: the
+    registry judges the calibration after the magnetometer):
+
+    >>> from imucalib.assembly import assemble
+    >>> from imucalib.fitreport import MethodReport
+    >>> from imucalib.scenarios import session
+    >>> from imucalib.segment import detect_intervals
+    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
+    >>> intervals, *_ = detect_intervals(sim.recording, sim.truth.gravity)
+    >>> cal = assemble("tedaldi2014", sim.recording, intervals, sim.truth.accelerometer, sim.truth.gyroscope,
+    ...                gravity=sim.truth.gravity, figures=[MethodReport(converged=True)])
+    >>> cal.fit.poses.static_intervals, cal.fit.method.converged, cal.fit.verdict.level
+    (15, True, None)
     """
     cal = Calibration(accelerometer=accelerometer, gyroscope=gyroscope, lever_arm=lever_arm, gravity=gravity,
                       method=method, model=model, units=units_of(recording))
