@@ -305,6 +305,31 @@ def test_the_real_floors_keep_simulators_below_methods_and_experiments_above():
     assert table.splitlines()[1].split()[1] == "interface" and table.splitlines()[-1].split()[1] == "foundations"
 
 
+def test_the_calibration_record_sits_below_the_estimators_and_no_fit_imports_the_segmentation():
+    """The record below every stage that takes a calibration; the fits below the segmentation that runs them."""
+    names = [name for name, _, _ in layout.FLOORS]
+    scanned = layout.scan(PACKAGE)
+    floor = {m: names[layout.floor_of(scanned, m)] for m in scanned.modules}
+    below = names.index("records")
+    for user in ("imucalib.verdict", "imucalib.thermal", "imucalib.metrics", "imucalib.fit.magnetometer",
+                 "imucalib.segment"):
+        assert names.index(floor[user]) > below, user
+    assert floor["imucalib.calibration"] == "records" and floor["imucalib.models"] == "foundations"
+    assert names.index("fits") < names.index("segmentation")
+    fits = [i for i in scanned.imports
+            if i.source.startswith("imucalib.fit") and i.target.startswith("imucalib.segment")]
+    assert fits == []
+
+
+def test_a_fit_importing_the_segmentation_is_caught(tmp_path):
+    floors = (("base", "", ("models",)), ("fits", "", ("fit",)), ("segmentation", "", ("segment",)),
+              ("top", "", ("", "methods", "scenarios", "cli")))
+    root = make_package(tmp_path, {"models.py": "", "fit/accelerometer.py": "from ..segment import poses\n",
+                                   "segment.py": "def poses():\n    pass\n"})
+    found = layout.check(root, floors=floors)
+    assert len(found) == 1 and found[0].startswith("import runs up: pkg.fit.accelerometer"), found
+
+
 # -------------------------------------------------------------------------------------------- private names
 @pytest.mark.parametrize("rel, source, message", [
     ("cli/run.py", "from ..segment import _helper\n", "private name imported from another module: pkg.cli.run → "

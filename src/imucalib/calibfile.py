@@ -18,6 +18,7 @@ from .constants import STANDARD_GRAVITY, earth_gravity_text
 from .fitreport import FitReport, VerdictReport
 from .models import AXES, MISALIGNMENT_SHAPES, TriadModel
 from .recording import ACC_UNITS, GYRO_UNITS, MAG_UNITS
+from .thermalmodel import evaluate
 
 __all__ = ["DEVICE_MAX_CHARS", "FORMAT", "FORMAT_VERSION", "FULL_SCALE", "GRAVITY_LIMITS", "READABLE_VERSIONS",
            "TEMPERATURE_LIMITS", "CalibrationFileError", "check_device", "check_document", "check_magnitudes"]
@@ -362,8 +363,6 @@ def check_magnitudes(calibration) -> None:
                                    f"{lo:g}-{hi:g} m/s^2; the Earth's is {earth_gravity_text()})")
     cals = [("", calibration)]
     if calibration.thermal is not None:
-        from .thermal import evaluate
-
         t0, t1 = calibration.thermal.range_c
         with np.errstate(all="ignore"):
             cals += [(f" at {t:g} degC (its thermal model)", evaluate(calibration, t)) for t in (t0 - 100, t1 + 100)]

@@ -34,7 +34,7 @@ from .io.atomic import atomic_write
 from .io.jsontext import SmallFileError, dumps, jsonable, read_json
 from .models import AXES, MagnetometerModel, TriadModel
 from .recording import ImucalibWarning, Recording
-from .thermal import ThermalModel, compensate
+from .thermalmodel import ThermalModel, compensate
 
 __all__ = ["BIAS_DRIFT", "DEVICE_MAX_CHARS", "DRIFT_NOTICE_DEG_S", "FULL_SCALE", "Calibration", "CalibrationFileError",
            "FORMAT", "FORMAT_VERSION", "GRAVITY_LIMITS", "READABLE_VERSIONS", "SESSION_CHECK_SAMPLES", "check_device",

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .calibration import Calibration
 from .fitreport import AccelerometerReport, FitReport, GyroscopeReport, SegmentationReport, ThermalReport, VerdictReport
 from .kinematics import IntervalIntegrator, angle_between, quat_to_matrix
 from .plans import next_poses
@@ -153,7 +154,7 @@ def transition_bounds(intervals: Sequence[Interval]) -> tuple[np.ndarray, np.nda
     return starts, stops
 
 
-def pose_specific_force(calibration, recording: Recording, intervals: Sequence[Interval]) -> np.ndarray:
+def pose_specific_force(calibration: Calibration, recording: Recording, intervals: Sequence[Interval]) -> np.ndarray:
     """The calibrated specific force [m/s²] of each static interval (M, 3): the model of its raw mean.
 
     The raw readings are averaged first (:func:`interval_means`), then
@@ -165,7 +166,7 @@ def pose_specific_force(calibration, recording: Recording, intervals: Sequence[I
     return up
 
 
-def gravity_residuals(calibration, recording: Recording, intervals: Sequence[Interval],
+def gravity_residuals(calibration: Calibration, recording: Recording, intervals: Sequence[Interval],
                       gravity: float | None = None, *, up: np.ndarray | None = None) -> np.ndarray:
     """``‖a_k‖ − g`` [m/s²] for each static interval ``k`` (interval means).
 
@@ -178,7 +179,7 @@ def gravity_residuals(calibration, recording: Recording, intervals: Sequence[Int
 
 
 def predicted_gravity(
-    calibration, recording: Recording, intervals: Sequence[Interval],
+    calibration: Calibration, recording: Recording, intervals: Sequence[Interval],
     integrator: IntervalIntegrator | None = None, *, up: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Measured and gyro-predicted gravity directions at poses 1…M−1.
@@ -207,7 +208,7 @@ def predicted_gravity(
     return u[1:], predicted
 
 
-def gravity_direction_errors(calibration, recording: Recording,
+def gravity_direction_errors(calibration: Calibration, recording: Recording,
                              intervals: Sequence[Interval], *, up: np.ndarray | None = None,
                              integrator: IntervalIntegrator | None = None) -> np.ndarray:
     """Angle [rad] between measured and gyro-predicted gravity at each new pose.
@@ -220,7 +221,7 @@ def gravity_direction_errors(calibration, recording: Recording,
     return angle_between(measured, predicted)
 
 
-def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval],
+def fit_summary(calibration: Calibration, recording: Recording, intervals: Sequence[Interval],
                 gravity: float | None = None, *, integrator: IntervalIntegrator | None = None) -> FitReport:
     """The fit report's figures every method gives (``docs/architecture.rst``).
 
@@ -295,7 +296,7 @@ def fit_summary(calibration, recording: Recording, intervals: Sequence[Interval]
     return out
 
 
-def gravity_noise_floor(calibration, recording: Recording, intervals: Sequence[Interval]) -> float:
+def gravity_noise_floor(calibration: Calibration, recording: Recording, intervals: Sequence[Interval]) -> float:
     """RMS over the poses of the white-noise error of ``‖ā_k‖`` [m/s²], the floor of the gravity-norm residual.
 
     For pose ``k`` with ``n_k`` samples, ``‖ā_k‖`` carries the noise of the

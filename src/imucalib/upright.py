@@ -25,20 +25,22 @@ from __future__ import annotations
 
 import numpy as np
 
+from .calibration import Calibration
+
 __all__ = ["inverted_rest_note", "rest_force"]
 
 #: the rest counts as lying flat when its calibrated force is within this angle of the z axis [deg]
 FLAT_DEG = 25.0
 
 
-def rest_force(calibration, recording, interval) -> np.ndarray:
+def rest_force(calibration: Calibration, recording, interval) -> np.ndarray:
     """The calibrated specific force [m/s²] averaged over ``interval`` (``start``, ``stop``) of ``recording``."""
     start, stop = (interval.start, interval.stop) if hasattr(interval, "start") else interval[:2]
     raw = recording.acc[int(start):int(stop)]
     return np.mean(calibration.accelerometer_si(raw), axis=0)
 
 
-def inverted_rest_note(calibration, recording, interval) -> str | None:
+def inverted_rest_note(calibration: Calibration, recording, interval) -> str | None:
     """A note when the calibrated initial rest ``interval`` lies flat with ``−g`` along z, else None."""
     try:
         f = rest_force(calibration, recording, interval)

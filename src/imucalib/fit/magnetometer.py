@@ -92,6 +92,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..calibration import Calibration
 from ..fitreport import MagnetometerReport
 from ..kinematics import IntervalIntegrator, quat_from_rotvec, quat_to_matrix
 from ..metrics import interval_means, transition_bounds
@@ -170,7 +171,8 @@ def _rotvec_matrix(v: np.ndarray) -> np.ndarray:
     return quat_to_matrix(quat_from_rotvec(v))
 
 
-def pose_references(calibration, recording: Recording, intervals: list[Interval]) -> tuple[np.ndarray, np.ndarray]:
+def pose_references(calibration: Calibration, recording: Recording,
+                    intervals: list[Interval]) -> tuple[np.ndarray, np.ndarray]:
     """Unit gravity directions at the poses (M, 3) and attitude changes between them (M−1, 3, 3) by ``calibration``.
 
     The references (M3) and (M4) hold the field to: ``v_{k+1} = R_kᵀ v_k``.
@@ -182,7 +184,7 @@ def pose_references(calibration, recording: Recording, intervals: list[Interval]
                        recording.acc[idx], integ)
 
 
-def _references(calibration, acc_means, raw_gyro, raw_acc, integrator) -> tuple[np.ndarray, np.ndarray]:
+def _references(calibration: Calibration, acc_means, raw_gyro, raw_acc, integrator) -> tuple[np.ndarray, np.ndarray]:
     """:func:`pose_references` from the poses' raw accelerometer means and the integrated samples."""
     acc = calibration.accelerometer.forward(acc_means)
     rates = calibration.gyroscope.forward(raw_gyro, calibration.accelerometer.forward(raw_acc))
@@ -202,8 +204,9 @@ def pose_figures(model: MagnetometerModel, mag_means: np.ndarray, up: np.ndarray
             "norms": norm, "dips_deg": dip}
 
 
-def fit_magnetometer(recording: Recording, intervals: list[Interval], calibration, *, hemisphere: str = "north",
-                     field: float | None = None, motion_samples: int = 1000) -> MagnetometerFit:
+def fit_magnetometer(recording: Recording, intervals: list[Interval], calibration: Calibration, *,
+                     hemisphere: str = "north", field: float | None = None,
+                     motion_samples: int = 1000) -> MagnetometerFit:
     """Calibrate the magnetometer of ``recording`` after its accelerometer and gyroscope (``calibration``).
 
     Parameters
@@ -256,7 +259,7 @@ def fit_magnetometer(recording: Recording, intervals: list[Interval], calibratio
     idx = integrator.samples
     raw_gyro, raw_acc = recording.gyro[idx], recording.acc[idx]
 
-    def references(cal):
+    def references(cal: Calibration):
         """Gravity directions at the poses and attitude changes between them, by ``cal``."""
         return _references(cal, acc_means, raw_gyro, raw_acc, integrator)
 
@@ -321,7 +324,7 @@ def _motion_samples(recording: Recording, intervals: list[Interval], motion_samp
 
 
 def _starting_point(mag_means: np.ndarray, mag_moving: np.ndarray, up: np.ndarray, rot: np.ndarray,
-                    calibration, hemisphere: str) -> tuple:
+                    calibration: Calibration, hemisphere: str) -> tuple:
     """The fit's start: hard and soft iron from the ellipsoid (M2), then the linear solve of (M3)-(M4) for
     ``O`` and the dip it gives; with the rotations (M4) uses (``use``, and ``gyro_ok``: those the gyroscope's
     fit kept)."""
@@ -399,7 +402,7 @@ class _PoseEquations:
                 use[:] = use & ~bad
         return theta, sigma
 
-    def covariance(self, theta, sigma, scale, calibration, references):
+    def covariance(self, theta, sigma, scale, calibration: Calibration, references):
         """The parameters' covariance from the weighted groups' Jacobian, with what the calibration's own
         errors carry into the references (:func:`_carried_covariance`)."""
         def fun_final(th):
@@ -413,7 +416,7 @@ class _PoseEquations:
         return cov + _carried_covariance(calibration, references, self.groups, theta, sigma, jac, cov)
 
 
-def _fit_drift_if_shown(eq: _PoseEquations, b0, s0, dip0, calibration, references) -> tuple:
+def _fit_drift_if_shown(eq: _PoseEquations, b0, s0, dip0, calibration: Calibration, references) -> tuple:
     """The fit from the start ``b0``, ``s0``, ``dip0``, with the hard iron's drift (M5) where the poses show it:
     ``(theta, sigma, cov, scale)``."""
     use = eq.use
@@ -503,7 +506,7 @@ def _figures(model: MagnetometerModel, eq: _PoseEquations, theta: np.ndarray, sd
     )
 
 
-def _carried_covariance(calibration, references, groups, theta, sigma, jac, cov) -> np.ndarray:
+def _carried_covariance(calibration: Calibration, references, groups, theta, sigma, jac, cov) -> np.ndarray:
     """The accelerometer's and gyroscope's own 1σ carried into the magnetometer's parameters.
 
     The gravity directions and the rotations are inputs the fit holds fixed; to first order

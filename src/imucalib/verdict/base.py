@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..calibration import Calibration
 from ..metrics import (
     COVERAGE_CONE_DEG,
     column_sums,
@@ -150,7 +151,7 @@ def _from_squares(total: np.ndarray, n: int, order: int) -> np.ndarray:
     return total / (n - order) / math.comb(2 * order, order)
 
 
-def rest_noise(calibration, recording: Recording, intervals: list[Interval],
+def rest_noise(calibration: Calibration, recording: Recording, intervals: list[Interval],
                rest: Interval | None = None) -> tuple[float, float]:
     """Per-sample white-noise variances (accelerometer [m²/s⁴], gyroscope [rad²/s²]) of the sensor at rest.
 
@@ -173,7 +174,7 @@ def rest_noise_of(found: Poses, rest: Interval | None) -> tuple[float, float]:
     return s_a2, s_g2
 
 
-def predicted_direction_error(calibration, recording: Recording, intervals: list[Interval],
+def predicted_direction_error(calibration: Calibration, recording: Recording, intervals: list[Interval],
                               rest: Interval | None = None) -> np.ndarray:
     """The mean gravity-direction error [rad] each rotation would show from sensor noise alone.
 
@@ -240,7 +241,7 @@ def predicted_error_of(found: Poses, rest: Interval | None) -> np.ndarray:
     return np.sqrt(np.pi * v / 2)
 
 
-def rest_rates(calibration, recording: Recording, intervals: list[Interval]) -> np.ndarray:
+def rest_rates(calibration: Calibration, recording: Recording, intervals: list[Interval]) -> np.ndarray:
     """The calibrated gyroscope's mean rate [rad/s] over each static pose (M, 3)."""
     return rest_rates_of(Poses(calibration, recording, intervals))
 
@@ -260,7 +261,7 @@ class Poses:
     check can change them for another.
     """
 
-    def __init__(self, calibration, recording: Recording, intervals: list[Interval]) -> None:
+    def __init__(self, calibration: Calibration, recording: Recording, intervals: list[Interval]) -> None:
         self.calibration, self.recording, self.intervals = calibration, recording, intervals
         self._means: np.ndarray | None = None
         self._up: np.ndarray | None = None

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..calibration import Calibration
 from ..fit.accelerometer import REDUCED_MODELS, accelerometer_covariance, pose_covariance
 from ..fitreport import AccelerometerReport
 from ..recording import Interval, Recording
@@ -30,7 +31,7 @@ def _sphere_directions(n: int) -> np.ndarray:
 _SPHERE = _sphere_directions(2000)
 
 
-def _accelerometer_covariances(calibration, means: np.ndarray, floor: float
+def _accelerometer_covariances(calibration: Calibration, means: np.ndarray, floor: float
                                 ) -> tuple[AccelLayout, np.ndarray, np.ndarray]:
     """The accelerometer's parameter layout and two covariances of the gravity-norm fit at ``means``.
 
@@ -61,7 +62,7 @@ def _accelerometer_covariances(calibration, means: np.ndarray, floor: float
     return layout, fitted, noise
 
 
-def unvisited_sigma(calibration, recording: Recording, intervals: list[Interval]) -> dict | None:
+def unvisited_sigma(calibration: Calibration, recording: Recording, intervals: list[Interval]) -> dict | None:
     """The 1σ of the calibrated ``|a|`` over the gravity directions no pose visited, against the noise floor.
 
     A static pose visits the directions within :data:`THRESHOLDS` ``["coverage_cone_deg"]`` of its gravity
@@ -135,7 +136,7 @@ def _unvisited_sigma(found: Poses) -> dict | None:
             "direction": u[k].tolist(), "unvisited": float(np.mean(far))}
 
 
-def unvisited_checks(calibration, poses: Poses) -> tuple[list[Check], AccelerometerReport]:
+def unvisited_checks(calibration: Calibration, poses: Poses) -> tuple[list[Check], AccelerometerReport]:
     """Rejected when, in a direction no pose visited, the fit's own 1σ of ``|a|`` is what ``validate`` rejects.
 
     The limits are ``validate``'s (:data:`THRESHOLDS` ``["residual_to_noise_high"]``): a calibration whose

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..calibration import Calibration
 from ..fitreport import AccelerometerReport, FitReport, GyroscopeReport
 from ..metrics import gravity_direction_errors
 from ..models import TriadModel
@@ -37,7 +38,7 @@ __all__ = ["PHYSICAL_UNITS", "RawComparison", "compare_with_raw", "raw_checks", 
 PHYSICAL_UNITS = {"accelerometer": ("g", "m/s^2"), "gyroscope": ("deg/s", "rad/s")}
 
 
-def raw_scale(calibration, sensor: str) -> float | None:
+def raw_scale(calibration: Calibration, sensor: str) -> float | None:
     """The nominal factor [SI per raw unit] of ``sensor``'s declared raw unit; None for counts (no identity)."""
     unit = (calibration.units.get(sensor) or {}).get("raw")
     if unit not in PHYSICAL_UNITS[sensor]:
@@ -148,7 +149,7 @@ def compare_with_raw(found: Poses) -> RawComparison:
                          tuple(skipped))
 
 
-def raw_checks(calibration, found: Poses | None, fitted: bool = True) -> tuple[list[Check], FitReport]:
+def raw_checks(calibration: Calibration, found: Poses | None, fitted: bool = True) -> tuple[list[Check], FitReport]:
     """Rejected when the calibration leaves ``|a| − g`` or the gyroscope's gravity-direction error larger than
     the raw readings do (:func:`compare_with_raw`); a note when the readings are counts.
 
