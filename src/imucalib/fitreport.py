@@ -16,6 +16,7 @@ mapping, a report is that flat object (``report["verdict"]``), for scripts writt
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar
@@ -57,6 +58,12 @@ def _decoded(f, value: Any) -> Any:
     return value
 
 
+@functools.cache
+def _declared_fields(record: type) -> tuple:
+    """The fields of a record class that the file declares (those with a key), in their order."""
+    return tuple(f for f in fields(record) if "key" in f.metadata)
+
+
 @dataclass(frozen=True)
 class _Group:
     """A stage's record: the fields given, each None when not given.
@@ -77,8 +84,8 @@ class _Group:
         object.__setattr__(self, "given", frozenset(given))
 
     @classmethod
-    def _declared(cls) -> list:
-        return [f for f in fields(cls) if "key" in f.metadata]
+    def _declared(cls) -> tuple:
+        return _declared_fields(cls)
 
     def __bool__(self) -> bool:
         return bool(self.given)
