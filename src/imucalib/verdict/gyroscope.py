@@ -116,6 +116,8 @@ def rotations_used_checks(calibration, intervals: list[Interval]) -> list[Check]
 
 
 def known_turn_checks(calibration, recording: Recording) -> list[Check]:
+    """Each turn by a known angle (``fit.gyroscope.turn_sections``) re-integrated with the calibration, against
+    that angle."""
     fit = calibration.fit
     turns = fit.gyroscope.turn_sections
     angle = fit.gyroscope.turn_angle_deg
@@ -162,4 +164,3 @@ def bias_drift_checks(calibration) -> list[Check]:
                      f"{end[j]:+.3g} °/s at the end (x, y, z at the start: {', '.join(f'{v:+.2g}' for v in start)}; "
                      f"at the end: {', '.join(f'{v:+.2g}' for v in end)}); apply corrects this recording with the "
                      "drift, but another recording keeps the constant bias: take its bias from a rest of its own")]
-

@@ -125,6 +125,8 @@ def _turn_speed(found: Poses) -> float:
 
 
 def time_base_checks(found: Poses) -> list[Check]:
+    """The time base judged by the turn speed the accelerometer sees between poses (:func:`turn_speed`): suspect
+    outside a hand's range, rejected ten times beyond it."""
     speed = _turn_speed(found)
     lo, hi = THRESHOLDS["turn_speed_deg_s"]
     if not np.isfinite(speed) or lo <= speed <= hi:
@@ -138,6 +140,8 @@ def time_base_checks(found: Poses) -> list[Check]:
 
 
 def gravity_checks(calibration, found: Poses | None) -> list[Check]:
+    """The declared gravity against the range on Earth's surface and, with physical accelerometer units, against
+    the raw ``|a|`` at rest (the radius of the sphere through the poses' means)."""
     recording, intervals = (None, []) if found is None else (found.recording, found.intervals)
     g = calibration.gravity
     out = []
@@ -163,4 +167,3 @@ def gravity_checks(calibration, found: Poses | None) -> list[Check]:
                                     f"{100 * rel:.1f} % "
                                     f"from the declared gravity {g:.5g} m/s²: check --gravity and --acc-unit"))
     return out
-
