@@ -71,7 +71,7 @@ FLOORS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("simulators", "simulated sessions with their truth", ("scenarios",)),
     ("methods", "the published methods over the shared stages", ("methods",)),
     ("services", "validation, comparison, guided recording, batch runs and the calibration store",
-     ("comparison", "crossval", "validation", "record", "batch", "rowerrors", "store")),
+     ("comparison", "crossval", "validation", "record", "batch", "batch_manifest", "rowerrors", "store")),
     ("experiments", "the papers' experiments and studies: methods run on simulated sessions",
      ("experiments",)),
     ("interface", "the package's API and the command line", ("", "cli")),

@@ -69,16 +69,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..constants import GRAVITY_RANGE
-from ..fit.accelerometer import REDUCED_MODELS, fit_sphere
+from ..fit.accelerometer import REDUCED_MODELS
 from ..fit.magnetometer import WEAK_DIP_DEG
-from ..fitreport import FitReport, GyroscopeReport, VerdictReport
+from ..fitreport import FitReport, VerdictReport
 from ..methodinfo import needing
-from ..metrics import transition_bounds
 from ..recording import Interval, Recording
-from ..segment import unreliable_transitions
 from .base import (
-    GYRO_ROTATION_PARAMETERS,
     LEVELS,
     NOMINAL,
     THRESHOLDS,
@@ -86,166 +82,24 @@ from .base import (
     Poses,
     grade,
     predicted_direction_error,
-    predicted_error_of,
     rest_noise,
     rest_rates,
-    rest_rates_of,
     white_noise_variance,
 )
 from .coverage import unvisited_checks, unvisited_sigma
+from .gyroscope import (
+    bias_drift_checks,
+    gyroscope_noise_checks,
+    known_turn_checks,
+    rest_rate_checks,
+    rotations_used_checks,
+)
+from .inputs import check_rate, gravity_checks, time_base_checks, time_unit_hint, turn_speed
 from .raw import raw_checks
 
 __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibility", "plausible",
            "predicted_direction_error", "rest_noise", "rest_rates", "time_unit_hint", "turn_speed",
            "unvisited_sigma", "white_noise_variance", "with_verdict", "worse_than_nominal"]
-
-
-def check_rate(recording: Recording) -> None:
-    """Raise ValueError at a sampling rate no IMU records at: the time base is wrong and nothing can be fitted.
-
-    Parameters
-    ----------
-    recording : Recording
-        The recording whose sampling rate is checked.
-
-    Returns
-    -------
-    None
-
-    Raises
-    ------
-    ValueError
-        At a sampling rate no IMU records at (the time base is in the wrong unit, or broken).
-
-    Examples
-    --------
-    Times in milliseconds read as seconds make a 1 kHz recording a 1 mHz one:
-
-    >>> import numpy as np
-    >>> from imucalib import Recording
-    >>> from imucalib.verdict import check_rate
-    >>> check_rate(Recording(np.arange(10) / 1000, np.zeros((10, 3)), None))  # 1 kHz: fine
-    >>> check_rate(Recording(np.arange(10) * 1000.0, np.zeros((10, 3)), None))
-    Traceback (most recent call last):
-        ...
-    ValueError: the sampling rate is 0.001 Hz, outside 5-50000 Hz where IMUs record: ...
-    """
-    rate = recording.rate
-    lo, hi = THRESHOLDS["rate_hz"]
-    if not lo <= rate <= hi:
-        raise ValueError(f"the sampling rate is {rate:.4g} Hz, outside {lo:g}-{hi:g} Hz where IMUs record: "
-                         f"{time_unit_hint(recording)}")
-
-
-#: the time units a time column can be read in, and their length [s]
-_TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
-_TIME_NAMES = {"s": "seconds", "ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
-
-
-def time_unit_hint(recording: Recording) -> str:
-    """What a sampling rate outside an IMU's range most likely means: which time unit was read as which.
-
-    The time column was read in ``metadata["time_unit"]``; the other unit that
-    puts the rate at 10 Hz-2 kHz (where most IMUs record) is named, e.g.
-    "the timestamps look like milliseconds read as microseconds (62.5 Hz then)".
-    """
-    read_as = recording.metadata.get("time_unit")
-    if read_as not in _TIME_UNITS:
-        return "the time base is probably wrong (a time column in another unit, or a wrong --rate)"
-    for unit, length in _TIME_UNITS.items():
-        rate = recording.rate * _TIME_UNITS[read_as] / length  # the stamps were in unit, not read_as
-        if unit != read_as and 10 <= rate <= 2000:
-            return (f"the timestamps look like {_TIME_NAMES[unit]} read as {_TIME_NAMES[read_as]} ({rate:.4g} Hz "
-                    f"then): pass --time-unit {unit}")
-    return f"the time column (read in {_TIME_NAMES[read_as]}) is probably in another unit: see --time-unit"
-
-
-def turn_speed(calibration, recording: Recording, intervals: list[Interval]) -> float:
-    """Median angular speed [deg/s] the accelerometer sees between poses (turns above 10°); NaN without any.
-
-    The angle between the calibrated gravity directions of consecutive poses
-    over the time between them: independent of the gyroscope and its unit.
-
-    Parameters
-    ----------
-    calibration : Calibration
-        Its accelerometer gives the gravity directions.
-    recording : Recording
-        The recording.
-    intervals : list of Interval
-        Its static poses, in time order.
-
-    Returns
-    -------
-    float
-        The median angular speed [deg/s], NaN without a turn above 10°.
-
-    Examples
-    --------
-    >>> from imucalib.scenarios import session
-    >>> from imucalib.segment import detect_intervals
-    >>> from imucalib.verdict import turn_speed
-    >>> sim = session("handheld", rng=1, rest=10, n_poses=14)
-    >>> intervals, *_ = detect_intervals(sim.recording, sim.truth.gravity)
-    >>> round(turn_speed(sim.truth, sim.recording, intervals))  # deg/s, a hand's pace
-    35
-    """
-    return _turn_speed(Poses(calibration, recording, intervals))
-
-
-def _turn_speed(found: Poses) -> float:
-    """:func:`turn_speed` from the poses' figures of one assessment."""
-    recording, intervals = found.recording, found.intervals
-    if len(intervals) < 2:
-        return float("nan")
-    acc = found.up
-    u = acc / np.linalg.norm(acc, axis=1, keepdims=True)
-    ang = np.degrees(np.arccos(np.clip(np.sum(u[:-1] * u[1:], axis=1), -1, 1)))
-    starts, stops = transition_bounds(intervals)
-    dur = recording.t[stops] - recording.t[starts]
-    ok = (ang > 10) & (dur > 0)
-    return float(np.median(ang[ok] / dur[ok])) if np.any(ok) else float("nan")
-
-
-def _time_base(found: Poses) -> list[Check]:
-    speed = _turn_speed(found)
-    lo, hi = THRESHOLDS["turn_speed_deg_s"]
-    if not np.isfinite(speed) or lo <= speed <= hi:
-        return []
-    if not lo / 10 <= speed <= hi * 10:
-        return [Check(2, f"between poses the accelerometer sees the sensor turn at {speed:.3g} deg/s (median), "
-                         f"where a hand turns at {lo:g}-{hi:g} deg/s: the time base is wrong (check the time "
-                         "column's unit)")]
-    return [Check(1, f"between poses the accelerometer sees the sensor turn at {speed:.3g} deg/s (median), "
-                     f"outside the {lo:g}-{hi:g} deg/s of a hand: check the time base")]
-
-
-def _gravity(calibration, found: Poses | None) -> list[Check]:
-    recording, intervals = (None, []) if found is None else (found.recording, found.intervals)
-    g = calibration.gravity
-    out = []
-    lo, hi = GRAVITY_RANGE  # the command line warns outside the same range
-    if not lo <= g <= hi:
-        out.append(Check(2, f"the declared gravity {g:.5g} m/s² is outside {lo}-{hi} m/s², the range on Earth's "
-                            "surface (a typo, or a value in g?); every accelerometer scale factor is off by the "
-                            "same ratio"))
-    unit = calibration.units["accelerometer"]["raw"]
-    if recording is not None and len(intervals) >= 4 and unit in ("g", "m/s^2"):
-        factor = g if unit == "g" else 1.0
-        # the radius of the sphere through the static means: |a| at rest with the biases taken out
-        means = found.means
-        try:
-            radius = g / float(fit_sphere(means, g).scale[0])
-        except ValueError:
-            radius = float(np.median(np.linalg.norm(means, axis=1)))
-        norm = radius * factor
-        rel = abs(norm / g - 1)
-        level = grade(rel, THRESHOLDS["rest_norm_rel"])
-        if level:
-            out.append(Check(level, f"the raw |a| at rest is {norm:.4g} m/s² (read as {unit}, biases taken out), "
-                                    f"{100 * rel:.1f} % "
-                                    f"from the declared gravity {g:.5g} m/s²: check --gravity and --acc-unit"))
-    return out
 
 
 def plausible(calibration) -> bool:
@@ -402,130 +256,6 @@ def _redundancy(calibration, fitted: bool = True) -> list[Check]:
     return out
 
 
-def _gyroscope(calibration, found: Poses) -> tuple[list[Check], GyroscopeReport]:
-    """The gyroscope's gravity-direction error between poses against what the sensor noise alone predicts.
-
-    Judged on every rotation whose integration the data allow (:func:`imucalib.segment.unreliable_transitions`
-    finds the rest: saturated samples, spikes, sampling gaps, unsteady poses — faults of the data, found from
-    the recording alone), the ones the fit left out because their error was far from the others' included:
-    ``calibrate`` and ``validate`` judge the same rotations of the same data by the same limits.
-    """
-    recording, intervals = found.recording, found.intervals
-    fit = calibration.fit
-    if fit.gyroscope.angle_error_mean_deg is None or len(intervals) < 2:
-        return [], GyroscopeReport()
-    pred = predicted_error_of(found, None)
-    errors = found.direction_errors
-    left_out = fit.gyroscope.rotations_left_out or {}
-    left = set(left_out)
-    faulty = unreliable_transitions(recording, intervals)
-    judged = np.array([k not in faulty for k in range(len(pred))])
-    figures = GyroscopeReport()
-    out = []
-    if left:
-        kept = np.array([k not in left for k in range(len(pred))])
-        if np.any(kept):
-            figures = figures.with_(angle_error_kept_mean_deg=float(np.degrees(np.mean(errors[kept]))))
-        if len(left) > len(pred) / 3:
-            out.append(Check(1, f"{len(left)} of the {len(pred)} rotations between poses were left out of the "
-                                "gyroscope fit (notes below say why): the rest may not cover every axis well"))
-    if np.any(judged):
-        mean_deg = float(np.degrees(np.mean(errors[judged])))
-        pred_deg = float(np.degrees(np.mean(pred[judged])))
-        ratio = mean_deg / pred_deg if pred_deg > 0 else float("inf")
-        figures = figures.with_(angle_error_predicted_deg=pred_deg, error_to_noise=ratio)
-        if faulty:
-            figures = figures.with_(angle_error_reliable_mean_deg=mean_deg)
-        floor = THRESHOLDS["gyro_error_floor_deg"]
-        level = min(grade(ratio, THRESHOLDS["gyro_error_to_noise"]), grade(mean_deg, floor))
-        over = (f" over the {int(np.sum(judged))} rotations without saturated samples, spikes or gaps"
-                if faulty else "")
-        if level:
-            out.append(Check(level, f"the gyroscope's gravity-direction error between poses is {mean_deg:.3g}° "
-                                    f"(mean{over}), {ratio:.3g}× the {pred_deg:.2g}° the sensor noise alone "
-                                    f"predicts for these rotations (limit {THRESHOLDS['gyro_error_to_noise'][0]:g}×): "
-                                    "the gyroscope calibration does not explain the rotations"))
-    for k, why in sorted(left_out.items()):
-        out.append(Check(0, f"the rotation from pose {k + 1} to {k + 2} was left out of the gyroscope "
-                            f"fit: {why}"))
-    return out, figures
-
-
-def _rest_rate(found: Poses) -> tuple[list[Check], GyroscopeReport]:
-    """The calibrated gyroscope at rest against what the poses' scatter allows.
-
-    Per axis, the mean calibrated rate over the static poses ``r̄`` (each pose
-    one weight) against its standard error ``s/√M`` from the scatter ``s`` of
-    the poses' means (noise, tremor, drift: whatever makes them differ): a
-    bias the poses support leaves ``|r̄| ≲ 3 s/√M``. A bias taken from the
-    rotations alone, or from a rest that was not still, reads tens of times
-    that. Below ``rest_rate_floor_deg_s`` the figure is not a reason.
-    """
-    if len(found.intervals) < 4:
-        return [], GyroscopeReport()
-    w = np.degrees(rest_rates_of(found))
-    m = w.shape[0]
-    mean = w.mean(axis=0)
-    se = w.std(axis=0, ddof=1) / np.sqrt(m)
-    z = np.divide(np.abs(mean), se, out=np.full(3, np.inf), where=se > 0)
-    z[(mean == 0)] = 0.0
-    figures = GyroscopeReport(rest_rate_deg_s=[float(x) for x in mean], rest_rate_to_scatter=float(z.max()))
-    levels = [min(grade(float(z[j]), THRESHOLDS["rest_rate_to_scatter"]),
-                  grade(float(abs(mean[j])), THRESHOLDS["rest_rate_floor_deg_s"])) for j in range(3)]
-    j = int(np.argmax(levels))
-    if not levels[j]:
-        return [], figures
-    return [Check(levels[j], f"at rest the calibrated gyroscope reads {mean[j]:.3g} °/s about {'xyz'[j]} (mean over "
-                             f"the {m} static poses), {z[j]:.3g}× the {se[j]:.2g} °/s the poses' scatter allows "
-                             f"(limit {THRESHOLDS['rest_rate_to_scatter'][0]:g}×): the gyroscope bias is not what "
-                             "the sensor reads at rest")], figures
-
-
-def _rotations_used(calibration, intervals: list[Interval]) -> list[Check]:
-    """Enough rotations for the gyroscope's parameters: two direction components per rotation kept."""
-    fit = calibration.fit
-    if fit.gyroscope.bias_source is None or len(intervals) < 2:  # not a fit over the rotations between poses
-        return []
-    n = len(intervals) - 1
-    kept = n - len(fit.gyroscope.rotations_left_out or {})
-    per = 2 * kept / GYRO_ROTATION_PARAMETERS
-    lim = THRESHOLDS["rotations_per_parameter"]
-    level = 2 if per <= lim[1] else 1 if per < lim[0] else 0
-    if not level:
-        return []
-    return [Check(level, f"the gyroscope rests on {kept} of the {n} rotations between poses ({2 * kept} direction "
-                         f"components for its {GYRO_ROTATION_PARAMETERS} scale and misalignment parameters, "
-                         f"{per:.2g} per parameter; at least {lim[0]:g} wanted): "
-                         + ("they cannot determine it" if level == 2 else "too few to determine it well")
-                         + "; record again without gaps, with more rotations")]
-
-
-def _known_turns(calibration, recording: Recording) -> list[Check]:
-    fit = calibration.fit
-    turns = fit.gyroscope.turn_sections
-    angle = fit.gyroscope.turn_angle_deg
-    if not turns or not angle:
-        return []
-    out = []
-    lim = THRESHOLDS["turn_angle_rel"]
-    for sec in turns:
-        s0, s1, axis = int(sec["start"]), int(sec["stop"]), int(sec["axis"])
-        measured = sec.get("measured_deg")
-        if measured is None:
-            w = calibration.gyroscope_si(recording.gyro[s0:s1], recording.acc[s0:s1])
-            measured = float(np.degrees(abs(np.trapezoid(w[:, axis], recording.t[s0:s1]))))
-        rel = abs(measured / angle - 1)
-        level = grade(rel, lim)
-        if "measured_deg" in sec and level == 1:
-            level = 0  # one rough scale for all three axes is itself good to a few per cent only
-        if level:
-            how = "by the poses' rough gyroscope scale" if "measured_deg" in sec else "with this calibration"
-            out.append(Check(level, f"the turn about {'xyz'[axis]} (samples {s0}-{s1}) measures {measured:.4g}° "
-                                    f"{how}, {100 * rel:.0f} % from the known angle {angle:g}° (limit "
-                                    f"{100 * lim[0]:g} %): a wrong --turn-angle, or a motion that is not the turn"))
-    return out
-
-
 def _usefulness(calibration) -> list[Check]:
     unc = calibration.fit.uncertainty.sigma or {}
     out = []
@@ -592,28 +322,6 @@ def worse_than_nominal(calibration, unc: dict, params: dict) -> list[Check]:
                                 f"calibration is worse than the nominal one (record poses with {axis[0]} up and "
                                 "down, or use a model without it)"))
     return out
-
-
-def _gyroscope_bias_drift(calibration) -> list[Check]:
-    """A note on how far the gyroscope bias drifted over the session, when the fit found it drifting.
-
-    From ``fit.gyroscope.bias_drift_over_session_deg_s``
-    (:func:`imucalib.calibration.with_bias_session`): the calibrated rate at
-    rest the drift adds to the stored (constant) bias's at the session's start
-    and end. Never a reason: the fit models the drift, and ``apply`` corrects
-    the calibrated session with it; the note tells that another recording's
-    bias is off by as much unless taken from a rest of its own.
-    """
-    ends = calibration.fit.gyroscope.bias_drift_over_session_deg_s
-    if ends is None:
-        return []
-    start, end = (np.asarray(row, dtype=float) for row in ends)
-    j = int(np.argmax(np.maximum(np.abs(start), np.abs(end))))
-    return [Check(0, f"the gyroscope bias drifted over the session: against the bias stored (at the poses' mean "
-                     f"time) the rate at rest reads {start[j]:+.3g} °/s about {'xyz'[j]} at the start and "
-                     f"{end[j]:+.3g} °/s at the end (x, y, z at the start: {', '.join(f'{v:+.2g}' for v in start)}; "
-                     f"at the end: {', '.join(f'{v:+.2g}' for v in end)}); apply corrects this recording with the "
-                     "drift, but another recording keeps the constant bias: take its bias from a rest of its own")]
 
 
 def _magnetometer(calibration) -> list[Check]:
@@ -749,8 +457,8 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
     # the poses' figures several checks read (their means, noise, rates at rest), each computed once
     found = poses if poses is not None else None if recording is None else Poses(calibration, recording, intervals)
     if recording is not None:  # the inputs first: a wrong time base or unit explains everything after it
-        checks += _time_base(found)
-    checks += _gravity(calibration, found)
+        checks += time_base_checks(found)
+    checks += gravity_checks(calibration, found)
     checks += plausibility(calibration)
     checks += _redundancy(calibration, fitted)
     if fitted:
@@ -760,7 +468,7 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
             checks += coverage_checks
             figures = figures.add(unvisited_figures)
         if calibration.gyroscope is not None:
-            checks += _rotations_used(calibration, intervals)
+            checks += rotations_used_checks(calibration, intervals)
     if fit.accelerometer.model_reduced:
         checks.append(Check(1, f"{fit.accelerometer.model_reduced}: record more poses, in directions spread over "
                                "the sphere, for the full model"))
@@ -768,16 +476,16 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
         why = fit.gyroscope.not_calibrated or "no gyroscope (an accelerometer-only recording)"
         checks.append(Check(0, f"{why}; the calibration has no gyroscope, and the gyroscope checks are skipped"))
     elif recording is not None:
-        gyro_checks, gyro_figures = _gyroscope(calibration, found)
+        gyro_checks, gyro_figures = gyroscope_noise_checks(calibration, found)
         checks += gyro_checks
         figures = figures.add(gyro_figures)
         if fitted:
-            rest_checks, rest_figures = _rest_rate(found)
+            rest_checks, rest_figures = rest_rate_checks(found)
             checks += rest_checks
             figures = figures.add(rest_figures)
-        checks += _known_turns(calibration, recording)
+        checks += known_turn_checks(calibration, recording)
     if calibration.gyroscope is not None:
-        checks += _gyroscope_bias_drift(calibration)
+        checks += bias_drift_checks(calibration)
     raw, raw_figures = raw_checks(calibration, found, fitted)  # never worse than the raw readings (verdict.raw)
     checks += raw
     figures = figures.add(raw_figures)
