@@ -396,7 +396,7 @@ def _on_dask(fn: Callable[[Any], Any], tasks: list, scheduler: str, workers: int
              tick: Callable[[], None]) -> Iterator[tuple[int, Any]]:
     """:func:`execute` on Dask: one task per call, ``(index, result)`` as each completes."""
     with dask_client(scheduler, workers) as client:
-        from distributed import as_completed
+        from distributed import as_completed  # optional: pip install imucalib[cluster]
 
         futures = {client.submit(fn, task, pure=False): i for i, task in enumerate(tasks)}
         for fut in as_completed(futures):

@@ -334,7 +334,7 @@ class Calibration:
         return False
 
     def _apply_frame(self, frame, read_options: dict, bias_drift: str = "auto"):
-        from .io.magnetometer import attach_magnetometer
+        from .io.magnetometer import attach_magnetometer  # with the readers below: loaded when a file is applied
         from .io.readers import is_frame, read  # imucalib.io.readers costs 34 ms at start-up
         from .io.writers import calibrated_columns  # imucalib.io.writers costs 38 ms at start-up
 

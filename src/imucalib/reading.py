@@ -88,12 +88,12 @@ def read(
     """
     if poses:
         return _pose_table(paths, reader, options)
-    from .io.readers import is_frame
-    from .io.readers import read as read_files
+    from .io.readers import is_frame  # imucalib.io.readers costs 174 ms at start-up
+    from .io.readers import read as read_files  # imucalib.io.readers costs 174 ms at start-up
 
     paths = [paths] if is_frame(paths) or isinstance(paths, str | Path) else list(paths)  # a DataFrame: one table
     if paths and not is_frame(paths[0]) and is_session_directory(paths, reader):  # never a DataFrame
-        from .sessions import read_session
+        from .sessions import read_session  # imucalib.sessions costs 152 ms at start-up
 
         return read_session(paths[0])
     rec = read_files(paths[0] if len(paths) == 1 and is_frame(paths[0]) else paths, reader=reader, **options)
@@ -102,12 +102,12 @@ def read(
 
 def _with_magnetometer(rec, paths: list, mag_unit: str | None, mag_topic: str | None):
     """The recording :func:`read` read, its magnetometer attached: its columns', or a ROS bag's topic's."""
-    from .io.magnetometer import attach_magnetometer
+    from .io.magnetometer import attach_magnetometer  # imucalib.io.magnetometer costs 108 ms at start-up
 
     if mag_topic is not None:
         if rec.metadata.get("reader") != "rosbag":
             raise ValueError("a magnetometer topic (--mag-topic) applies to ROS bags")
-        from .io.rosbag import add_magnetic_field
+        from .io.rosbag import add_magnetic_field  # imucalib.io.rosbag costs 71 ms at start-up
 
         return add_magnetic_field(rec, paths[0], mag_topic)
     return attach_magnetometer(rec, mag_unit)
@@ -115,10 +115,10 @@ def _with_magnetometer(rec, paths: list, mag_unit: str | None, mag_topic: str | 
 
 def _pose_table(paths, reader: str | None, options: dict):
     """:func:`read` of a table of averaged poses: one text file."""
-    import inspect
+    import inspect  # 8 ms, only for a table of averaged poses
 
-    from .io.posetable import read_pose_table
-    from .io.readers import read as read_files
+    from .io.posetable import read_pose_table  # imucalib.io.posetable costs 126 ms at start-up
+    from .io.readers import read as read_files  # imucalib.io.readers costs 174 ms at start-up
 
     known = set(inspect.signature(read_files).parameters) - {"paths", "reader"}
     for name in options:

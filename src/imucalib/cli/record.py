@@ -220,9 +220,9 @@ class EventLog:
 
 def _live_page(args: argparse.Namespace):
     """The live view in the browser (``--view``), its address said and opened."""
-    import webbrowser
+    import webbrowser  # 10 ms, on imucalib --help's start-up too (it loads this module)
 
-    from ..record.view import LiveView
+    from ..record.view import LiveView  # imucalib.record.view costs 155 ms at start-up
 
     page = LiveView(port=args.view_port)
     (print if args.events != "-" else lambda m: print(m, file=sys.stderr))(f"live view: {page.url}")

@@ -58,7 +58,7 @@ def read_mat(path: Path, columns, acc_unit, gyro_unit, rate, variable, time_unit
 
 def _mat_variables(path: Path) -> dict:
     """The variables of a MATLAB file (v4 to v7; a v7.3 file and one that is no MAT file are refused)."""
-    from scipy.io import loadmat
+    from scipy.io import loadmat  # scipy.io costs 40 ms at start-up, for MATLAB files only
 
     with path.open("rb") as f:
         head = f.read(128)

@@ -145,7 +145,7 @@ def angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 def to_scipy(q: np.ndarray):
     """A :class:`scipy.spatial.transform.Rotation` from scalar-first quaternions."""
-    from scipy.spatial.transform import Rotation
+    from scipy.spatial.transform import Rotation  # scipy.spatial costs 60 ms at start-up, for the conversions only
 
     q = np.asarray(q, dtype=np.float64)
     return Rotation.from_quat(q[..., [1, 2, 3, 0]])

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..calibration import Calibration, with_bias_session
 from ..fit.magnetometer import fit_magnetometer
+from ..fitreport import MagnetometerReport, UncertaintyReport
 from ..io.posetable import PoseTable
 from ..methodinfo import DEFAULT_METHOD, MethodInfo
 from ..recording import STANDARD_GRAVITY, ImucalibWarning, Interval, Recording
@@ -319,7 +320,6 @@ def with_magnetometer(calibration: Calibration, recording: Recording, *, field: 
     >>> cal.magnetometer.unit, round(cal.fit.magnetometer.direction_error_mean_deg, 2)
     ('normalised', 0.05)
     """
-    from ..fitreport import MagnetometerReport, UncertaintyReport
 
     if hemisphere not in ("north", "south"):
         raise ValueError(f"the magnetic hemisphere must be 'north' or 'south'; got {hemisphere!r}")
