@@ -69,6 +69,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..calibration import Calibration
 from ..fit.accelerometer import REDUCED_MODELS
 from ..fit.magnetometer import WEAK_DIP_DEG
 from ..fitreport import FitReport, VerdictReport
@@ -102,7 +103,7 @@ __all__ = ["LEVELS", "THRESHOLDS", "Check", "assess", "check_rate", "plausibilit
            "unvisited_sigma", "white_noise_variance", "with_verdict", "worse_than_nominal"]
 
 
-def plausible(calibration) -> bool:
+def plausible(calibration: Calibration) -> bool:
     """Whether nothing in :func:`plausibility` rejects ``calibration`` (converged, sane scales and axes).
 
     Parameters
@@ -145,7 +146,7 @@ def _swapped_axes(sensor: str, model, deg: float) -> str:
             f"({order}), so check the order and signs of the gyroscope's (or the accelerometer's) columns")
 
 
-def plausibility(calibration) -> list[Check]:
+def plausibility(calibration: Calibration) -> list[Check]:
     """Convergence, scales against the declared units' nominal factors, cross-axis terms.
 
     Parameters
@@ -205,7 +206,7 @@ def plausibility(calibration) -> list[Check]:
     return out
 
 
-def _accelerometer_parameters(calibration) -> int:
+def _accelerometer_parameters(calibration: Calibration) -> int:
     reduced = {name: p for name, _, p, _ in REDUCED_MODELS if name != "linear"}
     name = calibration.fit.accelerometer.model
     if name in reduced:  # a model reduced to what the poses determine (fit.accelerometer.fit_determined)
@@ -216,7 +217,7 @@ def _accelerometer_parameters(calibration) -> int:
     return n
 
 
-def _redundancy(calibration, fitted: bool = True) -> list[Check]:
+def _redundancy(calibration: Calibration, fitted: bool = True) -> list[Check]:
     """Poses per parameter and the residual against the noise floor; ``fitted=False``: the residual-too-high only.
 
     On a recording the calibration was not fitted to (``fitted=False``) the poses are not the fit's, so neither
@@ -256,7 +257,7 @@ def _redundancy(calibration, fitted: bool = True) -> list[Check]:
     return out
 
 
-def _usefulness(calibration) -> list[Check]:
+def _usefulness(calibration: Calibration) -> list[Check]:
     unc = calibration.fit.uncertainty.sigma or {}
     out = []
     params = calibration.parameters()
@@ -276,7 +277,7 @@ def _usefulness(calibration) -> list[Check]:
     return worse_than_nominal(calibration, unc, params) + out
 
 
-def worse_than_nominal(calibration, unc: dict, params: dict) -> list[Check]:
+def worse_than_nominal(calibration: Calibration, unc: dict, params: dict) -> list[Check]:
     """Accelerometer parameters whose 1σ costs more than holding them at their nominal value would: reject.
 
     Each parameter's effect on the calibrated output at 1 g on its axis
@@ -324,7 +325,7 @@ def worse_than_nominal(calibration, unc: dict, params: dict) -> list[Check]:
     return out
 
 
-def _magnetometer(calibration) -> list[Check]:
+def _magnetometer(calibration: Calibration) -> list[Check]:
     fit = calibration.fit
     if fit.magnetometer.error:
         return [Check(1, f"the magnetometer was not calibrated: {fit.magnetometer.error}")]
@@ -373,7 +374,7 @@ def _calibrated_figures(report: FitReport) -> dict:
             "gyroscope_rest_rate_deg_s": gyro.rest_rate_deg_s, "temperature_c": report.thermal.temperature_c}
 
 
-def _non_finite(calibration, figures: FitReport) -> list[Check]:
+def _non_finite(calibration: Calibration, figures: FitReport) -> list[Check]:
     """A rejection when a parameter or a figure of the calibrated data is NaN or infinite.
 
     A comparison with NaN is false, so no other limit trips on one: a scale of
@@ -393,7 +394,7 @@ def _non_finite(calibration, figures: FitReport) -> list[Check]:
                      "finite number (NaN or infinite): the calibration's numbers overflowed or are undefined")]
 
 
-def assess(calibration, recording: Recording | None = None, intervals: list[Interval] | None = None, *,
+def assess(calibration: Calibration, recording: Recording | None = None, intervals: list[Interval] | None = None, *,
            purpose: str = "calibrate", poses=None) -> FitReport:
     """Every check on ``calibration`` (with the recording it was made from, when there is one).
 
@@ -497,7 +498,7 @@ def assess(calibration, recording: Recording | None = None, intervals: list[Inte
                                      notes=[c.text for c in checks if c.level == 0]))
 
 
-def with_verdict(calibration, recording: Recording | None = None, intervals: list[Interval] | None = None):
+def with_verdict(calibration: Calibration, recording: Recording | None = None, intervals: list[Interval] | None = None):
     """``calibration`` with ``fit`` holding its verdict, reasons, notes and the figures they rest on.
 
     Parameters

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..calibration import Calibration
 from ..fitreport import GyroscopeReport
 from ..recording import Interval, Recording
 from ..segment import unreliable_transitions
@@ -17,7 +18,7 @@ __all__ = ["bias_drift_checks", "gyroscope_noise_checks", "known_turn_checks", "
            "rotations_used_checks"]
 
 
-def gyroscope_noise_checks(calibration, found: Poses) -> tuple[list[Check], GyroscopeReport]:
+def gyroscope_noise_checks(calibration: Calibration, found: Poses) -> tuple[list[Check], GyroscopeReport]:
     """The gyroscope's gravity-direction error between poses against what the sensor noise alone predicts.
 
     Judged on every rotation whose integration the data allow (:func:`imucalib.segment.unreliable_transitions`
@@ -96,7 +97,7 @@ def rest_rate_checks(found: Poses) -> tuple[list[Check], GyroscopeReport]:
                              "the sensor reads at rest")], figures
 
 
-def rotations_used_checks(calibration, intervals: list[Interval]) -> list[Check]:
+def rotations_used_checks(calibration: Calibration, intervals: list[Interval]) -> list[Check]:
     """Enough rotations for the gyroscope's parameters: two direction components per rotation kept."""
     fit = calibration.fit
     if fit.gyroscope.bias_source is None or len(intervals) < 2:  # not a fit over the rotations between poses
@@ -115,7 +116,7 @@ def rotations_used_checks(calibration, intervals: list[Interval]) -> list[Check]
                          + "; record again without gaps, with more rotations")]
 
 
-def known_turn_checks(calibration, recording: Recording) -> list[Check]:
+def known_turn_checks(calibration: Calibration, recording: Recording) -> list[Check]:
     """Each turn by a known angle (``fit.gyroscope.turn_sections``) re-integrated with the calibration, against
     that angle."""
     fit = calibration.fit
@@ -144,7 +145,7 @@ def known_turn_checks(calibration, recording: Recording) -> list[Check]:
 
 
 
-def bias_drift_checks(calibration) -> list[Check]:
+def bias_drift_checks(calibration: Calibration) -> list[Check]:
     """A note on how far the gyroscope bias drifted over the session, when the fit found it drifting.
 
     From ``fit.gyroscope.bias_drift_over_session_deg_s``

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..calibration import Calibration
 from ..constants import GRAVITY_RANGE
 from ..fit.accelerometer import fit_sphere
 from ..metrics import transition_bounds
@@ -77,7 +78,7 @@ def time_unit_hint(recording: Recording) -> str:
     return f"the time column (read in {_TIME_NAMES[read_as]}) is probably in another unit: see --time-unit"
 
 
-def turn_speed(calibration, recording: Recording, intervals: list[Interval]) -> float:
+def turn_speed(calibration: Calibration, recording: Recording, intervals: list[Interval]) -> float:
     """Median angular speed [deg/s] the accelerometer sees between poses (turns above 10°); NaN without any.
 
     The angle between the calibrated gravity directions of consecutive poses
@@ -139,7 +140,7 @@ def time_base_checks(found: Poses) -> list[Check]:
                      f"outside the {lo:g}-{hi:g} deg/s of a hand: check the time base")]
 
 
-def gravity_checks(calibration, found: Poses | None) -> list[Check]:
+def gravity_checks(calibration: Calibration, found: Poses | None) -> list[Check]:
     """The declared gravity against the range on Earth's surface and, with physical accelerometer units, against
     the raw ``|a|`` at rest (the radius of the sphere through the poses' means)."""
     recording, intervals = (None, []) if found is None else (found.recording, found.intervals)
