@@ -10,6 +10,7 @@ this adds the magnetometer, tables of poses and session directories (whose truth
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -115,7 +116,6 @@ def _with_magnetometer(rec, paths: list, mag_unit: str | None, mag_topic: str | 
 
 def _pose_table(paths, reader: str | None, options: dict):
     """:func:`read` of a table of averaged poses: one text file."""
-    import inspect  # 8 ms, only for a table of averaged poses
 
     from .io.posetable import read_pose_table  # imucalib.io.posetable costs 126 ms at start-up
     from .io.readers import read as read_files  # imucalib.io.readers costs 174 ms at start-up

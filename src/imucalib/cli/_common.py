@@ -127,7 +127,7 @@ def add_method_option(p: argparse.ArgumentParser, *, required: bool = False, hel
     The help names them; an unknown name is the command's error (exit 2, the known names in the message).
     ``chosen``: the default is None, the library's choice (:func:`imucalib.methods.calibrate`).
     """
-    from ..methodinfo import DEFAULT_METHOD, declared  # kept off --version's start-up (3 ms)
+    from ..methodinfo import DEFAULT_METHOD, declared  # kept off --version's start-up: it loads only the parser
 
     names = list(declared())
     text = help or "calibration method"
@@ -189,7 +189,7 @@ def check_paths(args: argparse.Namespace) -> None:
     it would block or never end; :func:`imucalib.io.inputs.check_input_path`); an output in a folder that
     does not exist (or is not a folder). Inputs that are missing are left to the readers, which say so.
     """
-    from ..io.errors import ReaderError  # kept off --version's start-up (1 ms)
+    from ..io.errors import ReaderError  # kept off --version's start-up (with the io package)
     from ..io.inputs import check_input_path  # kept off --version's start-up (63 ms)
 
     for label, name in _named(args, INPUT_OPTIONS):
@@ -218,7 +218,7 @@ def check_paths(args: argparse.Namespace) -> None:
 # ------------------------------------------------------------------ reading
 def read(args: argparse.Namespace, paths: Sequence[str]):
     """The data in ``paths`` as the reader options say: a recording or a simulated session."""
-    from ..reading import read as read_data  # kept off --version's start-up (1 ms)
+    from ..reading import read as read_data  # kept off --version's start-up (84 ms with the readers)
 
     columns = args.columns.split(",") if args.columns else None
     with reading_progress(args, f"reading {paths[0]}") as bar:
