@@ -130,9 +130,36 @@ def find_initial_rest(
             return found.rest
     if rest is None:
         raise failed
+    _check_still(recording, rest, window_seconds)
     if note:
         warnings.warn(note, ImucalibWarning, stacklevel=2)
     return rest
+
+
+#: a rest's windowed variance (:func:`variance_norm`) over its 5th percentile, at the median, beyond which the
+#: "rest" holds motion: a still sensor's statistic stays within a few times its lowest (its noise; ≤ 2 in the
+#: simulated and the public sessions, 7 on the shortest public rest), a recording that starts moving and
+#: then holds a pose mixes the two (8–190 in the hand-held simulations started mid-turn)
+REST_MIXED = 10.0
+
+
+def _check_still(recording: Recording, rest: Interval, window_seconds: float) -> None:
+    """Refuse a rest found from sample 0 whose variance ranges over more than :data:`REST_MIXED` (the level
+    the rest's end was judged by was set by motion: the recording started moving)."""
+    win = odd_window(window_seconds, recording.rate)
+    if len(rest) <= 2 * win:
+        return
+    for name, signal in (("accelerometer", recording.acc), ("gyroscope", recording.gyro)):
+        if signal is None:
+            continue
+        stat = variance_norm(signal[rest.start:rest.stop], win)[win // 2: len(rest) - win // 2]
+        spread = float(np.median(stat) / max(float(np.percentile(stat, 5)), np.finfo(float).tiny))
+        if spread > REST_MIXED:
+            raise ValueError(
+                f"no initial rest found: the first {len(rest) / recording.rate:.3g} s are not still (the "
+                f"{name}'s variance ranges over {spread:.0f}× within them: the recording starts while the sensor "
+                "moves); start recording with the sensor lying still for a few seconds, or give the rest's "
+                "length with --init-static SECONDS")
 
 
 @dataclass(frozen=True)
