@@ -28,7 +28,6 @@ from .recording import Interval, Recording
 __all__ = [
     "interval_means",
     "column_sums",
-    "rowwise",
     "pose_specific_force",
     "transition_bounds",
     "gravity_residuals",
@@ -76,29 +75,6 @@ def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
         add(d, axis=1, out=sums[k])
         counts[k] = seg.shape[0]
     return sums / counts + refs  # each mean's division and addition, all at once
-
-
-#: rows a row-wise operation (:func:`rowwise`) lays side by side: one inner loop of ``WIDE × K`` numbers, not ``K``
-WIDE = 64
-
-
-def rowwise(op: np.ufunc, x: np.ndarray, row: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """``op(x, row)`` for an (N, K) array ``x`` and a (K,) ``row``: the same numbers, in a third of the time.
-
-    Broadcasting a row runs one inner loop of ``K`` numbers per row of ``x``;
-    with :data:`WIDE` rows viewed as one (C order) against the row repeated
-    :data:`WIDE` times, each number meets the same operand in one long loop.
-    ``out`` (it may be ``x``) receives the result when given.
-    """
-    n, k = x.shape
-    if out is None:
-        out = np.empty((n, k))
-    m = n - n % WIDE if n >= 4 * WIDE and x.flags.c_contiguous and out.flags.c_contiguous else 0
-    if m:
-        op(x[:m].reshape(-1, WIDE * k), np.tile(row, WIDE), out=out[:m].reshape(-1, WIDE * k))
-    if m < n:
-        op(x[m:], row, out=out[m:])
-    return out
 
 
 def column_sums(blocks: Sequence[np.ndarray], *, max_bytes: int = SUM_BYTES) -> np.ndarray:

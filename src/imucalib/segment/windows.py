@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..metrics import rowwise
 from ..recording import Interval
 
 __all__ = ["BLOCK", "SCREEN_MARGIN", "TRANSPOSE_BYTES", "VarianceNormStream", "block_variance", "column_means",
@@ -147,7 +146,7 @@ def block_variance(x: np.ndarray, centre: np.ndarray, a: int, b: int, lo: int, h
     squares, then the window means), and the two running sums (the first
     then holds the variance).
     """
-    seg = rowwise(np.subtract, x[lo:hi], centre)  # centred for a numerically safe running sum of squares
+    seg = x[lo:hi] - centre  # centred for a numerically safe running sum of squares
     c1 = np.empty((seg.shape[0] + 1, seg.shape[1]))
     c2 = np.empty_like(c1)
     c1[0] = c2[0] = 0.0
@@ -313,7 +312,7 @@ def moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray 
         lo, hi = max(s - half, 0), min(e + half, n)
         c = np.empty((hi - lo + 1, x.shape[1]))
         c[0] = 0.0
-        np.cumsum(rowwise(np.subtract, x[lo:hi], ref), axis=0, out=c[1:])
+        np.cumsum(x[lo:hi] - ref, axis=0, out=c[1:])
         if keep is None:
             part = window_diff(c, s, e, lo, half, n, out=out[s - a:e - a], mean=True)  # eq. (W1)
         else:
@@ -324,7 +323,7 @@ def moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray 
             part /= (whi - wlo)[:, None]
             done += rows.size
         if not shifted:
-            rowwise(np.add, part, ref, out=part)
+            np.add(part, ref, out=part)
     return out
 
 
