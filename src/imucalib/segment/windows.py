@@ -25,7 +25,7 @@ import numpy as np
 
 from ..recording import Interval
 
-__all__ = ["BLOCK", "SCREEN_MARGIN", "TRANSPOSE_BYTES", "VarianceNormStream", "block_variance", "column_means",
+__all__ = ["BLOCK", "SCREEN_MARGIN", "TRANSPOSE_BYTES", "VarianceNormStream", "block_variance",
            "medians", "moving_mean", "moving_mean_rows", "moving_variance", "odd_window", "pose_means", "runs",
            "variance_norm", "variance_norm_rows", "window_blocks", "window_bounds", "window_diff"]
 
@@ -54,36 +54,6 @@ def window_blocks(n: int, half: int):
     for a in range(0, n, BLOCK):
         b = min(a + BLOCK, n)
         yield a, b, max(a - half, 0), min(b + half, n)
-
-
-def column_means(x: np.ndarray) -> np.ndarray:
-    """``x.mean(axis=0)`` of an (N, K) array, bit for bit, in about two thirds of its time.
-
-    A reduction over the first axis of a C-ordered float64 array with two or
-    more columns adds its rows one after the other (one short inner loop per
-    row); a running sum down each column does the same additions in the same
-    order with long inner loops, :data:`BLOCK` samples at a time (each block's
-    running sum starts from the previous block's total). Any other array is
-    reduced by ``mean`` itself.
-    """
-    n = x.shape[0]
-    if x.ndim != 2 or x.shape[1] < 2 or n < 2 or x.dtype != np.float64 or not x.flags.c_contiguous:
-        return x.mean(axis=0)
-    out = np.empty(x.shape[1])
-    buf = np.empty(min(n, BLOCK) + 1)
-    for j in range(x.shape[1]):
-        total = None
-        for a in range(0, n, BLOCK):
-            col = x[a:a + BLOCK, j]
-            if total is None:
-                run = np.add.accumulate(col, out=buf[: col.shape[0]])
-            else:
-                buf[0] = total
-                buf[1:col.shape[0] + 1] = col
-                run = np.add.accumulate(buf[: col.shape[0] + 1], out=buf[: col.shape[0] + 1])
-            total = run[-1]
-        out[j] = total
-    return out / n
 
 
 def medians(rows: np.ndarray) -> np.ndarray:
@@ -182,7 +152,7 @@ def moving_variance(x: np.ndarray, window: int) -> np.ndarray:
         x = x[:, None]
     n = x.shape[0]
     half = max(int(window) // 2, 1)
-    centre = column_means(x)
+    centre = x.mean(axis=0)
     out = np.empty(x.shape)
     for a, b, lo, hi in window_blocks(n, half):
         out[a:b] = block_variance(x, centre, a, b, lo, hi, half)
@@ -200,7 +170,7 @@ def variance_norm(acc: np.ndarray, window: int) -> np.ndarray:
         x = x[:, None]
     half = max(int(window) // 2, 1)
     out = np.empty(x.shape[0])
-    variance_norm_rows(x, column_means(x), half, 0, x.shape[0], out)
+    variance_norm_rows(x, x.mean(axis=0), half, 0, x.shape[0], out)
     return out
 
 
