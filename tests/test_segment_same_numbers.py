@@ -13,13 +13,6 @@ from imucalib.segment import detect, poses, rest, windows
 from imucalib.segment import still as still_module
 
 
-@pytest.mark.parametrize("n", [1, 2, 3, 4, 9, 10, 1001, 5000])
-def test_medians_are_numpys(n: int) -> None:
-    rng = np.random.default_rng(n)
-    for rows in (rng.normal(size=(3, n)), np.round(rng.normal(size=(3, n)) * 2), np.zeros((2, n))):
-        assert np.array_equal(windows.medians(rows.copy()), np.median(rows, axis=1))
-
-
 def test_interval_means_are_the_metrics_ones_bit_for_bit() -> None:
     rng = np.random.default_rng(5)
     for trial in range(40):

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..presets import STILL_N_SIGMA, STILL_RATE, STILL_WINDOW
 from ..recording import Interval, Recording
-from .windows import BLOCK, SCREEN_MARGIN, TRANSPOSE_BYTES, medians, moving_mean_rows, runs
+from .windows import BLOCK, SCREEN_MARGIN, TRANSPOSE_BYTES, moving_mean_rows, runs
 
 __all__ = ["BLIP_FACTOR", "BLIP_SECONDS", "STILL_OFFSET", "STILL_ROWS", "gyro_still", "join_blips", "still_inside",
            "still_intervals", "still_outside", "still_settings"]
@@ -161,7 +161,7 @@ def _still_group(gyro: np.ndarray, shifted: np.ndarray | None, settings: tuple, 
     inside = np.sqrt(np.einsum("ij,ij->i", box, box)) < (1.0 - SCREEN_MARGIN) * limit
     for k in np.flatnonzero(~inside).tolist():
         mk = m[first[k]:first[k] + lengths[k]]
-        ok[first[k]:first[k] + lengths[k]] &= np.linalg.norm(mk - medians(mk.T.copy()), axis=1) < limit  # eq. (G3)
+        ok[first[k]:first[k] + lengths[k]] &= np.linalg.norm(mk - np.median(mk, axis=0), axis=1) < limit  # eq. (G3)
     for iv, o in zip(intervals, first.tolist(), strict=True):
         still[iv.slice] = ok[o:o + len(iv)]
     return bool(ok.all())

@@ -26,7 +26,7 @@ import numpy as np
 from ..recording import Interval
 
 __all__ = ["BLOCK", "SCREEN_MARGIN", "TRANSPOSE_BYTES", "VarianceNormStream", "block_variance",
-           "medians", "moving_mean", "moving_mean_rows", "moving_variance", "odd_window", "pose_means", "runs",
+           "moving_mean", "moving_mean_rows", "moving_variance", "odd_window", "pose_means", "runs",
            "variance_norm", "variance_norm_rows", "window_blocks", "window_bounds", "window_diff"]
 
 
@@ -54,24 +54,6 @@ def window_blocks(n: int, half: int):
     for a in range(0, n, BLOCK):
         b = min(a + BLOCK, n)
         yield a, b, max(a - half, 0), min(b + half, n)
-
-
-def medians(rows: np.ndarray) -> np.ndarray:
-    """``np.median(rows, axis=1)`` of a (K, n) array of finite numbers, bit for bit, partitioning ``rows`` in place.
-
-    The median is the middle order statistic, or the mean of the two middle
-    ones (their sum halved, as ``np.median``'s mean forms it); a partition at
-    those ranks finds the same numbers as ``np.median``'s, without the extra
-    rank it partitions at to look for NaN. Only a zero median may differ, in
-    its sign, where −0 and +0 tie (the callers square it or take magnitudes).
-    """
-    n = rows.shape[1]
-    h = n // 2
-    if n % 2:
-        rows.partition(h, axis=1)
-        return rows[:, h].copy()
-    rows.partition([h - 1, h], axis=1)
-    return (rows[:, h - 1] + rows[:, h]) / 2.0
 
 
 def window_bounds(a: int, b: int, lo: int, half: int, n: int) -> tuple[np.ndarray, np.ndarray]:
