@@ -6,24 +6,10 @@ import numpy as np
 import pytest
 
 from imucalib import segment
-from imucalib.metrics import interval_means
 from imucalib.recording import Interval
 from imucalib.scenarios import session
 from imucalib.segment import detect, poses, rest, windows
 from imucalib.segment import still as still_module
-
-
-def test_interval_means_are_the_metrics_ones_bit_for_bit() -> None:
-    rng = np.random.default_rng(5)
-    for trial in range(40):
-        n = int(rng.integers(50, 90_000))
-        x = rng.normal(size=(n, 3)) * rng.uniform(0.01, 1e3) + rng.normal(size=3) * 1e4
-        x = np.round(x) if trial % 2 else x
-        ivs = [Interval(a, int(rng.integers(a + 1, min(n, a + 20_000) + 1)), "static")
-               for a in rng.integers(0, n - 1, size=int(rng.integers(1, 12))).tolist()]
-        want = interval_means(x, ivs).tobytes()
-        assert windows.pose_means(x, ivs).tobytes() == want
-        assert windows.pose_means(x, ivs, np.ascontiguousarray(x.T)).tobytes() == want
 
 
 def test_static_runs_of_all_thresholds_are_detect_static_at_each() -> None:
