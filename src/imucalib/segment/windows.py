@@ -1,8 +1,7 @@
 r"""The windowed statistics the segmentation stages share, block by block over any recording's length.
 
 Runs of a mask, the moving variance and its norm (the statistic of the Tedaldi 2014 detector, offline and
-sample by sample), the moving mean, and the exact per-pose means and medians the detectors compare with
-numpy's own (the same numbers, fewer operations).
+sample by sample) and the moving mean.
 
 Over the window ``W_i = [max(i − h, 0), min(i + h + 1, N))`` of ``|W_i|`` samples centred on sample ``i``
 (``h`` the half window; truncated at the record's ends), from running sums ``C`` of the samples less a centre
