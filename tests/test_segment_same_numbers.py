@@ -5,49 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from imucalib import metrics, segment
-from imucalib.metrics import interval_means
+from imucalib import segment
 from imucalib.recording import Interval
 from imucalib.scenarios import session
 from imucalib.segment import detect, poses, rest, windows
 from imucalib.segment import still as still_module
-
-SIZES = [1, 2, 7, 255, 256, 1000, 65_535, 65_536, 65_537, 140_001]
-
-
-@pytest.mark.parametrize("n", SIZES)
-@pytest.mark.parametrize("k", [1, 2, 3, 6])
-def test_column_means_and_row_operations_are_numpys_bit_for_bit(n: int, k: int) -> None:
-    rng = np.random.default_rng(n * 10 + k)
-    x = rng.normal(size=(n, k)) * 300 + 2e4
-    for a in (x, np.round(x), np.asfortranarray(x)):
-        assert windows.column_means(a).tobytes() == a.mean(axis=0).tobytes()
-        row = rng.normal(size=k) * 1e3
-        for op in (np.subtract, np.add, np.multiply):
-            assert metrics.rowwise(op, a, row).tobytes() == op(a, row).tobytes()
-            inplace = np.array(a)
-            metrics.rowwise(op, inplace, row, out=inplace)
-            assert inplace.tobytes() == op(a, row).tobytes()
-
-
-@pytest.mark.parametrize("n", [1, 2, 3, 4, 9, 10, 1001, 5000])
-def test_medians_are_numpys(n: int) -> None:
-    rng = np.random.default_rng(n)
-    for rows in (rng.normal(size=(3, n)), np.round(rng.normal(size=(3, n)) * 2), np.zeros((2, n))):
-        assert np.array_equal(windows.medians(rows.copy()), np.median(rows, axis=1))
-
-
-def test_interval_means_are_the_metrics_ones_bit_for_bit() -> None:
-    rng = np.random.default_rng(5)
-    for trial in range(40):
-        n = int(rng.integers(50, 90_000))
-        x = rng.normal(size=(n, 3)) * rng.uniform(0.01, 1e3) + rng.normal(size=3) * 1e4
-        x = np.round(x) if trial % 2 else x
-        ivs = [Interval(a, int(rng.integers(a + 1, min(n, a + 20_000) + 1)), "static")
-               for a in rng.integers(0, n - 1, size=int(rng.integers(1, 12))).tolist()]
-        want = interval_means(x, ivs).tobytes()
-        assert windows.pose_means(x, ivs).tobytes() == want
-        assert windows.pose_means(x, ivs, np.ascontiguousarray(x.T)).tobytes() == want
 
 
 def test_static_runs_of_all_thresholds_are_detect_static_at_each() -> None:

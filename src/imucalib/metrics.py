@@ -27,8 +27,6 @@ from .recording import Interval, Recording
 
 __all__ = [
     "interval_means",
-    "column_sums",
-    "rowwise",
     "pose_specific_force",
     "transition_bounds",
     "gravity_residuals",
@@ -47,10 +45,6 @@ COVERAGE_CONE_DEG = 60.0
 
 #: samples whose rates :func:`predicted_gravity` calibrates at once (the calibration's temporaries, not the motion's)
 RATE_CHUNK = 1 << 16
-
-#: bytes of the padded blocks :func:`column_sums` sums at once
-SUM_BYTES = 1 << 23
-
 
 def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
     """Mean of ``x`` (N, K) over each interval → (M, K), in float64.
@@ -76,71 +70,6 @@ def interval_means(x: np.ndarray, intervals: Sequence[Interval]) -> np.ndarray:
         add(d, axis=1, out=sums[k])
         counts[k] = seg.shape[0]
     return sums / counts + refs  # each mean's division and addition, all at once
-
-
-#: rows a row-wise operation (:func:`rowwise`) lays side by side: one inner loop of ``WIDE × K`` numbers, not ``K``
-WIDE = 64
-
-
-def rowwise(op: np.ufunc, x: np.ndarray, row: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """``op(x, row)`` for an (N, K) array ``x`` and a (K,) ``row``: the same numbers, in a third of the time.
-
-    Broadcasting a row runs one inner loop of ``K`` numbers per row of ``x``;
-    with :data:`WIDE` rows viewed as one (C order) against the row repeated
-    :data:`WIDE` times, each number meets the same operand in one long loop.
-    ``out`` (it may be ``x``) receives the result when given.
-    """
-    n, k = x.shape
-    if out is None:
-        out = np.empty((n, k))
-    m = n - n % WIDE if n >= 4 * WIDE and x.flags.c_contiguous and out.flags.c_contiguous else 0
-    if m:
-        op(x[:m].reshape(-1, WIDE * k), np.tile(row, WIDE), out=out[:m].reshape(-1, WIDE * k))
-    if m < n:
-        op(x[m:], row, out=out[m:])
-    return out
-
-
-def column_sums(blocks: Sequence[np.ndarray], *, max_bytes: int = SUM_BYTES) -> np.ndarray:
-    """``np.add.reduce(b, axis=0)`` of each 2-D block ``b`` (n_k, C) → (K, C): the same numbers, bit for bit.
-
-    A reduction over the first axis of a C-ordered float64 array with two or
-    more columns adds its rows one after the other; blocks of such arrays laid
-    side by side, each padded below with −0.0 (``x + (−0.0) = x`` for every
-    ``x``), are summed by one such reduction with the same additions in the
-    same order, without a pass of three-wide row additions per block. Blocks
-    of similar length (within 2×: the padding at most doubles them) are padded
-    together, at most ``max_bytes`` at a time. Any other block (one column,
-    another layout or type) is reduced on its own.
-    """
-    if not blocks:
-        return np.empty((0, 0))
-    width = blocks[0].shape[1]
-    out = np.empty((len(blocks), width))
-    batched = []
-    for k, b in enumerate(blocks):
-        if b.ndim == 2 and b.shape[1] == width >= 2 and b.dtype == np.float64 and b.flags.c_contiguous:
-            batched.append(k)
-        else:
-            out[k] = np.add.reduce(b, axis=0)
-    batched.sort(key=lambda k: blocks[k].shape[0])
-    i = 0
-    while i < len(batched):
-        j = i + 1  # the group batched[i:j]: its longest block (the last) times its count within max_bytes
-        shortest = blocks[batched[i]].shape[0]
-        while j < len(batched) and (n := blocks[batched[j]].shape[0]) <= 2 * shortest and \
-                (j + 1 - i) * n * width * 8 <= max_bytes:
-            j += 1
-        group = batched[i:j]
-        if len(group) == 1:
-            out[group[0]] = np.add.reduce(blocks[group[0]], axis=0)
-        else:
-            pad = np.full((blocks[group[-1]].shape[0], len(group), width), -0.0)
-            for g, k in enumerate(group):
-                pad[: blocks[k].shape[0], g] = blocks[k]
-            out[group] = np.add.reduce(pad, axis=0)
-        i = j
-    return out
 
 
 def transition_bounds(intervals: Sequence[Interval]) -> tuple[np.ndarray, np.ndarray]:
@@ -338,7 +267,7 @@ def gravity_noise_floor(calibration: Calibration, recording: Recording, interval
     linear = model.is_linear and not np.any(model.g_sensitivity)
     add = np.add.reduce  # the sums ndarray.mean, np.var and np.linalg.norm take, without their per-call overhead
     poses = [recording.acc[iv.slice] for iv in intervals if len(iv) >= 2]
-    sums = column_sums(poses) if linear else None  # each pose's raw.sum(axis=0), all in one pass
+    sums = [add(raw, axis=0) for raw in poses] if linear else None  # each pose's raw.sum(axis=0)
     for k, raw in enumerate(poses):
         n = raw.shape[0]
         if linear:

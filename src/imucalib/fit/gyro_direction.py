@@ -35,7 +35,7 @@ import itertools
 import numpy as np
 
 from ..kinematics import IntervalIntegrator, angle_between, quat_from_rotvec, quat_to_matrix
-from ..metrics import interval_means, rowwise, transition_bounds
+from ..metrics import interval_means, transition_bounds
 from ..models import AXES, TriadModel
 from ..presets import GYRO_MIN_POSES
 from ..recording import Interval, Recording
@@ -73,7 +73,7 @@ def _gyro_scale_guess(
     phi_vec = np.zeros((len(starts), 3))
     path = np.zeros(len(starts))
     for i, (a, b) in enumerate(zip(starts, stops, strict=True)):
-        v = rowwise(np.subtract, gyro[a:b], bias)
+        v = gyro[a:b] - bias
         dt = t[a + 1:b + 1] - t[a:b]
         phi_vec[i] = dt @ v  # Φ_i = ∫(u − b) dt
         path[i] = dt @ np.sqrt(np.einsum("ij,ij->i", v, v))
@@ -311,7 +311,7 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
 
     def rates_at(th):
         m, b = split(th)
-        return rowwise(np.subtract, raw, b) @ m.T  # eq. (5): M (u − G a − b)
+        return (raw - b) @ m.T  # eq. (5): M (u − G a − b)
 
     def fun(th, directions=None):
         q = tr.attitudes(key(th), lambda: rates_at(th))
@@ -320,7 +320,7 @@ def gravity_direction_problem(recording, intervals, accelerometer, bias, estimat
 
     def jac(th):
         m, b = split(th)
-        v = rowwise(np.subtract, raw, b)
+        v = raw - b
         rates = v @ m.T
         rate_jac = linear_rate_jacobian(m, v, bias=estimate_bias, workspace=space)
         j = gravity_direction_residuals_jac(rates, rate_jac, integrator, dirs, tr.steps(key(th), rates, keep=False))[1]

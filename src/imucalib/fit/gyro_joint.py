@@ -29,7 +29,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..fitreport import GyroscopeReport
-from ..metrics import rowwise
 from ..models import AXES, TriadModel
 from ..recording import Interval, Recording
 from ..residuals import (
@@ -91,10 +90,10 @@ def joint_problem(recording: Recording, intervals: list[Interval], accelerometer
 
     def readings_at(th):  # u − G a − b − d τ
         _, b, dr = split(th)
-        v = rowwise(np.subtract, raw, b)
+        v = raw - b
         for a in range(0, len(v), READ_CHUNK):  # τ d: each sample's τ repeated for the three axes, a chunk at a time
             part = v[a : a + READ_CHUNK]
-            part -= rowwise(np.multiply, np.repeat(tau[a : a + READ_CHUNK], 3).reshape(-1, 3), dr)  # eq. (5): − d τ
+            part -= np.repeat(tau[a : a + READ_CHUNK], 3).reshape(-1, 3) * dr  # eq. (5): − d τ
         return v
 
     def fun(th):
@@ -146,7 +145,7 @@ def _g_rate_jacobian(m: np.ndarray, force: np.ndarray):
         flat = out.reshape(b - a, 27)
         for c in range(a, b, TILE_ROWS):
             d = min(b, c + TILE_ROWS)
-            rowwise(np.multiply, np.tile(force[c:d], (1, 9)), minus_m, out=flat[c - a : d - a])
+            np.multiply(np.tile(force[c:d], (1, 9)), minus_m, out=flat[c - a : d - a])
         return out
 
     return block

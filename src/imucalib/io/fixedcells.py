@@ -2,6 +2,9 @@
 
 :func:`fixed_chunk` is :mod:`.csvparse`'s fast path for such text: the same floats a correctly rounding
 parser gives, bit for bit (Clinger 1990, the fast path of decimal conversion), or None for any other text.
+Reading imu_tk's layout (``%15.7e``) of a 1 M-sample pair takes 0.45 s with it, 0.66 s without (32 % of the
+read; 6.5 % of ``calibrate --method tedaldi2014`` on it, ``bench_long.py --cases xsens_imutk``; in turns).
+Comma-separated files never take this path.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ from ..metrics import interval_means, transition_bounds
 from ..models import TriadModel
 from ..presets import STILL_WINDOW
 from ..recording import STANDARD_GRAVITY, Interval, Recording
-from .windows import BLOCK, SCREEN_MARGIN, medians, pose_means, runs
+from .windows import BLOCK, SCREEN_MARGIN, runs
 
 __all__ = ["EDGE_TILT_DEG", "FACE_NAMES", "Turn", "find_faces", "find_turns", "no_usable_rotations", "pose_scatter",
            "saturated", "spikes", "unreliable_transitions", "unsteady_poses"]
@@ -194,7 +194,7 @@ def spikes(x: np.ndarray, *, factor: float = 20.0, isolation: float = 4.0) -> np
     if n < 5:
         return out
     steps = np.diff(x.T, axis=1)  # one channel a row
-    scale = medians(np.abs(steps, out=steps))  # the median absolute step of each channel
+    scale = np.median(np.abs(steps, out=steps), axis=1)  # the median absolute step of each channel
     scale = np.where(scale > 0, scale, np.finfo(float).tiny)
     limit = factor * scale
     for a in range(2, n - 2, BLOCK):  # samples a … b−1, each read with two neighbours either side
@@ -258,7 +258,7 @@ def unsteady_poses(recording: Recording, intervals: list[Interval], *, edge: flo
     """
     if recording.gyro is None or len(intervals) < 4:
         return {}
-    means = pose_means(recording.acc, intervals)
+    means = interval_means(recording.acc, intervals)
     try:
         model = fit_determined(means, STANDARD_GRAVITY)[0]
     except ValueError:
@@ -372,7 +372,7 @@ def unreliable_transitions(recording: Recording, intervals: list[Interval], *,
     sat = np.nonzero(saturated(recording.gyro))[0]
     spk = np.nonzero(spikes(recording.gyro))[0]
     dt = np.diff(recording.t)
-    gaps = np.nonzero(dt > gap_factor * medians(dt[None, :].copy())[0])[0] if dt.size else np.zeros(0, int)
+    gaps = np.nonzero(dt > gap_factor * np.median(dt))[0] if dt.size else np.zeros(0, int)
     # per rotation [a, b]: the saturated samples and spikes in a … b, the gaps that start in a … b − 1 (sorted indices)
     n_sat = np.maximum(np.searchsorted(sat, stops, "right") - np.searchsorted(sat, starts, "left"), 0)
     n_spk = np.maximum(np.searchsorted(spk, stops, "right") - np.searchsorted(spk, starts, "left"), 0)

@@ -29,10 +29,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..metrics import rowwise
 from ..presets import STILL_N_SIGMA, STILL_RATE, STILL_WINDOW
 from ..recording import Interval, Recording
-from .windows import BLOCK, SCREEN_MARGIN, TRANSPOSE_BYTES, column_means, medians, moving_mean_rows, runs
+from .windows import BLOCK, SCREEN_MARGIN, TRANSPOSE_BYTES, moving_mean_rows, runs
 
 __all__ = ["BLIP_FACTOR", "BLIP_SECONDS", "STILL_OFFSET", "STILL_ROWS", "gyro_still", "join_blips", "still_inside",
            "still_intervals", "still_outside", "still_settings"]
@@ -79,14 +78,14 @@ def still_settings(recording: Recording, rest: Interval, scale: float, rate_limi
     """:func:`gyro_still`'s half window [samples], bias (the rest's mean) and ``limit`` [raw units].
 
     The rest's mean and standard deviation are ``mean(axis=0)`` and
-    ``std(axis=0)`` formed as numpy forms them (:func:`column_means` of the
+    ``std(axis=0)`` formed as numpy forms them (the mean of the
     samples, then of their squared deviations from it): the same numbers.
     """
     n = max(int(round(window * recording.rate)), 1)
     raw = np.asarray(recording.gyro[rest.slice], dtype=np.float64)
-    bias = column_means(raw)
-    dev = rowwise(np.subtract, raw, bias)
-    std = np.sqrt(column_means(np.multiply(dev, dev, out=dev)))
+    bias = raw.mean(axis=0)
+    dev = raw - bias
+    std = np.sqrt(np.multiply(dev, dev, out=dev).mean(axis=0))
     noise = float(np.linalg.norm(std)) / np.sqrt(n)  # eq. (G1): ‖σ‖ / √n
     return n // 2, bias, max(rate_limit / abs(scale), n_sigma * noise)  # eq. (G1)
 
@@ -99,7 +98,7 @@ def still_outside(gyro: np.ndarray, settings: tuple, intervals: list[Interval], 
         outside[iv.slice] = False
     for a in range(0, gyro.shape[0], BLOCK):  # block by block: no (N, 3) moving mean is kept
         b = min(a + BLOCK, gyro.shape[0])
-        m = rowwise(np.subtract, moving_mean_rows(gyro, half, a, b, keep=outside[a:b]), bias)
+        m = moving_mean_rows(gyro, half, a, b, keep=outside[a:b]) - bias
         still[a:b][outside[a:b]] = np.sqrt(np.einsum("ij,ij->i", m, m)) < limit  # eq. (G2)
 
 
@@ -119,7 +118,7 @@ def still_inside(gyro: np.ndarray, settings: tuple, intervals: list[Interval], s
     """
     intervals = [iv for iv in intervals if len(iv)]
     # the samples less the first one, as every running sum reads them (once, where that copy is small)
-    shifted = rowwise(np.subtract, gyro, gyro[0]) if intervals and gyro.nbytes <= TRANSPOSE_BYTES else None
+    shifted = gyro - gyro[0] if intervals and gyro.nbytes <= TRANSPOSE_BYTES else None
     every, k = True, 0
     while k < len(intervals):
         j, rows = k + 1, len(intervals[k])
@@ -151,18 +150,18 @@ def _still_group(gyro: np.ndarray, shifted: np.ndarray | None, settings: tuple, 
         # moving_mean_rows of one block whose windows all lie inside the record, its operations inline
         c = np.empty((e - s + width, gyro.shape[1]))
         c[0] = 0.0
-        seg = shifted[s - half:e + half] if shifted is not None else rowwise(np.subtract, gyro[s - half:e + half], ref)
+        seg = shifted[s - half:e + half] if shifted is not None else gyro[s - half:e + half] - ref
         np.cumsum(seg, axis=0, out=c[1:])
         part = np.subtract(c[width:], c[: e - s], out=m[o:o + e - s])
         part /= float(width)
-    rowwise(np.add, m, ref, out=m)  # the first sample back, as moving_mean_rows adds it, then the bias off
-    rowwise(np.subtract, m, bias, out=m)
+    np.add(m, ref, out=m)  # the first sample back, as moving_mean_rows adds it, then the bias off
+    np.subtract(m, bias, out=m)
     ok = np.sqrt(np.einsum("ij,ij->i", m, m)) < offset_factor * limit  # eq. (G3): ‖m‖ < c ℓ
     box = np.maximum.reduceat(m, first, axis=0) - np.minimum.reduceat(m, first, axis=0)
     inside = np.sqrt(np.einsum("ij,ij->i", box, box)) < (1.0 - SCREEN_MARGIN) * limit
     for k in np.flatnonzero(~inside).tolist():
         mk = m[first[k]:first[k] + lengths[k]]
-        ok[first[k]:first[k] + lengths[k]] &= np.linalg.norm(mk - medians(mk.T.copy()), axis=1) < limit  # eq. (G3)
+        ok[first[k]:first[k] + lengths[k]] &= np.linalg.norm(mk - np.median(mk, axis=0), axis=1) < limit  # eq. (G3)
     for iv, o in zip(intervals, first.tolist(), strict=True):
         still[iv.slice] = ok[o:o + len(iv)]
     return bool(ok.all())

@@ -1,8 +1,7 @@
 r"""The windowed statistics the segmentation stages share, block by block over any recording's length.
 
 Runs of a mask, the moving variance and its norm (the statistic of the Tedaldi 2014 detector, offline and
-sample by sample), the moving mean, and the exact per-pose means and medians the detectors compare with
-numpy's own (the same numbers, fewer operations).
+sample by sample) and the moving mean.
 
 Over the window ``W_i = [max(i − h, 0), min(i + h + 1, N))`` of ``|W_i|`` samples centred on sample ``i``
 (``h`` the half window; truncated at the record's ends), from running sums ``C`` of the samples less a centre
@@ -23,11 +22,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..metrics import rowwise
 from ..recording import Interval
 
-__all__ = ["BLOCK", "SCREEN_MARGIN", "TRANSPOSE_BYTES", "VarianceNormStream", "block_variance", "column_means",
-           "medians", "moving_mean", "moving_mean_rows", "moving_variance", "odd_window", "pose_means", "runs",
+__all__ = ["BLOCK", "SCREEN_MARGIN", "TRANSPOSE_BYTES", "VarianceNormStream", "block_variance",
+           "moving_mean", "moving_mean_rows", "moving_variance", "odd_window", "runs",
            "variance_norm", "variance_norm_rows", "window_blocks", "window_bounds", "window_diff"]
 
 
@@ -55,54 +53,6 @@ def window_blocks(n: int, half: int):
     for a in range(0, n, BLOCK):
         b = min(a + BLOCK, n)
         yield a, b, max(a - half, 0), min(b + half, n)
-
-
-def column_means(x: np.ndarray) -> np.ndarray:
-    """``x.mean(axis=0)`` of an (N, K) array, bit for bit, in about two thirds of its time.
-
-    A reduction over the first axis of a C-ordered float64 array with two or
-    more columns adds its rows one after the other (one short inner loop per
-    row); a running sum down each column does the same additions in the same
-    order with long inner loops, :data:`BLOCK` samples at a time (each block's
-    running sum starts from the previous block's total). Any other array is
-    reduced by ``mean`` itself.
-    """
-    n = x.shape[0]
-    if x.ndim != 2 or x.shape[1] < 2 or n < 2 or x.dtype != np.float64 or not x.flags.c_contiguous:
-        return x.mean(axis=0)
-    out = np.empty(x.shape[1])
-    buf = np.empty(min(n, BLOCK) + 1)
-    for j in range(x.shape[1]):
-        total = None
-        for a in range(0, n, BLOCK):
-            col = x[a:a + BLOCK, j]
-            if total is None:
-                run = np.add.accumulate(col, out=buf[: col.shape[0]])
-            else:
-                buf[0] = total
-                buf[1:col.shape[0] + 1] = col
-                run = np.add.accumulate(buf[: col.shape[0] + 1], out=buf[: col.shape[0] + 1])
-            total = run[-1]
-        out[j] = total
-    return out / n
-
-
-def medians(rows: np.ndarray) -> np.ndarray:
-    """``np.median(rows, axis=1)`` of a (K, n) array of finite numbers, bit for bit, partitioning ``rows`` in place.
-
-    The median is the middle order statistic, or the mean of the two middle
-    ones (their sum halved, as ``np.median``'s mean forms it); a partition at
-    those ranks finds the same numbers as ``np.median``'s, without the extra
-    rank it partitions at to look for NaN. Only a zero median may differ, in
-    its sign, where −0 and +0 tie (the callers square it or take magnitudes).
-    """
-    n = rows.shape[1]
-    h = n // 2
-    if n % 2:
-        rows.partition(h, axis=1)
-        return rows[:, h].copy()
-    rows.partition([h - 1, h], axis=1)
-    return (rows[:, h - 1] + rows[:, h]) / 2.0
 
 
 def window_bounds(a: int, b: int, lo: int, half: int, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -147,7 +97,7 @@ def block_variance(x: np.ndarray, centre: np.ndarray, a: int, b: int, lo: int, h
     squares, then the window means), and the two running sums (the first
     then holds the variance).
     """
-    seg = rowwise(np.subtract, x[lo:hi], centre)  # centred for a numerically safe running sum of squares
+    seg = x[lo:hi] - centre  # centred for a numerically safe running sum of squares
     c1 = np.empty((seg.shape[0] + 1, seg.shape[1]))
     c2 = np.empty_like(c1)
     c1[0] = c2[0] = 0.0
@@ -183,7 +133,7 @@ def moving_variance(x: np.ndarray, window: int) -> np.ndarray:
         x = x[:, None]
     n = x.shape[0]
     half = max(int(window) // 2, 1)
-    centre = column_means(x)
+    centre = x.mean(axis=0)
     out = np.empty(x.shape)
     for a, b, lo, hi in window_blocks(n, half):
         out[a:b] = block_variance(x, centre, a, b, lo, hi, half)
@@ -201,7 +151,7 @@ def variance_norm(acc: np.ndarray, window: int) -> np.ndarray:
         x = x[:, None]
     half = max(int(window) // 2, 1)
     out = np.empty(x.shape[0])
-    variance_norm_rows(x, column_means(x), half, 0, x.shape[0], out)
+    variance_norm_rows(x, x.mean(axis=0), half, 0, x.shape[0], out)
     return out
 
 
@@ -313,7 +263,7 @@ def moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray 
         lo, hi = max(s - half, 0), min(e + half, n)
         c = np.empty((hi - lo + 1, x.shape[1]))
         c[0] = 0.0
-        np.cumsum(rowwise(np.subtract, x[lo:hi], ref), axis=0, out=c[1:])
+        np.cumsum(x[lo:hi] - ref, axis=0, out=c[1:])
         if keep is None:
             part = window_diff(c, s, e, lo, half, n, out=out[s - a:e - a], mean=True)  # eq. (W1)
         else:
@@ -324,40 +274,11 @@ def moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray 
             part /= (whi - wlo)[:, None]
             done += rows.size
         if not shifted:
-            rowwise(np.add, part, ref, out=part)
+            np.add(part, ref, out=part)
     return out
 
 
-def pose_means(x: np.ndarray, intervals: list[Interval], columns: np.ndarray | None = None) -> np.ndarray:
-    """:func:`imucalib.metrics.interval_means` bit for bit, with two array operations per interval, not six.
-
-    Each interval's samples less its first one are laid out one column per
-    row, ``(K, n)``, and summed along the rows: a reduction along the last
-    axis sums each row as the one-column reduction does (pairwise, in the
-    same blocks), so each sum is the same number; the division by ``n`` and
-    the first sample added back are the same operations on all the intervals
-    at once. ``columns``: ``x`` transposed into C order, (K, N), when the
-    caller has it (the rows are then sliced from it, not transposed one by one).
-    """
-    x = np.asarray(x, dtype=np.float64)
-    sums = np.empty((len(intervals), x.shape[1]))
-    counts = np.empty(len(intervals))
-    add = np.add.reduce
-    for k, iv in enumerate(intervals):
-        if columns is not None:
-            seg = columns[:, iv.start:iv.stop]
-            rows = seg - seg[:, :1]
-        else:
-            seg = x[iv.start:iv.stop]
-            rows = np.subtract(seg.T, seg[0][:, None], out=np.empty((x.shape[1], seg.shape[0])))
-        add(rows, axis=1, out=sums[k])
-        counts[k] = iv.stop - iv.start
-    ref = x[[iv.start for iv in intervals]] if intervals else np.empty((0, x.shape[1]))
-    return sums / counts[:, None] + ref
-
-
-#: the largest recording [bytes] whose accelerometer a scan transposes once for its interval means (and whose
-#: gyroscope the gate shifts once for its moving means)
+#: the largest recording [bytes] whose gyroscope the gate shifts once for its moving means
 TRANSPOSE_BYTES = 1 << 23
 
 

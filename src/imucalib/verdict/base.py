@@ -16,7 +16,6 @@ import numpy as np
 from ..calibration import Calibration
 from ..metrics import (
     COVERAGE_CONE_DEG,
-    column_sums,
     gravity_direction_errors,
     gravity_noise_floor,
     interval_means,
@@ -306,8 +305,7 @@ class Poses:
 
         The calibrated readings are those of ``Calibration.accelerometer_si`` and ``gyroscope_si``; the
         g-sensitivity term reads the calibrated accelerometer already computed for the variance. The poses are
-        calibrated a group at a time (about :data:`POSE_BYTES` of samples), and each group's sums over the rows
-        taken in one pass (:func:`imucalib.metrics.column_sums`: the same additions as pose by pose).
+        calibrated a group at a time (about :data:`POSE_BYTES` of samples).
         """
         todo, group, size = {}, [], 0
         for iv in intervals:
@@ -360,8 +358,8 @@ class Poses:
                     short[len(gyros) - 1] = white_noise_variance(both, order)
                 else:
                     squares.append(_squared_differences(both, order))
-        rates = column_sums(gyros)
-        square_sums = iter(column_sums(squares)) if squares else iter(())
+        rates = [np.add.reduce(g, axis=0) for g in gyros]
+        square_sums = iter([np.add.reduce(s, axis=0) for s in squares])
         add = np.add.reduce  # np.mean's sum, without its per-call overhead
         for k, (iv, gyro) in enumerate(zip(group, gyros, strict=True)):
             s_a2 = s_g2 = None
