@@ -11,6 +11,17 @@ from imucalib.scenarios import session
 from imucalib.segment import detect, poses, rest, windows
 from imucalib.segment import still as still_module
 
+SIZES = [1, 2, 7, 255, 256, 1000, 65_535, 65_536, 65_537, 140_001]
+
+
+@pytest.mark.parametrize("n", SIZES)
+@pytest.mark.parametrize("k", [1, 2, 3, 6])
+def test_column_means_are_numpys_bit_for_bit(n: int, k: int) -> None:
+    rng = np.random.default_rng(n * 10 + k)
+    x = rng.normal(size=(n, k)) * 300 + 2e4
+    for a in (x, np.round(x), np.asfortranarray(x)):
+        assert windows.column_means(a).tobytes() == a.mean(axis=0).tobytes()
+
 
 def test_static_runs_of_all_thresholds_are_detect_static_at_each() -> None:
     rng = np.random.default_rng(6)

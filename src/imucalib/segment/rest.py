@@ -24,7 +24,7 @@ from ..presets import (
 )
 from ..recording import ImucalibWarning, Interval, Recording
 from .blocks import still_blocks
-from .windows import odd_window, runs, variance_norm, variance_norm_rows
+from .windows import column_means, odd_window, runs, variance_norm, variance_norm_rows
 
 __all__ = ["PREFERRED_REST", "SHORTEST_REST", "TapRest", "find_initial_rest", "first_motion", "initial_rest",
            "moves_within", "rest_after_taps"]
@@ -279,7 +279,7 @@ def first_motion(recording: Recording, win: int, n_level: int, factor: float,
         # other sensor's, when that is near: nothing after it can change the answer)
         x = np.asarray(signal, dtype=np.float64)
         x = x[:, None] if x.ndim == 1 else x
-        half, centre = max(int(win) // 2, 1), x.mean(axis=0)
+        half, centre = max(int(win) // 2, 1), column_means(x)
         stat = np.empty(x.shape[0])
         a, b = 0, min(max(n_level, 1), x.shape[0])
         if min(x.shape[0], first) - b <= 2 * max(b, 4096):  # the end, or the other sensor's movement, is near

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..presets import STILL_N_SIGMA, STILL_RATE, STILL_WINDOW
 from ..recording import Interval, Recording
-from .windows import BLOCK, SCREEN_MARGIN, TRANSPOSE_BYTES, moving_mean_rows, runs
+from .windows import BLOCK, SCREEN_MARGIN, TRANSPOSE_BYTES, column_means, moving_mean_rows, runs
 
 __all__ = ["BLIP_FACTOR", "BLIP_SECONDS", "STILL_OFFSET", "STILL_ROWS", "gyro_still", "join_blips", "still_inside",
            "still_intervals", "still_outside", "still_settings"]
@@ -78,14 +78,14 @@ def still_settings(recording: Recording, rest: Interval, scale: float, rate_limi
     """:func:`gyro_still`'s half window [samples], bias (the rest's mean) and ``limit`` [raw units].
 
     The rest's mean and standard deviation are ``mean(axis=0)`` and
-    ``std(axis=0)`` formed as numpy forms them (the mean of the
+    ``std(axis=0)`` formed as numpy forms them (:func:`column_means` of the
     samples, then of their squared deviations from it): the same numbers.
     """
     n = max(int(round(window * recording.rate)), 1)
     raw = np.asarray(recording.gyro[rest.slice], dtype=np.float64)
-    bias = raw.mean(axis=0)
+    bias = column_means(raw)
     dev = raw - bias
-    std = np.sqrt(np.multiply(dev, dev, out=dev).mean(axis=0))
+    std = np.sqrt(column_means(np.multiply(dev, dev, out=dev)))
     noise = float(np.linalg.norm(std)) / np.sqrt(n)  # eq. (G1): ‖σ‖ / √n
     return n // 2, bias, max(rate_limit / abs(scale), n_sigma * noise)  # eq. (G1)
 
