@@ -72,7 +72,7 @@ from .windows import (
     variance_norm,
 )
 
-__all__ = ["StillDetector", "detect_intervals", "detect_static", "detect_static_gyro",
+__all__ = ["IntervalMeans", "StillDetector", "detect_intervals", "detect_static", "detect_static_gyro",
            "detector_settings", "gyro_norm_variance", "make_detector", "motion_between", "scan_thresholds",
            "static_at", "static_poses", "static_runs"]
 
@@ -518,6 +518,22 @@ class StillDetector:
         return new
 
 
+class IntervalMeans:
+    """:func:`imucalib.metrics.interval_means` of ``x`` that forms each interval's mean once (the same numbers:
+    each interval's mean is its own sum), for the thresholds of a scan whose intervals mostly recur."""
+
+    def __init__(self, x: np.ndarray) -> None:
+        self.x = np.asarray(x, dtype=np.float64)
+        self.known: dict[tuple[int, int], np.ndarray] = {}
+
+    def __call__(self, intervals: list[Interval]) -> np.ndarray:
+        new = [iv for iv in intervals if (iv.start, iv.stop) not in self.known]
+        if new:
+            for iv, row in zip(new, interval_means(self.x, new), strict=True):
+                self.known[iv.start, iv.stop] = row
+        return np.array([self.known[iv.start, iv.stop] for iv in intervals])
+
+
 def static_runs(stat: np.ndarray, thresholds: list[float], min_length: int) -> list[list[Interval]]:
     """``detect_static(None, t, …, min_length=min_length, statistic=stat)`` for each threshold ``t``, in one pass.
 
@@ -557,6 +573,7 @@ def scan_thresholds(detector: tuple, gravity: float, recording: Recording, multi
     base = detector[0]
     best = None
     tried = []
+    means = IntervalMeans(recording.acc)
     fits: dict[tuple, tuple | None] = {}  # thresholds that give the same intervals give the same fit
     multipliers = list(multipliers)
     found = detector_runs(detector, [mult * base for mult in multipliers], still)  # eq. (D2) at each k
@@ -567,7 +584,7 @@ def scan_thresholds(detector: tuple, gravity: float, recording: Recording, multi
         key = tuple((iv.start, iv.stop) for iv in intervals)
         if key not in fits:
             try:
-                model, res = fit_gravity_norm(interval_means(recording.acc, intervals), gravity)
+                model, res = fit_gravity_norm(means(intervals), gravity)
             except ValueError:
                 fits[key] = None
             else:
@@ -583,7 +600,7 @@ def scan_thresholds(detector: tuple, gravity: float, recording: Recording, multi
         for mult, _ in sorted(tried, key=lambda mc: -mc[1]) if reduce else []:
             intervals = by_mult[mult]
             try:
-                model = fit_determined(interval_means(recording.acc, intervals), gravity)[0]
+                model = fit_determined(means(intervals), gravity)[0]
             except ValueError:
                 continue
             return intervals, float(mult), model
