@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from imucalib import segment
+from imucalib.metrics import interval_means
 from imucalib.recording import Interval
 from imucalib.scenarios import session
 from imucalib.segment import detect, poses, rest, windows
@@ -21,6 +22,19 @@ def test_column_means_are_numpys_bit_for_bit(n: int, k: int) -> None:
     x = rng.normal(size=(n, k)) * 300 + 2e4
     for a in (x, np.round(x), np.asfortranarray(x)):
         assert windows.column_means(a).tobytes() == a.mean(axis=0).tobytes()
+
+
+def test_interval_means_are_the_metrics_ones_bit_for_bit() -> None:
+    rng = np.random.default_rng(5)
+    for trial in range(40):
+        n = int(rng.integers(50, 90_000))
+        x = rng.normal(size=(n, 3)) * rng.uniform(0.01, 1e3) + rng.normal(size=3) * 1e4
+        x = np.round(x) if trial % 2 else x
+        ivs = [Interval(a, int(rng.integers(a + 1, min(n, a + 20_000) + 1)), "static")
+               for a in rng.integers(0, n - 1, size=int(rng.integers(1, 12))).tolist()]
+        want = interval_means(x, ivs).tobytes()
+        assert windows.pose_means(x, ivs).tobytes() == want
+        assert windows.pose_means(x, ivs, np.ascontiguousarray(x.T)).tobytes() == want
 
 
 def test_static_runs_of_all_thresholds_are_detect_static_at_each() -> None:

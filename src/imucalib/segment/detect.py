@@ -65,9 +65,11 @@ from .poses import pose_scatter
 from .rest import find_initial_rest, initial_rest
 from .still import STILL_OFFSET, join_blips, still_inside, still_outside, still_settings
 from .windows import (
+    TRANSPOSE_BYTES,
     VarianceNormStream,
     moving_variance,
     odd_window,
+    pose_means,
     runs,
     variance_norm,
 )
@@ -524,12 +526,13 @@ class IntervalMeans:
 
     def __init__(self, x: np.ndarray) -> None:
         self.x = np.asarray(x, dtype=np.float64)
+        self.columns = np.ascontiguousarray(self.x.T) if self.x.nbytes <= TRANSPOSE_BYTES else None
         self.known: dict[tuple[int, int], np.ndarray] = {}
 
     def __call__(self, intervals: list[Interval]) -> np.ndarray:
         new = [iv for iv in intervals if (iv.start, iv.stop) not in self.known]
         if new:
-            for iv, row in zip(new, interval_means(self.x, new), strict=True):
+            for iv, row in zip(new, pose_means(self.x, new, self.columns), strict=True):
                 self.known[iv.start, iv.stop] = row
         return np.array([self.known[iv.start, iv.stop] for iv in intervals])
 

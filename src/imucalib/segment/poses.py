@@ -13,7 +13,7 @@ from ..metrics import interval_means, transition_bounds
 from ..models import TriadModel
 from ..presets import STILL_WINDOW
 from ..recording import STANDARD_GRAVITY, Interval, Recording
-from .windows import BLOCK, SCREEN_MARGIN, runs
+from .windows import BLOCK, SCREEN_MARGIN, pose_means, runs
 
 __all__ = ["EDGE_TILT_DEG", "FACE_NAMES", "Turn", "find_faces", "find_turns", "no_usable_rotations", "pose_scatter",
            "saturated", "spikes", "unreliable_transitions", "unsteady_poses"]
@@ -258,7 +258,7 @@ def unsteady_poses(recording: Recording, intervals: list[Interval], *, edge: flo
     """
     if recording.gyro is None or len(intervals) < 4:
         return {}
-    means = interval_means(recording.acc, intervals)
+    means = pose_means(recording.acc, intervals)
     try:
         model = fit_determined(means, STANDARD_GRAVITY)[0]
     except ValueError:

@@ -25,7 +25,7 @@ import numpy as np
 from ..recording import Interval
 
 __all__ = ["BLOCK", "SCREEN_MARGIN", "TRANSPOSE_BYTES", "VarianceNormStream", "block_variance", "column_means",
-           "moving_mean", "moving_mean_rows", "moving_variance", "odd_window", "runs",
+           "moving_mean", "moving_mean_rows", "moving_variance", "odd_window", "pose_means", "runs",
            "variance_norm", "variance_norm_rows", "window_blocks", "window_bounds", "window_diff"]
 
 
@@ -314,7 +314,36 @@ def moving_mean_rows(x: np.ndarray, half: int, a: int, b: int, keep: np.ndarray 
     return out
 
 
-#: the largest recording [bytes] whose gyroscope the gate shifts once for its moving means
+def pose_means(x: np.ndarray, intervals: list[Interval], columns: np.ndarray | None = None) -> np.ndarray:
+    """:func:`imucalib.metrics.interval_means` bit for bit, with two array operations per interval, not six.
+
+    Each interval's samples less its first one are laid out one column per
+    row, ``(K, n)``, and summed along the rows: a reduction along the last
+    axis sums each row as the one-column reduction does (pairwise, in the
+    same blocks), so each sum is the same number; the division by ``n`` and
+    the first sample added back are the same operations on all the intervals
+    at once. ``columns``: ``x`` transposed into C order, (K, N), when the
+    caller has it (the rows are then sliced from it, not transposed one by one).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    sums = np.empty((len(intervals), x.shape[1]))
+    counts = np.empty(len(intervals))
+    add = np.add.reduce
+    for k, iv in enumerate(intervals):
+        if columns is not None:
+            seg = columns[:, iv.start:iv.stop]
+            rows = seg - seg[:, :1]
+        else:
+            seg = x[iv.start:iv.stop]
+            rows = np.subtract(seg.T, seg[0][:, None], out=np.empty((x.shape[1], seg.shape[0])))
+        add(rows, axis=1, out=sums[k])
+        counts[k] = iv.stop - iv.start
+    ref = x[[iv.start for iv in intervals]] if intervals else np.empty((0, x.shape[1]))
+    return sums / counts[:, None] + ref
+
+
+#: the largest recording [bytes] whose accelerometer a scan transposes once for its interval means (and whose
+#: gyroscope the gate shifts once for its moving means)
 TRANSPOSE_BYTES = 1 << 23
 
 
