@@ -522,7 +522,12 @@ class StillDetector:
 
 class IntervalMeans:
     """:func:`imucalib.metrics.interval_means` of ``x`` that forms each interval's mean once (the same numbers:
-    each interval's mean is its own sum), for the thresholds of a scan whose intervals mostly recur."""
+    each interval's mean is its own sum), for the thresholds of a scan whose intervals mostly recur.
+
+    About 2 % of calibrating the Xsens session; kept under the 10 % bar with the other means of the threshold
+    scan and the models' per-axis form: without the four, calibrating the Xsens session took 0.141 s against
+    0.125 s before (benchmarks/bench_tedaldi2014.py and a profile, in turns).
+    """
 
     def __init__(self, x: np.ndarray) -> None:
         self.x = np.asarray(x, dtype=np.float64)
