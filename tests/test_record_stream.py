@@ -449,7 +449,7 @@ def test_a_serial_port_silent_then_gone(tmp_path, short_session):
             assert b"went away" in stdout
 
 
-def test_a_phyphox_peer_answering_odd_json_ends_the_session_with_its_reason(tmp_path):
+def test_a_phyphox_peer_answering_odd_json_ends_the_session_with_its_reason(tmp_path, capsys):
     import http.server
 
     answers = iter([b'{"result": true}', b"[" * 100_000 + b"]" * 100_000])
@@ -468,7 +468,7 @@ def test_a_phyphox_peer_answering_odd_json_ends_the_session_with_its_reason(tmp_
     server = http.server.HTTPServer(("127.0.0.1", 0), Phone)
     threading.Thread(target=server.serve_forever, daemon=True).start()
     try:
-        run = _run([f"phyphox://127.0.0.1:{server.server_port}", "-o", str(tmp_path / "s.csv")])
+        run = record_here(capsys, [f"phyphox://127.0.0.1:{server.server_port}", "-o", str(tmp_path / "s.csv")])
     finally:
         server.shutdown()
     assert run.returncode == 2 and "Traceback" not in run.stderr
@@ -563,7 +563,7 @@ def test_ctrl_c_on_a_silent_phyphox_phone(tmp_path):
     assert stdout.decode().splitlines()[-1].startswith(f"verdict: {verdict} ")  # the last word is calibrate's
 
 
-def test_a_killed_session_resumed(tmp_path, short_session):
+def test_a_killed_session_resumed(tmp_path, short_session, capsys):
     """A run killed mid-session leaves its .partial; --resume follows it again and appends the stream's rest."""
     csv, _ = short_session
     data = _rows(csv)
@@ -582,8 +582,8 @@ def test_a_killed_session_resumed(tmp_path, short_session):
     assert kept == data[:len(kept)]
     # the logger's stream again from a few rows before where the file ends, with its header
     again = [data[0], *data[len(kept) - 5:]]
-    run = _run(["-", "-o", str(out), "--resume", "--events", str(tmp_path / "e.jsonl")],
-               input=b"".join(again).decode())
+    run = record_here(capsys, ["-", "-o", str(out), "--resume", "--events", str(tmp_path / "e.jsonl")],
+                      input=b"".join(again).decode())
     assert run.returncode == 0, run.stderr
     assert out.read_bytes() == b"".join(data) and not (tmp_path / "s.csv.partial").exists()
     events = _events((tmp_path / "e.jsonl").read_text())
