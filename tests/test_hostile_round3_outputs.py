@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hostile_child import limited, one_line
+from hostile_child import in_process, limited, one_line
 
 
 @pytest.fixture(scope="module")
@@ -47,20 +47,20 @@ def thermal_cal(tmp_path_factory):
 
 
 @pytest.mark.parametrize("temperature", ["-300", "1e6", "1e300", "nan", "inf"])
-def test_export_refuses_a_temperature_no_sensor_is_at(thermal_cal, tmp_path, temperature):
-    code, out, err, _ = limited("export", thermal_cal, "--format", "kalibr", f"--temperature={temperature}",
-                                "--raw-scale", "1,1", "-o", tmp_path / "k.yaml")
+def test_export_refuses_a_temperature_no_sensor_is_at(thermal_cal, tmp_path, temperature, capsys):
+    code, out, err, _ = in_process(capsys, "export", thermal_cal, "--format", "kalibr", f"--temperature={temperature}",
+                                           "--raw-scale", "1,1", "-o", tmp_path / "k.yaml")
     assert code == 2 and one_line(err) and "no temperature a working sensor is at" in err, err
     assert not (tmp_path / "k.yaml").exists()
 
 
-def test_export_warns_when_the_temperature_extrapolates(thermal_cal, tmp_path):
-    code, out, err, _ = limited("export", thermal_cal, "--format", "kalibr", "--temperature", "70",
-                                "--raw-scale", "1,1", "-o", tmp_path / "k.yaml")
+def test_export_warns_when_the_temperature_extrapolates(thermal_cal, tmp_path, capsys):
+    code, out, err, _ = in_process(capsys, "export", thermal_cal, "--format", "kalibr", "--temperature", "70",
+                                           "--raw-scale", "1,1", "-o", tmp_path / "k.yaml")
     assert code == 0, err
     assert "70 °C is outside the 10.0–40.0 °C the thermal calibration was made from: it extrapolates" in err, err
-    code, _, err, _ = limited("export", thermal_cal, "--format", "kalibr", "--temperature", "30",
-                              "--raw-scale", "1,1", "-o", tmp_path / "k2.yaml")
+    code, _, err, _ = in_process(capsys, "export", thermal_cal, "--format", "kalibr", "--temperature", "30",
+                                         "--raw-scale", "1,1", "-o", tmp_path / "k2.yaml")
     assert code == 0 and "extrapolates" not in err, err
 
 
@@ -78,9 +78,9 @@ def counts_cal(tmp_path_factory):
 
 @pytest.mark.parametrize("scale", ["1e308,1e308", "1e-320,1", "-1,1", "nan,1", "inf,1"])
 @pytest.mark.parametrize("fmt", ["openvins", "kalibr"])
-def test_export_refuses_a_raw_scale_that_is_no_scale(counts_cal, tmp_path, scale, fmt):
-    code, out, err, _ = limited("export", counts_cal, "--format", fmt, f"--raw-scale={scale}",
-                                "-o", tmp_path / "x.yaml")
+def test_export_refuses_a_raw_scale_that_is_no_scale(counts_cal, tmp_path, scale, fmt, capsys):
+    code, out, err, _ = in_process(capsys, "export", counts_cal, "--format", fmt, f"--raw-scale={scale}",
+                                           "-o", tmp_path / "x.yaml")
     assert code == 2 and one_line(err.splitlines()[-1]) and "Traceback" not in err, err
     assert not (tmp_path / "x.yaml").exists()
 
@@ -113,15 +113,15 @@ def _noise_json(tmp_path, **changes):
     ({"rate_hz": "fast"}, "could not convert"),
     ({"accelerometer__white_noise_density": [-1e-3] * 3}, "accelerometer_noise_density must be a positive"),
 ])
-def test_export_refuses_a_noise_json_missing_or_bad_entries(counts_cal, tmp_path, changes, words):
+def test_export_refuses_a_noise_json_missing_or_bad_entries(counts_cal, tmp_path, changes, words, capsys):
     noise = _noise_json(tmp_path, **changes)
-    code, out, err, _ = limited("export", counts_cal, "--format", "kalibr", "--raw-scale", "1,1",
-                                "--noise", noise, "-o", tmp_path / "x.yaml")
+    code, out, err, _ = in_process(capsys, "export", counts_cal, "--format", "kalibr", "--raw-scale", "1,1",
+                                           "--noise", noise, "-o", tmp_path / "x.yaml")
     assert code == 2 and one_line(err) and words in err, err
     assert not (tmp_path / "x.yaml").exists()
     good = _noise_json(tmp_path)
-    code, out, err, _ = limited("export", counts_cal, "--format", "kalibr", "--raw-scale", "1,1",
-                                "--noise", good, "-o", tmp_path / "x.yaml")
+    code, out, err, _ = in_process(capsys, "export", counts_cal, "--format", "kalibr", "--raw-scale", "1,1",
+                                           "--noise", good, "-o", tmp_path / "x.yaml")
     assert code == 0 and "update_rate: 200.0" in (tmp_path / "x.yaml").read_text(encoding="utf-8"), err
 
 
@@ -151,7 +151,7 @@ def test_a_float_header_with_constants_below_floats_range_compiles_with_werror(t
 
 
 # ------------------------------------------------------------------ thermal: names and temperatures a file may hold
-def test_a_thermal_parameter_the_calibration_lacks_is_a_plain_error(thermal_cal, tmp_path):
+def test_a_thermal_parameter_the_calibration_lacks_is_a_plain_error(thermal_cal, tmp_path, capsys):
     d = json.loads(thermal_cal.read_text(encoding="utf-8"))
     d["gyroscope"] = None  # an accelerometer-only calibration whose thermal model varies the gyroscope
     d["units"]["gyroscope"] = d["units"].get("gyroscope")
@@ -160,19 +160,19 @@ def test_a_thermal_parameter_the_calibration_lacks_is_a_plain_error(thermal_cal,
     path.write_text(json.dumps(d), encoding="utf-8")
     for args in (["export", path], ["export", path, "--format", "kalibr", "--temperature", "30"],
                  ["validate", path, thermal_cal]):
-        code, out, err, _ = limited(*args)
+        code, out, err, _ = in_process(capsys, *args)
         assert code == 2 and one_line(err) and "which the calibration does not have" in err, err
 
 
 @pytest.mark.parametrize("temperature", [[[20.0, 21.0], [22.0, 23.0]], [25.0], "hot", [1.0, "x", 2.0], True])
-def test_thermal_refuses_a_fit_temperature_that_is_no_temperature(session_files, tmp_path, temperature):
+def test_thermal_refuses_a_fit_temperature_that_is_no_temperature(session_files, tmp_path, temperature, capsys):
     paths = []
     for k, t in enumerate((temperature, 35.0)):
         d = json.loads((session_files / "c.json").read_text(encoding="utf-8"))
         d.setdefault("fit", {})["temperature_c"] = t
         paths.append(tmp_path / f"c{k}.json")
         paths[-1].write_text(json.dumps(d), encoding="utf-8")
-    code, out, err, _ = limited("thermal", *paths, "-o", tmp_path / "t.json")
+    code, out, err, _ = in_process(capsys, "thermal", *paths, "-o", tmp_path / "t.json")
     assert code == 2 and one_line(err) and "calibration 1" in err, err
     assert not (tmp_path / "t.json").exists()
 
@@ -253,20 +253,20 @@ def test_a_full_disk_is_named_for_the_store(tiny_disk, session_files, tmp_path):
 
 # ------------------------------------------------------------------ misleading messages
 @pytest.mark.parametrize("encoding", ["utf-32", "utf-32-le", "utf-32-be"])
-def test_utf32_is_called_utf32(tmp_path, encoding):
+def test_utf32_is_called_utf32(tmp_path, encoding, capsys):
     path = tmp_path / "u.csv"
     text = "t,ax,ay,az,gx,gy,gz\n" + "0.0,1,2,3,4,5,6\n" * 50
     path.write_bytes(text.encode(encoding))
-    code, out, err, _ = limited("calibrate", path)
+    code, out, err, _ = in_process(capsys, "calibrate", path)
     assert code == 2 and one_line(err) and "UTF-32" in err and "UTF-16" not in err, err
 
 
-def test_apply_to_a_gz_name_writes_gzip(tmp_path, session_files):
+def test_apply_to_a_gz_name_writes_gzip(tmp_path, session_files, capsys):
     from imucalib.io import read
 
     for name in ("out.csv.gz", "OUT.CSV.GZ"):
-        code, out, err, _ = limited("apply", session_files / "c.json", session_files / "s.csv",
-                                    "-o", tmp_path / name)
+        code, out, err, _ = in_process(capsys, "apply", session_files / "c.json", session_files / "s.csv",
+                                               "-o", tmp_path / name)
         assert code == 0, err
         assert (tmp_path / name).read_bytes()[:2] == b"\x1f\x8b"
         back = read(tmp_path / name)
@@ -331,13 +331,13 @@ def ferraris_session(tmp_path_factory):
     ("x_p", "z_p", "overlap"), ("x_rot", "x_p", "overlap"), ("y_rot", "x_rot", "overlap"),
     ("x_rot", None, "a turn needs the samples"),
 ])
-def test_overlapping_or_empty_ferraris_sections_are_named(tmp_path, ferraris_session, name, inside, words):
+def test_overlapping_or_empty_ferraris_sections_are_named(tmp_path, ferraris_session, name, inside, words, capsys):
     path, sections = ferraris_session
     bad = dict(sections)
     bad[name] = [sections[inside][0] + 10, sections[inside][1] - 10] if inside else \
         [sections[name][0], sections[name][0] + 1]
     (tmp_path / "s.json").write_text(json.dumps(bad), encoding="utf-8")
-    code, out, err, _ = limited("calibrate", path, "--method", "ferraris", "--sections", tmp_path / "s.json",
-                                "-o", tmp_path / "c.json")
+    code, out, err, _ = in_process(capsys, "calibrate", path, "--method", "ferraris", "--sections", tmp_path / "s.json",
+                                           "-o", tmp_path / "c.json")
     assert code == 2 and one_line(err) and words in err and f"'{name}'" in err, err
     assert "stops[i]" not in err and not (tmp_path / "c.json").exists()

@@ -7,6 +7,7 @@ the session is complete, say ``complete``, and the file written must be the
 bytes sent.
 """
 
+import contextlib
 import io
 import json
 import os
@@ -25,7 +26,7 @@ from imucalib import segment as sg
 from imucalib.io import read, write_csv
 from imucalib.record import Recorder, record
 from imucalib.scenarios.handheld import generate
-from test_record_stream import has_open
+from test_record_stream import has_open, record_here
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")])}
@@ -35,10 +36,13 @@ CLI = [sys.executable, "-m", "imucalib.cli"]
 @pytest.fixture(scope="module")
 def handheld(tmp_path_factory):
     """The default hand-held session (30 poses) as ``imucalib simulate`` writes it."""
+    from imucalib.cli import main
+
     d = tmp_path_factory.mktemp("hh")
-    run = subprocess.run([*CLI, "simulate", "--scenario", "handheld", "--seed", "3", "-o", str(d / "sim")],
-                         env=ENV, capture_output=True, text=True)
-    assert run.returncode == 0, run.stderr
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        code = main(["simulate", "--scenario", "handheld", "--seed", "3", "-o", str(d / "sim")])
+    assert code == 0, err.getvalue()
     session = json.loads((d / "sim" / "session.json").read_text())
     return d / "sim" / "recording.csv", session["options"]["n_poses"]
 
@@ -318,14 +322,12 @@ def test_stream_without_a_time_column_and_in_si_units(tmp_path):
     assert abs(sum(e["event"] == "pose" for e in events) - 12) <= 1
 
 
-def test_bad_sources_are_refused_with_exit_2(tmp_path):
+def test_bad_sources_are_refused_with_exit_2(tmp_path, capsys):
     for source, text in (("ftp://x", "unknown source"), ("tcp://127.0.0.1", "give the host and port"),
                          ("tcp://127.0.0.1:9", "cannot connect")):
-        run = subprocess.run([*CLI, "record", source, "-o", str(tmp_path / "s.csv")], capture_output=True,
-                             text=True, env=ENV, timeout=60)
+        run = record_here(capsys, [source, "-o", str(tmp_path / "s.csv")])
         assert run.returncode == 2 and text in run.stderr and "Traceback" not in run.stderr
-    run = subprocess.run([*CLI, "record", "-", "-o", str(tmp_path / "s.csv"), "--method", "nope"],
-                         input="t,ax\n", capture_output=True, text=True, env=ENV, timeout=60)
+    run = record_here(capsys, ["-", "-o", str(tmp_path / "s.csv"), "--method", "nope"], input="t,ax\n")
     assert run.returncode == 2 and "unknown method" in run.stderr
 
 

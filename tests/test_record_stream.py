@@ -212,55 +212,85 @@ def _run(args, **kw):
     return subprocess.run([*CLI, "record", *args], capture_output=True, text=True, env=ENV, timeout=120, **kw)
 
 
-def test_an_existing_session_or_partial_is_never_destroyed(tmp_path, short_session):
+def record_here(capsys, args, input=None) -> subprocess.CompletedProcess:
+    """``imucalib record ARGS`` in this process, as :func:`_run` reports it, with ``input`` on a pipe that stands
+    for standard input (the recorder reads its file descriptor); for the tests of what is written where, not of
+    signals or transports (a child costs ~0.4 processor seconds before the command runs)."""
+    from imucalib.cli import main
+
+    read_end, write_end = os.pipe()
+
+    def feed():
+        with contextlib.suppress(BrokenPipeError), open(write_end, "wb") as pipe:
+            pipe.write((input or "").encode())
+
+    feeder = threading.Thread(target=feed, daemon=True)
+    feeder.start()
+    capsys.readouterr()
+    saved = sys.stdin
+    with open(read_end, "rb") as sys.stdin:
+        try:
+            code = main(["record", *map(str, args)])
+        except SystemExit as exit_:  # argparse's refusals: the exit status a child would end with
+            assert isinstance(exit_.code, int), exit_.code
+            code = exit_.code
+        finally:
+            sys.stdin = saved
+    feeder.join(timeout=60)  # a command that left its input unread: the pipe is closed, the writer stops
+    out, err = capsys.readouterr()
+    return subprocess.CompletedProcess(["imucalib", "record", *map(str, args)], code, out, err)
+
+
+def test_an_existing_session_or_partial_is_never_destroyed(tmp_path, short_session, capsys):
     csv, _ = short_session
     out = tmp_path / "s.csv"
     out.write_text("a finished session\n")
-    run = _run(["-", "-o", str(out)], input=csv.read_text()[:2000])
+    run = record_here(capsys, ["-", "-o", str(out)], input=csv.read_text()[:2000])
     assert run.returncode == 2 and "already there" in run.stderr and "--force" in run.stderr
     assert out.read_text() == "a finished session\n" and not (tmp_path / "s.csv.partial").exists()
-    run = _run(["-", "-o", str(out), "--force"], input=csv.read_text())
+    run = record_here(capsys, ["-", "-o", str(out), "--force"], input=csv.read_text())
     assert run.returncode == 0, run.stderr
     assert out.read_bytes() == csv.read_bytes()
     # the .partial an earlier, killed run left: never truncated, nor appended to
     (tmp_path / "t.csv.partial").write_text("an earlier session\n")
     for extra in ([], ["--force"]):
-        run = _run(["-", "-o", str(tmp_path / "t.csv"), *extra], input=csv.read_text()[:2000])
+        run = record_here(capsys, ["-", "-o", str(tmp_path / "t.csv"), *extra], input=csv.read_text()[:2000])
         assert run.returncode == 2 and "unfinished session" in run.stderr
         assert (tmp_path / "t.csv.partial").read_text() == "an earlier session\n"
         assert not (tmp_path / "t.csv").exists()
 
 
-def test_special_files_and_symbolic_links(tmp_path, short_session):
+def test_special_files_and_symbolic_links(tmp_path, short_session, capsys):
     csv, _ = short_session
     csv = tmp_path / "in.csv"  # the first 20 s of the session: its rest and a few poses
     csv.write_bytes(b"".join(_rows(short_session[0])[:2001]))
     fifo = tmp_path / "pipe"
     os.mkfifo(fifo)
+    # in a child: a recorder that opened the FIFO to write would block there, failing on the timeout
     run = _run(["-", "-o", str(fifo)], input=csv.read_text()[:2000])
     assert run.returncode == 2 and "FIFO" in run.stderr and stat.S_ISFIFO(os.stat(fifo).st_mode)
-    run = _run(["-", "-o", str(tmp_path / "s.csv"), "--events", "/dev/sda"], input="t\n")
+    run = record_here(capsys, ["-", "-o", str(tmp_path / "s.csv"), "--events", "/dev/sda"], input="t\n")
     assert run.returncode == 2 and not (tmp_path / "s.csv").exists()
     # a .partial planted as a link to another file: that file is never written through it
     victim = tmp_path / "victim.txt"
     victim.write_text("precious\n")
     os.symlink(victim, tmp_path / "v.csv.partial")
-    run = _run(["-", "-o", str(tmp_path / "v.csv")], input=csv.read_text()[:2000])
+    run = record_here(capsys, ["-", "-o", str(tmp_path / "v.csv")], input=csv.read_text()[:2000])
     assert run.returncode == 2 and victim.read_text() == "precious\n"
     # -o a link: followed as the shell follows it, the link stays (and the file it names is a session kept)
     target = tmp_path / "real.csv"
     target.write_text("old\n")
     os.symlink(target, tmp_path / "link.csv")
-    run = _run(["-", "-o", str(tmp_path / "link.csv")], input=csv.read_text()[:2000])
+    run = record_here(capsys, ["-", "-o", str(tmp_path / "link.csv")], input=csv.read_text()[:2000])
     assert run.returncode == 2 and target.read_text() == "old\n"
-    run = _run(["-", "-o", str(tmp_path / "link.csv"), "--force"], input=csv.read_text())
+    run = record_here(capsys, ["-", "-o", str(tmp_path / "link.csv"), "--force"], input=csv.read_text())
     assert run.returncode == 0 and (tmp_path / "link.csv").is_symlink()
     assert target.read_bytes() == csv.read_bytes()
     # --events into a FIFO: written into as a stream, the FIFO stays
     got = []
     reader = threading.Thread(target=lambda: got.append(fifo.read_text()))
     reader.start()
-    run = _run(["-", "-o", str(tmp_path / "e.csv"), "--events", str(fifo)], input=csv.read_text())
+    run = record_here(capsys, ["-", "-o", str(tmp_path / "e.csv"), "--events", str(fifo)], input=csv.read_text())
     reader.join(timeout=60)
     assert run.returncode == 0 and stat.S_ISFIFO(os.stat(fifo).st_mode)
     assert _events(got[0])[-1]["event"] == "end"
@@ -419,7 +449,7 @@ def test_a_serial_port_silent_then_gone(tmp_path, short_session):
             assert b"went away" in stdout
 
 
-def test_a_phyphox_peer_answering_odd_json_ends_the_session_with_its_reason(tmp_path):
+def test_a_phyphox_peer_answering_odd_json_ends_the_session_with_its_reason(tmp_path, capsys):
     import http.server
 
     answers = iter([b'{"result": true}', b"[" * 100_000 + b"]" * 100_000])
@@ -438,7 +468,7 @@ def test_a_phyphox_peer_answering_odd_json_ends_the_session_with_its_reason(tmp_
     server = http.server.HTTPServer(("127.0.0.1", 0), Phone)
     threading.Thread(target=server.serve_forever, daemon=True).start()
     try:
-        run = _run([f"phyphox://127.0.0.1:{server.server_port}", "-o", str(tmp_path / "s.csv")])
+        run = record_here(capsys, [f"phyphox://127.0.0.1:{server.server_port}", "-o", str(tmp_path / "s.csv")])
     finally:
         server.shutdown()
     assert run.returncode == 2 and "Traceback" not in run.stderr
@@ -533,7 +563,7 @@ def test_ctrl_c_on_a_silent_phyphox_phone(tmp_path):
     assert stdout.decode().splitlines()[-1].startswith(f"verdict: {verdict} ")  # the last word is calibrate's
 
 
-def test_a_killed_session_resumed(tmp_path, short_session):
+def test_a_killed_session_resumed(tmp_path, short_session, capsys):
     """A run killed mid-session leaves its .partial; --resume follows it again and appends the stream's rest."""
     csv, _ = short_session
     data = _rows(csv)
@@ -552,8 +582,8 @@ def test_a_killed_session_resumed(tmp_path, short_session):
     assert kept == data[:len(kept)]
     # the logger's stream again from a few rows before where the file ends, with its header
     again = [data[0], *data[len(kept) - 5:]]
-    run = _run(["-", "-o", str(out), "--resume", "--events", str(tmp_path / "e.jsonl")],
-               input=b"".join(again).decode())
+    run = record_here(capsys, ["-", "-o", str(out), "--resume", "--events", str(tmp_path / "e.jsonl")],
+                      input=b"".join(again).decode())
     assert run.returncode == 0, run.stderr
     assert out.read_bytes() == b"".join(data) and not (tmp_path / "s.csv.partial").exists()
     events = _events((tmp_path / "e.jsonl").read_text())
