@@ -11,7 +11,7 @@
 on ``PYTHONPATH``, e.g. the ``src`` of an older checkout), in turns with this
 one (``"cli_before"``), and the library call of both in turns, a fresh process
 each (``"calibrate_in_turns"``: ``"after"`` and ``"before"``, the medians of
-``--runs`` calls in each of 3 processes a copy). ``--bytecode-cache`` also
+``--runs`` calls in each of ``--rounds`` processes a copy, 3 by default). ``--bytecode-cache`` also
 times the processes with Python's compiled modules kept between runs
 (``"cli_cached"``, ``"cli_before_cached"``: in a directory of its own,
 whatever ``PYTHONDONTWRITEBYTECODE`` says), as an
@@ -43,6 +43,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--runs", type=int, default=7)
     parser.add_argument("--baseline", metavar="DIR", help="another copy of the package to compare with")
+    parser.add_argument("--rounds", type=int, default=3,
+                        help="processes per copy for the library call in turns (more: a steadier median; a "
+                             "process's times shift by up to 10 %% with its memory layout)")
     parser.add_argument("--bytecode-cache", action="store_true",
                         help="also time the processes with the compiled modules kept between runs")
     args = parser.parse_args()
@@ -60,7 +63,7 @@ def main() -> None:
         script = ("from imucalib.io import read\nfrom imucalib.methods import calibrate\n"
                   f"rec = read({files!r}, reader='imutk')\n"
                   "def call(): calibrate(rec, method='tedaldi2014', gravity=9.81744)\n")
-        turns = {"calibrate_in_turns": calls_in_turns(script, args.baseline, 3, args.runs)}
+        turns = {"calibrate_in_turns": calls_in_turns(script, args.baseline, args.rounds, args.runs)}
         commands["cli_before"] = (cmd, {**os.environ, "PYTHONPATH": str(Path(args.baseline).resolve())})
     with tempfile.TemporaryDirectory() as cache:
         if args.bytecode_cache:

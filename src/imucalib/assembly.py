@@ -37,7 +37,8 @@ def assemble(method: str, recording: Recording, intervals: Sequence[Interval], a
              gyroscope: TriadModel | None, *, gravity: float, model: str = "linear",
              lever_arm: np.ndarray | None = None, figures: Iterable = (), uncertainty: Mapping | None = None,
              not_calibrated: str | None = None, left_out: Mapping[int, str] | None = None,
-             integrator: IntervalIntegrator | None = None) -> Calibration:
+             unreliable: Mapping[int, str] | None = None, integrator: IntervalIntegrator | None = None
+             ) -> Calibration:
     """The calibration a method returns, with its fit report.
 
     Parameters
@@ -62,6 +63,10 @@ def assemble(method: str, recording: Recording, intervals: Sequence[Interval], a
     not_calibrated : str, optional
         Why the gyroscope was left uncalibrated (e.g. :data:`POSES_IN_BLOCKS`); ``left_out``: the rotations
         left out as unreliable, by index, and why.
+    unreliable : mapping, optional
+        The rotations whose integration the data do not allow, by index, and why
+        (:func:`imucalib.segment.unreliable_transitions`), when the method found them: the verdict judges
+        the gyroscope on the others without finding them again.
     integrator : IntervalIntegrator, optional
         The integrator of the rotations between the poses, when the gyroscope's fit has one.
 
@@ -90,6 +95,8 @@ def assemble(method: str, recording: Recording, intervals: Sequence[Interval], a
     cal = Calibration(accelerometer=accelerometer, gyroscope=gyroscope, lever_arm=lever_arm, gravity=gravity,
                       method=method, model=model, units=units_of(recording))
     fit = fit_summary(cal, recording, intervals, gravity, integrator=integrator)
+    if unreliable is not None and gyroscope is not None:
+        fit = fit.add(GyroscopeReport(rotations_unreliable=dict(sorted(unreliable.items()))))
     if not_calibrated:
         fit = fit.add(GyroscopeReport(not_calibrated=not_calibrated))
         if left_out:

@@ -242,6 +242,10 @@ class GyroscopeReport(_Group):
             "qureshi2017's gyroscope approach (static bias or dynamic)")
     rotations_left_out: dict[int, str] | None = _f("rotations_left_out", "",
             "the rotations left out of the gyroscope fit and why, by index", by_index=True)
+    rotations_unreliable: dict[int, str] | None = _f("rotations_unreliable", "",
+            "the rotations between poses whose integration the data do not allow (saturated samples, spikes, "
+            "sampling gaps, unsteady poses) and why, by index: left out of the fit and of the verdict's judgement",
+            by_index=True)
     rotations_used: list | None = _f("rotations_used", "",
             "qureshi2017: turns used about each axis")
     rotations_rejected: list | None = _f("rotations_rejected", "",

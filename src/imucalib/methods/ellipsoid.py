@@ -110,4 +110,4 @@ def calibrate(recording, *, gravity: float, intervals=None, refine: bool = False
     figures = [accelerometer_figures(acc, means, gravity, which)]
     return assemble("ellipsoid", recording, intervals, acc, gyro, gravity=gravity, uncertainty=gyro_errors,
                     figures=figures if gyro_fit is None else [gyro_fit.report(), *figures],
-                    not_calibrated=not_calibrated, left_out=exclude)
+                    not_calibrated=not_calibrated, left_out=exclude, unreliable=exclude)

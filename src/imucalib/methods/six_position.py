@@ -240,7 +240,7 @@ def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15
     up, down = means[faces[:3], np.arange(3)], means[faces[3:], np.arange(3)]
     acc, cos_up, cos_down = _faces(up, down, means, faces, gravity)
     blocks = pose_blocks(recording) is not None
-    gyro_fit, estimated = None, False
+    gyro_fit, estimated, exclude = None, False, None
     if recording.gyro is not None and not blocks:  # none without rotations recorded
         exclude = unreliable_transitions(recording, intervals)
         acc, gyro_fit, estimated = _with_misalignment(recording, intervals, acc, exclude, up, down, means, faces,
@@ -265,4 +265,5 @@ def calibrate(recording, *, gravity: float, intervals=None, max_tilt: float = 15
                                       "(eqs. 8-9), which leaves no residual to estimate the noise from")]
     return assemble("six_position", recording, intervals, acc, gyro, gravity=gravity, uncertainty=gyro_errors,
                     figures=figures if gyro_fit is None else [gyro_fit.report(), *figures],
-                    not_calibrated=POSES_IN_BLOCKS if blocks and recording.gyro is not None else None)
+                    not_calibrated=POSES_IN_BLOCKS if blocks and recording.gyro is not None else None,
+                    unreliable=exclude)

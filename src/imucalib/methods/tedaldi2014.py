@@ -198,7 +198,7 @@ def calibrate(
     gyro = fit_gyroscope(recording, intervals, acc_model, estimate_bias=estimate_gyro_bias,
                          g_sensitivity=gyro_g_sensitivity, acc_cov=acc_cov, exclude=exclude)
     return assemble("tedaldi2014", recording, intervals, acc_model, gyro.model, gravity=gravity,
-                    integrator=gyro.integrator, uncertainty=gyro.errors,
+                    integrator=gyro.integrator, uncertainty=gyro.errors, unreliable=exclude,
                     figures=_figures(recording, intervals, acc_model, which, gravity, mult, rest, reduced,
                                      gyro.report()))
 

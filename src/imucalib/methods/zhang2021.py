@@ -460,6 +460,7 @@ def calibrate(
     method = MethodReport(iterations=chosen.iterations, converged=chosen.converged)
     return assemble("zhang2021", recording, static, chosen.acc, chosen.gyroscope, gravity=gravity,
                     model=model if selection is None else selection["selected"], uncertainty=chosen.errors,
+                    unreliable=exclude,
                     figures=[chosen.gyro.report(), rest_seconds(recording, rest),
                              method if selection is None else method.with_(model_selection=selection)])
 

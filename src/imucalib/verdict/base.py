@@ -22,6 +22,7 @@ from ..metrics import (
     transition_bounds,
 )
 from ..recording import Interval, Recording
+from ..segment import unreliable_transitions
 
 __all__ = ["CALIBRATE_ROWS", "GYRO_ROTATION_PARAMETERS", "LEVELS", "NOMINAL", "POSE_BYTES", "THRESHOLDS", "Check",
            "Poses", "grade", "predicted_direction_error", "predicted_error_of", "rest_noise", "rest_noise_of",
@@ -254,7 +255,9 @@ class Poses:
     """Figures of the static poses that several checks read, each computed once per assessment.
 
     Each figure is computed when first asked for, by the same operations in the same order as the check
-    that reads it would compute it alone, so every figure is the same to the last bit. Per pose only its
+    that reads it would compute it alone, so every figure is the same to the last bit; the noise floor and the
+    unreliable rotations are the fit report's where it holds them for these poses (the method found them on the
+    same data, :func:`imucalib.assembly.assemble`). Per pose only its
     figures are kept; its calibrated samples only while its group is summed (:meth:`poses`), so memory
     follows :data:`POSE_BYTES` or the longest pose, not the recording. Shared arrays are read-only, so no
     check can change them for another.
@@ -275,10 +278,26 @@ class Poses:
             self._means.flags.writeable = False
         return self._means
 
+    def _fits_these_poses(self) -> bool:
+        """Whether the calibration's fit report is of these poses (its figures were found on them)."""
+        return self.calibration.fit.poses.intervals == [[iv.start, iv.stop] for iv in self.intervals]
+
     @property
     def floor(self) -> float:
         """The gravity-norm residual's white-noise floor [m/s²] (:func:`imucalib.metrics.gravity_noise_floor`)."""
+        floor = self.calibration.fit.accelerometer.noise_floor
+        if floor is not None and self._fits_these_poses():
+            return floor
         return gravity_noise_floor(self.calibration, self.recording, self.intervals)
+
+    @property
+    def unreliable(self) -> dict[int, str]:
+        """The rotations between the poses whose integration the data do not allow, by index: why
+        (:func:`imucalib.segment.unreliable_transitions`)."""
+        found = self.calibration.fit.gyroscope.rotations_unreliable
+        if found is not None and self._fits_these_poses():
+            return found
+        return unreliable_transitions(self.recording, self.intervals)
 
     @property
     def up(self) -> np.ndarray:

@@ -11,7 +11,6 @@ import numpy as np
 from ..calibration import Calibration
 from ..fitreport import GyroscopeReport
 from ..recording import Interval, Recording
-from ..segment import unreliable_transitions
 from .base import GYRO_ROTATION_PARAMETERS, THRESHOLDS, Check, Poses, grade, predicted_error_of, rest_rates_of
 
 __all__ = ["bias_drift_checks", "gyroscope_noise_checks", "known_turn_checks", "rest_rate_checks",
@@ -34,7 +33,7 @@ def gyroscope_noise_checks(calibration: Calibration, found: Poses) -> tuple[list
     errors = found.direction_errors
     left_out = fit.gyroscope.rotations_left_out or {}
     left = set(left_out)
-    faulty = unreliable_transitions(recording, intervals)
+    faulty = found.unreliable
     judged = np.array([k not in faulty for k in range(len(pred))])
     figures = GyroscopeReport()
     out = []
