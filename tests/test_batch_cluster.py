@@ -29,6 +29,7 @@ def _by_device(path):
         return out
 
 
+@pytest.mark.slow
 def test_a_local_cluster_batch_equals_the_local_one(tmp_path):
     devices = write_fleet(tmp_path, seeds=(21, 22, 23))
     (tmp_path / "bad.csv").write_text("t,ax\n", encoding="utf-8")
@@ -48,6 +49,7 @@ def test_a_local_cluster_batch_equals_the_local_one(tmp_path):
     assert again["skipped"] == 4
 
 
+@pytest.mark.slow
 def test_montecarlo_on_a_local_cluster_equals_local_processes():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -91,6 +91,7 @@ def test_issue_command_on_xsens_matches_imu_tk(capsys):
         atol=2e-3)
 
 
+@pytest.mark.slow
 def test_reproduce_zhang2021_simulate_detect_fall(capsys, tmp_path):
     code, out, err = run(capsys, "reproduce", "zhang2021", "--json")
     assert code == 0, err

@@ -34,6 +34,7 @@ def counted(monkeypatch):
     return calls
 
 
+@pytest.mark.slow
 def test_the_magnetometer_is_fitted_once_per_method_not_per_fold(session, counted):
     rec = session.recording
     out = compare(rec, gravity=session.truth.gravity, methods=METHODS, folds=4)

@@ -45,6 +45,7 @@ def _record(source, out, events, **kw):
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kw)
 
 
+@pytest.mark.slow
 def test_a_real_session_through_stdin_tcp_and_a_pty(tmp_path, stream):
     pty = pytest.importorskip("pty")
     import termios

@@ -81,6 +81,7 @@ def test_three_temperatures_combined_validate_at_32_like_the_true_parameters(sen
     assert np.all(_figures(cals[1], rec) >= 2.0 * best)  # the 25 °C calibration alone
 
 
+@pytest.mark.slow
 def test_a_warm_up_session_calibrated_directly(sensor):
     truth, coeffs = sensor
     ramp = {"ramp": (22.0, 40.0, 150.0), "rest": 40.0, "n_poses": 60, **STEADY}

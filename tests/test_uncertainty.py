@@ -124,6 +124,7 @@ def test_qureshi_and_ellipsoid_errors_match_the_spread():
     assert len(cal.fit["uncertainty"]) == 9 + 12 and all(np.isfinite(list(cal.fit["uncertainty"].values())))
 
 
+@pytest.mark.slow
 def test_closed_form_methods_give_their_errors_or_say_why_not():
     """ferraris: a 1σ for every parameter (its equations' leftovers); six_position: its accelerometer's biases
     and scales are exactly determined (said so), the misalignment it estimates with the gyroscope has one."""

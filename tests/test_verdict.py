@@ -153,6 +153,7 @@ def test_session_without_the_z_faces_is_rejected():
     assert sigma > 0.05 and abs(error) > 0.02  # the fit is a few per cent off and knows it is not determined
 
 
+@pytest.mark.slow
 @needs_data
 def test_real_session_halves_and_its_poses_without_z(xsens):
     """The shared session's halves both visit every axis up and down: accepted, and what the first leaves out
