@@ -1,18 +1,21 @@
-"""Test-wide settings: property tests are reproducible by default; the suite runs on every core.
+"""Test-wide settings: property tests are reproducible by default; the suite runs on every core, and one more.
 
 The hypothesis suites draw the same examples on every run (``derandomize``), so a test run on
 a clean clone passes or fails the same way each time; ``IMUCALIB_EXPLORE=1`` draws new
 examples (and keeps the failing ones in ``.hypothesis/``) to look for new faults.
 
-With pytest-xdist installed (the ``test`` extra) the suite runs in one process per core
-(``-n auto``) unless the command line gives ``-n`` itself (``-n 0``: one process) or names test
-files; each test file runs whole in one process (``--dist loadfile``), so a file's module-scoped set-up
-is built once, not once per process (the suite took 259 CPU-s against 278 CPU-s with ``--dist load``). Each process
-keeps numpy's BLAS to one thread, as the fits' matrices are small and two processes on two
-cores each starting BLAS threads would only contend.
+With pytest-xdist installed (the ``test`` extra) the suite runs in one process per core and one more
+(:func:`workers`) unless the command line gives ``-n`` itself (``-n 0``: one process) or names test
+files. The recorder's tests wait on the clock (real-time replays, silent peers): a process more than the
+cores keeps the cores busy meanwhile, and keeps the suite's share of a machine other work is running on
+(2 cores with one CPU-bound process beside the suite: 154 s with 3 processes, 155 s with 4, 191-198 s
+with 2; with nothing else running 122 s against 128 s). Each test file runs whole in one process
+(``--dist loadfile``), so a file's module-scoped set-up is built once, not once per process (the suite
+took 259 CPU-s against 278 CPU-s with ``--dist load``). Each process keeps numpy's BLAS to one thread,
+as the fits' matrices are small and processes each starting BLAS threads would only contend.
 
-The studies marked ``slow`` (Monte Carlo studies, long comparisons on real recordings, the
-documentation pages' examples) are left out by ``python -m pytest -q`` (``addopts`` in
+The studies marked ``slow`` (Monte Carlo studies, long comparisons on real recordings, real-time
+replays, clusters of processes, the papers' reproductions, the documentation pages' examples) are left out by ``python -m pytest -q`` (``addopts`` in
 ``pyproject.toml``); ``python -m pytest -q -m slow`` runs them, as ``.ci/run`` does after the rest.
 """
 
@@ -45,9 +48,18 @@ if settings is not None:
     settings.load_profile("explore" if os.environ.get("IMUCALIB_EXPLORE") else "reproducible")
 
 
+def workers() -> int:
+    """The suite's processes: the cores this process may run on, and one more."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return cores + 1
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_cmdline_main(config):
-    """``-n auto --dist loadfile`` for a run of the suite or of a folder of it, when pytest-xdist is installed and
+    """``-n <workers()> --dist loadfile`` for a run of the suite or of a folder of it, when pytest-xdist is installed and
     the command line gives no ``-n`` (or ``-p no:xdist``); a run of named test files stays in one process (starting
     the workers would take longer than the tests)."""
     if importlib.util.find_spec("xdist") is None or not config.pluginmanager.hasplugin("xdist"):
@@ -57,7 +69,7 @@ def pytest_cmdline_main(config):
     if any("::" in arg or not os.path.isdir(arg) for arg in config.args):
         return
     if getattr(config.option, "numprocesses", None) is None and getattr(config.option, "dist", "no") == "no":
-        config.option.numprocesses = "auto"
+        config.option.numprocesses = workers()
         config.option.dist = "loadfile"
 
 
