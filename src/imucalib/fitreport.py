@@ -197,6 +197,8 @@ class GyroscopeReport(_Group):
             "physical units only)")
     angle_error_max_deg: float | None = _f("gyroscope_angle_error_max_deg", "deg",
             "largest gravity-direction error after a rotation")
+    angle_errors_deg: list | None = _f("gyroscope_angle_errors_deg", "deg",
+            "each rotation's gravity-direction error, in order (the rotation from pose k + 1 to k + 2 at k)")
     angle_error_kept_mean_deg: float | None = _f("gyroscope_angle_error_kept_mean_deg", "deg",
             "mean gravity-direction error over the rotations kept")
     angle_error_reliable_mean_deg: float | None = _f("gyroscope_angle_error_reliable_mean_deg", "deg",

@@ -200,7 +200,8 @@ def fit_summary(calibration: Calibration, recording: Recording, intervals: Seque
     gyro = GyroscopeReport()
     if len(intervals) >= 2 and recording.gyro is not None and calibration.gyroscope is not None:
         ang = np.degrees(gravity_direction_errors(calibration, recording, intervals, up=up, integrator=integrator))
-        gyro = GyroscopeReport(angle_error_mean_deg=float(np.mean(ang)), angle_error_max_deg=float(np.max(ang)))
+        gyro = GyroscopeReport(angle_error_mean_deg=float(np.mean(ang)), angle_error_max_deg=float(np.max(ang)),
+                               angle_errors_deg=ang.tolist())
     coverage, flags = pose_coverage(up)
     flags += gap_flags(recording, intervals)
     floor = gravity_noise_floor(calibration, recording, intervals)

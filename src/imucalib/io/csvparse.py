@@ -68,7 +68,6 @@ import zlib
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -76,10 +75,6 @@ from .errors import ReaderError
 from .expansion import open_gzip  # its decompressed text bounded (a decompression bomb is refused)
 from .fixedcells import fixed_chunk
 
-if TYPE_CHECKING:
-    import hashlib
-
-# csv (quoted cells), gzip (compressed files) and hashlib (OpenSSL, loaded with it: 2 ms) are imported where used
 
 __all__ = ["CHUNK_BYTES", "ENGINE", "Chunk", "Head", "Layout", "PANDAS_MIN_BYTES", "Plan", "chunks", "column_kinds",
            "digest", "plan", "engine_for", "fingerprint", "is_gzip", "open_binary", "pandas_available", "parse",

@@ -255,9 +255,10 @@ class Poses:
     """Figures of the static poses that several checks read, each computed once per assessment.
 
     Each figure is computed when first asked for, by the same operations in the same order as the check
-    that reads it would compute it alone, so every figure is the same to the last bit; the noise floor and the
-    unreliable rotations are the fit report's where it holds them for these poses (the method found them on the
-    same data, :func:`imucalib.assembly.assemble`). Per pose only its
+    that reads it would compute it alone, so every figure is the same to the last bit. The noise floor, the
+    unreliable rotations and the rotations' gravity-direction errors are the fit report's where it holds them
+    for these poses (found on the same data: :func:`imucalib.metrics.fit_summary`,
+    :func:`imucalib.assembly.assemble`; the errors in degrees, the same to a part in 10¹⁵). Per pose only its
     figures are kept; its calibrated samples only while its group is summed (:meth:`poses`), so memory
     follows :data:`POSE_BYTES` or the longest pose, not the recording. Shared arrays are read-only, so no
     check can change them for another.
@@ -279,8 +280,11 @@ class Poses:
         return self._means
 
     def _fits_these_poses(self) -> bool:
-        """Whether the calibration's fit report is of these poses (its figures were found on them)."""
-        return self.calibration.fit.poses.intervals == [[iv.start, iv.stop] for iv in self.intervals]
+        """Whether the calibration's fit report is of these poses (its figures were found on them, with this
+        calibration: a temperature model's verdict judges the recording compensated with the model found last,
+        not the one its method saw)."""
+        return (self.calibration.thermal is None
+                and self.calibration.fit.poses.intervals == [[iv.start, iv.stop] for iv in self.intervals])
 
     @property
     def floor(self) -> float:
@@ -312,7 +316,11 @@ class Poses:
         """The calibrated gravity-direction error [rad] of every rotation between consecutive poses (M − 1,)
         (:func:`imucalib.metrics.gravity_direction_errors`), those the fit left out included."""
         if self._errors is None:
-            self._errors = gravity_direction_errors(self.calibration, self.recording, self.intervals, up=self.up)
+            found = self.calibration.fit.gyroscope.angle_errors_deg
+            if found is not None and self._fits_these_poses():
+                self._errors = np.radians(found)
+            else:
+                self._errors = gravity_direction_errors(self.calibration, self.recording, self.intervals, up=self.up)
             self._errors.flags.writeable = False
         return self._errors
 
