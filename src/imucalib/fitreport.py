@@ -64,24 +64,48 @@ def _declared_fields(record: type) -> tuple:
     return tuple(f for f in fields(record) if "key" in f.metadata)
 
 
-@dataclass(frozen=True)
+@functools.cache
+def _names(record: type) -> frozenset:
+    """The names of a record class's declared fields."""
+    return frozenset(f.name for f in _declared_fields(record))
+
+
+@dataclass(frozen=True, init=False, repr=False, eq=False)
 class _Group:
     """A stage's record: the fields given, each None when not given.
 
     ``given`` names the fields given (those written to the file). A copy with changes is :meth:`with_`
-    (``dataclasses.replace`` would give every field, the ones not given as ``null``).
+    (``dataclasses.replace`` would give every field, the ones not given as ``null``). The records share this
+    ``__init__``, which takes the fields by name and notes which were given, and its ``__eq__`` and ``__repr__``.
     """
 
     given: frozenset = field(default=frozenset(), init=False, repr=False)
 
-    def __post_init__(self) -> None:
+    def __init__(self, **values: Any) -> None:
+        declared = self._declared()
+        if len(values) > sum(name in values for name in _names(type(self))):
+            unknown = sorted(set(values) - _names(type(self)))
+            raise TypeError(f"{type(self).__name__} has no field {', '.join(unknown)}")
         given = []
-        for f in self._declared():
-            if getattr(self, f.name) is _UNSET:
+        for f in declared:
+            value = values.get(f.name, _UNSET)
+            if value is _UNSET:
                 object.__setattr__(self, f.name, None)
             else:
+                object.__setattr__(self, f.name, value)
                 given.append(f.name)
         object.__setattr__(self, "given", frozenset(given))
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return self.given == other.given and all(getattr(self, f.name) == getattr(other, f.name)
+                                                 for f in self._declared())
+
+    __hash__ = None  # type: ignore[assignment]  # records hold lists and mappings
+
+    def __repr__(self) -> str:
+        return f"{type(self).__qualname__}({', '.join(f'{f.name}={getattr(self, f.name)!r}' for f in self._declared())})"
 
     @classmethod
     def _declared(cls) -> tuple:
@@ -103,7 +127,7 @@ class _Group:
         return {f.metadata["key"]: _encoded(f, getattr(self, f.name)) for f in self._declared() if f.name in self.given}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False, repr=False, eq=False)
 class SegmentationReport(_Group):
     """The static poses the fit used and how they cover the directions (the segmentation).
 
@@ -136,7 +160,7 @@ class SegmentationReport(_Group):
             "ferraris: the named sample ranges used")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False, repr=False, eq=False)
 class AccelerometerReport(_Group):
     """The accelerometer's fit figures.
 
@@ -175,7 +199,7 @@ class AccelerometerReport(_Group):
             "zero, in words")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False, repr=False, eq=False)
 class GyroscopeReport(_Group):
     """The gyroscope's fit figures.
 
@@ -260,7 +284,7 @@ class GyroscopeReport(_Group):
             "ferraris: the known angle of each turn, and the angles measured")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False, repr=False, eq=False)
 class MagnetometerReport(_Group):
     """The magnetometer's fit figures.
 
@@ -317,7 +341,7 @@ class MagnetometerReport(_Group):
             "why the magnetometer was left uncalibrated, in words")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False, repr=False, eq=False)
 class MethodReport(_Group):
     """Figures a particular method reports about its own fit.
 
@@ -358,7 +382,7 @@ class MethodReport(_Group):
             "wang2019: the final cost of eq. (35)")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False, repr=False, eq=False)
 class ThermalReport(_Group):
     """The temperature model.
 
@@ -381,7 +405,7 @@ class ThermalReport(_Group):
             "the number of calibrations a thermal model combines")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False, repr=False, eq=False)
 class UncertaintyReport(_Group):
     """1σ errors of the parameters.
 
@@ -400,7 +424,7 @@ class UncertaintyReport(_Group):
             "why some parameters have no 1σ error, in words")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False, repr=False, eq=False)
 class VerdictReport(_Group):
     """The verdict on the calibration and what to do next.
 

@@ -242,6 +242,7 @@ def _calibrate(data, *, method: str, model: str | None, gravity: float, **option
     if recording is not None:
         check_rate(recording)
     raw = recording  # the recording as read: what apply recognises the calibrated session by
+    own = temperature_model != "linear"  # the fit's figures are of this calibration on this recording
     if temperature_model == "linear":
         if recording is None:
             raise ValueError("a temperature model is fitted on a recording of samples with a temperature column")
@@ -254,7 +255,8 @@ def _calibrate(data, *, method: str, model: str | None, gravity: float, **option
                                 hemisphere=mag_options.get("mag_hemisphere", "north"))
     if raw is not None:
         cal = with_bias_session(cal, raw)
-    return with_verdict(cal, recording)
+    # the magnetometer and the bias drift's session leave the accelerometer and gyroscope models as fitted
+    return with_verdict(cal, recording, own_figures=own)
 
 
 def _calibrate_table(table: PoseTable, method: str, model: str | None, gravity: float, options: dict) -> Calibration:

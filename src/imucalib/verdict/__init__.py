@@ -395,7 +395,7 @@ def _non_finite(calibration: Calibration, figures: FitReport) -> list[Check]:
 
 
 def assess(calibration: Calibration, recording: Recording | None = None, intervals: list[Interval] | None = None, *,
-           purpose: str = "calibrate", poses=None) -> FitReport:
+           purpose: str = "calibrate", poses=None, own_figures: bool = False) -> FitReport:
     """Every check on ``calibration`` (with the recording it was made from, when there is one).
 
     ``purpose="validate"`` judges a calibration on a recording it was not
@@ -418,6 +418,11 @@ def assess(calibration: Calibration, recording: Recording | None = None, interva
         What the verdict is for (above).
     poses : Poses, optional
         The poses' figures of data that are no recording (above).
+    own_figures : bool
+        Whether ``calibration.fit`` was made with these models on ``recording``, as a method's fit is before
+        anything changes the calibration: the verdict then reads the figures it holds (the noise floor, the
+        rotations the data do not allow, each rotation's error) instead of finding them again
+        (:class:`~imucalib.verdict.base.Poses`).
 
     Returns
     -------
@@ -456,7 +461,8 @@ def assess(calibration: Calibration, recording: Recording | None = None, interva
     checks: list[Check] = []
     figures = FitReport()
     # the poses' figures several checks read (their means, noise, rates at rest), each computed once
-    found = poses if poses is not None else None if recording is None else Poses(calibration, recording, intervals)
+    found = (poses if poses is not None else None if recording is None
+             else Poses(calibration, recording, intervals, own_figures=own_figures))
     if recording is not None:  # the inputs first: a wrong time base or unit explains everything after it
         checks += time_base_checks(found)
     checks += gravity_checks(calibration, found)
@@ -498,7 +504,8 @@ def assess(calibration: Calibration, recording: Recording | None = None, interva
                                      notes=[c.text for c in checks if c.level == 0]))
 
 
-def with_verdict(calibration: Calibration, recording: Recording | None = None, intervals: list[Interval] | None = None):
+def with_verdict(calibration: Calibration, recording: Recording | None = None, intervals: list[Interval] | None = None,
+                 *, own_figures: bool = False):
     """``calibration`` with ``fit`` holding its verdict, reasons, notes and the figures they rest on.
 
     Parameters
@@ -509,6 +516,8 @@ def with_verdict(calibration: Calibration, recording: Recording | None = None, i
         The recording it was made from.
     intervals : list of Interval, optional
         Its static poses; by default ``calibration.fit.poses.intervals``.
+    own_figures : bool
+        Whether the fit's figures are this calibration's on ``recording`` (:func:`assess`).
 
     Returns
     -------
@@ -526,4 +535,5 @@ def with_verdict(calibration: Calibration, recording: Recording | None = None, i
     >>> judged.fit.verdict.level, judged.fit.verdict.reasons
     ('accepted', [])
     """
-    return calibration.with_(fit=calibration.fit.add(assess(calibration, recording, intervals)))
+    return calibration.with_(fit=calibration.fit.add(assess(calibration, recording, intervals,
+                                                            own_figures=own_figures)))

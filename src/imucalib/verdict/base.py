@@ -255,17 +255,20 @@ class Poses:
     """Figures of the static poses that several checks read, each computed once per assessment.
 
     Each figure is computed when first asked for, by the same operations in the same order as the check
-    that reads it would compute it alone, so every figure is the same to the last bit. The noise floor, the
-    unreliable rotations and the rotations' gravity-direction errors are the fit report's where it holds them
-    for these poses (found on the same data: :func:`imucalib.metrics.fit_summary`,
+    that reads it would compute it alone, so every figure is the same to the last bit. With ``own_figures``
+    (the fit report was made with this calibration's models on this recording, as ``calibrate``'s is, before
+    anything changed them), the noise floor, the unreliable rotations and the rotations' gravity-direction
+    errors are read from the report where it holds them for these poses (:func:`imucalib.metrics.fit_summary`,
     :func:`imucalib.assembly.assemble`; the errors in degrees, the same to a part in 10¹⁵). Per pose only its
     figures are kept; its calibrated samples only while its group is summed (:meth:`poses`), so memory
     follows :data:`POSE_BYTES` or the longest pose, not the recording. Shared arrays are read-only, so no
     check can change them for another.
     """
 
-    def __init__(self, calibration: Calibration, recording: Recording, intervals: list[Interval]) -> None:
+    def __init__(self, calibration: Calibration, recording: Recording, intervals: list[Interval], *,
+                 own_figures: bool = False) -> None:
         self.calibration, self.recording, self.intervals = calibration, recording, intervals
+        self.own_figures = own_figures
         self._means: np.ndarray | None = None
         self._up: np.ndarray | None = None
         self._errors: np.ndarray | None = None
@@ -280,10 +283,9 @@ class Poses:
         return self._means
 
     def _fits_these_poses(self) -> bool:
-        """Whether the calibration's fit report is of these poses (its figures were found on them, with this
-        calibration: a temperature model's verdict judges the recording compensated with the model found last,
-        not the one its method saw)."""
-        return (self.calibration.thermal is None
+        """Whether the fit report's figures are this calibration's on these poses (``own_figures``, and the
+        report's poses are these)."""
+        return (self.own_figures
                 and self.calibration.fit.poses.intervals == [[iv.start, iv.stop] for iv in self.intervals])
 
     @property
