@@ -70,6 +70,12 @@ def _names(record: type) -> frozenset:
     return frozenset(f.name for f in _declared_fields(record))
 
 
+@functools.cache
+def _nothing_given(record: type) -> dict[str, None]:
+    """Each declared field of a record class as None (its value when not given)."""
+    return dict.fromkeys(f.name for f in _declared_fields(record))
+
+
 @dataclass(frozen=True, init=False, repr=False, eq=False)
 class _Group:
     """A stage's record: the fields given, each None when not given.
@@ -82,19 +88,14 @@ class _Group:
     given: frozenset = field(default=frozenset(), init=False, repr=False)
 
     def __init__(self, **values: Any) -> None:
-        declared = self._declared()
-        if len(values) > sum(name in values for name in _names(type(self))):
-            unknown = sorted(set(values) - _names(type(self)))
-            raise TypeError(f"{type(self).__name__} has no field {', '.join(unknown)}")
-        given = []
-        for f in declared:
-            value = values.get(f.name, _UNSET)
-            if value is _UNSET:
-                object.__setattr__(self, f.name, None)
-            else:
-                object.__setattr__(self, f.name, value)
-                given.append(f.name)
-        object.__setattr__(self, "given", frozenset(given))
+        cls = type(self)
+        if not values.keys() <= _names(cls):
+            raise TypeError(f"{cls.__name__} has no field {', '.join(sorted(values.keys() - _names(cls)))}")
+        given = frozenset(name for name, value in values.items() if value is not _UNSET)
+        state = self.__dict__  # as dataclass's own __init__ of a frozen class sets them, past __setattr__
+        state.update(_nothing_given(cls))
+        state.update((name, values[name]) for name in given)
+        state["given"] = given
 
     def __eq__(self, other: object) -> bool:
         if type(other) is not type(self):
