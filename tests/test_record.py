@@ -26,7 +26,7 @@ from imucalib import segment as sg
 from imucalib.io import read, write_csv
 from imucalib.record import Recorder, record
 from imucalib.scenarios.handheld import generate
-from test_record_stream import has_open, record_here
+from test_record_stream import record_here, wait_port_open
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")])}
@@ -427,9 +427,8 @@ def test_a_serial_port_recorded_until_ctrl_c(tmp_path, short_session):
                              "--events", str(tmp_path / "e.jsonl")], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, env=ENV)
     partial = tmp_path / "s.csv.partial"
+    wait_port_open(proc, slave)
     deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and proc.poll() is None and not has_open(proc.pid, port):
-        time.sleep(0.02)  # until the recorder has opened the port
     os.set_blocking(master, False)  # a recorder that stopped reading fails the test instead of hanging it
     buf, sent = b"".join(data), 0
     while sent < len(buf) and time.monotonic() < deadline and proc.poll() is None:

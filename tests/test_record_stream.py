@@ -404,6 +404,20 @@ def has_open(pid: int, name: str) -> bool:
     return False
 
 
+def wait_port_open(proc, slave: int, baud: int = 115200, limit: float = 60.0) -> None:
+    """Until the recorder ``proc`` has opened the pty ``slave`` as its serial port and set its speed: pyserial's
+    open() then empties the port's input (what a device sent before the port was open is dropped, and so would
+    the test's data be)."""
+    import termios
+
+    name, speed = os.ttyname(slave), getattr(termios, f"B{baud}")
+    deadline = time.monotonic() + limit
+    while time.monotonic() < deadline and proc.poll() is None and not (
+            has_open(proc.pid, name) and termios.tcgetattr(slave)[4] == speed):
+        time.sleep(0.02)
+    time.sleep(0.2)  # the emptying follows the speed within the same call
+
+
 def test_a_serial_port_silent_then_gone(tmp_path, short_session):
     pytest.importorskip("serial")
     pty = pytest.importorskip("pty")
@@ -419,10 +433,7 @@ def test_a_serial_port_silent_then_gone(tmp_path, short_session):
         proc = subprocess.Popen([*CLI, "record", f"serial:{os.ttyname(slave)}?baud=115200", "-o", str(out),
                                  "--calibrate", str(tmp_path / f"{ending}.json")], stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, env=ENV)
-        name = os.ttyname(slave)
-        deadline = time.monotonic() + 60  # until the recorder has opened the port
-        while time.monotonic() < deadline and proc.poll() is None and not has_open(proc.pid, name):
-            time.sleep(0.02)
+        wait_port_open(proc, slave)
         os.set_blocking(master, False)
         sent, deadline = 0, time.monotonic() + 120
         while sent < len(data) and time.monotonic() < deadline and proc.poll() is None:
