@@ -127,3 +127,30 @@ def calls_in_turns(script: str, baseline: str, rounds: int, calls: int) -> dict[
                                  capture_output=True, text=True, env=env)
             medians[name].append(round(json.loads(out.stdout.strip().splitlines()[-1]), 4))
     return {name: {"median_s": statistics.median(m), "medians_s": m} for name, m in medians.items()}
+
+
+def processes_in_pairs(after: tuple[list[str], dict | None], before: tuple[list[str], dict | None],
+                       pairs: int) -> dict:
+    """Whole-process wall times of two ``(command, environment)`` run in ``pairs`` pairs, the order swapped every
+    pair, after one untimed run of each: the median of each pair's ratio ``after / before`` and its quartiles, and
+    each command's median [s]. On a machine whose speed drifts (a shared virtual machine), the ratio of runs a
+    second apart is steadier than a ratio of medians taken over minutes."""
+    import subprocess
+
+    for cmd, env in (after, before):
+        subprocess.run(cmd, check=True, capture_output=True, env=env)
+    times: dict[str, list[float]] = {"after": [], "before": []}
+    ratios = []
+    for i in range(pairs):
+        got = {}
+        for name in (("after", "before") if i % 2 == 0 else ("before", "after")):
+            cmd, env = after if name == "after" else before
+            t0 = time.perf_counter()
+            subprocess.run(cmd, check=True, capture_output=True, env=env)
+            got[name] = time.perf_counter() - t0
+            times[name].append(got[name])
+        ratios.append(got["after"] / got["before"])
+    return {"pairs": pairs, "ratio_median": round(statistics.median(ratios), 4),
+            "ratio_quartiles": [round(q, 4) for q in statistics.quantiles(ratios, n=4)] if pairs > 1 else None,
+            "after_median_s": round(statistics.median(times["after"]), 4),
+            "before_median_s": round(statistics.median(times["before"]), 4)}

@@ -11,7 +11,9 @@
 on ``PYTHONPATH``, e.g. the ``src`` of an older checkout), in turns with this
 one (``"cli_before"``), and the library call of both in turns, a fresh process
 each (``"calibrate_in_turns"``: ``"after"`` and ``"before"``, the medians of
-``--runs`` calls in each of ``--rounds`` processes a copy, 3 by default). ``--bytecode-cache`` also
+``--runs`` calls in each of ``--rounds`` processes a copy, 3 by default); ``--pairs N`` times the two
+processes in N pairs too, the order swapped every pair (``"cli_pairs"``: the median of the pairs' ratios,
+steadier where the machine's speed drifts). ``--bytecode-cache`` also
 times the processes with Python's compiled modules kept between runs
 (``"cli_cached"``, ``"cli_before_cached"``: in a directory of its own,
 whatever ``PYTHONDONTWRITEBYTECODE`` says), as an
@@ -33,7 +35,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from _common import calls_in_turns, median_cpu_time, median_time, require_data, time_processes
+from _common import calls_in_turns, median_cpu_time, median_time, processes_in_pairs, require_data, time_processes
 
 from imucalib.io import read
 from imucalib.methods import calibrate
@@ -46,6 +48,9 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3,
                         help="processes per copy for the library call in turns (more: a steadier median; a "
                              "process's times shift by up to 10 %% with its memory layout)")
+    parser.add_argument("--pairs", type=int, default=0,
+                        help="with --baseline: also time the two processes in this many pairs, the order swapped "
+                             "every pair (\"cli_pairs\": the median ratio after/before and its quartiles)")
     parser.add_argument("--bytecode-cache", action="store_true",
                         help="also time the processes with the compiled modules kept between runs")
     args = parser.parse_args()
@@ -71,6 +76,10 @@ def main() -> None:
                 env = {k: v for k, v in (env or os.environ).items() if k != "PYTHONDONTWRITEBYTECODE"}
                 commands[f"{name}_cached"] = (c, {**env, "PYTHONPYCACHEPREFIX": str(Path(cache) / name)})
         timed = time_processes(commands, max(5, args.runs // 2))
+        if args.baseline and args.pairs:
+            names = ("cli_cached", "cli_before_cached") if args.bytecode_cache else ("cli", "cli_before")
+            turns["cli_pairs"] = {"compiled_modules_cached": args.bytecode_cache,
+                                  **processes_in_pairs(commands[names[0]], commands[names[1]], args.pairs)}
     cli = timed.pop("cli")
     print(json.dumps({
         "benchmark": "tedaldi2014_xsens",
