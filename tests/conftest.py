@@ -15,8 +15,9 @@ took 259 CPU-s against 278 CPU-s with ``--dist load``). Each process keeps numpy
 as the fits' matrices are small and processes each starting BLAS threads would only contend.
 
 The studies marked ``slow`` (Monte Carlo studies, long comparisons on real recordings, real-time
-replays, clusters of processes, the papers' reproductions, the documentation pages' examples) are left out by ``python -m pytest -q`` (``addopts`` in
-``pyproject.toml``); ``python -m pytest -q -m slow`` runs them, as ``.ci/run`` does after the rest.
+replays, clusters of processes, the papers' reproductions, the documentation pages' examples) are left
+out by ``python -m pytest -q`` (``addopts`` in ``pyproject.toml``); ``python -m pytest -q -m slow`` runs
+them, as ``.ci/run`` does after the rest.
 """
 
 import importlib.util
@@ -59,9 +60,9 @@ def workers() -> int:
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_cmdline_main(config):
-    """``-n <workers()> --dist loadfile`` for a run of the suite or of a folder of it, when pytest-xdist is installed and
-    the command line gives no ``-n`` (or ``-p no:xdist``); a run of named test files stays in one process (starting
-    the workers would take longer than the tests)."""
+    """``-n <workers()> --dist loadfile`` for a run of the suite or of a folder of it, when pytest-xdist is
+    installed and the command line gives no ``-n`` (or ``-p no:xdist``); a run of named test files stays in one
+    process (starting the workers would take longer than the tests)."""
     if importlib.util.find_spec("xdist") is None or not config.pluginmanager.hasplugin("xdist"):
         return
     if os.environ.get("PYTEST_XDIST_WORKER") or config.option.collectonly:

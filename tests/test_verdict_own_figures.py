@@ -8,11 +8,11 @@ import math
 import warnings
 
 import numpy as np
+
 from imucalib import ImucalibWarning
 from imucalib.methods import calibrate
 from imucalib.metrics import gravity_direction_errors, gravity_noise_floor
 from imucalib.recording import Interval
-from imucalib.scenarios import session
 from imucalib.segment import unreliable_transitions
 from imucalib.verdict import assess
 

@@ -106,7 +106,8 @@ class _Group:
     __hash__ = None  # type: ignore[assignment]  # records hold lists and mappings
 
     def __repr__(self) -> str:
-        return f"{type(self).__qualname__}({', '.join(f'{f.name}={getattr(self, f.name)!r}' for f in self._declared())})"
+        fields_ = ", ".join(f"{f.name}={getattr(self, f.name)!r}" for f in self._declared())
+        return f"{type(self).__qualname__}({fields_})"
 
     @classmethod
     def _declared(cls) -> tuple:

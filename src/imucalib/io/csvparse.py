@@ -75,7 +75,6 @@ from .errors import ReaderError
 from .expansion import open_gzip  # its decompressed text bounded (a decompression bomb is refused)
 from .fixedcells import fixed_chunk
 
-
 __all__ = ["CHUNK_BYTES", "ENGINE", "Chunk", "Head", "Layout", "PANDAS_MIN_BYTES", "Plan", "chunks", "column_kinds",
            "digest", "plan", "engine_for", "fingerprint", "is_gzip", "open_binary", "pandas_available", "parse",
            "read_head", "split_cells"]

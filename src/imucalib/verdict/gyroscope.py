@@ -25,7 +25,7 @@ def gyroscope_noise_checks(calibration: Calibration, found: Poses) -> tuple[list
     the recording alone), the ones the fit left out because their error was far from the others' included:
     ``calibrate`` and ``validate`` judge the same rotations of the same data by the same limits.
     """
-    recording, intervals = found.recording, found.intervals
+    intervals = found.intervals
     fit = calibration.fit
     if fit.gyroscope.angle_error_mean_deg is None or len(intervals) < 2:
         return [], GyroscopeReport()
