@@ -1,6 +1,7 @@
 """The verdict of ``calibrate`` reads the figures its fit found on the same poses (``own_figures``): the noise floor,
 the rotations the data do not allow and each rotation's error. Judged afresh, the same calibration and recording
-give the same verdict and figures; a calibration changed after its fit is judged on its own numbers."""
+give the same verdict and figures. (A calibration changed after its fit, judged without ``own_figures``, is judged
+on its own numbers: ``test_never_worse_than_raw.py``.)"""
 
 from __future__ import annotations
 

@@ -268,7 +268,9 @@ class Poses:
     def __init__(self, calibration: Calibration, recording: Recording, intervals: list[Interval], *,
                  own_figures: bool = False) -> None:
         self.calibration, self.recording, self.intervals = calibration, recording, intervals
-        self.own_figures = own_figures
+        # the fit report's figures are this calibration's on these poses: said so, and the report's poses are these
+        self._report_is_of_these = own_figures and calibration.fit.poses.intervals == [[iv.start, iv.stop]
+                                                                                          for iv in intervals]
         self._means: np.ndarray | None = None
         self._up: np.ndarray | None = None
         self._errors: np.ndarray | None = None
@@ -282,17 +284,11 @@ class Poses:
             self._means.flags.writeable = False
         return self._means
 
-    def _fits_these_poses(self) -> bool:
-        """Whether the fit report's figures are this calibration's on these poses (``own_figures``, and the
-        report's poses are these)."""
-        return (self.own_figures
-                and self.calibration.fit.poses.intervals == [[iv.start, iv.stop] for iv in self.intervals])
-
     @property
     def floor(self) -> float:
         """The gravity-norm residual's white-noise floor [m/s²] (:func:`imucalib.metrics.gravity_noise_floor`)."""
         floor = self.calibration.fit.accelerometer.noise_floor
-        if floor is not None and self._fits_these_poses():
+        if floor is not None and self._report_is_of_these:
             return floor
         return gravity_noise_floor(self.calibration, self.recording, self.intervals)
 
@@ -301,7 +297,7 @@ class Poses:
         """The rotations between the poses whose integration the data do not allow, by index: why
         (:func:`imucalib.segment.unreliable_transitions`)."""
         found = self.calibration.fit.gyroscope.rotations_unreliable
-        if found is not None and self._fits_these_poses():
+        if found is not None and self._report_is_of_these:
             return found
         return unreliable_transitions(self.recording, self.intervals)
 
@@ -319,7 +315,7 @@ class Poses:
         (:func:`imucalib.metrics.gravity_direction_errors`), those the fit left out included."""
         if self._errors is None:
             found = self.calibration.fit.gyroscope.angle_errors_deg
-            if found is not None and self._fits_these_poses():
+            if found is not None and self._report_is_of_these:
                 self._errors = np.radians(found)
             else:
                 self._errors = gravity_direction_errors(self.calibration, self.recording, self.intervals, up=self.up)
