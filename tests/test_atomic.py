@@ -227,6 +227,7 @@ def big(tmp_path_factory):
     return d
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("previous", [b"the previous output\n", None], ids=["over-a-file", "new-file"])
 def test_sigkill_during_apply_leaves_the_previous_output(tmp_path, big, previous):
     d = tmp_path

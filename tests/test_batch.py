@@ -137,6 +137,7 @@ def _stored(store: Path) -> int:
         return 0
 
 
+@pytest.mark.slow
 def test_a_batch_killed_half_way_finishes_on_the_next_run_with_each_row_once(fleet, tmp_path):
     d, devices = fleet
     sessions = list(devices.values())

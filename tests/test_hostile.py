@@ -154,6 +154,7 @@ def _peak_rss_kb(*args) -> tuple[int, subprocess.CompletedProcess]:
     return int(r.stdout.strip().splitlines()[-1]), r
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("rows", ["", "\n1,2,3\n"])
 def test_a_ten_million_column_header_is_refused_in_bounded_memory(tmp_path, rows):
     path = tmp_path / "wide.csv"

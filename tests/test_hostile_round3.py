@@ -65,6 +65,7 @@ def bombs(tmp_path_factory):
     return d
 
 
+@pytest.mark.slow
 def test_a_gzip_bomb_is_refused_in_bounded_memory(bombs):
     path = bombs / "bomb.csv.gz"
     assert path.stat().st_size < 2_600_000  # 1.2 GB of text
@@ -166,6 +167,7 @@ def bag_bomb(path: Path, streams: int, honest: bool) -> None:
     path.write_bytes(bytes(blob))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("honest", [True, False])
 def test_a_ros1_bag_with_a_bz2_bomb_chunk_is_refused_in_bounded_memory(tmp_path, honest):
     path = tmp_path / "bomb.bag"

@@ -203,6 +203,7 @@ def test_a_store_record_nested_100000_deep_is_a_plain_error(tmp_path, column):
         assert code == 2 and one_line(err) and "nested more than" in err, err
 
 
+@pytest.mark.slow
 def test_running_out_of_memory_is_a_one_line_error(tmp_path):
     path = tmp_path / "big.csv"
     with path.open("w", encoding="ascii") as f:

@@ -56,8 +56,8 @@ CLEAN = {
 }
 
 
-def test_real_package_follows_the_layout_rules():
-    violations = layout.check(PACKAGE)
+def test_real_package_follows_the_layout_rules(scanned):
+    violations = layout.violations(scanned)
     assert violations == [], "layout violations in src/imucalib:\n" + "\n".join(violations)
 
 

@@ -118,6 +118,7 @@ def test_still_detector_finds_the_offline_intervals():
 
 
 # ------------------------------------------------------------------ replays
+@pytest.mark.slow
 def test_replay_through_stdin_then_calibrate(tmp_path, handheld):
     csv, n_poses = handheld
     out = tmp_path / "session.csv"
@@ -137,6 +138,7 @@ def test_replay_through_stdin_then_calibrate(tmp_path, handheld):
     assert run.stderr.decode().splitlines()[-1] == "verdict: accepted — the session calibrates; nothing to redo"
 
 
+@pytest.mark.slow
 def test_replay_through_a_pty_in_real_time(tmp_path, short_session):
     pty = pytest.importorskip("pty")
     csv, n_poses = short_session
@@ -195,6 +197,7 @@ def test_replay_through_a_pty_in_real_time(tmp_path, short_session):
     assert b"pose 1" in screen or b"poses held" in screen  # the live view was drawn on the terminal
 
 
+@pytest.mark.slow
 def test_replay_through_tcp(tmp_path, short_session):
     csv, n_poses = short_session
     server = socket.create_server(("127.0.0.1", 0))

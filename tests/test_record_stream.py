@@ -323,6 +323,7 @@ def _time_to_file(out: Path, proc, limit=30.0) -> float:
     return time.monotonic() - start
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGTERM])
 def test_ctrl_c_and_sigterm_on_a_silent_stdin(tmp_path, short_session, how):
     csv, _ = short_session
@@ -345,6 +346,7 @@ def test_ctrl_c_and_sigterm_on_a_silent_stdin(tmp_path, short_session, how):
     assert stdout.decode().splitlines()[-1].startswith("verdict: accepted")
 
 
+@pytest.mark.slow
 def test_sigterm_on_a_silent_tcp_peer_and_a_peer_that_goes_away(tmp_path, short_session):
     csv, _ = short_session
     data = csv.read_bytes()
@@ -418,6 +420,7 @@ def wait_port_open(proc, slave: int, baud: int = 115200, limit: float = 60.0) ->
     time.sleep(0.2)  # the emptying follows the speed within the same call
 
 
+@pytest.mark.slow
 def test_a_serial_port_silent_then_gone(tmp_path, short_session):
     pytest.importorskip("serial")
     pty = pytest.importorskip("pty")
@@ -519,6 +522,7 @@ def test_a_reader_that_fails_ends_the_recorder_with_its_reason(tmp_path, short_s
     assert kept and data.startswith(kept)
 
 
+@pytest.mark.slow
 def test_ctrl_c_on_a_silent_phyphox_phone(tmp_path):
     """A phone that has sent a session and then nothing more: Ctrl-C ends it within a second, calibrated."""
     import http.server

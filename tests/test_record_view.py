@@ -30,6 +30,7 @@ def _dom(url: str, profile, budget_ms: int = 2000) -> str:
     return run.stdout
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed")
 def test_the_live_page_in_headless_chromium(tmp_path):
     s = generate(np.random.default_rng(7), n_poses=8, rest=8.0)

@@ -506,7 +506,11 @@ def check(package_dir: Path, floors=None) -> list[str]:
         One readable message per violation (kind, modules, ``file:line`` where applicable); empty when
         the layout is clean.
     """
-    layout = scan(Path(package_dir))
+    return violations(scan(Path(package_dir)), floors)
+
+
+def violations(layout: Layout, floors=None) -> list[str]:
+    """Every layout violation of a package already scanned (:func:`scan`); ``floors`` as in :func:`check`."""
     if floors is None:
         floors = FLOORS if layout.name == FLOORS_PACKAGE else ()
     return [
@@ -532,12 +536,12 @@ def main(argv: list[str] | None = None) -> int:
     if not args.package_dir.is_dir():
         print(f"not a directory: {args.package_dir}", file=sys.stderr)
         return 2
-    violations = check(args.package_dir)
-    if violations:
-        for message in violations:
+    layout = scan(args.package_dir)
+    found = violations(layout)
+    if found:
+        for message in found:
             print(message)
         return 1
-    layout = scan(args.package_dir)
     edges = sum(len(targets) for targets in layout.graph().values())
     print(f"layout ok: {len(layout.modules)} modules, {edges} imports")
     return 0
