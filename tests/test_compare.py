@@ -28,6 +28,7 @@ def test_even_folds():
     assert even_folds(38, 4) == [1, 13, 25, 37]
 
 
+@pytest.mark.slow
 def test_compare_on_xsens(xsens):
     rec, iv = xsens
     out = compare(rec, gravity=G, methods=["tedaldi2014", "ellipsoid", "six_position", "wang2019"],

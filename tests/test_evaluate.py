@@ -68,6 +68,7 @@ def test_parameter_errors_by_name():
     assert err["gyroscope.misalignment.xz"] == 0.0
 
 
+@pytest.mark.slow
 def test_montecarlo_summary_and_failures():
     opts = {"n2": 20, "n3": 2}
     one = montecarlo("zhang2021", "tedaldi2014", runs=2, workers=1, seed=3, sim_options=opts)

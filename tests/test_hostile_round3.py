@@ -75,6 +75,7 @@ def test_a_gzip_bomb_is_refused_in_bounded_memory(bombs):
     assert peak < 250_000, peak  # refused while its length is measured, before a row is parsed
 
 
+@pytest.mark.slow
 def test_a_mat_zlib_bomb_is_refused_in_bounded_memory(bombs):
     path = bombs / "bomb.mat"
     assert path.stat().st_size < 2_000_000

@@ -102,6 +102,7 @@ def test_on_sessions_neither_was_fitted_to_imucalib_is_at_least_as_good_as_imutk
     assert rows[:, 0].mean() < 0.85 * rows[:, 1].mean() and rows[:, 2].mean() < 0.8 * rows[:, 3].mean(), rows
 
 
+@pytest.mark.slow
 def test_compare_sets_imutk_beside_the_methods_on_the_same_held_out_poses(capsys):
     _need_sessions()
     d = SESSIONS / "data3"

@@ -46,6 +46,7 @@ def test_noise_free_outputs_are_consistent_and_recovered():
     assert np.max(np.abs(err["gyro_misalignment_1e-4"])) < 1e-6
 
 
+@pytest.mark.slow
 def test_small_montecarlo_within_the_papers_tables():
     r = montecarlo(16, turntable_error="3arcmin", workers=1)
     assert r["divergent_runs"] == 0 and not r["failures"]
