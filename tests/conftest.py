@@ -15,7 +15,8 @@ took 259 CPU-s against 278 CPU-s with ``--dist load``). Each process keeps numpy
 as the fits' matrices are small and processes each starting BLAS threads would only contend.
 
 The studies marked ``slow`` (Monte Carlo studies, long comparisons on real recordings, real-time
-replays, clusters of processes, the papers' reproductions, the documentation pages' examples) are left
+replays, processes run against the clock or a limit — silent peers, kills mid-write, memory-limited
+children —, clusters of processes, the papers' reproductions, the documentation pages' examples) are left
 out by ``python -m pytest -q`` (``addopts`` in ``pyproject.toml``); ``python -m pytest -q -m slow`` runs
 them, as ``.ci/run`` does after the rest.
 """
