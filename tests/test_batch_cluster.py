@@ -6,15 +6,19 @@ import warnings
 
 import pytest
 
-pytest.importorskip("distributed", reason="Dask distributed is not installed (the cluster extra: "
-                    'pip install "imucalib[cluster]")')
+from imucalib.batch import BatchError, run_batch
+from imucalib.experiments.evaluate import montecarlo
+from imucalib.store import Store
+from test_batch import write_fleet, write_manifest
 
-import dask  # noqa: E402
 
-from imucalib.batch import BatchError, run_batch  # noqa: E402
-from imucalib.experiments.evaluate import montecarlo  # noqa: E402
-from imucalib.store import Store  # noqa: E402
-from test_batch import write_fleet, write_manifest  # noqa: E402
+@pytest.fixture(autouse=True)
+def dask():
+    """Dask, or the test skips; imported by the tests, not at the top: every test process imports this file to
+    collect it, and Dask with distributed takes half a second to import."""
+    pytest.importorskip("distributed", reason='Dask distributed is not installed (the cluster extra: '
+                        'pip install "imucalib[cluster]")')
+    return pytest.importorskip("dask")
 
 
 def _by_device(path):
@@ -59,7 +63,7 @@ def test_montecarlo_on_a_local_cluster_equals_local_processes():
     assert local == dask
 
 
-def test_an_unreachable_scheduler_is_a_clear_error(tmp_path):
+def test_an_unreachable_scheduler_is_a_clear_error(tmp_path, dask):
     manifest = write_manifest(tmp_path / "m.csv", ["A,a.csv,,"])
     (tmp_path / "a.csv").write_text("x\n")
     with dask.config.set({"distributed.comm.timeouts.connect": "1s"}), \

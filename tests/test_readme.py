@@ -83,8 +83,10 @@ def _run_blocks(blocks, folder: Path, env: dict) -> None:
                                       f"{proc.stdout[-3000:]}\n--- stderr\n{proc.stderr[-3000:]}")
 
 
+@pytest.mark.slow
 def test_readme_first_session_runs_as_written_in_a_fresh_folder(tmp_path):
-    """The first session's blocks, as a newcomer runs them first (the whole README: the slow test below)."""
+    """The first session's blocks, as a newcomer runs them first, on their own (the whole README: the test
+    below): a documentation page's examples, run by ``.ci/run`` with the other slow tests."""
     folder = tmp_path / "reader"
     folder.mkdir()
     first = [b for b in RUN if b[1] < EVERY_INPUT]
